@@ -1,0 +1,33 @@
+# Two entry points on a fresh machine: `make demo` and `make test`.
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+OUT ?= gc_ocp_demo_output
+
+.PHONY: demo test lint bench clean
+
+$(BIN)/python:
+	$(PY) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+
+$(VENV)/.installed: pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install -q -e '.[dev]'
+	touch $@
+
+demo: $(VENV)/.installed
+	$(BIN)/gc-ocp info
+	$(BIN)/gc-ocp kinematics --out $(OUT)/kinematics
+	$(BIN)/gc-ocp reproduce-seed --seeds 5 --out $(OUT)/seed
+	@echo "Demo output written to $(abspath $(OUT))"
+
+test: $(VENV)/.installed
+	$(BIN)/python -m pytest -q -W error::RuntimeWarning
+
+lint: $(VENV)/.installed
+	$(BIN)/ruff check gc_ocp tests benchmarks
+
+bench: $(VENV)/.installed
+	$(BIN)/python benchmarks/fit_speed.py
+
+clean:
+	rm -rf $(VENV) $(OUT)

@@ -1,0 +1,44 @@
+"""One exception hierarchy for gc_ocp.
+
+Every error raised on bad user input is a :class:`GcOcpError` subclass whose message
+names the offending input (file, marker, plate, unit) and the fix. The CLI prints the
+message without a traceback and exits with status 2.
+"""
+
+from __future__ import annotations
+
+
+class GcOcpError(Exception):
+    """Base class of every error gc_ocp raises on purpose."""
+
+
+class InputError(GcOcpError, ValueError):
+    """A file, option or array given by the user is unusable (names it and the fix)."""
+
+
+class MarkerError(InputError):
+    """A marker is missing, has long gaps, or is not in the marker set."""
+
+
+class PlateError(InputError):
+    """A force plate is missing, unusable, or a stance is not fully on it."""
+
+
+class UnitsError(InputError):
+    """Values look like the wrong unit (e.g. millimetres where metres are expected)."""
+
+
+class ModelError(GcOcpError):
+    """The body model or contact layout is inconsistent."""
+
+
+class RankError(GcOcpError, ValueError):
+    """A linear system has no unique solution (rank deficient)."""
+
+
+class SolveError(GcOcpError, RuntimeError):
+    """A numerical solve failed or did not converge; ``.result`` carries what was obtained."""
+
+    def __init__(self, message: str, result: object = None) -> None:
+        super().__init__(message)
+        self.result = result

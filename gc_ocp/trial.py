@@ -1,0 +1,186 @@
+"""Data types shared by every layer: a walking trial, its force plates and stances.
+
+Conventions (see ``docs/conventions.md``):
+
+* SI units inside the code (m, s, N, N·m, kg).
+* Arrays are time-first: markers ``(n_frames, n_markers, 3)``, plate force ``(n_samples, 3)``.
+* The ``lab`` frame is right-handed with **Z up** and **X the walking (anterior) direction**,
+  Y pointing to the subject's left. Files in other conventions (OpenSim Y-up) are rotated on load.
+* Plate forces are the ground reaction *on the subject* (vertical component positive), expressed
+  in ``lab``; moments are about the plate's reference point (``Plate.reference_point``), in ``lab``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+GRAVITY = 9.81
+"""Standard gravity used for body weight, in [m/s^2]."""
+
+SIDES = ("left", "right")
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float, copy=True)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class Plate:
+    """One force plate (or one per-side GRF channel set of an OpenSim MOT file).
+
+    Attributes
+    ----------
+    name: e.g. ``"plate1"`` (C3D, 1-based like Vicon) or ``"grf_right"`` (MOT).
+    time: sample times in [s], shape ``(n,)``.
+    force: ground reaction on the subject in ``lab`` [N], shape ``(n, 3)``.
+    moment: moment about ``reference_point`` in ``lab`` [N·m], shape ``(n, 3)``.
+    reference_point: point about which ``moment`` is expressed, ``lab`` [m], shape ``(3,)``.
+    reference_kind: ``"electrical_center"`` (C3D plate origin) or ``"lab_origin"`` (MOT).
+    corners: plate surface corners in ``lab`` [m], shape ``(4, 3)``, or ``None`` when unknown.
+    surface_height: height of the plate surface (lab Z) [m].
+    """
+
+    name: str
+    time: np.ndarray
+    force: np.ndarray
+    moment: np.ndarray
+    reference_point: np.ndarray
+    reference_kind: str
+    corners: np.ndarray | None = None
+    surface_height: float = 0.0
+
+    def __post_init__(self) -> None:
+        for attr in ("time", "force", "moment", "reference_point"):
+            object.__setattr__(self, attr, _readonly(getattr(self, attr)))
+        if self.corners is not None:
+            object.__setattr__(self, "corners", _readonly(self.corners))
+
+    @property
+    def rate(self) -> float:
+        """Sampling rate in [Hz]."""
+        return float(1.0 / np.median(np.diff(self.time)))
+
+    def cop(self, min_vertical: float = 20.0) -> np.ndarray:
+        """Centre of pressure on the plate surface in ``lab`` [m], NaN where Fz < ``min_vertical`` [N]."""
+        from gc_ocp.wrench import cop_from_wrench
+
+        return cop_from_wrench(
+            self.force, self.moment, self.reference_point, self.surface_height, min_vertical
+        )
+
+
+@dataclass(frozen=True)
+class Stance:
+    """One foot contact on one plate.
+
+    ``t_on``/``t_off`` in [s] are where the vertical force crosses the detection threshold.
+    ``reference_point`` (``lab``, [m]) is where the measured and modelled wrenches of this stance
+    are compared: the plate's electrical centre for C3D, the floor point under the stance's mean
+    COP for MOT files (stated in ``reference_kind``).
+    """
+
+    side: str
+    plate: int
+    t_on: float
+    t_off: float
+    reference_point: np.ndarray
+    reference_kind: str
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "reference_point", _readonly(self.reference_point))
+        if not self.label:
+            object.__setattr__(self, "label", f"{self.side}@{self.t_on:.3f}s")
+
+    @property
+    def duration(self) -> float:
+        return self.t_off - self.t_on
+
+
+@dataclass(frozen=True)
+class ExcludedStance:
+    side: str
+    plate: int
+    t_on: float
+    t_off: float
+    reason: str
+
+
+@dataclass(frozen=True)
+class Trial:
+    """A walking trial: markers, force plates, subject, stances.
+
+    Attributes
+    ----------
+    source: path of the marker file (C3D or TRC).
+    marker_names: labels of the columns of ``markers``.
+    markers: marker positions in ``lab`` [m], ``(n_frames, n_markers, 3)``; NaN where occluded.
+    marker_time: frame times [s], ``(n_frames,)``.
+    plates: force plates.
+    mass: subject mass [kg]; ``height``: subject height [m] (``None`` if unknown).
+    stances: usable stances, sorted by time; ``excluded_stances``: rejected ones with the reason.
+    belt_velocity: treadmill belt velocity in ``lab`` [m/s] (zeros overground).
+    lab_rotation: rotation applied on load, file axes -> ``lab`` (3x3).
+    grf_source: path of the ground-reaction file (MOT/STO) when separate from ``source``.
+    """
+
+    source: Path
+    marker_names: tuple[str, ...]
+    markers: np.ndarray
+    marker_time: np.ndarray
+    plates: tuple[Plate, ...]
+    mass: float
+    height: float | None
+    stances: tuple[Stance, ...]
+    excluded_stances: tuple[ExcludedStance, ...] = ()
+    belt_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    lab_rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    grf_source: Path | None = None
+    mass_source: str = ""
+    height_source: str = ""
+
+    def __post_init__(self) -> None:
+        for attr in ("markers", "marker_time", "belt_velocity", "lab_rotation"):
+            object.__setattr__(self, attr, _readonly(getattr(self, attr)))
+        object.__setattr__(self, "marker_names", tuple(self.marker_names))
+
+    @property
+    def marker_rate(self) -> float:
+        """Marker sampling rate in [Hz]."""
+        return float(1.0 / np.median(np.diff(self.marker_time)))
+
+    @property
+    def body_weight(self) -> float:
+        """Body weight [N] = mass * g."""
+        return self.mass * GRAVITY
+
+    @property
+    def name(self) -> str:
+        return Path(self.source).stem
+
+    def marker(self, name: str) -> np.ndarray:
+        """Trajectory ``(n_frames, 3)`` of one marker, in ``lab`` [m]."""
+        try:
+            return self.markers[:, self.marker_names.index(name)]
+        except ValueError:
+            from gc_ocp.errors import MarkerError
+
+            raise MarkerError(
+                f'Marker "{name}" is not in {self.source}; markers found: {list(self.marker_names)}'
+            ) from None
+
+    def stance_wrench(self, stance: Stance, times: np.ndarray) -> np.ndarray:
+        """Measured wrench of ``stance`` at ``times`` [s]: ``(n, 6)`` = force [N], moment [N·m]
+        about ``stance.reference_point``, in ``lab``. Linear interpolation of the plate samples."""
+        from gc_ocp.wrench import transport_moment
+
+        plate = self.plates[stance.plate]
+        f = np.column_stack([np.interp(times, plate.time, plate.force[:, i]) for i in range(3)])
+        m = np.column_stack([np.interp(times, plate.time, plate.moment[:, i]) for i in range(3)])
+        m = transport_moment(f, m, plate.reference_point, stance.reference_point)
+        return np.hstack([f, m])
