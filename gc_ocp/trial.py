@@ -127,6 +127,8 @@ class Trial:
     belt_velocity: treadmill belt velocity in ``lab`` [m/s] (zeros overground).
     lab_rotation: rotation applied on load, file axes -> ``lab`` (3x3).
     grf_source: path of the ground-reaction file (MOT/STO) when separate from ``source``.
+    mass_source, height_source: where ``mass``/``height`` came from (file parameter or argument).
+    load_notes: what the loader decided (offsets removed, rotation, GRF column sides...).
     """
 
     source: Path
@@ -143,8 +145,10 @@ class Trial:
     grf_source: Path | None = None
     mass_source: str = ""
     height_source: str = ""
+    load_notes: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "load_notes", tuple(self.load_notes))
         for attr in ("markers", "marker_time", "belt_velocity", "lab_rotation"):
             object.__setattr__(self, attr, _readonly(getattr(self, attr)))
         object.__setattr__(self, "marker_names", tuple(self.marker_names))

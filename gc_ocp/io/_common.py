@@ -1,0 +1,159 @@
+"""Pieces shared by the C3D and OpenSim readers: the raw-trial container, units, frames,
+marker gap filling and foot-marker lookup."""
+
+from __future__ import annotations
+
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from gc_ocp.errors import UnitsError
+from gc_ocp.trial import Plate
+
+MAX_GAP_FILL = 0.1
+"""Longest marker gap filled by interpolation, in [s]. Longer gaps stay NaN (see
+:func:`gc_ocp.io.require_markers`). 0.1 s is about a tenth of a gait cycle: a cubic spline
+through the neighbouring frames is then well below marker noise for foot markers."""
+
+Y_UP_TO_LAB = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+"""OpenSim (X forward, Y up, Z right) -> lab (X forward, Y left, Z up): (x, y, z) -> (x, -z, y)."""
+
+_TO_METRE = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "meters": 1.0, "metres": 1.0, "millimeters": 1e-3}
+
+
+@dataclass
+class RawTrial:
+    """What a reader returns: everything already in SI and in a Z-up frame (``lab`` up to a
+    rotation about Z, decided afterwards by :func:`walking_rotation`)."""
+
+    source: Path
+    marker_names: list[str]
+    markers: np.ndarray  # (n_frames, n_markers, 3) [m]
+    marker_time: np.ndarray  # (n_frames,) [s]
+    plates: list[Plate]
+    mass: float | None = None
+    height: float | None = None
+    mass_source: str = ""
+    height_source: str = ""
+    grf_source: Path | None = None
+    file_rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    notes: list[str] = field(default_factory=list)
+
+
+def unit_scale(unit: str, path: Path, what: str) -> float:
+    """Factor converting a length given in ``unit`` to [m]."""
+    key = unit.strip().lower()
+    if key not in _TO_METRE:
+        raise UnitsError(
+            f'Unknown length unit "{unit}" for {what} in {path}; expected one of '
+            f"{sorted(_TO_METRE)}. Fix the Units field of the file header."
+        )
+    return _TO_METRE[key]
+
+
+def check_metres(values: np.ndarray, path: Path, what: str, declared: str) -> None:
+    """Raise :class:`UnitsError` if values said to be in metres look like millimetres.
+
+    Marker coordinates of a walking trial are within a few metres of the lab origin; a typical
+    magnitude (median of |value|) above 50 "m" means the file is in mm while saying "m".
+    """
+    finite = np.abs(values[np.isfinite(values)])
+    if finite.size and float(np.median(finite)) > 50.0:
+        raise UnitsError(
+            f"{what} in {path} are declared in {declared!r} but their typical magnitude is "
+            f"{np.median(finite):.0f} (expected < 50 m for a gait lab): the file is almost "
+            f"certainly in millimetres. Fix the unit in the file header (e.g. TRC 'Units' = mm, "
+            f"C3D POINT:UNITS = 'mm')."
+        )
+
+
+def rotation_z(quarter_turns: int) -> np.ndarray:
+    """Rotation about Z by ``quarter_turns`` * 90 degrees (exact integers)."""
+    c, s = [(1, 0), (0, 1), (-1, 0), (0, -1)][quarter_turns % 4]
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]], dtype=float)
+
+
+# --- foot markers ---------------------------------------------------------------------------
+
+_FOOT_PATTERNS = ("HEE", "HEEL", "ANK", "ANKLE", "TOE", "MT5", "MT1", "MIDFOOT", "MAL", "FOOT")
+
+
+def marker_side(name: str) -> str | None:
+    """``"left"``/``"right"`` from a marker name prefix (``L``/``R``, ``L.``/``R.``, ``L_``,
+    ``Left``), else ``None``."""
+    m = re.match(r"^(left|right|l|r)[._\s-]?(.*)$", name, flags=re.IGNORECASE)
+    if not m or not m.group(2):
+        return None
+    return "left" if m.group(1).lower().startswith("l") else "right"
+
+
+def foot_markers(names: list[str] | tuple[str, ...], side: str) -> list[int]:
+    """Indices of the foot markers (heel, ankle, toe, metatarsal, midfoot) of ``side``."""
+    out = []
+    for i, n in enumerate(names):
+        if marker_side(n) != side:
+            continue
+        rest = re.sub(r"^(left|right|l|r)[._\s-]?", "", n, flags=re.IGNORECASE).upper()
+        rest = rest.replace(".", "").replace("_", "")
+        if rest.startswith(_FOOT_PATTERNS):  # prefix match: "Shank" is not an ankle marker
+            out.append(i)
+    return out
+
+
+def heel_toe(names: list[str] | tuple[str, ...], side: str) -> tuple[int | None, int | None]:
+    """Index of the heel and of the most distal toe marker of ``side`` (``None`` if absent)."""
+    heel = toe = None
+    for i in foot_markers(names, side):
+        u = names[i].upper()
+        if "HEE" in u and heel is None:
+            heel = i
+        if "TOE" in u and (toe is None or "TIP" in u):
+            toe = i
+    return heel, toe
+
+
+# --- gaps -----------------------------------------------------------------------------------
+
+
+def nan_runs(valid: np.ndarray) -> list[tuple[int, int]]:
+    """Half-open index ranges ``[a, b)`` where ``valid`` is False."""
+    bad = ~valid
+    if not bad.any():
+        return []
+    d = np.diff(np.concatenate([[0], bad.astype(int), [0]]))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True))
+
+
+def fill_short_gaps(markers: np.ndarray, time: np.ndarray, max_gap: float = MAX_GAP_FILL):
+    """Fill interior NaN gaps of at most ``max_gap`` [s] with a cubic spline through the valid
+    frames of each marker; longer gaps and gaps at the file ends stay NaN.
+
+    Returns the filled copy and the list of ``(marker_index, t_start, t_end)`` gaps left NaN.
+    """
+    out = np.array(markers, dtype=float, copy=True)
+    left: list[tuple[int, float, float]] = []
+    dt = float(np.median(np.diff(time))) if len(time) > 1 else 0.0
+    for j in range(out.shape[1]):
+        valid = np.all(np.isfinite(out[:, j]), axis=1)
+        runs = nan_runs(valid)
+        if not runs or valid.sum() < 4:
+            if runs:
+                left.append((j, float(time[0]), float(time[-1])))
+            continue
+        spline = CubicSpline(time[valid], out[valid, j], axis=0)
+        for a, b in runs:
+            interior = a > 0 and b < len(time)
+            length = (time[b] - time[a - 1] - dt) if interior else np.inf
+            if interior and length <= max_gap + 1e-9:
+                out[a:b, j] = spline(time[a:b])
+            else:
+                left.append((j, float(time[a]), float(time[b - 1])))
+    return out, left
+
+
+def warn(message: str) -> None:
+    warnings.warn(message, UserWarning, stacklevel=3)

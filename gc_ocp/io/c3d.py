@@ -1,0 +1,223 @@
+"""C3D reader (ezc3d): real markers, force plates about their electrical centre, subject.
+
+What ezc3d gives, checked numerically on the bundled Vicon file (``tests/test_io.py``):
+
+* ``platform[i]['force']`` is the ground reaction on the subject in the C3D global frame (N).
+* ``platform[i]['moment']`` is about the **geometric centre of the plate surface** (mean of the
+  four corners), not about the plate origin: ezc3d adds ``F x (-ORIGIN)`` to the analog moments
+  (type 2/4). The COP rebuilt from force and moment about the mean corner point on the surface
+  plane equals ezc3d's ``center_of_pressure`` to round-off.
+* ``platform[i]['origin']`` is just ``-ORIGIN`` in *plate* axes, unrotated; we do not use it.
+
+We re-express every plate wrench about the plate's **electrical centre** ``E``:
+``E = C + R @ ORIGIN`` with ``C`` the mean corner point, ``R`` the plate axes in the lab (C3D
+corner order: x = c1 - c2, y = c1 - c4, z = x cross y) and ORIGIN the FORCE_PLATFORM:ORIGIN
+column (type-2 convention: the vector from the surface centre to the plate origin, in plate
+axes). With Vicon/AMTI plates (z axis down) this puts ``E`` ~40 mm *below* the surface, as it
+physically is; if a file stores the opposite sign (E would come out above the surface), the
+sign is flipped so that E is below the surface.
+
+Unloaded offsets: see :func:`unloaded_baseline`.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from gc_ocp.errors import InputError, PlateError
+from gc_ocp.io._common import RawTrial, check_metres, unit_scale, warn
+from gc_ocp.trial import Plate
+from gc_ocp.wrench import transport_moment
+
+_MODEL_OUTPUT_GROUPS = ("ANGLES", "FORCES", "MOMENTS", "POWERS", "MODELED_MARKERS", "REACTIONS")
+_MODEL_OUTPUT_NAME = re.compile(
+    r"(Angles?|Force|Forces|GRF|Moment|Moments|Power|Powers|COM|CentreOfMass\w*|CenterOfMass\w*)$",
+    flags=re.IGNORECASE,
+)
+BASELINE_WINDOW = 0.05
+"""Window length [s] used to find the unloaded stretches of a plate signal."""
+
+
+def _param(params: dict, group: str, name: str):
+    try:
+        return params[group][name]["value"]
+    except KeyError:
+        return None
+
+
+def _model_outputs(params: dict, labels: list[str]) -> set[str]:
+    """Labels that are software model outputs, not measured markers.
+
+    Vicon lists them in POINT:ANGLES/FORCES/MOMENTS/POWERS/MODELED_MARKERS; we also drop names
+    ending in Angle(s)/Force/Moment/Power/COM/CentreOfMass*, and Plug-in Gait "bone" points:
+    four labels ``XXXO``, ``XXXA``, ``XXXL``, ``XXXP`` sharing a 3-letter segment prefix.
+    """
+    out: set[str] = set()
+    point = params.get("POINT", {})
+    for g in _MODEL_OUTPUT_GROUPS:
+        if g in point:
+            out.update(str(v).strip() for v in point[g]["value"])
+    out.update(lab for lab in labels if _MODEL_OUTPUT_NAME.search(lab))
+    prefixes = {lab[:3] for lab in labels if len(lab) == 4 and lab[3] == "O"}
+    for p in prefixes:
+        bone = {p + s for s in "OALP"}
+        if bone <= set(labels):
+            out.update(bone)
+    return out
+
+
+def unloaded_baseline(wrench: np.ndarray, rate: float) -> tuple[np.ndarray, float]:
+    """Offset of an unzeroed plate, from the samples where it carries no load.
+
+    ``wrench``: ``(n, 6)`` force [N] and moment; ``rate`` in [Hz]. The signal is cut into
+    ``BASELINE_WINDOW`` windows; *quiet* windows have a vertical-force standard deviation below
+    ``max(2 N, 3 x the smallest window std)``; the unloaded level is the mean Fz of the quiet
+    window with the smallest |mean Fz| (an unloaded plate reads its offset, a loaded one reads
+    hundreds of N); unloaded windows are the quiet ones within 5 N of that level. The baseline
+    is the per-channel median over their samples (robust to spikes). Returns the ``(6,)``
+    baseline and the unloaded duration [s] it rests on (0 -> no baseline found, zeros).
+    """
+    n = max(int(round(BASELINE_WINDOW * rate)), 2)
+    nw = wrench.shape[0] // n
+    if nw == 0:
+        return np.zeros(6), 0.0
+    w = wrench[: nw * n].reshape(nw, n, 6)
+    fz_mean = w[:, :, 2].mean(axis=1)
+    fz_std = w[:, :, 2].std(axis=1)
+    quiet = fz_std < max(2.0, 3.0 * float(fz_std.min()))
+    level = fz_mean[quiet][np.argmin(np.abs(fz_mean[quiet]))]
+    unloaded = quiet & (np.abs(fz_mean - level) < 5.0)
+    samples = w[unloaded].reshape(-1, 6)
+    return np.median(samples, axis=0), samples.shape[0] / rate
+
+
+def _plate_axes(corners: np.ndarray) -> np.ndarray:
+    """Columns = plate x, y, z axes in lab, from the C3D corner order (see module doc)."""
+    x = corners[0] - corners[1]
+    y = corners[0] - corners[3]
+    z = np.cross(x, y)
+    y = np.cross(z, x)
+    return np.column_stack([v / np.linalg.norm(v) for v in (x, y, z)])
+
+
+def read_c3d(path: Path) -> RawTrial:
+    """Read markers, plates and subject data of a C3D file (SI, C3D global frame, Z up)."""
+    import ezc3d
+
+    try:
+        c = ezc3d.c3d(str(path), extract_forceplat_data=True)
+    except Exception as exc:  # ezc3d raises plain RuntimeError/IOError
+        raise InputError(
+            f"Could not read {path} as a C3D file ({exc}); export it again as C3D from your "
+            f"motion-capture software."
+        ) from exc
+    params = c["parameters"]
+
+    # Markers ---------------------------------------------------------------------------
+    labels = [str(s).strip() for s in (_param(params, "POINT", "LABELS") or [])]
+    for extra in ("LABELS2", "LABELS3"):
+        labels += [str(s).strip() for s in (_param(params, "POINT", extra) or [])]
+    unit = (_param(params, "POINT", "UNITS") or ["mm"])[0]
+    scale = unit_scale(unit, path, "POINT:UNITS")
+    pts = np.asarray(c["data"]["points"], dtype=float)[:3]  # (3, n_points, n_frames)
+    labels = labels[: pts.shape[1]]
+    res = c["data"]["meta_points"]["residuals"][0] if "meta_points" in c["data"] else None
+    drop = _model_outputs(params, labels)
+    keep = [i for i, lab in enumerate(labels) if lab not in drop and lab]
+    xyz = np.transpose(pts[:, keep, :], (2, 1, 0)).copy()  # (n_frames, n_markers, 3)
+    if res is not None:
+        xyz[np.asarray(res)[keep].T < 0] = np.nan  # C3D: residual < 0 = invalid point
+    xyz[np.all(xyz == 0.0, axis=2)] = np.nan  # all-zero = occluded (old writers)
+    if scale == 1.0:
+        check_metres(xyz, path, "Marker coordinates", unit)
+    xyz *= scale
+    point_rate = float(c["header"]["points"]["frame_rate"])
+    marker_time = np.arange(xyz.shape[0]) / point_rate
+    names = [labels[i] for i in keep]
+
+    # Plates ----------------------------------------------------------------------------
+    plates: list[Plate] = []
+    notes: list[str] = []
+    analog_rate = float(c["header"]["analogs"]["frame_rate"])
+    for i, pf in enumerate(c["data"].get("platform", [])):
+        pos = unit_scale(pf["unit_position"], path, f"plate {i + 1} position unit")
+        mom = {"nmm": 1e-3, "nm": 1.0}.get(pf["unit_moment"].lower().replace(".", ""), None)
+        if mom is None:
+            raise PlateError(f'Unknown moment unit "{pf["unit_moment"]}" of plate {i + 1} in {path}.')
+        force = np.asarray(pf["force"], dtype=float).T
+        moment_c = np.asarray(pf["moment"], dtype=float).T * mom
+        corners = np.asarray(pf["corners"], dtype=float).T * pos
+        centre = corners.mean(axis=0)
+        if not np.isfinite(force).any() or np.ptp(corners, axis=0).max() == 0:
+            notes.append(f"plate{i + 1}: no corners or no data, skipped")
+            continue
+        origin_param = np.asarray(params["FORCE_PLATFORM"]["ORIGIN"]["value"], float)[:, i] * pos
+        offset = _plate_axes(corners) @ origin_param
+        if offset[2] > 0:  # electrical centre must be below the surface
+            offset = -offset
+        electrical = centre + offset
+        base, t_unloaded = unloaded_baseline(np.hstack([force, moment_c]), analog_rate)
+        if t_unloaded < 0.1:
+            warn(f"plate{i + 1} of {path}: no unloaded stretch >= 0.1 s; offset not removed.")
+            base = np.zeros(6)
+        else:
+            notes.append(
+                f"plate{i + 1}: removed unloaded offset F={np.round(base[:3], 1).tolist()} N "
+                f"(median over {t_unloaded:.2f} s unloaded)"
+            )
+        force = force - base[:3]
+        moment_c = moment_c - base[3:]
+        loaded = force[:, 2] > 50.0
+        if loaded.any() and np.median(force[loaded, 2]) < 0:
+            force, moment_c = -force, -moment_c  # stored as action on the plate
+        moment_e = transport_moment(force, moment_c, centre, electrical)
+        plates.append(
+            Plate(
+                name=f"plate{i + 1}",
+                time=np.arange(force.shape[0]) / analog_rate,
+                force=force,
+                moment=moment_e,
+                reference_point=electrical,
+                reference_kind="electrical_center",
+                corners=corners,
+                surface_height=float(centre[2]),
+            )
+        )
+    if not plates:
+        raise PlateError(
+            f"{path} has no force plates (FORCE_PLATFORM group empty or unusable): the contact "
+            f"model is estimated from measured ground reactions, so give a trial recorded with "
+            f"force plates (or a TRC with --grf FILE.mot)."
+        )
+
+    # Subject ---------------------------------------------------------------------------
+    mass = height = None
+    mass_source = height_source = ""
+    for group in ("PROCESSING", "SUBJECTS", "SUBJECT"):
+        g = params.get(group, {})
+        for key in g:
+            if mass is None and key.upper() in ("BODYMASS", "MASS", "WEIGHT"):
+                v = np.ravel(g[key]["value"])
+                if v.size and float(v[0]) > 0:
+                    mass, mass_source = float(v[0]), f"{group}:{key} in {path.name}"
+            if height is None and key.upper() in ("HEIGHT", "BODYHEIGHT"):
+                v = np.ravel(g[key]["value"])
+                if v.size and float(v[0]) > 0:
+                    h = float(v[0])
+                    height = h / 1000.0 if h > 3.0 else h  # Vicon stores mm
+                    height_source = f"{group}:{key} in {path.name}"
+    return RawTrial(
+        source=path,
+        marker_names=names,
+        markers=xyz,
+        marker_time=marker_time,
+        plates=plates,
+        mass=mass,
+        height=height,
+        mass_source=mass_source,
+        height_source=height_source,
+        notes=notes,
+    )

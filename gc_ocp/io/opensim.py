@@ -1,0 +1,204 @@
+"""OpenSim TRC (markers) and MOT/STO (ground reactions) readers.
+
+OpenSim files are Y up, X forward, Z right; they are mapped to a Z-up frame by
+``(x, y, z) -> (x, -z, y)`` (:data:`gc_ocp.io._common.Y_UP_TO_LAB`).
+
+GRF columns are found by pattern, for any prefix: a *set* is a force ``<p>force_v{x,y,z}``,
+a point ``<p>force_p{x,y,z}`` and a torque ``<p>torque_{x,y,z}`` sharing the prefix/suffix
+(Rajagopal: ``ground_force_r_vx`` / ``ground_torque_r_x``; Gait2392: ``ground_force_vx`` and
+``1_ground_force_vx`` / ``ground_torque_x`` and ``1_ground_torque_x``). The side of a set is read
+from an ``r``/``l`` token in its names; without a token the first set is the right foot and the
+second the left (Gait2392 convention). :func:`gc_ocp.io.load_trial` then checks the side
+against the feet markers (which heel is nearest the COP) and warns on a contradiction.
+
+The torque of an OpenSim set is applied at the point ``p`` (the free moment at the COP).
+Each set becomes one :class:`~gc_ocp.trial.Plate` whose reference point is the lab origin,
+``moment = p x F + T``. The COP is used only where Fz is above the threshold: elsewhere ``p`` is
+replaced by the nearest valid COP (files often hold garbage COPs at zero force).
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from gc_ocp.errors import InputError, PlateError
+from gc_ocp.io._common import Y_UP_TO_LAB, RawTrial, check_metres, unit_scale
+from gc_ocp.trial import Plate
+
+COP_MIN_FORCE = 20.0
+"""Vertical force [N] above which an OpenSim COP column is trusted."""
+
+
+def read_trc(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """Read a TRC file: marker names, positions ``(n, m, 3)`` in [m] (Z-up frame), times [s]."""
+    lines = path.read_text(errors="replace").splitlines()
+    if len(lines) < 6:
+        raise InputError(f"{path} is too short to be a TRC file (needs a 5-line header).")
+    keys = lines[1].split()  # header cells may be separated by several tabs
+    vals = lines[2].split()
+    header = dict(zip(keys, vals, strict=False))
+    unit = header.get("Units", "")
+    if not unit:
+        raise InputError(f"{path}: no 'Units' in the TRC header (line 3); add mm or m.")
+    scale = unit_scale(unit, path, "TRC Units")
+    names = [n.strip() for n in lines[3].split("\t")[2:] if n.strip()]
+    rows = []
+    for line in lines[5:]:
+        if not line.strip():
+            continue
+        cells = line.rstrip("\n").split("\t")
+        row = [float(c) if c.strip() else np.nan for c in cells[: 2 + 3 * len(names)]]
+        row += [np.nan] * (2 + 3 * len(names) - len(row))
+        rows.append(row)
+    data = np.asarray(rows, dtype=float)
+    time = data[:, 1]
+    rate = float(header.get("DataRate", "nan"))
+    if np.isfinite(rate) and rate > 0:
+        regular = time[0] + np.arange(len(time)) / rate
+        if np.max(np.abs(regular - time)) < 0.5 / rate:
+            time = regular  # the Time column is often rounded to 1 ms (60 Hz -> 0.017 s steps)
+    xyz = data[:, 2:].reshape(len(rows), len(names), 3)
+    if scale == 1.0:
+        check_metres(xyz, path, "Marker coordinates", unit)
+    xyz = xyz * scale
+    return names, xyz @ Y_UP_TO_LAB.T, time
+
+
+def read_mot(path: Path) -> tuple[list[str], np.ndarray, dict[str, str]]:
+    """Read an OpenSim MOT/STO table: column names, data ``(n, k)``, header key/values."""
+    lines = path.read_text(errors="replace").splitlines()
+    try:
+        end = next(i for i, ln in enumerate(lines) if ln.strip().lower() == "endheader")
+    except StopIteration:
+        raise InputError(
+            f"{path} has no 'endheader' line: it is not an OpenSim MOT/STO file. Export the "
+            f"ground reactions as .mot from OpenSim or your lab software."
+        ) from None
+    header = {}
+    for ln in lines[:end]:
+        if "=" in ln:
+            k, v = ln.split("=", 1)
+            header[k.strip()] = v.strip()
+    names = [n.strip() for n in lines[end + 1].split("\t") if n.strip()]
+    rows = []
+    for ln in lines[end + 2 :]:
+        cells = [c for c in re.split(r"[\t ]+", ln.strip()) if c]
+        if cells:
+            rows.append([float(c) for c in cells[: len(names)]])
+    return names, np.asarray(rows, dtype=float), header
+
+
+_FORCE = re.compile(r"^(?P<pre>.*?)force(?P<mid>.*?)_v(?P<ax>[xyz])(?P<post>.*)$", re.IGNORECASE)
+
+
+def _side_token(name: str) -> str | None:
+    tokens = re.split(r"[_.\s]+", name.lower())
+    if "r" in tokens or "right" in tokens:
+        return "right"
+    if "l" in tokens or "left" in tokens:
+        return "left"
+    return None
+
+
+def grf_sets(names: list[str]) -> list[dict]:
+    """Find force/point/torque column triplets. Returns dicts with keys ``side`` (or ``None``),
+    ``force``, ``point``, ``torque`` (lists of 3 column indices; torque may be ``None``)."""
+    idx = {n.lower(): i for i, n in enumerate(names)}
+    sets: dict[tuple[str, str, str], dict] = {}
+    for n in names:
+        m = _FORCE.match(n)
+        if not m:
+            continue
+        key = (m["pre"].lower(), m["mid"].lower(), m["post"].lower())
+        sets.setdefault(key, {})
+    out = []
+    for pre, mid, post in sets:
+        f = [idx.get(f"{pre}force{mid}_v{a}{post}") for a in "xyz"]
+        p = [idx.get(f"{pre}force{mid}_p{a}{post}") for a in "xyz"]
+        t = [idx.get(f"{pre}torque{mid}_{a}{post}") for a in "xyz"]
+        if None in f or None in p:
+            continue
+        out.append(
+            {
+                "side": _side_token(f"{pre}force{mid}{post}"),
+                "force": f,
+                "point": p,
+                "torque": None if None in t else t,
+                "label": f"{pre}force{mid}{post}",
+            }
+        )
+    out.sort(key=lambda s: s["force"][0])  # file order
+    unnamed = [s for s in out if s["side"] is None]
+    taken = {s["side"] for s in out if s["side"]}
+    for s, side in zip(unnamed, [x for x in ("right", "left") if x not in taken], strict=False):
+        s["side"] = side  # no token: first set = right, second = left (Gait2392)
+        s["side_from"] = "column order (first set = right, second = left)"
+    return out
+
+
+def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawTrial:
+    """Read a TRC + MOT pair into a :class:`RawTrial` (SI, Z-up)."""
+    names, xyz, time = read_trc(trc)
+    cols, data, header = read_mot(grf)
+    if "time" not in [c.lower() for c in cols]:
+        raise InputError(f"{grf} has no 'time' column; columns are {cols}.")
+    t = data[:, [c.lower() for c in cols].index("time")]
+    sets = grf_sets(cols)
+    if not sets:
+        raise PlateError(
+            f"{grf} has no ground-reaction columns (expected e.g. ground_force_r_vx, "
+            f"ground_force_r_px, ground_torque_r_x): the contact model needs measured ground "
+            f"reactions. Columns found: {cols}"
+        )
+    plates = []
+    notes = []
+    for s in sets:
+        f = data[:, s["force"]] @ Y_UP_TO_LAB.T
+        p = data[:, s["point"]] @ Y_UP_TO_LAB.T
+        check_metres(p, grf, "COP columns", "m")
+        tq = data[:, s["torque"]] @ Y_UP_TO_LAB.T if s["torque"] else np.zeros_like(f)
+        good = (f[:, 2] > threshold) & np.all(np.isfinite(p), axis=1)
+        if good.any():
+            k = np.flatnonzero(good)
+            nearest = k[np.clip(np.searchsorted(k, np.arange(len(t))), 0, len(k) - 1)]
+            prev = k[np.clip(np.searchsorted(k, np.arange(len(t))) - 1, 0, len(k) - 1)]
+            use = np.where(
+                np.abs(nearest - np.arange(len(t))) <= np.abs(prev - np.arange(len(t))),
+                nearest,
+                prev,
+            )
+            p = p[use]
+            surface = float(np.median(p[good, 2]))
+        else:
+            p = np.zeros_like(p)
+            surface = 0.0
+        moment = np.cross(p, f) + tq
+        plates.append(
+            Plate(
+                name=f"grf_{s['side']}",
+                time=t,
+                force=f,
+                moment=moment,
+                reference_point=np.zeros(3),
+                reference_kind="lab_origin",
+                corners=None,
+                surface_height=surface,
+            )
+        )
+        notes.append(
+            f"grf_{s['side']}: columns {s['label']}_* (side from "
+            f"{s.get('side_from', 'the r/l token in the names')})"
+        )
+    return RawTrial(
+        source=trc,
+        marker_names=names,
+        markers=xyz,
+        marker_time=time,
+        plates=plates,
+        grf_source=grf,
+        file_rotation=Y_UP_TO_LAB.copy(),
+        notes=notes,
+    )
