@@ -22,7 +22,6 @@ import numpy as np
 from gc_ocp.errors import InputError, MarkerError
 from gc_ocp.io._common import (
     MAX_GAP_FILL,
-    RawTrial,
     fill_short_gaps,
     foot_markers,
     heel_toe,
@@ -30,7 +29,7 @@ from gc_ocp.io._common import (
     rotation_z,
     warn,
 )
-from gc_ocp.io.stances import DEFAULT_THRESHOLD, contact_windows, detect_stances
+from gc_ocp.io.stances import DEFAULT_THRESHOLD, detect_stances
 from gc_ocp.trial import GRAVITY, Plate, Trial
 
 __all__ = [

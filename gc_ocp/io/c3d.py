@@ -109,11 +109,16 @@ def read_c3d(path: Path) -> RawTrial:
 
     try:
         c = ezc3d.c3d(str(path), extract_forceplat_data=True)
-    except Exception as exc:  # ezc3d raises plain RuntimeError/IOError
-        raise InputError(
-            f"Could not read {path} as a C3D file ({exc}); export it again as C3D from your "
-            f"motion-capture software."
-        ) from exc
+        platforms = c["data"].get("platform", [])
+    except Exception:  # ezc3d raises plain RuntimeError/IOError, also for unusable plates
+        try:
+            c = ezc3d.c3d(str(path))
+        except Exception as exc:
+            raise InputError(
+                f"Could not read {path} as a C3D file ({exc}); export it again as C3D from your "
+                f"motion-capture software."
+            ) from exc
+        platforms = []
     params = c["parameters"]
 
     # Markers ---------------------------------------------------------------------------
@@ -142,7 +147,7 @@ def read_c3d(path: Path) -> RawTrial:
     plates: list[Plate] = []
     notes: list[str] = []
     analog_rate = float(c["header"]["analogs"]["frame_rate"])
-    for i, pf in enumerate(c["data"].get("platform", [])):
+    for i, pf in enumerate(platforms):
         pos = unit_scale(pf["unit_position"], path, f"plate {i + 1} position unit")
         mom = {"nmm": 1e-3, "nm": 1.0}.get(pf["unit_moment"].lower().replace(".", ""), None)
         if mom is None:

@@ -1,0 +1,349 @@
+"""Trial loading on the three shared real datasets, plus synthetic and bad-input cases."""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gc_ocp.errors import InputError, MarkerError, PlateError, UnitsError
+from gc_ocp.io import (
+    bundled_example_path,
+    describe_trial,
+    estimate_belt_speed,
+    load_trial,
+    require_markers,
+    stride_body_weight,
+    walking_rotation,
+)
+from gc_ocp.io._common import fill_short_gaps, rotation_z
+from gc_ocp.io.c3d import unloaded_baseline
+from gc_ocp.trial import GRAVITY
+from gc_ocp.wrench import cop_from_wrench
+
+DATA = (Path(__file__).parents[1] / "../shared/data").resolve()
+needs_data = pytest.mark.skipif(
+    not DATA.is_dir(), reason=f"shared real datasets not found at {DATA} (repo checked out alone)"
+)
+C3D = DATA / "plugingait_overground/test_small.c3d"
+RAJ = (DATA / "opensim_rajagopal_overground/motion_capture_walk.trc",
+       DATA / "opensim_rajagopal_overground/grf_walk.mot")
+G2392 = (DATA / "opensim_gait2392_treadmill/subject01_walk1.trc",
+         DATA / "opensim_gait2392_treadmill/subject01_walk1_grf.mot")
+RAJ_MASS, G2392_MASS = 85.07, 72.6  # OpenSim scale setups (not in the files), README
+
+# README stance lists: (side, plate index, t_on, t_off, peak Fz [N])
+EXPECTED = {
+    "c3d": [("right", 0, 0.406, 1.065, 669), ("left", 1, 0.939, 1.616, 658),
+            ("right", 3, 1.490, 2.139, 654)],
+    "raj": [("right", 0, 0.268, 1.023, 943), ("left", 1, 0.837, 1.589, 931),
+            ("right", 0, 1.412, 2.167, 941)],
+    "g2392": [("right", 0, 0.618, 1.408, 769), ("left", 1, 1.247, 2.017, 811)],
+}
+# 20 ms: the README times were read by eye/at another threshold; a different threshold in the
+# 10-50 N range moves a crossing by a few ms at heel strike but up to ~15 ms at the slow
+# toe-off ramp (C3D plate 4 ends 2.123 vs 2.139 s).
+TIME_TOL = 0.020
+
+
+def _load(key):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # expected exclusion warnings are tested separately
+        if key == "c3d":
+            return load_trial(C3D)
+        if key == "raj":
+            return load_trial(*RAJ, mass=RAJ_MASS)
+        return load_trial(*G2392, mass=G2392_MASS)
+
+
+@pytest.fixture(scope="module")
+def trials():
+    if not DATA.is_dir():
+        pytest.skip(f"shared real datasets not found at {DATA}")
+    return {k: _load(k) for k in EXPECTED}
+
+
+def _crossings(t, fz, level):
+    """Independent reference: first/last sample above ``level`` in each above-level run."""
+    above = fz > level
+    edges = np.flatnonzero(np.diff(above.astype(int)))
+    on = [t[i + 1] for i in edges if not above[i]]
+    off = [t[i] for i in edges if above[i]]
+    return on, off
+
+
+@needs_data
+@pytest.mark.parametrize("key", list(EXPECTED))
+def test_stances_match_readme_and_direct_threshold_crossings(trials, key):
+    trial = trials[key]
+    got = [(s.side, s.plate, s.t_on, s.t_off) for s in trial.stances]
+    assert len(got) == len(EXPECTED[key]), describe_trial(trial)
+    for (side, plate, on, off), (e_side, e_plate, e_on, e_off, _) in zip(
+        got, EXPECTED[key], strict=True
+    ):
+        assert (side, plate) == (e_side, e_plate)
+        assert abs(on - e_on) < TIME_TOL and abs(off - e_off) < TIME_TOL, (on, off, e_on, e_off)
+    for s in trial.stances:  # agreement with a plain threshold crossing: within one sample
+        p = trial.plates[s.plate]
+        on, off = _crossings(p.time, p.force[:, 2], 20.0)
+        dt = 1.0 / p.rate
+        assert min(abs(np.array(on) - s.t_on)) <= dt + 1e-9
+        assert min(abs(np.array(off) - s.t_off)) <= dt + 1e-9
+    assert [s.t_on for s in trial.stances] == sorted(s.t_on for s in trial.stances)
+
+
+@needs_data
+@pytest.mark.parametrize("key", list(EXPECTED))
+def test_peak_forces_match_readme(trials, key):
+    trial = trials[key]
+    for s, (*_, peak) in zip(trial.stances, EXPECTED[key], strict=True):
+        p = trial.plates[s.plate]
+        sel = (p.time >= s.t_on) & (p.time <= s.t_off)
+        assert p.force[sel, 2].max() == pytest.approx(peak, rel=0.02)  # README rounds to 1 N
+
+
+@needs_data
+def test_treadmill_clipped_stances_are_excluded_with_a_reason():
+    with pytest.warns(UserWarning, match="clipped"):
+        trial = load_trial(*G2392, mass=G2392_MASS)
+    assert len(trial.excluded_stances) == 3
+    assert all(e.reason.startswith("clipped") for e in trial.excluded_stances)
+    assert trial.plates[0].surface_height == pytest.approx(-0.0075, abs=1e-6)  # py column
+    speed, text = estimate_belt_speed(trial)
+    assert speed == pytest.approx(1.1, abs=0.1) and "ESTIMATE" in text  # README: ~1.1 m/s
+    assert not np.any(trial.belt_velocity)  # never applied silently
+    t2 = load_trial(*G2392, mass=G2392_MASS, belt_speed=1.1)
+    np.testing.assert_array_equal(t2.belt_velocity, [-1.1, 0.0, 0.0])
+
+
+@needs_data
+@pytest.mark.parametrize("key, mass", [("c3d", 63.6), ("raj", RAJ_MASS), ("g2392", G2392_MASS)])
+def test_body_weight_matches_stride_impulse(trials, key, mass):
+    trial = trials[key]
+    assert trial.mass == pytest.approx(mass, abs=1e-4)  # C3D: PROCESSING:Bodymass
+    value, t0, t1 = stride_body_weight(trial)
+    # 5 %: a real stride is not exactly periodic (speed changes by a few % per stride), the
+    # README's own figure for the C3D is 604 N vs 624 N (3 %).
+    assert value == pytest.approx(mass * GRAVITY, rel=0.05)
+    assert t1 - t0 > 0.8
+
+
+@needs_data
+def test_c3d_subject_units_markers_and_offsets(trials):
+    trial = trials["c3d"]
+    assert trial.height == pytest.approx(1.58)
+    assert "LHEE" in trial.marker_names and "RTOE" in trial.marker_names
+    assert not any(n.endswith(("Angles", "Force", "Moment", "Power")) for n in trial.marker_names)
+    assert "CentreOfMass" not in trial.marker_names and "PELO" not in trial.marker_names
+    assert np.isfinite(trial.markers).all()  # README: no gaps in the real markers
+    assert 0.5 < np.nanmax(trial.marker("LFHD")[:, 2]) < 2.0  # metres, not mm
+    # plate 3 (index 2) is never loaded and read -31.6 N before the offset removal
+    f = trial.plates[2].force
+    assert np.linalg.norm(f.mean(axis=0)) < 1.0
+    assert np.mean(np.abs(f[:, 2])) < 1.0  # noise std is 0.4 N
+    # plate 4 (index 3) read -15.6 N unloaded: check its quiet start too
+    assert abs(np.median(trial.plates[3].force[:500, 2])) < 1.0
+
+
+@needs_data
+def test_c3d_plate_reference_is_electrical_centre_below_surface_and_cop_matches_ezc3d(trials):
+    import ezc3d
+
+    trial = trials["c3d"]
+    c = ezc3d.c3d(str(C3D), extract_forceplat_data=True)
+    for i, plate in enumerate(trial.plates):
+        pf = c["data"]["platform"][i]
+        centre = pf["corners"].T.mean(axis=0) / 1000
+        assert plate.reference_kind == "electrical_center"
+        assert plate.surface_height == pytest.approx(centre[2])
+        # ORIGIN z is 22-43 mm: electrical centre below the surface, under its centre
+        depth = plate.surface_height - plate.reference_point[2]
+        assert 0.02 < depth < 0.05
+        assert np.linalg.norm(plate.reference_point[:2] - centre[:2]) < 0.002
+        # ezc3d's moment is about the surface centre: the COP it reports equals the COP from
+        # its (force, moment) about the mean corner point (round-off)...
+        f_e, m_e = pf["force"].T, pf["moment"].T / 1000
+        loaded = f_e[:, 2] > 100
+        if not loaded.any():
+            continue
+        cop_e = pf["center_of_pressure"].T / 1000
+        np.testing.assert_allclose(
+            cop_from_wrench(f_e, m_e, centre, centre[2])[loaded], cop_e[loaded], atol=1e-9
+        )
+        # ...and our wrench about the electrical centre gives, on the surface plane, the COP of
+        # ezc3d's wrench minus the same unloaded baseline (zero on the zeroed plates 1-2), to
+        # round-off. With the opposite ORIGIN sign E would be 4 cm *above* the surface (caught
+        # above) and the COP would move by ~ 2 x 43 mm x Fx/Fz (cm), far above 1e-9 m.
+        base, _ = unloaded_baseline(np.hstack([f_e, m_e]), 1000.0)
+        ref_cop = cop_from_wrench(f_e - base[:3], m_e - base[3:], centre, centre[2], 100.0)
+        np.testing.assert_allclose(plate.cop(100.0), ref_cop, atol=1e-9)
+        if i in (0, 1):
+            assert not base.any()
+            np.testing.assert_allclose(plate.cop(100.0)[loaded], cop_e[loaded], atol=1e-9)
+
+
+@needs_data
+def test_opensim_plates_and_frames(trials):
+    trial = trials["raj"]
+    assert trial.height is None
+    assert [p.name for p in trial.plates] == ["grf_right", "grf_left"]
+    assert trial.plates[0].reference_kind == "lab_origin"
+    np.testing.assert_allclose(
+        trial.lab_rotation, [[1, 0, 0], [0, 0, -1], [0, 1, 0]], atol=0
+    )  # Y-up file, already walking +X
+    heel = trial.marker("R.Heel")
+    assert np.nanmin(heel[:, 2]) > -0.02 and np.nanmin(heel[:, 2]) < 0.1  # Z up, metres
+    # COP of a stance is under the stance foot (markers within a foot length)
+    s = trial.stances[0]
+    assert s.reference_kind == "floor_under_mean_cop"
+    assert s.reference_point[2] == pytest.approx(trial.plates[0].surface_height)
+    i = np.argmin(abs(trial.marker_time - 0.5 * (s.t_on + s.t_off)))
+    assert np.linalg.norm(trial.marker("R.Heel")[i, :2] - s.reference_point[:2]) < 0.3
+    # stance_wrench about the stance reference point has (almost) no horizontal moment:
+    # it is the floor point under the mean COP, so the moment is the COP excursion x Fz
+    w = trial.stance_wrench(s, np.linspace(s.t_on, s.t_off, 50))
+    assert np.all(np.isfinite(w))
+
+
+def _synthetic_walk(direction_deg: float, treadmill: bool):
+    t = np.arange(0, 2, 0.01)
+    u = np.array([np.cos(np.radians(direction_deg)), np.sin(np.radians(direction_deg))])
+    speed = 0.0 if treadmill else 1.2
+    names = ["LHEE", "LTOE", "RHEE", "RTOE", "C7"]
+    base = np.array([[-0.1, 0.1], [0.1, 0.1], [-0.1, -0.1], [0.1, -0.1], [0.0, 0.0]])
+    n = np.array([-u[1], u[0]])
+    xy = (speed * t)[:, None, None] * u + base[:, 0, None] * u + base[:, 1, None] * n
+    z = np.broadcast_to(np.array([0.05, 0.03, 0.05, 0.03, 1.4]), (len(t), 5))
+    return names, np.concatenate([xy.reshape(len(t), 5, 2), z[..., None]], axis=2), t
+
+
+@pytest.mark.parametrize("treadmill", [False, True])
+@pytest.mark.parametrize("direction, turns", [(0, 0), (180, 2), (90, 1), (-90, -1), (85, 1)])
+def test_walking_rotation_turns_the_walk_to_plus_x(direction, turns, treadmill):
+    names, markers, t = _synthetic_walk(direction, treadmill)
+    rot, text = walking_rotation(names, markers, t)
+    np.testing.assert_array_equal(rot, rotation_z(-turns))
+    heading = rot[:2, :2] @ np.array([np.cos(np.radians(direction)), np.sin(np.radians(direction))])
+    assert heading[0] > 0.99 and ("heel->toe" in text) == treadmill
+
+
+@needs_data
+def test_rotated_trc_mot_pair_is_turned_back(tmp_path):
+    """End-to-end: the Rajagopal files turned 90 deg about the vertical load like the originals."""
+    ref = _load("raj")
+    trc_lines = RAJ[0].read_text().splitlines()
+    out = trc_lines[:5]
+    for line in trc_lines[5:]:
+        cells = line.split("\t")
+        if len(cells) < 5:
+            out.append(line)
+            continue
+        v = [float(c) if c.strip() else np.nan for c in cells[2:]]
+        v += [np.nan] * (-len(v) % 3)
+        xyz = np.array(v).reshape(-1, 3)
+        xyz = np.column_stack([-xyz[:, 2], xyz[:, 1], xyz[:, 0]])  # walk toward file -Z (lab +Y)
+        out.append("\t".join(cells[:2] + [f"{x:.3f}" for x in xyz.ravel()]))
+    (tmp_path / "rot.trc").write_text("\n".join(out) + "\n")
+    lines = RAJ[1].read_text().splitlines()
+    end = lines.index("endheader")
+    cols = lines[end + 1].split("\t")
+    data = np.loadtxt(RAJ[1], skiprows=end + 2)
+    for c, col in enumerate(cols):
+        if col.endswith(("vx", "px", "_x")):
+            x, z = data[:, c].copy(), data[:, c + 2].copy()
+            data[:, c], data[:, c + 2] = -z, x
+    body = "\n".join("\t".join(f"{v:.6f}" for v in row) for row in data)
+    (tmp_path / "rot.mot").write_text("\n".join(lines[: end + 2]) + "\n" + body + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rot = load_trial(tmp_path / "rot.trc", tmp_path / "rot.mot", mass=RAJ_MASS)
+    assert not np.allclose(rot.lab_rotation, ref.lab_rotation)
+    np.testing.assert_allclose(rot.markers, ref.markers, atol=1e-6, equal_nan=True)
+    for a, b in zip(rot.stances, ref.stances, strict=True):
+        assert (a.side, a.plate) == (b.side, b.plate)
+        assert a.t_on == pytest.approx(b.t_on, abs=1e-6)
+        np.testing.assert_allclose(a.reference_point, b.reference_point, atol=1e-6)
+
+
+def test_bundled_example_loads_without_arguments():
+    assert bundled_example_path().is_file()
+    assert (bundled_example_path().parent / "LICENSE_test_small.txt").is_file()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the bundled example loads cleanly
+        trial = load_trial()
+    assert [s.side for s in trial.stances] == ["right", "left", "right"]
+    text = describe_trial(trial)
+    assert "% BW" in text and "PROCESSING:Bodymass" in text and "check:" in text
+
+
+def test_short_gaps_filled_long_gaps_left():
+    t = np.arange(0, 1, 0.01)
+    m = np.stack([np.sin(t), np.cos(t), t], axis=1)[:, None, :].repeat(2, axis=1)
+    m[40:45, 0] = np.nan  # 0.05 s gap: filled
+    m[10:40, 1] = np.nan  # 0.3 s gap: kept
+    filled, left = fill_short_gaps(m, t)
+    np.testing.assert_allclose(filled[40:45, 0, 0], np.sin(t[40:45]), atol=1e-6)  # smooth signal
+    assert np.isnan(filled[10:40, 1]).all() and left == [(1, t[10], t[39])]
+
+
+# --- bad input -------------------------------------------------------------------------------
+
+
+def test_missing_file():
+    with pytest.raises(InputError, match="nope.c3d does not exist"):
+        load_trial("nope.c3d")
+
+
+@needs_data
+def test_trc_without_grf_says_give_grf():
+    with pytest.raises(InputError, match=r"motion_capture_walk\.trc.*give --grf FILE"):
+        load_trial(RAJ[0], mass=RAJ_MASS)
+
+
+@needs_data
+def test_missing_mass_names_file_and_option():
+    with pytest.raises(InputError, match=r"grf_walk\.mot.*--mass KG"):
+        load_trial(*RAJ)
+
+
+@needs_data
+def test_millimetres_declared_as_metres(tmp_path):
+    lines = RAJ[0].read_text().splitlines()
+    lines[2] = lines[2].replace("mm", "m")
+    bad = tmp_path / "bad_units.trc"
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(UnitsError, match=r"bad_units\.trc.*millimetres.*Units"):
+        load_trial(bad, RAJ[1], mass=RAJ_MASS)
+
+
+def test_c3d_without_plates(tmp_path):
+    import ezc3d
+
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = [100]
+    c["parameters"]["POINT"]["LABELS"]["value"] = ("LHEE", "RHEE")
+    pts = np.ones((4, 2, 20))
+    pts[:3] = np.random.default_rng(1).random((3, 2, 20)) * 1000
+    c["data"]["points"] = pts
+    path = tmp_path / "noplates.c3d"
+    c.write(str(path))
+    with pytest.raises(PlateError, match=r"noplates\.c3d has no force plates.*ground reactions"):
+        load_trial(path, mass=70)
+
+
+def test_require_markers_on_a_gap_and_a_missing_marker():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        trial = load_trial()
+    m = np.array(trial.markers)
+    j = trial.marker_names.index("LHEE")
+    m[100:130, j] = np.nan  # 0.3 s
+    gappy = dataclasses.replace(trial, markers=m)
+    require_markers(gappy, ["RHEE"])
+    with pytest.raises(MarkerError, match=r'"LHEE" in .*test_small\.c3d.*0\.300 s.*fill the gap'):
+        require_markers(gappy, ["RHEE", "LHEE"])
+    with pytest.raises(MarkerError, match=r'"LMT5" is not in .*test_small\.c3d'):
+        require_markers(trial, ["LMT5"])
