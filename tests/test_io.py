@@ -29,18 +29,28 @@ needs_data = pytest.mark.skipif(
     not DATA.is_dir(), reason=f"shared real datasets not found at {DATA} (repo checked out alone)"
 )
 C3D = DATA / "plugingait_overground/test_small.c3d"
-RAJ = (DATA / "opensim_rajagopal_overground/motion_capture_walk.trc",
-       DATA / "opensim_rajagopal_overground/grf_walk.mot")
-G2392 = (DATA / "opensim_gait2392_treadmill/subject01_walk1.trc",
-         DATA / "opensim_gait2392_treadmill/subject01_walk1_grf.mot")
+RAJ = (
+    DATA / "opensim_rajagopal_overground/motion_capture_walk.trc",
+    DATA / "opensim_rajagopal_overground/grf_walk.mot",
+)
+G2392 = (
+    DATA / "opensim_gait2392_treadmill/subject01_walk1.trc",
+    DATA / "opensim_gait2392_treadmill/subject01_walk1_grf.mot",
+)
 RAJ_MASS, G2392_MASS = 85.07, 72.6  # OpenSim scale setups (not in the files), README
 
 # README stance lists: (side, plate index, t_on, t_off, peak Fz [N])
 EXPECTED = {
-    "c3d": [("right", 0, 0.406, 1.065, 669), ("left", 1, 0.939, 1.616, 658),
-            ("right", 3, 1.490, 2.139, 654)],
-    "raj": [("right", 0, 0.268, 1.023, 943), ("left", 1, 0.837, 1.589, 931),
-            ("right", 0, 1.412, 2.167, 941)],
+    "c3d": [
+        ("right", 0, 0.406, 1.065, 669),
+        ("left", 1, 0.939, 1.616, 658),
+        ("right", 3, 1.490, 2.139, 654),
+    ],
+    "raj": [
+        ("right", 0, 0.268, 1.023, 943),
+        ("left", 1, 0.837, 1.589, 931),
+        ("right", 0, 1.412, 2.167, 941),
+    ],
     "g2392": [("right", 0, 0.618, 1.408, 769), ("left", 1, 1.247, 2.017, 811)],
 }
 # 20 ms: the README times were read by eye/at another threshold; a different threshold in the

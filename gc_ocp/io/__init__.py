@@ -114,13 +114,17 @@ def load_trial(
             f"pass mass=... / --mass KG."
         )
     if not (10.0 < raw.mass < 400.0):
-        raise InputError(f"Subject mass {raw.mass} kg ({raw.mass_source}) is not plausible; "
-                         f"pass the mass in kilograms with mass=... / --mass KG.")
+        raise InputError(
+            f"Subject mass {raw.mass} kg ({raw.mass_source}) is not plausible; "
+            f"pass the mass in kilograms with mass=... / --mass KG."
+        )
     if height is not None:
         raw.height, raw.height_source = float(height), "given (height=)"
     if raw.height is not None and not (0.5 < raw.height < 2.6):
-        raise InputError(f"Subject height {raw.height} m ({raw.height_source}) is not plausible; "
-                         f"pass it in metres (height=... / --height M).")
+        raise InputError(
+            f"Subject height {raw.height} m ({raw.height_source}) is not plausible; "
+            f"pass it in metres (height=... / --height M)."
+        )
 
     rot, rot_note = walking_rotation(raw.marker_names, raw.markers, raw.marker_time)
     raw.notes.append(rot_note)
@@ -129,12 +133,19 @@ def load_trial(
     markers, _gaps = fill_short_gaps(markers, raw.marker_time)
 
     stances, excluded, side_notes = detect_stances(
-        plates, raw.marker_names, markers, raw.marker_time, raw.mass * GRAVITY, threshold,
+        plates,
+        raw.marker_names,
+        markers,
+        raw.marker_time,
+        raw.mass * GRAVITY,
+        threshold,
         source=str(path),
     )
     raw.notes.extend(side_notes)
     if belt_speed is not None and belt_speed < 0:
-        raise InputError(f"belt_speed={belt_speed}: give the belt speed as a positive number in m/s.")
+        raise InputError(
+            f"belt_speed={belt_speed}: give the belt speed as a positive number in m/s."
+        )
     belt = np.array([-(belt_speed or 0.0), 0.0, 0.0])
     trial = Trial(
         source=path,
@@ -195,16 +206,23 @@ def walking_rotation(names, markers: np.ndarray, time: np.ndarray) -> tuple[np.n
         if vecs and np.linalg.norm(np.mean(vecs, axis=0)) > 0.03:
             direction, how = np.mean(vecs, axis=0), "heel->toe direction (treadmill-like trial)"
     if direction is None:
-        warn("Could not detect the walking direction (no motion, no heel/toe markers): "
-             "the file's X axis is kept as the walking direction.")
+        warn(
+            "Could not detect the walking direction (no motion, no heel/toe markers): "
+            "the file's X axis is kept as the walking direction."
+        )
         return np.eye(3), "walking direction unknown: file X kept"
     angle = math.degrees(math.atan2(direction[1], direction[0]))
     k = int(round(angle / 90.0))
     if abs(angle - 90.0 * k) > 20.0:
-        warn(f"Walking direction is {angle:.0f} deg from the file X axis, not close to a multiple "
-             f"of 90 deg; rotated by {90 * k} deg only.")
+        warn(
+            f"Walking direction is {angle:.0f} deg from the file X axis, not close to a multiple "
+            f"of 90 deg; rotated by {90 * k} deg only."
+        )
     rot = rotation_z(-k)
-    return rot, f"walking direction {angle:.0f} deg in file axes from {how}; rotated {-90 * k} deg about Z"
+    return (
+        rot,
+        f"walking direction {angle:.0f} deg in file axes from {how}; rotated {-90 * k} deg about Z",
+    )
 
 
 def require_markers(trial: Trial, names) -> None:
@@ -284,10 +302,14 @@ def estimate_belt_speed(trial: Trial) -> tuple[float, str]:
         vx = np.gradient(trial.markers[:, idx, 0], dt, axis=0)[sel]
         v.append(float(np.nanmean(vx)))
     if not v:
-        raise MarkerError(f"No stance with foot markers in {trial.source} to estimate the belt speed.")
+        raise MarkerError(
+            f"No stance with foot markers in {trial.source} to estimate the belt speed."
+        )
     speed = -float(np.mean(v))
-    return speed, (f"ESTIMATE: stance feet move at {-speed:+.3f} m/s along X over mid-stance "
-                   f"({len(v)} stances) -> belt speed {speed:.3f} m/s")
+    return speed, (
+        f"ESTIMATE: stance feet move at {-speed:+.3f} m/s along X over mid-stance "
+        f"({len(v)} stances) -> belt speed {speed:.3f} m/s"
+    )
 
 
 def _trapezoid(y: np.ndarray, x: np.ndarray) -> float:
@@ -317,7 +339,9 @@ def stride_body_weight(trial: Trial) -> tuple[float, float, float] | None:
         if getattr(s, "reason", "").startswith("clipped: force already"):
             continue
         ons.setdefault(s.side, []).append(s.t_on)
-    periods = [b - a for v in ons.values() for a, b in zip(sorted(v)[:-1], sorted(v)[1:], strict=True)]
+    periods = [
+        b - a for v in ons.values() for a, b in zip(sorted(v)[:-1], sorted(v)[1:], strict=True)
+    ]
     if not periods:
         return None
     t, fz = _total_vertical(trial)
@@ -353,7 +377,9 @@ def describe_trial(trial: Trial) -> str:
             f"{np.round(p.reference_point, 4).tolist()} m, surface z {p.surface_height:.4f} m"
             + ("" if p.corners is not None else ", no corners")
         )
-    lines.append(f"  body weight {bw:.1f} N = {trial.mass:.2f} kg x {GRAVITY} ({trial.mass_source})")
+    lines.append(
+        f"  body weight {bw:.1f} N = {trial.mass:.2f} kg x {GRAVITY} ({trial.mass_source})"
+    )
     h = f"{trial.height:.3f} m ({trial.height_source})" if trial.height else "unknown"
     lines.append(f"  height {h}")
     if np.any(trial.belt_velocity):
@@ -367,13 +393,17 @@ def describe_trial(trial: Trial) -> str:
             f"({100 * peak / bw:.0f} % BW), reference {s.reference_kind}"
         )
     for s in trial.excluded_stances:
-        lines.append(f"  EXCLUDED {s.side} {trial.plates[s.plate].name} "
-                     f"{s.t_on:.3f}-{s.t_off:.3f} s: {s.reason}")
+        lines.append(
+            f"  EXCLUDED {s.side} {trial.plates[s.plate].name} "
+            f"{s.t_on:.3f}-{s.t_off:.3f} s: {s.reason}"
+        )
     check = stride_body_weight(trial)
     if check:
         v, t0, t1 = check
-        lines.append(f"  check: mean vertical force over the stride {t0:.3f}-{t1:.3f} s = {v:.0f} N "
-                     f"({100 * (v / bw - 1):+.1f} % vs body weight)")
+        lines.append(
+            f"  check: mean vertical force over the stride {t0:.3f}-{t1:.3f} s = {v:.0f} N "
+            f"({100 * (v / bw - 1):+.1f} % vs body weight)"
+        )
     for n in trial.load_notes:
         lines.append(f"  note: {n}")
     return "\n".join(lines)

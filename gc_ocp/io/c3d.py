@@ -151,7 +151,9 @@ def read_c3d(path: Path) -> RawTrial:
         pos = unit_scale(pf["unit_position"], path, f"plate {i + 1} position unit")
         mom = {"nmm": 1e-3, "nm": 1.0}.get(pf["unit_moment"].lower().replace(".", ""), None)
         if mom is None:
-            raise PlateError(f'Unknown moment unit "{pf["unit_moment"]}" of plate {i + 1} in {path}.')
+            raise PlateError(
+                f'Unknown moment unit "{pf["unit_moment"]}" of plate {i + 1} in {path}.'
+            )
         force = np.asarray(pf["force"], dtype=float).T
         moment_c = np.asarray(pf["moment"], dtype=float).T * mom
         corners = np.asarray(pf["corners"], dtype=float).T * pos

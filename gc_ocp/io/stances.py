@@ -85,7 +85,9 @@ def _markers_at(markers, marker_time, idx, times):
     out = np.full((len(times), len(idx), 3), np.nan)
     for k, j in enumerate(idx):
         for a in range(3):
-            out[:, k, a] = np.interp(times, marker_time, markers[:, j, a], left=np.nan, right=np.nan)
+            out[:, k, a] = np.interp(
+                times, marker_time, markers[:, j, a], left=np.nan, right=np.nan
+            )
     return out
 
 
@@ -134,12 +136,25 @@ def detect_stances(
                 )
                 warn(f"{source}: {notes[-1]}; check the GRF column sides.")
             reason = _exclusion(
-                plate, a, b, t_on, t_off, side, cop, feet, marker_names, markers, marker_time,
-                body_weight, threshold,
+                plate,
+                a,
+                b,
+                t_on,
+                t_off,
+                side,
+                cop,
+                feet,
+                marker_names,
+                markers,
+                marker_time,
+                body_weight,
+                threshold,
             )
             if reason:
-                warn(f"{source}: stance {side} on {plate.name} {t_on:.3f}-{t_off:.3f} s "
-                     f"excluded: {reason}")
+                warn(
+                    f"{source}: stance {side} on {plate.name} {t_on:.3f}-{t_off:.3f} s "
+                    f"excluded: {reason}"
+                )
                 excluded.append(ExcludedStance(side, ip, t_on, t_off, reason))
                 continue
             if plate.reference_kind == "electrical_center":
