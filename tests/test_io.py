@@ -357,3 +357,47 @@ def test_require_markers_on_a_gap_and_a_missing_marker():
         require_markers(gappy, ["RHEE", "LHEE"])
     with pytest.raises(MarkerError, match=r'"LMT5" is not in .*test_small\.c3d'):
         require_markers(trial, ["LMT5"])
+
+
+def _synthetic_plate_case(cop_x_end: float, left_y: float):
+    """One 0.5 m square plate, a 0.6 s right stance with the COP going from x=0.25 to
+    ``cop_x_end``; feet markers static (right on the plate, left at y=``left_y``)."""
+    from gc_ocp.trial import Plate
+    from gc_ocp.wrench import transport_moment
+
+    t = np.arange(0, 1.0, 0.001)
+    fz = np.where((t > 0.2) & (t < 0.8), 600 * np.sin(np.pi * (t - 0.2) / 0.6), 0.0)
+    f = np.column_stack([np.zeros_like(t), np.zeros_like(t), fz])
+    cop = np.column_stack(
+        [np.interp(t, [0.2, 0.8], [0.25, cop_x_end]), np.full_like(t, 0.25), np.zeros_like(t)]
+    )
+    e = np.array([0.25, 0.25, -0.04])
+    m = transport_moment(f, np.zeros_like(f), cop, e)
+    corners = np.array([[0.5, 0.5, 0], [0, 0.5, 0], [0, 0, 0], [0.5, 0, 0]], float)
+    plate = Plate("plate1", t, f, m, e, "electrical_center", corners, 0.0)
+    names = ["RHEE", "RTOE", "LHEE", "LTOE"]
+    mt = np.arange(0, 1.0, 0.01)
+    pos = np.array(
+        [[0.15, 0.25, 0.03], [0.35, 0.25, 0.03], [0.1, left_y, 0.03], [0.3, left_y, 0.03]]
+    )
+    return [plate], names, np.broadcast_to(pos, (len(mt), 4, 3)).copy(), mt
+
+
+@pytest.mark.parametrize(
+    "cop_x_end, left_y, reason",
+    [(0.3, -0.5, ""), (0.7, -0.5, "COP leaves plate1"), (0.3, 0.4, "two feet on plate1")],
+)
+def test_stance_exclusions_on_a_synthetic_plate(cop_x_end, left_y, reason):
+    from gc_ocp.io.stances import detect_stances
+
+    plates, names, markers, mt = _synthetic_plate_case(cop_x_end, left_y)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        stances, excluded, _ = detect_stances(plates, names, markers, mt, 600.0, 20.0, "syn")
+    if not reason:
+        assert len(stances) == 1 and not excluded and not caught
+        assert stances[0].side == "right"
+        assert stances[0].t_on == pytest.approx(0.2 + 0.6 / np.pi * np.arcsin(20 / 600), abs=1e-3)
+    else:
+        assert not stances and excluded[0].reason.startswith(reason)
+        assert any(reason in str(w.message) for w in caught)
