@@ -1,0 +1,218 @@
+"""Model components: each contributes decision variables, priors and terms to the estimation NLP.
+
+A model is a tuple of components. The seed model and the full model are two configurations:
+
+>>> seed = (ContactLaw.seed(),)                                   # doctest: +SKIP
+>>> full = (ContactLaw(), SoleCorrection(), PoseCorrection())     # doctest: +SKIP
+
+Every decision variable is *scaled* so that O(1) is a typical magnitude; variables that carry a
+Gaussian prior are stored in units of their prior standard deviation, so the prior term is
+``0.5 * ||z||^2``. Stiffness is estimated as ``log k`` so that ``k > 0`` by construction.
+
+The sim-to-real diagnosis adds candidate extensions (ground offset, time offset, toe hinge,
+denser sole, other friction laws, ...) as further components of this kind.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Literal
+
+import numpy as np
+
+from gc_ocp.sole import UNITS
+from gc_ocp.trial import SIDES
+
+if TYPE_CHECKING:  # pragma: no cover
+    from gc_ocp.estimation.problem import Builder
+
+Scope = Literal["unit", "foot", "shared", "fixed"]
+
+
+@dataclass(frozen=True)
+class Param:
+    """How one contact parameter is estimated.
+
+    scope: ``"unit"`` (one per unit per foot; only k), ``"foot"`` (one per foot), ``"shared"``
+    (one for both feet) or ``"fixed"`` (not estimated: ``value`` is used).
+    value: initial (or fixed) value in SI units; a float, or ``{side: float}`` /
+    ``{side: {unit: float}}`` for fixed per-foot / per-unit values.
+    lower, upper: bounds in SI units.
+    """
+
+    scope: Scope
+    value: float | dict
+    lower: float = -np.inf
+    upper: float = np.inf
+
+    def value_for(self, side: str, unit: str | None = None) -> float:
+        v = self.value
+        if isinstance(v, dict):
+            v = v[side]
+            if isinstance(v, dict):
+                v = v[unit]
+        return float(v)
+
+
+@dataclass(frozen=True)
+class ContactLaw:
+    """Hunt-Crossley normal force with Coulomb friction, per unit.
+
+    k: stiffness [N/m^n] (estimated as log k); n: penetration exponent [-];
+    c: Hunt-Crossley damping [s/m]; mu: friction coefficient [-].
+    depth_smoothing: smoothing length of the penetration [m] (see ``gc_ocp.contact.laws``).
+    slip_smoothing: sliding speed below which friction is smoothed [m/s].
+    """
+
+    k: Param = field(default_factory=lambda: Param("unit", 3.0e5, 1.0e2, 1.0e9))
+    n: Param = field(default_factory=lambda: Param("shared", 1.5, 1.0, 3.0))
+    c: Param = field(default_factory=lambda: Param("shared", 0.5, 0.0, 10.0))
+    mu: Param = field(default_factory=lambda: Param("shared", 0.5, 0.0, 1.5))
+    depth_smoothing: float = 5e-4
+    slip_smoothing: float = 0.05
+    name: str = "contact"
+
+    @classmethod
+    def seed(cls, mu: float = 0.0) -> ContactLaw:
+        """The seed report's model: k per unit, n = 1, c = 0, fixed friction ``mu``."""
+        return cls(
+            k=Param("unit", 1.2e4, 1.0, 1.0e9),
+            n=Param("fixed", 1.0),
+            c=Param("fixed", 0.0),
+            mu=Param("fixed", mu),
+        )
+
+    def declare(self, b: Builder) -> None:
+        for pname in ("k", "n", "c", "mu"):
+            p: Param = getattr(self, pname)
+            log = pname == "k"
+            if p.scope == "fixed":
+                continue
+            keys: list[tuple[str, ...]]
+            if p.scope == "unit":
+                if pname != "k":
+                    raise ValueError(f'Param "{pname}" cannot have scope "unit"; choose foot, shared or fixed.')
+                keys = [(s, u) for s in SIDES for u in UNITS]
+            elif p.scope == "foot":
+                keys = [(s,) for s in SIDES]
+            else:
+                keys = [()]
+            for key in keys:
+                v0 = p.value_for(*key) if p.scope != "shared" else p.value_for(SIDES[0], UNITS[0]) if isinstance(p.value, dict) else float(p.value)
+                b.parameter(
+                    (self.name, pname, *key), v0, p.lower, p.upper, log=log
+                )
+
+    def values(self, b: Builder, side: str) -> dict:
+        """Symbolic (or fixed numeric) parameter values for ``side``: k (5,), n, c, mu."""
+        out = {}
+        for pname in ("k", "n", "c", "mu"):
+            p: Param = getattr(self, pname)
+            if p.scope == "fixed":
+                if pname == "k":
+                    out[pname] = [p.value_for(side, u) for u in UNITS]
+                else:
+                    out[pname] = p.value_for(side)
+            elif p.scope == "unit":
+                out[pname] = [b.get((self.name, pname, side, u)) for u in UNITS]
+            elif p.scope == "foot":
+                out[pname] = b.get((self.name, pname, side))
+            else:
+                out[pname] = b.get((self.name, pname))
+        return out
+
+
+@dataclass(frozen=True)
+class SoleCorrection:
+    """Correction of each sole point's position in its parent (foot) frame.
+
+    A Gaussian prior N(0, sigma^2) per component (default 5 mm: the uncertainty of locating the
+    sole from skin markers over heel and metatarsals) and bounds +-bound [m].
+    ``fixed``: ``{side: (5, 3) array [m]}`` to apply known corrections without estimating them.
+    """
+
+    sigma: float = 0.005
+    bound: float = 0.025
+    fixed: dict | None = None
+    name: str = "sole"
+
+    def declare(self, b: Builder) -> None:
+        if self.fixed is not None:
+            return
+        for side in SIDES:
+            for u in UNITS:
+                b.prior_variable((self.name, side, u), 3, self.sigma, self.bound)
+
+    def offsets(self, b: Builder, side: str):
+        """(5, 3)-like list of symbolic offsets [m] for ``side`` (rows = units)."""
+        if self.fixed is not None:
+            return np.asarray(self.fixed[side], float)
+        return [b.get((self.name, side, u)) for u in UNITS]
+
+
+@dataclass(frozen=True)
+class PoseCorrection:
+    """Smooth small 6-DOF correction of the foot placement over each stance.
+
+    The correction (translation d [m], small rotation theta [rad], both in ``lab`` about the
+    hindfoot origin) is a cubic B-spline in time with ``knot_spacing`` [s] between knots. Its
+    coefficients have a Gaussian prior (``sigma_mm`` [mm], ``sigma_deg`` [deg]) that ties the
+    corrected foot to the placement IK found from the markers.
+    """
+
+    sigma_mm: float = 2.0
+    sigma_deg: float = 1.0
+    knot_spacing: float = 0.1
+    bound_sigmas: float = 6.0
+    name: str = "pose"
+
+    def basis(self, time: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """B-spline design matrices ``(n, K)`` for value and time derivative on ``time`` [s]."""
+        from scipy.interpolate import BSpline
+
+        t0, t1 = float(time[0]), float(time[-1])
+        n_int = max(1, int(np.ceil((t1 - t0) / self.knot_spacing)))
+        inner = np.linspace(t0, t1, n_int + 1)
+        deg = 3
+        knots = np.concatenate([[t0] * deg, inner, [t1] * deg])
+        K = len(knots) - deg - 1
+        B = np.zeros((time.size, K))
+        dB = np.zeros((time.size, K))
+        for j in range(K):
+            c = np.zeros(K)
+            c[j] = 1.0
+            spl = BSpline(knots, c, deg, extrapolate=False)
+            B[:, j] = np.nan_to_num(spl(time))
+            dB[:, j] = np.nan_to_num(spl.derivative()(time))
+        B[-1, -1] = 1.0  # right end is inclusive
+        return B, dB
+
+    def declare(self, b: Builder) -> None:
+        for i, st in enumerate(b.stances):
+            K = self.basis(st.time)[0].shape[1]
+            b.prior_variable((self.name, i, "trans"), 3 * K, self.sigma_mm * 1e-3, self.bound_sigmas * self.sigma_mm * 1e-3)
+            b.prior_variable((self.name, i, "rot"), 3 * K, np.deg2rad(self.sigma_deg), self.bound_sigmas * np.deg2rad(self.sigma_deg))
+
+    def trajectories(self, b: Builder, i: int):
+        """Symbolic ``(d, theta, d_dot, theta_dot)`` as 3 x n matrices for stance ``i``."""
+        import casadi as ca
+
+        st = b.stances[i]
+        B, dB = self.basis(st.time)
+        K = B.shape[1]
+        tr = ca.reshape(b.get((self.name, i, "trans")), 3, K)
+        rot = ca.reshape(b.get((self.name, i, "rot")), 3, K)
+        return tr @ B.T, rot @ B.T, tr @ dB.T, rot @ dB.T
+
+
+Component = ContactLaw | SoleCorrection | PoseCorrection
+
+
+def seed_model(mu: float = 0.0) -> tuple:
+    """The seed report's configuration: contact law only, n = 1, c = 0, fixed points."""
+    return (ContactLaw.seed(mu),)
+
+
+def full_model() -> tuple:
+    """Today's model: contact law with k per unit, shared n, c, mu; sole and pose corrections."""
+    return (ContactLaw(), SoleCorrection(), PoseCorrection())

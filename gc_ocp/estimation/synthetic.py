@@ -1,0 +1,181 @@
+"""Synthetic stances for recovery tests and benchmarks: a rigid foot rolling heel-to-toe.
+
+The motion is smooth and realistic in shape (heel strike at 12 deg dorsiflexion, foot flat,
+heel-off and roll over the metatarsal heads to 35 deg plantarflexion), the foot sinks a few
+millimetres into the ground in stance, and it slides slightly. Ground reactions are generated with
+the same per-frame model function the estimator uses, with known ("true") parameters.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gc_ocp.estimation.data import StanceData
+from gc_ocp.sole import FootKinematics
+from gc_ocp.trial import GRAVITY
+
+# nominal unit positions in the foot frame (origin at the ankle, sole 70 mm below) [m]
+NOMINAL_POINTS = np.array([
+    [-0.045, -0.025, -0.070],  # PL (for the left foot lateral is +y; mirrored for the right)
+    [-0.045, 0.020, -0.070],  # PM
+    [0.140, -0.040, -0.070],  # AL
+    [0.140, 0.035, -0.070],  # AM
+    [0.190, 0.000, -0.070],  # TT
+])
+
+
+def _rot_y(a: np.ndarray) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    R = np.zeros(a.shape + (3, 3))
+    R[..., 0, 0] = c
+    R[..., 0, 2] = s
+    R[..., 1, 1] = 1
+    R[..., 2, 0] = -s
+    R[..., 2, 2] = c
+    return R
+
+
+def nominal_points(side: str) -> np.ndarray:
+    p = NOMINAL_POINTS.copy()
+    if side == "left":
+        p[:, 1] *= -1.0  # lateral is +y (left) for the left foot
+    return p
+
+
+def rolling_foot(side: str, duration: float = 0.65, rate: float = 100.0, t0: float = 0.0,
+                 sink: float = 0.006, margin: float = 0.03) -> FootKinematics:
+    """Foot kinematics over one stance (plus ``margin`` [s] each side), ``lab`` frame, ground z = 0."""
+    n = int(round((duration + 2 * margin) * rate)) + 1
+    t = t0 - margin + np.arange(n) / rate
+    s = np.clip((t - t0) / duration, -0.2, 1.2)  # stance phase
+    # pitch: +12 deg at strike -> 0 by 15 % -> 0 until 55 % -> -35 deg at toe-off (smooth steps)
+    def smooth(u):
+        u = np.clip(u, 0, 1)
+        return u * u * (3 - 2 * u)
+    pitch = np.deg2rad(12) * (1 - smooth(s / 0.15)) - np.deg2rad(20) * smooth((s - 0.55) / 0.45)
+    # positive pitch about +y lowers the toes: heel strike has toes up -> negative rotation about y
+    ang = -pitch
+    # roll about the long axis: inverted 6 deg at strike, everted 4 deg in mid-stance, inverted
+    # 5 deg at push-off (so medial and lateral units load differently over time)
+    roll = np.deg2rad(6) * (1 - smooth(s / 0.2)) - np.deg2rad(4) * np.sin(np.pi * np.clip(s, 0, 1)) \
+        + np.deg2rad(5) * smooth((s - 0.6) / 0.4)
+    if side == "right":
+        roll = -roll
+    c_, s_ = np.cos(roll), np.sin(roll)
+    Rx = np.zeros((n, 3, 3))
+    Rx[:, 0, 0] = 1
+    Rx[:, 1, 1] = c_
+    Rx[:, 1, 2] = -s_
+    Rx[:, 2, 1] = s_
+    Rx[:, 2, 2] = c_
+    R = np.einsum("nij,njk->nik", _rot_y(ang), Rx)
+    heel = np.array([-0.045, 0.0, -0.070])
+    mth = np.array([0.165, 0.0, -0.070])
+    # pivot: heel before flat, metatarsal heads after heel-off; the pivot sinks by the sink profile
+    depth = sink * np.sin(np.pi * np.clip(s, 0, 1)) ** 0.5 - 0.004 * (s < 0) - 0.004 * (s > 1)
+    drift = 0.004 * s  # slow forward slide [m] (marker drift / slip)
+    org = np.zeros((n, 3))
+    for i in range(n):
+        pivot_local = heel if s[i] < 0.35 else mth
+        pivot_lab = np.array([0.5 + drift[i] + (0 if s[i] < 0.35 else mth[0] - heel[0]), 0.0, -depth[i]])
+        org[i] = pivot_lab - R[i] @ pivot_local
+    # continuity at the pivot switch: foot is flat there so both pivots agree in x up to drift
+    org[:, 1] = 0.1 if side == "left" else -0.1
+    pose = np.tile(np.eye(4), (n, 1, 1))
+    pose[:, :3, :3] = R
+    pose[:, :3, 3] = org
+    v = np.gradient(org, t, axis=0)
+    w = np.zeros((n, 3))
+    dR = np.gradient(R, t, axis=0)
+    W = np.einsum("nij,nkj->nik", dR, R)  # skew(omega) = dR R^T
+    w[:, 0], w[:, 1], w[:, 2] = W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]
+    twist = np.hstack([v, w])
+    return FootKinematics(side, t, pose, pose.copy(), twist, twist.copy(), nominal_points(side))
+
+
+def synthetic_stance(
+    side: str, truth: dict, points_local: np.ndarray | None = None, body_weight: float = 700.0,
+    height: float = 1.75, rate: float = 100.0, duration: float = 0.65, t0: float = 0.0,
+    rng: np.random.Generator | None = None, force_noise: float = 0.0, marker_noise: float = 0.0,
+    sink: float = 0.006, label: str | None = None,
+) -> StanceData:
+    """One synthetic stance. ``truth``: ``{"k": (5,), "n", "c", "mu"}`` [SI]; ``points_local``:
+    true unit positions (default nominal); ``force_noise`` [N] and ``marker_noise`` [m] standard
+    deviations (marker noise perturbs the foot pose given to the fitter, through 3 virtual markers)."""
+    from gc_ocp.estimation.problem import Weights, _contact_frame_function
+
+    foot = rolling_foot(side, duration, rate, t0, sink)
+    true_pts = nominal_points(side) if points_local is None else np.asarray(points_local)
+    true_foot = foot.with_points(true_pts)
+    T = foot.time.size
+    fn = _contact_frame_function(5e-4, 0.05).map(T)
+    ref = np.array([0.6, 0.1 if side == "left" else -0.1, -0.04])
+    Rh = foot.hindfoot_pose[:, :3, :3].transpose(0, 2, 1).reshape(T, 9).T
+    z3 = np.zeros((3, T))
+    _, wrench, _ = fn(
+        Rh, foot.hindfoot_pose[:, :3, 3].T, foot.hindfoot_twist[:, :3].T, foot.hindfoot_twist[:, 3:].T,
+        Rh, foot.toes_pose[:, :3, 3].T, foot.toes_twist[:, :3].T, foot.toes_twist[:, 3:].T,
+        z3, z3, z3, z3, np.zeros((6, T)), np.ones((6, T)), true_pts.T, np.asarray(truth["k"], float),
+        truth["n"], truth["c"], truth["mu"], 0.0, np.zeros(3), ref,
+    )
+    meas = np.asarray(wrench).T
+    rng = rng or np.random.default_rng(0)
+    if force_noise > 0:
+        meas = meas + rng.normal(0, force_noise, meas.shape) * np.array([1, 1, 1, 0.05, 0.05, 0.05])
+    fit_foot = true_foot.with_points(nominal_points(side))
+    if marker_noise > 0:
+        fit_foot = _noisy_pose(fit_foot, marker_noise, rng)
+    s = (foot.time >= t0) & (foot.time <= t0 + duration)
+    del Weights
+    return StanceData(
+        trial="synthetic", side=side, label=label or f"synthetic:{side}@{t0:.2f}s", time=foot.time,
+        foot=fit_foot, measured=meas, in_contact=s, reference_point=ref, ground_height=0.0,
+        belt_velocity=np.zeros(3), body_weight=body_weight, height=height,
+    )
+
+
+def _noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) -> FootKinematics:
+    """Foot pose re-estimated (Kabsch) from 3 virtual markers with iid noise, then low-passed at 6 Hz."""
+    from scipy.signal import butter, filtfilt
+    from scipy.spatial.transform import Rotation
+
+    mk = np.array([[-0.07, 0.0, -0.03], [0.16, 0.0, -0.04], [0.0, -0.04, 0.0], [0.10, -0.045, -0.04]])
+    T = foot.time.size
+    P = foot.hindfoot_pose
+    obs = np.einsum("nij,mj->nmi", P[:, :3, :3], mk) + P[:, None, :3, 3] + rng.normal(0, sigma, (T, len(mk), 3))
+    Rs = np.empty((T, 3, 3))
+    os_ = np.empty((T, 3))
+    mc = mk.mean(0)
+    for i in range(T):
+        oc = obs[i].mean(0)
+        H = (mk - mc).T @ (obs[i] - oc)
+        U, _, Vt = np.linalg.svd(H)
+        d = np.sign(np.linalg.det(Vt.T @ U.T))
+        R = Vt.T @ np.diag([1, 1, d]) @ U.T
+        Rs[i] = R
+        os_[i] = oc - R @ mc
+    rate = 1.0 / np.median(np.diff(foot.time))
+    b, a = butter(2, 6.0 / (rate / 2))
+    dR = Rotation.from_matrix(np.einsum("nji,njk->nik", P[:, :3, :3], Rs)).as_rotvec()
+    dR = filtfilt(b, a, dR, axis=0)
+    do = filtfilt(b, a, os_ - P[:, :3, 3], axis=0)
+    Rn = np.einsum("nij,njk->nik", P[:, :3, :3], Rotation.from_rotvec(dR).as_matrix())
+    pose = P.copy()
+    pose[:, :3, :3] = Rn
+    pose[:, :3, 3] = P[:, :3, 3] + do
+    v = np.gradient(pose[:, :3, 3], foot.time, axis=0)
+    # angular velocity from the rotation sequence
+    rv = Rotation.from_matrix(Rn)
+    rel = (rv[:-1].inv() * rv[1:]).as_rotvec() * rate  # body frame
+    wb = np.vstack([rel, rel[-1:]])
+    w = np.einsum("nij,nj->ni", Rn, wb)
+    twist = np.hstack([v, w])
+    return FootKinematics(foot.side, foot.time, pose, pose.copy(), twist, twist.copy(), foot.points_local)
+
+
+def default_truth(seed: int = 0, body_weight: float = 700.0) -> dict:
+    rng = np.random.default_rng(seed)
+    return {"k": rng.uniform(0.6, 1.4, 5) * 3.0e5, "n": 1.5, "c": 1.0, "mu": 0.8}
+
+
+__all__ = ["rolling_foot", "synthetic_stance", "default_truth", "nominal_points", "GRAVITY"]
