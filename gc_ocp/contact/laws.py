@@ -52,7 +52,7 @@ deliberate: a discontinuous Coulomb law is not usable in an NLP).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import casadi as ca
 import numpy as np
@@ -90,7 +90,7 @@ def _smooth_max0(a, eps):
     return 0.5 * (a + ca.sqrt(a * a + eps * eps))
 
 
-@lru_cache(maxsize=None)
+@cache
 def penetration_function() -> ca.Function:
     """``(p(3), v(3), ground_height) -> (x, xdot)``: penetration [m] and its rate [m/s]."""
     p, v, h = ca.SX.sym("p", 3), ca.SX.sym("v", 3), ca.SX.sym("ground_height")
@@ -100,7 +100,7 @@ def penetration_function() -> ca.Function:
     )
 
 
-@lru_cache(maxsize=None)
+@cache
 def normal_force_function(smooth: bool = False) -> ca.Function:
     """Hunt-Crossley normal force ``(x, xdot, k, n, c, eps_x, eps_damping) -> F_n`` [N].
 
@@ -124,7 +124,7 @@ def normal_force_function(smooth: bool = False) -> ca.Function:
     )
 
 
-@lru_cache(maxsize=None)
+@cache
 def friction_force_function() -> ca.Function:
     """Regularised Coulomb friction ``(F_n, v(3), belt_velocity(3), mu, v_eps) -> F_t(3)`` [N].
 
@@ -146,7 +146,7 @@ UNIT_FORCE_INPUTS = (
 )
 
 
-@lru_cache(maxsize=None)
+@cache
 def unit_force_function(smooth: bool = False) -> ca.Function:
     """Force of one unit on the foot, in ``lab`` [N].
 

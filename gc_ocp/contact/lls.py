@@ -235,7 +235,7 @@ def fit_stiffness_lls(
     meas = np.vstack([st.measured for st in stances])
     rms = channel_rms_pct(meas, np.vstack(fitted), body_weight, bw_height)
     kd: dict[str, dict[str, float]] = {}
-    for (side, unit), v in zip(unknowns, k):
+    for (side, unit), v in zip(unknowns, k, strict=True):
         kd.setdefault(side, {})[unit] = float(v)
     return LLSResult(unknowns, k, kd, tuple(stances), fitted, rms, rank, s,
                      float(s[0] / s[-1]), float(body_weight), float(bw_height), law)

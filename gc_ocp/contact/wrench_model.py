@@ -14,7 +14,7 @@ evaluation goes through the same Function mapped over frames.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache, lru_cache
 
 import casadi as ca
 import numpy as np
@@ -43,7 +43,7 @@ class ContactLaw:
     smoothing: Smoothing = field(default_factory=lambda: DEFAULT_SMOOTHING)
 
 
-@lru_cache(maxsize=None)
+@cache
 def wrench_function(smooth: bool = False, n_units: int = N_UNITS) -> ca.Function:
     """Equivalent wrench of ``n_units`` units about a reference point.
 
