@@ -435,3 +435,21 @@ def test_plots_return_figures(template, feet):
                      k={"left": dict.fromkeys(UNITS, K0), "right": dict.fromkeys(UNITS, -K0)})
     assert isinstance(fig2, Figure) and len(fig2.axes) == 2
     assert laws.unit_force_function(False).n_in() == len(laws.UNIT_FORCE_INPUTS)
+
+
+def test_frames_with_missing_plate_data_are_dropped(fake_trial):
+    from gc_ocp.contact.lls import stances_from_trial
+
+    trial, kin = fake_trial
+    p0 = trial.plates[0]
+    force = p0.force.copy()
+    force[10:15] = np.nan  # a 5-sample gap in the plate record
+    gappy = Plate(p0.name, p0.time, force, p0.moment, p0.reference_point, p0.reference_kind)
+    trial2 = Trial(trial.source, (), trial.markers, trial.marker_time, (gappy, trial.plates[1]),
+                   trial.mass, trial.height, trial.stances)
+    full = stances_from_trial(trial, kin)
+    cut = stances_from_trial(trial2, kin)
+    assert len(cut[0].time) == len(full[0].time) - 5
+    assert np.isfinite(cut[0].measured).all()
+    res = reproduce_seed(trial2, kin, seeds=2)  # synthetic sets follow the kept frames
+    assert res["table1"][0]["k_rms_pct"] < 1e-8

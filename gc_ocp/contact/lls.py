@@ -107,7 +107,7 @@ def stances_from_trial(trial, kinematics) -> list[StanceData]:
     Each stance is cut from ``kinematics.feet[side]`` at the kinematic frames inside
     ``[t_on, t_off]``; the measured wrench is ``trial.stance_wrench`` at those times, about the
     stance reference point; the ground is the plate's surface height; the belt velocity is the
-    trial's (zeros overground).
+    trial's (zeros overground). Frames with non-finite kinematics or plate data are dropped.
     """
     out = []
     for st in trial.stances:
@@ -117,7 +117,16 @@ def stances_from_trial(trial, kinematics) -> list[StanceData]:
         d = stance_data(kinematics.feet[st.side], st.side, st.label, st.t_on, st.t_off,
                         st.reference_point, None, trial.plates[st.plate].surface_height,
                         trial.belt_velocity)
-        out.append(d.with_measured(trial.stance_wrench(st, d.time)))
+        d = d.with_measured(trial.stance_wrench(st, d.time))
+        ok = (np.isfinite(d.positions).all(axis=(1, 2)) & np.isfinite(d.velocities).all(axis=(1, 2))
+              & np.isfinite(d.measured).all(axis=1))
+        if not ok.all():
+            if not ok.any():
+                raise InputError(f"Stance {st.label}: no frame with finite kinematics and plate "
+                                 "data; check marker gaps and the plate channels")
+            d = StanceData(d.side, d.label, d.time[ok], d.positions[ok], d.velocities[ok],
+                           d.measured[ok], d.reference_point, d.ground_height, d.belt_velocity)
+        out.append(d)
     return out
 
 

@@ -93,11 +93,12 @@ def synthetic_stances(
         foot = feet[st.side]
         if point_offsets is not None:
             foot = foot.with_points(foot.points_local + point_offsets[st.side])
-            w = foot.window(float(st.time[0]), float(st.time[-1]))
-            if w.time.shape != st.time.shape or not np.allclose(w.time, st.time, atol=1e-9):
-                raise InputError(f"Stance {st.label!r}: its frames are not the frames of the "
+            idx = np.searchsorted(foot.time, st.time)
+            idx = np.clip(idx, 0, len(foot.time) - 1)
+            if not np.allclose(foot.time[idx], st.time, rtol=0, atol=1e-9):
+                raise InputError(f"Stance {st.label!r}: its frames are not frames of the "
                                  f"{st.side} foot kinematics; build the template from the same feet")
-            pos, vel = w.positions, w.velocities
+            pos, vel = foot.positions[idx], foot.velocities[idx]
         else:
             pos, vel = st.positions, st.velocities
         meas = model_wrench(pos, vel, np.asarray(k_true[st.side]), st.reference_point, law,
