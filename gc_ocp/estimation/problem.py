@@ -42,7 +42,9 @@ class Weights:
 
 def _contact_frame_function(depth_smoothing: float, slip_smoothing: float) -> ca.Function:
     """Per-frame model wrench and weighted residual for one foot (SX, mapped over frames)."""
-    from gc_ocp.contact._tmp_laws import unit_force_expr
+    from gc_ocp.contact.laws import DEFAULT_SMOOTHING, unit_force_function
+
+    unit_force = unit_force_function(smooth=True)
 
     SX = ca.SX
     Rh, Rt = SX.sym("Rh", 9), SX.sym("Rt", 9)
@@ -72,7 +74,7 @@ def _contact_frame_function(depth_smoothing: float, slip_smoothing: float) -> ca
         rdot = vel - vh
         p = p + dp + ca.cross(dth, r)
         vel = vel + ddp + ca.cross(ddth, r) + ca.cross(dth, rdot)
-        f = unit_force_expr(p, vel, k[i], n, c, mu, ground, belt, depth_smoothing, slip_smoothing)
+        f = unit_force(p, vel, k[i], n, c, mu, ground, belt, depth_smoothing, DEFAULT_SMOOTHING.eps_damping, slip_smoothing)
         forces.append(f)
         F = F + f
         M = M + ca.cross(p - ref, f)

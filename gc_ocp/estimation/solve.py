@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from gc_ocp.contact.channels import CHANNELS, rms_report
+from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_rms_pct
 from gc_ocp.errors import SolveError
 from gc_ocp.estimation.components import ContactLaw, PoseCorrection, SoleCorrection
 from gc_ocp.estimation.problem import EstimationProblem
@@ -205,7 +205,8 @@ def fit_quality(fits: list, stances) -> tuple[dict, dict]:
         meas = np.vstack([fits[i]["measured"][fits[i]["in_contact"]] for i in idx])
         mod = np.vstack([fits[i]["model"][fits[i]["in_contact"]] for i in idx])
         st0 = stances[idx[0]]
-        rms[side] = rms_report(mod - meas, st0.body_weight, st0.height)
+        pct = channel_rms_pct(meas, mod, st0.body_weight, st0.body_weight * st0.height)
+        rms[side] = {TABLE_KEYS[c]: v for c, v in pct.items()}
         errs = []
         for i in idx:
             st = stances[i]

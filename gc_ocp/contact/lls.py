@@ -1,0 +1,255 @@
+"""The seed's linear least squares for the unit stiffnesses.
+
+With the exponent n and damping c fixed (the seed: n = 1, c = 0) every unit force is k times a
+known function of the motion: F_n = k * x (x > 0) and F_t = -mu * k * x * v_s / sqrt(|v_s|^2 +
+v_eps^2). The equivalent wrench (Eqs 4-9) is therefore linear in the ten stiffnesses (five units
+per foot). All frames of all stances and all six channels are stacked into one system
+``A k = b`` (rows scaled by BW for forces and BW*H for torques, so that all channels weigh
+alike), solved in the least-squares sense.
+
+Friction: the seed fitted the shear channels too and its noisy-synthetic anterior force error is
+non-zero, so friction was on, with an unreported coefficient. We use ``mu = 0.5``
+(:data:`DEFAULT_MU`, a typical shoe-floor dynamic friction coefficient) with the regularised
+Coulomb law of :mod:`gc_ocp.contact.laws` (``v_eps = 0.05 m/s``); change it via ``law``.
+
+Rank: the system is solved only if ``A`` has full column rank. The numerical rank uses the
+singular values of the scaled ``A`` with NumPy's ``matrix_rank`` tolerance
+``s_max * max(A.shape) * eps_machine`` (Press et al., Numerical Recipes, §2.6), unless
+``rank_tol`` (relative to ``s_max``) is given. Columns that are identically zero (a unit never
+below the ground in any stance) are reported by name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gc_ocp.contact.channels import CHANNELS, channel_rms_pct, wrench_scale
+from gc_ocp.contact.wrench_model import ContactLaw, model_wrench, wrench_per_unit_stiffness
+from gc_ocp.errors import InputError, RankError
+from gc_ocp.sole import UNITS, FootKinematics
+from gc_ocp.trial import SIDES
+
+DEFAULT_MU = 0.5
+"""Friction coefficient used by the seed reproduction (the seed's value is not reported)."""
+
+SEED_LAW = ContactLaw(n=1.0, c=0.0, mu=DEFAULT_MU, smooth=False)
+"""The seed's law: n = 1, c = 0, exact penetration, friction mu = 0.5."""
+
+
+@dataclass(frozen=True)
+class StanceData:
+    """Everything the fit needs about one stance.
+
+    side: ``"left"``/``"right"``; label: for messages; time ``(n,)`` [s];
+    positions, velocities: ``(n, 5, 3)`` unit trajectories in ``lab`` [m], [m/s];
+    measured: ``(n, 6)`` measured wrench about ``reference_point`` (``lab``, [N], [N·m]);
+    reference_point: ``(3,)`` [m]; ground_height: surface height [m]; belt_velocity ``(3,)`` [m/s].
+    """
+
+    side: str
+    label: str
+    time: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray
+    measured: np.ndarray
+    reference_point: np.ndarray
+    ground_height: float = 0.0
+    belt_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self) -> None:
+        n = np.asarray(self.time).shape[0]
+        for name, shape in (("positions", (n, len(UNITS), 3)), ("velocities", (n, len(UNITS), 3)),
+                            ("measured", (n, 6)), ("reference_point", (3,))):
+            a = np.array(getattr(self, name), dtype=float, copy=True)
+            if a.shape != shape:
+                raise InputError(f"StanceData {self.label!r}: {name} must have shape {shape}, "
+                                 f"but got {a.shape}")
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+        if self.side not in SIDES:
+            raise InputError(f"StanceData {self.label!r}: side must be one of {SIDES}, "
+                             f"but got {self.side!r}")
+
+    def with_measured(self, measured: np.ndarray) -> StanceData:
+        return StanceData(self.side, self.label, self.time, self.positions, self.velocities,
+                          measured, self.reference_point, self.ground_height, self.belt_velocity)
+
+
+def stance_data(
+    foot: FootKinematics,
+    side: str,
+    label: str,
+    t_on: float,
+    t_off: float,
+    reference_point,
+    measured: np.ndarray | None = None,
+    ground_height: float = 0.0,
+    belt_velocity=(0.0, 0.0, 0.0),
+) -> StanceData:
+    """Cut ``foot`` to ``[t_on, t_off]``; ``measured`` defaults to zeros (filled in later)."""
+    w = foot.window(t_on, t_off)
+    n = w.time.shape[0]
+    if n == 0:
+        raise InputError(f"Stance {label!r} [{t_on:.3f}, {t_off:.3f}] s has no kinematic frame; "
+                         "check that the kinematics cover the stance")
+    meas = np.zeros((n, 6)) if measured is None else measured
+    return StanceData(side, label, w.time, w.positions, w.velocities, meas,
+                      np.asarray(reference_point, dtype=float), float(ground_height),
+                      np.asarray(belt_velocity, dtype=float))
+
+
+def stances_from_trial(trial, kinematics) -> list[StanceData]:
+    """Measured stances of a :class:`~gc_ocp.trial.Trial` with its ``TrialKinematics``.
+
+    Each stance is cut from ``kinematics.feet[side]`` at the kinematic frames inside
+    ``[t_on, t_off]``; the measured wrench is ``trial.stance_wrench`` at those times, about the
+    stance reference point; the ground is the plate's surface height; the belt velocity is the
+    trial's (zeros overground). Frames with non-finite kinematics or plate data are dropped.
+    """
+    out = []
+    for st in trial.stances:
+        if st.side not in kinematics.feet:
+            raise InputError(f"Stance {st.label} is on the {st.side} foot but the kinematics have "
+                             f"feet {sorted(kinematics.feet)}")
+        d = stance_data(kinematics.feet[st.side], st.side, st.label, st.t_on, st.t_off,
+                        st.reference_point, None, trial.plates[st.plate].surface_height,
+                        trial.belt_velocity)
+        d = d.with_measured(trial.stance_wrench(st, d.time))
+        ok = (np.isfinite(d.positions).all(axis=(1, 2)) & np.isfinite(d.velocities).all(axis=(1, 2))
+              & np.isfinite(d.measured).all(axis=1))
+        if not ok.all():
+            if not ok.any():
+                raise InputError(f"Stance {st.label}: no frame with finite kinematics and plate "
+                                 "data; check marker gaps and the plate channels")
+            d = StanceData(d.side, d.label, d.time[ok], d.positions[ok], d.velocities[ok],
+                           d.measured[ok], d.reference_point, d.ground_height, d.belt_velocity)
+        out.append(d)
+    return out
+
+
+@dataclass(frozen=True)
+class LLSResult:
+    """Result of :func:`fit_stiffness_lls`.
+
+    unknowns: ``(side, unit)`` per column; k_vector: stiffnesses [N/m] in that order;
+    k: ``{side: {unit: k}}``; fitted / measured: ``(n, 6)`` wrench per stance;
+    rms_pct: ``{channel: RMS}`` in % BW / % BW*H over all frames of all stances;
+    rank, singular_values (of the scaled matrix), condition_number; law: the law used.
+    """
+
+    unknowns: tuple[tuple[str, str], ...]
+    k_vector: np.ndarray
+    k: dict[str, dict[str, float]]
+    stances: tuple[StanceData, ...]
+    fitted: tuple[np.ndarray, ...]
+    rms_pct: dict[str, float]
+    rank: int
+    singular_values: np.ndarray
+    condition_number: float
+    body_weight: float
+    bw_height: float
+    law: ContactLaw
+
+    def summary(self) -> str:
+        lines = [f"LLS stiffness fit: {len(self.stances)} stances, "
+                 f"{sum(len(s.time) for s in self.stances)} frames, rank {self.rank}/"
+                 f"{len(self.unknowns)}, condition {self.condition_number:.3g}"]
+        for side, ks in self.k.items():
+            lines.append(f"  {side:5s} " + "  ".join(f"{u}={v:10.1f}" for u, v in ks.items()))
+        lines.append("  RMS: " + ", ".join(f"{c}={self.rms_pct[c]:.3g}" for c in CHANNELS))
+        return "\n".join(lines)
+
+
+def build_lls_system(
+    stances: Sequence[StanceData],
+    body_weight: float,
+    bw_height: float,
+    law: ContactLaw = SEED_LAW,
+    sides: Sequence[str] | None = None,
+) -> tuple[np.ndarray, np.ndarray, tuple[tuple[str, str], ...]]:
+    """Scaled system ``A (rows, 5*n_sides)``, ``b (rows,)`` and the unknowns ``(side, unit)``.
+
+    Rows are frame-major, then the six ``lab`` wrench columns, each divided by BW (forces) or
+    BW*H (torques). ``sides`` defaults to the sides present in ``stances`` (in ``SIDES`` order).
+    """
+    if not stances:
+        raise InputError("No stance to fit; the trial needs at least one usable stance")
+    if not body_weight > 0 or not bw_height > 0:
+        raise InputError(f"body_weight and bw_height must be > 0, but got {body_weight}, {bw_height}")
+    if sides is None:
+        sides = [s for s in SIDES if any(st.side == s for st in stances)]
+    unknowns = tuple((s, u) for s in sides for u in UNITS)
+    scale = wrench_scale(body_weight, bw_height)
+    blocks_a, blocks_b = [], []
+    for st in stances:
+        if st.side not in sides:
+            raise InputError(f"Stance {st.label!r} is on side {st.side!r}, not in {list(sides)}")
+        reg = wrench_per_unit_stiffness(st.positions, st.velocities, st.reference_point, law,
+                                        st.ground_height, st.belt_velocity)  # (n, 6, 5)
+        a = np.zeros((reg.shape[0], 6, len(unknowns)))
+        j0 = list(sides).index(st.side) * len(UNITS)
+        a[:, :, j0:j0 + len(UNITS)] = reg / scale[None, :, None]
+        blocks_a.append(a.reshape(-1, len(unknowns)))
+        blocks_b.append((st.measured / scale).reshape(-1))
+    return np.vstack(blocks_a), np.concatenate(blocks_b), unknowns
+
+
+def fit_stiffness_lls(
+    stances: Sequence[StanceData],
+    body_weight: float,
+    bw_height: float,
+    law: ContactLaw = SEED_LAW,
+    sides: Sequence[str] | None = None,
+    rank_tol: float | None = None,
+) -> LLSResult:
+    """Fit one stiffness per unit per foot to the measured wrenches (seed's LLS).
+
+    stances: see :class:`StanceData`; body_weight [N] and bw_height [N·m] scale the rows;
+    law: n, c, mu (k enters linearly for any fixed n, c); rank_tol: relative singular-value
+    tolerance (default ``max(A.shape) * eps``). Raises :class:`~gc_ocp.errors.RankError` naming
+    the units that never touch the ground, or the combination that is not identifiable.
+    """
+    A, b, unknowns = build_lls_system(stances, body_weight, bw_height, law, sides)
+    names = [f"{s}/{u}" for s, u in unknowns]
+    dead = [names[j] for j in range(A.shape[1]) if not np.any(A[:, j])]
+    if dead:
+        raise RankError(
+            f"Units {dead} are never in contact (no penetration below the ground in any stance), "
+            "so their stiffness is not identifiable. Check the ground height / sole point "
+            "placement, add stances where these units touch the plate, or fix their k."
+        )
+    s = np.linalg.svd(A, compute_uv=False)
+    tol = s[0] * (rank_tol if rank_tol is not None else max(A.shape) * np.finfo(float).eps)
+    rank = int(np.sum(s > tol))
+    if rank < A.shape[1]:
+        _, _, vt = np.linalg.svd(A, full_matrices=False)
+        null = vt[-1]
+        involved = [names[j] for j in np.argsort(-np.abs(null)) if abs(null[j]) > 0.1]
+        raise RankError(
+            f"The stiffness system has rank {rank} < {A.shape[1]} unknowns (tolerance "
+            f"{tol:.3g} on singular values {np.array2string(s, precision=3)}); the stiffnesses of "
+            f"{involved} cannot be separated (their unit forces are proportional in every frame). "
+            "Add stances with different foot orientations or merge these units."
+        )
+    k, *_ = np.linalg.lstsq(A, b, rcond=None)
+    fitted = tuple(
+        model_wrench(st.positions, st.velocities,
+                     k[[unknowns.index((st.side, u)) for u in UNITS]],
+                     st.reference_point, law, st.ground_height, st.belt_velocity)
+        for st in stances
+    )
+    meas = np.vstack([st.measured for st in stances])
+    rms = channel_rms_pct(meas, np.vstack(fitted), body_weight, bw_height)
+    kd: dict[str, dict[str, float]] = {}
+    for (side, unit), v in zip(unknowns, k, strict=True):
+        kd.setdefault(side, {})[unit] = float(v)
+    return LLSResult(unknowns, k, kd, tuple(stances), fitted, rms, rank, s,
+                     float(s[0] / s[-1]), float(body_weight), float(bw_height), law)
+
+
+def k_dict_to_vector(k: Mapping[str, Mapping[str, float]], unknowns) -> np.ndarray:
+    """Stiffness vector in the order of ``unknowns`` ``((side, unit), ...)``."""
+    return np.array([k[s][u] for s, u in unknowns], dtype=float)

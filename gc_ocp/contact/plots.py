@@ -1,0 +1,111 @@
+"""Figures of the contact model. Every function returns a :class:`matplotlib.figure.Figure`;
+nothing is shown or saved here."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from gc_ocp.contact.channels import CHANNELS, WRENCH_COLUMN
+from gc_ocp.errors import InputError
+from gc_ocp.sole import UNITS
+
+_UNIT_LABEL = {"anterior_force": "N", "superior_force": "N", "lateral_force": "N",
+               "anteroposterior_torque": "N·m", "longitudinal_torque": "N·m",
+               "mediolateral_torque": "N·m"}
+
+
+def plot_wrench_fit(
+    times,
+    measured,
+    simulated,
+    sides=None,
+    labels=None,
+    title: str = "",
+) -> Figure:
+    """Measured vs modelled wrench, six channels (rows) per foot (columns).
+
+    times, measured, simulated: one stance each as ``(n,)``, ``(n, 6)``, ``(n, 6)`` ``lab``
+    wrenches ([s], [N], [N·m]), or sequences of these for several stances. sides: side of each
+    stance (``"left"``/``"right"``), one column per side; default one column. labels: legend text
+    per stance. Channels follow :data:`~gc_ocp.contact.channels.CHANNELS`.
+    """
+    if np.ndim(times[0]) == 0:  # a single stance
+        times, measured, simulated = [times], [measured], [simulated]
+    n_st = len(times)
+    if not (len(measured) == len(simulated) == n_st):
+        raise InputError(f"times, measured, simulated must have the same number of stances, "
+                         f"but got {n_st}, {len(measured)}, {len(simulated)}")
+    sides = list(sides) if sides is not None else ["foot"] * n_st
+    cols = list(dict.fromkeys(sides))
+    fig = Figure(figsize=(4.5 * len(cols), 11), layout="constrained")
+    axes = fig.subplots(len(CHANNELS), len(cols), sharex="col", squeeze=False)
+    for s in range(n_st):
+        j = cols.index(sides[s])
+        t = np.asarray(times[s])
+        m, q = np.asarray(measured[s]), np.asarray(simulated[s])
+        lab = labels[s] if labels is not None else f"stance {s + 1}"
+        for i, ch in enumerate(CHANNELS):
+            ax = axes[i, j]
+            c = WRENCH_COLUMN[ch]
+            line, = ax.plot(t, m[:, c], lw=1.5, label=f"{lab} measured")
+            ax.plot(t, q[:, c], lw=1.2, ls="--", color=line.get_color(), label=f"{lab} model")
+    for j, side in enumerate(cols):
+        axes[0, j].set_title(side)
+        axes[-1, j].set_xlabel("time [s]")
+        for i, ch in enumerate(CHANNELS):
+            axes[i, j].set_ylabel(f"{ch.replace('_', ' ')} [{_UNIT_LABEL[ch]}]", fontsize=8)
+            axes[i, j].grid(alpha=0.3)
+        axes[0, j].legend(fontsize=7)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def plot_sole(
+    points_local_by_side: Mapping[str, np.ndarray],
+    k: Mapping[str, Mapping[str, float]] | None = None,
+    toes_offset: Mapping[str, np.ndarray] | None = None,
+    title: str = "",
+) -> Figure:
+    """Top view of each sole with its five units, labelled with their stiffness.
+
+    points_local_by_side: ``{side: (5, 3)}`` unit positions in their parent frame [m] (x
+    anterior, y left); k: ``{side: {unit: k [N/m]}}``; toes_offset: ``{side: (3,)}`` toes-frame
+    origin in the hindfoot frame [m], added to TT (default: TT drawn as given). Negative k is
+    drawn hollow.
+    """
+    sides = list(points_local_by_side)
+    fig = Figure(figsize=(3.5 * len(sides), 5), layout="constrained")
+    axes = fig.subplots(1, len(sides), squeeze=False)[0]
+    for ax, side in zip(axes, sides, strict=True):
+        pts = np.array(points_local_by_side[side], dtype=float)
+        if pts.shape != (len(UNITS), 3):
+            raise InputError(f"points_local_by_side[{side!r}] must have shape (5, 3), "
+                             f"but got {pts.shape}")
+        if toes_offset is not None and side in toes_offset:
+            pts[UNITS.index("TT")] += np.asarray(toes_offset[side], dtype=float)
+        order = [UNITS.index(u) for u in ("PL", "AL", "TT", "AM", "PM", "PL")]
+        ax.plot(pts[order, 1] * 100, pts[order, 0] * 100, color="0.6", lw=1)
+        kk = k.get(side, {}) if k is not None else {}
+        kmax = max((abs(v) for v in kk.values()), default=1.0) or 1.0
+        for i, u in enumerate(UNITS):
+            val = kk.get(u)
+            size = 60 + 240 * (abs(val) / kmax if val is not None else 0.3)
+            hollow = val is not None and val < 0
+            ax.scatter(pts[i, 1] * 100, pts[i, 0] * 100, s=size,
+                       facecolors="none" if hollow else "C0", edgecolors="C0", zorder=3)
+            text = u if val is None else f"{u}\n{val / 1000:.1f} kN/m"
+            ax.annotate(text, (pts[i, 1] * 100, pts[i, 0] * 100), textcoords="offset points",
+                        xytext=(8, 0), fontsize=8, va="center")
+        ax.set_aspect("equal")
+        ax.invert_xaxis()  # top view: looking down Z, x up the page, y (left) to the left
+        ax.set_xlabel("y (left) [cm]")
+        ax.set_ylabel("x (anterior) [cm]")
+        ax.set_title(side)
+        ax.grid(alpha=0.3)
+    if title:
+        fig.suptitle(title)
+    return fig
