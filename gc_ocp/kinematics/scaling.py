@@ -83,16 +83,17 @@ def local_coordinates(mm: MarkerModel, q: np.ndarray, markers: np.ndarray) -> np
 
 
 def register_markers(mm: MarkerModel, markers: np.ndarray, cluster: np.ndarray, n_iter: int = 4,
-                     prior_frames: float = 3.0,
+                     prior_frames: float | np.ndarray = 3.0, anatomical_first: bool = True,
                      progress: Callable[[str], None] | None = None) -> tuple[MarkerModel, IKResult, list[float]]:
     """Alternate IK and marker re-estimation on ``markers`` ``(n, m, 3)`` (a few frames).
 
-    cluster: ``(m,)`` bool, tracking markers (no prior, weight 0 in the first IK pass).
+    cluster: ``(m,)`` bool, tracking markers (no prior, weight 0 in the first IK pass if
+    ``anatomical_first``); prior_frames: scalar or ``(m,)`` prior strength towards ``mm.local``.
     Returns the registered marker model, the last IK result and the median RMS [m] of each pass.
     """
     nominal = mm.local.copy()
     prior = np.where(cluster, 0.0, prior_frames)
-    cur = mm.with_weights(np.where(cluster, 0.0, mm.weights))
+    cur = mm.with_weights(np.where(cluster, 0.0, mm.weights)) if anatomical_first else mm
     history = []
     q_guess = None
     res = None

@@ -40,6 +40,9 @@ FOOT_FLAT = (0.20, 0.45)
 N_REGISTRATION_FRAMES = 40
 """Walking frames (evenly spaced) used for marker registration when there is no static trial."""
 N_STATIC_FRAMES = 20
+STATIC_PRIOR_FRAMES = 2.0
+"""Prior strength (in walking-frame equivalents, out of ``N_REGISTRATION_FRAMES``) of the
+static-trial marker positions when they are refined on the walking trial."""
 
 
 def _floor(trial: Trial) -> float:
@@ -213,11 +216,17 @@ def compute_kinematics(trial: Trial, model: BodyModel | None = None,
     mm = build_marker_model(body, markerset, names, height)
     mm = mm.with_local(np.array([loc.get(n, p) for n, p in zip(names, mm.local, strict=True)]))
     if st_markers is not None:
-        # walking-only markers (not in the static) are registered on walking frames, others fixed
-        only_walk = np.array([n not in loc for n in names])
-        if only_walk.any():
-            k = np.linspace(0, len(markers) - 1, min(N_REGISTRATION_FRAMES, len(markers))).astype(int)
-            mm, _, _ = register_markers(mm, markers[k], only_walk, n_iter=2, prior_frames=1e9)
+        # Refine on walking frames: the static pose cannot place markers whose segment moves
+        # differently in walking (arms: no humeral rotation in the model; skin over muscles).
+        # Foot markers stay where the static put them (the sole calibration uses them);
+        # others are pulled towards their static positions by STATIC_PRIOR_FRAMES.
+        k = np.linspace(0, len(markers) - 1, min(N_REGISTRATION_FRAMES, len(markers))).astype(int)
+        foot = np.array([markerset.markers[n].is_foot for n in names])
+        in_static = np.array([n in loc for n in names])
+        prior = np.where(foot, 1e9, np.where(in_static, STATIC_PRIOR_FRAMES, 0.0))
+        mm, _, h2 = register_markers(mm, markers[k], ~in_static, n_iter=2, prior_frames=prior,
+                                     anatomical_first=False, progress=say)
+        history += h2
 
     # ---- IK
     say(f"IK on {len(markers)} frames")
