@@ -7,11 +7,15 @@ A marker set is a TOML file (format in ``docs/markersets.md``); the shipped ones
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10: the tomli backport has the same API
+    import tomli as tomllib
 
 from gc_ocp.errors import MarkerError
 
