@@ -1,0 +1,262 @@
+"""Kinematics pipeline: trial -> filtered markers -> scaled model -> IK -> foot and sole-point kinematics.
+
+Sole points (``PL, PM, AL, AM`` on the hindfoot, ``TT`` on the toes) in their segment frames:
+
+* X (antero-posterior): posterior units at the registered heel marker + ``POSTERIOR_FROM_HEEL``
+  foot lengths (centre of the heel pad; the heel marker sits on the posterior surface); anterior
+  units at the mean X of the metatarsal markers (roles ``metatarsal_*``; else ``toe``); ``TT`` at
+  the toe-tip marker when there is one, else at heel marker + foot length (0.152 H).
+* Y (medio-lateral): lateral/medial metatarsal markers give the anterior units directly; with a
+  single forefoot marker the anterior units are at +-half the foot width (0.055 H) around it
+  (lateral marker: the medial unit one foot width medial of it); posterior units at +-
+  ``POSTERIOR_HALF_WIDTH`` foot widths around the heel marker. ``TT`` on the anterior mid-line.
+* Z (height): the known floor plane. With a static trial (feet flat on the floor), each unit's
+  local Z is chosen so that its mean lab height over the static frames equals the floor height
+  (mean plate ``surface_height``, 0 without plates). Without a static trial the same is done over the
+  foot-flat part of the walking stances, ``FOOT_FLAT`` = 20-45 % of each stance of ``trial.stances``
+  (after heel-strike loading response, before heel-off), on the stance's plate surface.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pinocchio as pin
+
+from gc_ocp.errors import InputError
+from gc_ocp.kinematics.filtering import DEFAULT_CUTOFF_HZ, lowpass
+from gc_ocp.kinematics.ik import MarkerModel, solve_ik
+from gc_ocp.kinematics.scaling import build_marker_model, estimate_height, register_markers
+from gc_ocp.model.anthropometry import FOOT_LENGTH_RATIO, FOOT_WIDTH_RATIO
+from gc_ocp.model.body import BodyModel
+from gc_ocp.model.markerset import MarkerSet, detect_markerset, load_markerset
+from gc_ocp.model.urdf import POSTERIOR_FROM_HEEL, POSTERIOR_HALF_WIDTH
+from gc_ocp.sole import UNITS, FootKinematics, TrialKinematics
+from gc_ocp.trial import Trial
+
+FOOT_FLAT = (0.20, 0.45)
+"""Fraction of stance used as foot-flat for the sole-height calibration without a static trial."""
+N_REGISTRATION_FRAMES = 40
+"""Walking frames (evenly spaced) used for marker registration when there is no static trial."""
+N_STATIC_FRAMES = 20
+STATIC_PRIOR_FRAMES = 2.0
+"""Prior strength (in walking-frame equivalents, out of ``N_REGISTRATION_FRAMES``) of the
+static-trial marker positions when they are refined on the walking trial."""
+
+
+def _floor(trial: Trial) -> float:
+    return float(np.mean([p.surface_height for p in trial.plates])) if trial.plates else 0.0
+
+
+def _stance_frames(trial: Trial, time: np.ndarray, side: str, window) -> list[tuple[np.ndarray, float]]:
+    out = []
+    for st in trial.stances:
+        if st.side != side:
+            continue
+        a = st.t_on + window[0] * st.duration
+        b = st.t_on + window[1] * st.duration
+        idx = np.flatnonzero((time >= a) & (time <= b))
+        if len(idx):
+            h = trial.plates[st.plate].surface_height if st.plate < len(trial.plates) else _floor(trial)
+            out.append((idx, h))
+    return out
+
+
+def sole_points_xy(mm: MarkerModel, markerset: MarkerSet, body: BodyModel, side: str,
+                   height: float) -> np.ndarray:
+    """Unit positions ``(5, 3)`` in their parent frames with X, Y from the registered foot markers
+    (Z left at the model default; see the module docstring)."""
+    s = "l" if side == "left" else "r"
+    lat = 1.0 if side == "left" else -1.0
+    L, W = FOOT_LENGTH_RATIO * height, FOOT_WIDTH_RATIO * height
+    loc = {n: p for n, p in zip(mm.names, mm.local, strict=True)}
+
+    def role(r: str) -> np.ndarray | None:
+        d = markerset.by_role(side, r)
+        return loc.get(d.name) if d is not None else None
+
+    default = body.unit_points_local(side)
+    heel = role("heel")
+    if heel is None:
+        return default
+    mtl, mtm = role("metatarsal_lateral"), role("metatarsal_medial")
+    fore = [p for p in (mtl, mtm, role("metatarsal_2")) if p is not None] or [
+        p for p in (role("toe"),) if p is not None]
+    xa = np.mean([p[0] for p in fore]) if fore else default[2, 0]
+    if mtl is not None and mtm is not None:
+        yal, yam = mtl[1], mtm[1]
+    elif mtl is not None:
+        yal, yam = mtl[1], mtl[1] - lat * W
+    elif fore:
+        yal, yam = fore[0][1] + lat * W / 2, fore[0][1] - lat * W / 2
+    else:
+        yal, yam = heel[1] + lat * W / 2, heel[1] - lat * W / 2
+    xp = heel[0] + POSTERIOR_FROM_HEEL * L
+    yp = POSTERIOR_HALF_WIDTH * W
+    tip = role("toe_tip")
+    mtp = body.model.frames[body.frame_id(f"toes_{s}")].placement
+    hf = body.model.frames[body.frame_id(f"hindfoot_{s}")].placement
+    toes_in_hf = hf.inverse() * mtp  # toes frame in the hindfoot frame (fixed MTP)
+    tt_hf = np.array([heel[0] + L, 0.5 * (yal + yam), default[0, 2]]) if tip is None else tip.copy()
+    if tip is not None and markerset.by_role(side, "toe_tip").segment.startswith("toes"):
+        tt_hf = toes_in_hf.act(tip)  # the marker position was in the toes frame
+    z = default[0, 2]
+    pts = np.array([
+        [xp, heel[1] + lat * yp, z],
+        [xp, heel[1] - lat * yp, z],
+        [xa, yal, z],
+        [xa, yam, z],
+        toes_in_hf.actInv(tt_hf),
+    ])
+    return pts
+
+
+def calibrate_sole_height(body: BodyModel, side: str, q: np.ndarray, points: np.ndarray,
+                          floors: np.ndarray) -> np.ndarray:
+    """Set each unit's local Z so that its mean lab height over poses ``q`` ``(n, nq)`` equals
+    ``floors`` ``(n,)`` [m] (feet flat on the floor). Returns the new ``(5, 3)`` points."""
+    data = body.create_data()
+    ids = body.foot_frames(side)
+    pts = points.copy()
+    num = np.zeros(len(UNITS))
+    den = np.zeros(len(UNITS))
+    for qk, fl in zip(q, floors, strict=True):
+        pin.framesForwardKinematics(body.model, data, qk)
+        for i, u in enumerate(UNITS):
+            M = data.oMf[ids["toes" if u == "TT" else "hindfoot"]]
+            R, p = M.rotation, M.translation
+            # lab z = p_z + R[2,0] x + R[2,1] y + R[2,2] z = floor  ->  z
+            num[i] += (fl - p[2] - R[2, 0] * pts[i, 0] - R[2, 1] * pts[i, 1]) / R[2, 2]
+            den[i] += 1
+    pts[:, 2] = num / den
+    return pts
+
+
+def foot_kinematics(body: BodyModel, q: np.ndarray, time: np.ndarray, side: str,
+                    points_local: np.ndarray) -> FootKinematics:
+    """Hindfoot/toes placements and twists (``LOCAL_WORLD_ALIGNED``) over ``q`` ``(n, nq)``.
+
+    q-dot is ``np.gradient(q, time)`` (q comes from low-pass filtered markers, so it is smooth).
+    """
+    v = np.gradient(q, time, axis=0)
+    data = body.create_data()
+    ids = body.foot_frames(side)
+    n = len(time)
+    poses = {k: np.empty((n, 4, 4)) for k in ids}
+    twists = {k: np.empty((n, 6)) for k in ids}
+    for k in range(n):
+        pin.forwardKinematics(body.model, data, q[k], v[k])
+        pin.updateFramePlacements(body.model, data)
+        for name, f in ids.items():
+            poses[name][k] = data.oMf[f].homogeneous
+            tw = pin.getFrameVelocity(body.model, data, f, pin.LOCAL_WORLD_ALIGNED)
+            twists[name][k] = np.r_[tw.linear, tw.angular]
+    return FootKinematics(side, time, poses["hindfoot"], poses["toes"], twists["hindfoot"],
+                          twists["toes"], points_local)
+
+
+def compute_kinematics(trial: Trial, model: BodyModel | None = None,
+                       markerset: MarkerSet | str | None = None, static: Trial | None = None,
+                       cutoff_hz: float = DEFAULT_CUTOFF_HZ,
+                       progress: Callable[[str], None] | None = None) -> TrialKinematics:
+    """Full kinematics pipeline for one walking trial.
+
+    trial: the walking trial; model: body model (default: de Leva model of the trial's height and
+    mass, the height estimated from the pelvis markers when unknown); markerset: a
+    :class:`MarkerSet`, a shipped name or a TOML path (default: detected from the labels);
+    static: a static standing trial for registration and sole height (optional);
+    cutoff_hz: marker low-pass cutoff [Hz]; progress: called with status strings.
+    """
+    say = progress or (lambda s: None)
+    if markerset is None:
+        markerset = detect_markerset(trial.marker_names)
+    elif not isinstance(markerset, MarkerSet):
+        markerset = load_markerset(markerset)
+    names = markerset.select(trial.marker_names, trial.source)
+    idx = [trial.marker_names.index(n) for n in names]
+    markers = lowpass(trial.markers[:, idx], trial.marker_rate, cutoff_hz, time=trial.marker_time)
+    floor = _floor(trial)
+
+    st_markers = None
+    if static is not None:
+        st_names = [n for n in names if n in static.marker_names]
+        missing = [m.name for s in ("left", "right") for m in markerset.foot_markers(s)
+                   if m.name not in static.marker_names]
+        if missing:
+            raise InputError(f"Static trial {static.source} lacks foot markers {missing}; "
+                             "pass static=None to calibrate on the walking trial.")
+        sidx = [static.marker_names.index(n) for n in st_names]
+        k = np.linspace(0, len(static.marker_time) - 1, min(N_STATIC_FRAMES, len(static.marker_time)))
+        st_markers = np.asarray(static.markers)[k.astype(int)][:, sidx]
+        static_all = [n for n in markerset.markers if n in static.marker_names]
+    height = trial.height if model is None or model.height is None else model.height
+    if height is None:
+        if st_markers is not None:
+            height = estimate_height(st_markers, st_names, markerset, _floor(static) if static.plates else floor, True)
+        else:
+            height = estimate_height(markers, names, markerset, floor, False)
+        say(f"estimated height {height:.3f} m")
+    body = model or BodyModel.from_subject(height, trial.mass)
+
+    # ---- registration
+    if st_markers is not None:
+        sidx_all = [static.marker_names.index(n) for n in static_all]
+        reg_m = np.asarray(static.markers)[np.linspace(0, len(static.marker_time) - 1,
+                                                       st_markers.shape[0]).astype(int)][:, sidx_all]
+        reg_names = static_all
+    else:
+        k = np.linspace(0, len(markers) - 1, min(N_REGISTRATION_FRAMES, len(markers))).astype(int)
+        reg_m, reg_names = markers[k], names
+    mm_reg = build_marker_model(body, markerset, reg_names, height)
+    cluster = np.array([markerset.markers[n].cluster for n in reg_names])
+    mm_reg, reg_res, history = register_markers(mm_reg, reg_m, cluster, progress=say)
+    # marker model of the walking markers with the registered positions
+    loc = dict(zip(mm_reg.names, mm_reg.local, strict=True))
+    mm = build_marker_model(body, markerset, names, height)
+    mm = mm.with_local(np.array([loc.get(n, p) for n, p in zip(names, mm.local, strict=True)]))
+    if st_markers is not None:
+        # Refine on walking frames: the static pose cannot place markers whose segment moves
+        # differently in walking (arms: no humeral rotation in the model; skin over muscles).
+        # Foot markers stay where the static put them (the sole calibration uses them);
+        # others are pulled towards their static positions by STATIC_PRIOR_FRAMES.
+        k = np.linspace(0, len(markers) - 1, min(N_REGISTRATION_FRAMES, len(markers))).astype(int)
+        foot = np.array([markerset.markers[n].is_foot for n in names])
+        in_static = np.array([n in loc for n in names])
+        prior = np.where(foot, 1e9, np.where(in_static, STATIC_PRIOR_FRAMES, 0.0))
+        mm, _, h2 = register_markers(mm, markers[k], ~in_static, n_iter=2, prior_frames=prior,
+                                     anatomical_first=False, progress=say)
+        history += h2
+
+    # ---- IK
+    say(f"IK on {len(markers)} frames")
+    res = solve_ik(mm, markers, progress=(lambda i, n: say(f"IK frame {i}/{n}")))
+    q, t = res.q, np.asarray(trial.marker_time)
+
+    # ---- sole points
+    feet = {}
+    sole_info = {}
+    for side in ("left", "right"):
+        pts = sole_points_xy(mm, markerset, body, side, height)
+        if static is not None:
+            qs = reg_res.q
+            floors = np.full(len(qs), _floor(static) if static.plates else floor)
+            src = "static"
+        else:
+            frames = _stance_frames(trial, t, side, FOOT_FLAT)
+            if not frames:
+                raise InputError(f"No {side} stance in {trial.source} to calibrate the sole height; "
+                                 "give a static trial or stances.")
+            qs = np.concatenate([q[i] for i, _ in frames])
+            floors = np.concatenate([np.full(len(i), h) for i, h in frames])
+            src = f"walking foot-flat {FOOT_FLAT[0]:.0%}-{FOOT_FLAT[1]:.0%} of stance"
+        pts = calibrate_sole_height(body, side, qs, pts, floors)
+        sole_info[side] = src
+        feet[side] = foot_kinematics(body, q, t, side, pts)
+    info = {
+        "height": height, "mass": trial.mass, "markerset": markerset.name,
+        "registration_rms_history": history, "ik_seconds": res.seconds,
+        "sole_height_source": sole_info, "marker_local": dict(zip(mm.names, mm.local, strict=True)),
+        "body": body, "marker_model": mm, "residuals": res.residuals,
+    }
+    return TrialKinematics(trial.name, t, q, res.marker_rms, feet, cutoff_hz, tuple(names), info)

@@ -1,0 +1,155 @@
+"""Marker sets: which skin marker sits on which model segment, where, and how much it weighs.
+
+A marker set is a TOML file (format in ``docs/markersets.md``); the shipped ones live in
+``models/markersets`` (installed as ``gc_ocp/data/markersets``): ``plugingait``, ``rajagopal``,
+``gait2392``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10: the tomli backport has the same API
+    import tomli as tomllib
+
+from gc_ocp.errors import MarkerError
+
+MARKERSET_DIR = Path(__file__).resolve().parent.parent / "data" / "markersets"
+FOOT_SEGMENTS = ("hindfoot", "toes")
+
+
+@dataclass(frozen=True)
+class MarkerDef:
+    """One marker: ``segment`` frame name, ``position`` [m] in it (reference height), IK ``weight``,
+    optional foot ``role`` (``heel``, ``toe``, ``metatarsal_lateral``...), ``cluster`` (a tracking
+    marker with no anatomical meaning: its nominal position is a guess, registered before use)."""
+
+    name: str
+    segment: str
+    position: np.ndarray
+    weight: float = 1.0
+    role: str = ""
+    cluster: bool = False
+
+    @property
+    def side(self) -> str | None:
+        if self.segment.endswith("_l"):
+            return "left"
+        if self.segment.endswith("_r"):
+            return "right"
+        return None
+
+    @property
+    def is_foot(self) -> bool:
+        return self.segment.rsplit("_", 1)[0] in FOOT_SEGMENTS
+
+
+@dataclass(frozen=True)
+class MarkerSet:
+    """A loaded marker set; ``markers`` keyed by label, positions for ``reference_height`` [m]."""
+
+    name: str
+    source: Path
+    reference_height: float
+    markers: dict[str, MarkerDef]
+
+    def positions(self, height: float | None = None) -> dict[str, np.ndarray]:
+        """Nominal positions [m] scaled to a subject of ``height`` [m] (unscaled if ``None``)."""
+        k = 1.0 if height is None else height / self.reference_height
+        return {n: k * m.position for n, m in self.markers.items()}
+
+    def foot_markers(self, side: str) -> list[MarkerDef]:
+        return [m for m in self.markers.values() if m.is_foot and m.side == side]
+
+    def by_role(self, side: str, role: str) -> MarkerDef | None:
+        for m in self.markers.values():
+            if m.side == side and m.role == role:
+                return m
+        return None
+
+    def select(self, marker_names, source: str | Path = "the trial") -> list[str]:
+        """Markers of the set present in ``marker_names`` (others of the trial are ignored).
+
+        Raises :class:`MarkerError` if a foot marker of the set is missing from the trial or if a
+        foot has fewer than 3 non-collinear hindfoot markers.
+        """
+        present = set(marker_names)
+        for side in ("left", "right"):
+            feet = self.foot_markers(side)
+            missing = [m.name for m in feet if m.name not in present]
+            if missing:
+                raise MarkerError(
+                    f'Foot marker "{missing[0]}" of marker set "{self.name}" ({self.source}) is missing '
+                    f"from {source} (missing: {missing}). Foot markers define the sole kinematics: "
+                    f"label it in the file, or pass a marker set without it (copy {self.source} and "
+                    "remove the line), keeping >= 3 non-collinear hindfoot markers per foot."
+                )
+            hf = np.array([m.position for m in feet if m.segment.startswith("hindfoot")])
+            if len(hf) < 3 or np.linalg.matrix_rank(hf[1:] - hf[0], tol=1e-3) < 2:
+                raise MarkerError(
+                    f'Marker set "{self.name}" ({self.source}) has fewer than 3 non-collinear markers on '
+                    f"the {side} hindfoot: {[m.name for m in feet]}; add one (e.g. the lateral malleolus "
+                    "attached to the hindfoot)."
+                )
+        return [n for n in self.markers if n in present]
+
+
+def available_markersets() -> list[str]:
+    """Names of the shipped marker sets."""
+    return sorted(p.stem for p in MARKERSET_DIR.glob("*.toml"))
+
+
+def load_markerset(name_or_path: str | Path) -> MarkerSet:
+    """Load a shipped marker set by name (``"plugingait"``...) or any TOML file by path."""
+    p = Path(name_or_path)
+    if p.suffix != ".toml":
+        p = MARKERSET_DIR / f"{name_or_path}.toml"
+    if not p.exists():
+        raise MarkerError(
+            f'Marker set "{name_or_path}" not found; available marker sets: {available_markersets()} '
+            f"(in {MARKERSET_DIR}), or give the path of a .toml file (format: docs/markersets.md)."
+        )
+    try:
+        data = tomllib.loads(p.read_text())
+    except tomllib.TOMLDecodeError as e:
+        raise MarkerError(f"Marker set file {p} is not valid TOML: {e}") from None
+    markers = {}
+    for label, d in data.get("markers", {}).items():
+        try:
+            pos = np.array(d["position"], dtype=float)
+            seg = str(d["segment"])
+        except KeyError as e:
+            raise MarkerError(f'Marker "{label}" in {p} has no {e.args[0]}; each marker needs '
+                              "segment and position") from None
+        if pos.shape != (3,):
+            raise MarkerError(f'Marker "{label}" in {p}: position must have 3 values, but got {pos.shape}')
+        pos.setflags(write=False)
+        markers[label] = MarkerDef(label, seg, pos, float(d.get("weight", 1.0)), str(d.get("role", "")),
+                                   bool(d.get("cluster", False)))
+    return MarkerSet(str(data.get("name", p.stem)), p, float(data.get("reference_height", 1.70)), markers)
+
+
+def detect_markerset(marker_names) -> MarkerSet:
+    """The shipped marker set sharing the most labels with ``marker_names`` (ties: the smaller set).
+
+    Raises :class:`MarkerError` when no set shares at least 3 foot markers with the trial.
+    """
+    names = set(marker_names)
+    best, best_score = None, (-1, 0.0)
+    for n in available_markersets():
+        ms = load_markerset(n)
+        overlap = len(names & set(ms.markers))
+        score = (overlap, overlap / max(len(ms.markers), 1))
+        if score > best_score:
+            best, best_score = ms, score
+    if best is None or best_score[0] < 6:
+        raise MarkerError(
+            f"No shipped marker set matches the trial's markers {sorted(names)[:20]}...; available: "
+            f"{available_markersets()}. Write a marker-set TOML (docs/markersets.md) and pass its path."
+        )
+    return best
