@@ -50,14 +50,14 @@ def _progress(msg: str) -> None:
 
 
 def _kinematics(trial, args):
+    from gc_ocp.io import load_static
     from gc_ocp.kinematics import compute_kinematics
 
     kw = {}
     if args.cutoff is not None:
         kw["cutoff_hz"] = args.cutoff
-    return compute_kinematics(
-        trial, markerset=args.markerset, static=args.static, progress=_progress, **kw
-    )
+    static = load_static(args.static, trial) if args.static is not None else None
+    return compute_kinematics(trial, markerset=args.markerset, static=static, progress=_progress, **kw)
 
 
 def cmd_info(args: argparse.Namespace) -> int:

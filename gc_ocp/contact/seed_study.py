@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -42,6 +41,7 @@ from gc_ocp.contact.synthetic import (
 )
 from gc_ocp.contact.wrench_model import ContactLaw
 from gc_ocp.errors import InputError
+from gc_ocp.outputs import atomic_write_text  # noqa: F401  (re-exported)
 from gc_ocp.sole import UNITS
 
 TABLE1_CASES: tuple[str, ...] = (*SYNTHETIC_CASES, "experimental")
@@ -174,24 +174,6 @@ def reproduce_seed(
     if out_dir is not None:
         write_tables(result, out_dir)
     return result
-
-
-def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` to ``path`` via a temporary file in the same directory and ``os.replace``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
 
 
 def _check_table1(rows: list[dict]) -> None:

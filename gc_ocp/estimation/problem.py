@@ -24,7 +24,7 @@ import numpy as np
 
 from gc_ocp.errors import ModelError
 from gc_ocp.estimation.data import StanceData
-from gc_ocp.sole import UNITS, UNIT_PARENT
+from gc_ocp.sole import UNIT_PARENT, UNITS
 
 
 @dataclass(frozen=True)

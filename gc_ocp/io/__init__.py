@@ -407,3 +407,37 @@ def describe_trial(trial: Trial) -> str:
     for n in trial.load_notes:
         lines.append(f"  note: {n}")
     return "\n".join(lines)
+
+
+def load_static(path: str | Path, walking: Trial) -> Trial:
+    """Load a static standing trial (markers only) into the ``lab`` frame of ``walking``.
+
+    A static trial has no walking direction, so the walking trial's rotation is reused: the
+    static file must come from the same lab set-up (same axes). Plates are not read: the floor
+    height is the walking trial's plate surface.
+    """
+    import dataclasses
+
+    from gc_ocp.io._common import Y_UP_TO_LAB
+    from gc_ocp.io.c3d import read_c3d
+    from gc_ocp.io.opensim import read_trc
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"Static trial {path} does not exist; check the --static path.")
+    suffix = path.suffix.lower()
+    if suffix == ".trc":
+        names, markers, time = read_trc(path)  # already Z-up
+        file_rot = Y_UP_TO_LAB
+    elif suffix == ".c3d":
+        raw = read_c3d(path)
+        names, time, markers, file_rot = raw.marker_names, raw.marker_time, raw.markers, raw.file_rotation
+    else:
+        raise InputError(f'{path}: unsupported static-trial type "{suffix}"; give a .trc or .c3d file.')
+    rot = walking.lab_rotation @ np.linalg.inv(file_rot)
+    markers, _ = fill_short_gaps(markers @ rot.T, time)
+    return dataclasses.replace(
+        walking, source=path, marker_names=tuple(names), markers=markers, marker_time=time,
+        plates=(), stances=(), excluded_stances=(), grf_source=None,
+        load_notes=(f"static trial in the lab frame of {walking.source.name}",),
+    )
