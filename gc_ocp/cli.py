@@ -92,6 +92,32 @@ def cmd_reproduce_seed(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_fit(args: argparse.Namespace) -> int:
+    from gc_ocp.estimation.fit import fit
+    from gc_ocp.estimation.plots import plot_fit, plot_pose_corrections, plot_sole_fit
+    from gc_ocp.outputs import atomic_savefig, atomic_write_text
+
+    trials = _load(args)
+    pairs = [(t, _kinematics(t, args)) for t in trials]
+    try:
+        report = fit(pairs, holdout=args.holdout, progress=_progress)
+    except SolveError as e:
+        if e.result is not None:
+            atomic_write_text(args.out / "fit_failed.json", json.dumps(e.result.to_json(), indent=2))
+            print(f"wrote the non-converged result to {args.out / 'fit_failed.json'}", file=sys.stderr)
+        raise
+    print(report.summary())
+    figs = {"fit_wrench.png": plot_fit(report.result), "fit_sole.png": plot_sole_fit(report.result),
+            "fit_pose_corrections.png": plot_pose_corrections(report.result)}
+    if report.heldout is not None:
+        figs["heldout_wrench.png"] = plot_fit(report.heldout, title=f"held-out {report.heldout_label}")
+    for name, fig in figs.items():
+        atomic_savefig(fig, args.out / name, dpi=100)
+    atomic_write_text(args.out / "fit.json", json.dumps(report.to_json(), indent=2))
+    print(f"wrote {args.out / 'fit.json'} and {len(figs)} figures")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="gc-ocp",
@@ -125,6 +151,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=int, default=20, help="Noise draws for the noisy rows (default 20).")
     p.add_argument("--out", type=Path, required=True, help="Output folder.")
     p.set_defaults(func=cmd_reproduce_seed)
+
+    p = sub.add_parser("fit", help="Joint kinematics-contact estimation (CasADi + Ipopt).",
+                       description="Co-estimate per-unit stiffness, shared exponent, damping and "
+                       "friction, sole-point corrections and smooth foot-pose corrections against "
+                       "the measured wrenches of every stance; writes fit.json and figures. With "
+                       "--holdout, the named stance is left out of the fit and evaluated with the "
+                       "contact parameters fixed (only the pose correction re-estimated).")
+    _add_trial_args(p)
+    p.add_argument("--holdout", help='Stance to hold out, e.g. "right@0.407s" (see `gc-ocp info`).')
+    p.add_argument("--out", type=Path, required=True, help="Output folder.")
+    p.set_defaults(func=cmd_fit)
     return parser
 
 

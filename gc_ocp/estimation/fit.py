@@ -1,0 +1,168 @@
+"""High-level fitting: initialise from the seed's linear least squares, solve the joint
+kinematics-contact NLP, and evaluate on a held-out stance.
+
+Held-out protocol (``holdout``): the contact parameters and sole corrections are estimated on
+all other stances. On the held-out stance they are then *fixed*, and only the foot-pose
+correction is re-estimated under its prior (the kinematic nuisance: marker-to-sole registration
+changes from stance to stance). The RMS errors on that stance are reported as ``heldout_rms``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from collections.abc import Callable
+
+import numpy as np
+
+from gc_ocp.errors import InputError, RankError
+from gc_ocp.estimation.components import ContactLaw, Param, PoseCorrection, SoleCorrection, full_model
+from gc_ocp.estimation.data import StanceData, stance_data
+from gc_ocp.estimation.problem import Weights, build_estimation
+from gc_ocp.estimation.solve import EstimationResult, IpoptOptions, fit_quality, solve
+from gc_ocp.sole import UNITS, TrialKinematics
+from gc_ocp.trial import SIDES, Trial
+
+TYPICAL_DEPTH = 0.005
+"""Typical unit penetration [m] used to convert the LLS stiffness (n = 1) to the initial
+stiffness of an exponent-n law: k_n = k_1 * TYPICAL_DEPTH**(1 - n) (equal force at that depth)."""
+
+
+def lls_initial_k(trials: list[tuple[Trial, TrialKinematics]], n0: float) -> dict | None:
+    """Initial per-unit stiffness from the seed's linear least squares (negative -> floor)."""
+    from gc_ocp.contact.lls import fit_stiffness_lls, stances_from_trial
+
+    sts = [s for t, k in trials for s in stances_from_trial(t, k)]
+    t0 = trials[0][0]
+    try:
+        res = fit_stiffness_lls(sts, t0.body_weight, t0.body_weight * (t0.height or 1.7))
+    except RankError as e:
+        warnings.warn(f"LLS initialisation not possible ({e}); starting from a uniform stiffness.", stacklevel=2)
+        return None
+    out = {}
+    k_all = np.array([v for s in res.k.values() for v in s.values()])
+    floor = max(np.median(k_all[k_all > 0]) * 0.1, 1e3) if np.any(k_all > 0) else 1e4
+    for side in SIDES:
+        out[side] = {
+            u: float(max(res.k.get(side, {}).get(u, floor), floor) * TYPICAL_DEPTH ** (1 - n0)) for u in UNITS
+        }
+    return out
+
+
+@dataclasses.dataclass
+class FitReport:
+    """A fit and (optionally) its held-out evaluation; ``to_json()`` is the CLI's ``fit.json``."""
+
+    result: EstimationResult
+    heldout: EstimationResult | None = None
+    heldout_label: str | None = None
+
+    def to_json(self) -> dict:
+        d = self.result.to_json()
+        if self.heldout is not None:
+            d["heldout_rms"] = self.heldout.rms
+            d["heldout_cop_rms_mm"] = self.heldout.cop_rms_mm
+            d["heldout_stance"] = self.heldout_label
+            d["heldout_pose_correction_rms"] = self.heldout.pose_correction_rms
+        return d
+
+    def summary(self) -> str:
+        s = self.result.summary()
+        if self.heldout is not None:
+            s += f"\nheld-out stance {self.heldout_label}:\n" + self.heldout.summary()
+        return s
+
+
+def _with_init(model: tuple, k0: dict | None) -> tuple:
+    if k0 is None:
+        return model
+    out = []
+    for comp in model:
+        if isinstance(comp, ContactLaw) and comp.k.scope == "unit":
+            comp = dataclasses.replace(comp, k=dataclasses.replace(comp.k, value=k0))
+        out.append(comp)
+    return tuple(out)
+
+
+def fixed_for_holdout(model: tuple, result: EstimationResult) -> tuple:
+    """The model with every contact parameter and sole correction fixed at ``result``'s values."""
+    out = []
+    for comp in model:
+        if isinstance(comp, ContactLaw):
+            p = result.params
+            kw = {}
+            for name in ("k", "n", "c", "mu"):
+                par: Param = getattr(comp, name)
+                if par.scope == "fixed":
+                    continue
+                if name == "k":
+                    val = {s: {u: p[s][u]["k"] for u in UNITS} for s in SIDES if s in p}
+                elif par.scope == "foot":
+                    val = {s: p[s][name] for s in SIDES if s in p}
+                else:
+                    val = p["shared"][name]
+                kw[name] = Param("fixed", val)
+            comp = dataclasses.replace(comp, **kw)
+        elif isinstance(comp, SoleCorrection):
+            fixed = {s: np.array(result.sole_corrections_mm[s][u] if False else [result.sole_corrections_mm[s][u] for u in UNITS]) * 1e-3
+                     for s in result.sole_corrections_mm}
+            comp = dataclasses.replace(comp, fixed=fixed)
+        out.append(comp)
+    return tuple(out)
+
+
+def fit(
+    trials: list[tuple[Trial, TrialKinematics]],
+    model: tuple | None = None,
+    weights: Weights | None = None,
+    holdout: str | None = None,
+    options: IpoptOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> FitReport:
+    """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
+
+    holdout: label (or unique prefix/substring) of a stance to hold out, see the module doc.
+    """
+    say = progress or (lambda s: None)
+    model = model or full_model()
+    data: list[StanceData] = []
+    for trial, kin in trials:
+        for st in trial.stances:
+            data.append(stance_data(trial, kin, st))
+    held = None
+    if holdout is not None:
+        matches = [d for d in data if d.label == holdout or holdout in d.label]
+        if len(matches) != 1:
+            raise InputError(
+                f'--holdout "{holdout}" matches {len(matches)} stances; choose one of {[d.label for d in data]}.'
+            )
+        held = matches[0]
+        data = [d for d in data if d is not held]
+        if not any(d.side == held.side for d in data):
+            raise InputError(
+                f"Held-out stance {held.label} leaves no other stance of the {held.side} foot to fit; "
+                "hold out a foot that has at least two stances."
+            )
+    law = next(m for m in model if isinstance(m, ContactLaw))
+    n0 = law.n.value_for("left") if law.n.scope != "fixed" else law.n.value_for("left")
+    say("initialising stiffness from the seed's linear least squares")
+    k0 = lls_initial_k(trials, float(n0))
+    model = _with_init(model, k0)
+    say(f"building the NLP: {len(data)} stances, {sum(d.n for d in data)} frames")
+    prob = build_estimation(data, model, weights)
+    say(f"solving with Ipopt ({prob.x.shape[0]} variables)")
+    res = solve(prob, options)
+    say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
+    report = FitReport(res)
+    if held is not None:
+        fixed = fixed_for_holdout(model, res)
+        fixed = tuple(m for m in fixed if isinstance(m, ContactLaw | SoleCorrection | PoseCorrection))
+        hp = build_estimation([held], fixed, weights)
+        hres = solve(hp, options)
+        report.heldout = hres
+        report.heldout_label = held.label
+        say(f"held-out {held.label}: superior force RMS {hres.rms[held.side]['superior_force_pct_bw']:.2f} % BW")
+    return report
+
+
+__all__ = ["fit", "FitReport", "fixed_for_holdout", "lls_initial_k", "fit_quality"]
