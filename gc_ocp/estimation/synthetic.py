@@ -164,11 +164,11 @@ def _noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) ->
     pose[:, :3, :3] = Rn
     pose[:, :3, 3] = P[:, :3, 3] + do
     v = np.gradient(pose[:, :3, 3], foot.time, axis=0)
-    # angular velocity from the rotation sequence
-    rv = Rotation.from_matrix(Rn)
-    rel = (rv[:-1].inv() * rv[1:]).as_rotvec() * rate  # body frame
-    wb = np.vstack([rel, rel[-1:]])
-    w = np.einsum("nij,nj->ni", Rn, wb)
+    # angular velocity from the rotation sequence: skew(omega) = dR/dt R^T (central differences,
+    # the same scheme as the true motion, so that zero noise reproduces it)
+    dRn = np.gradient(Rn, foot.time, axis=0)
+    W = np.einsum("nij,nkj->nik", dRn, Rn)
+    w = np.stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]], axis=1)
     twist = np.hstack([v, w])
     return FootKinematics(foot.side, foot.time, pose, pose.copy(), twist, twist.copy(), foot.points_local)
 
