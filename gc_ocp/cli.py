@@ -82,13 +82,22 @@ def cmd_kinematics(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce_seed(args: argparse.Namespace) -> int:
-    from gc_ocp.contact.seed_study import reproduce_seed
+    from gc_ocp.contact.seed_study import reproduce_seed, table1_markdown, table2_markdown
 
-    [trial] = _load(args) if args.trial else _load(argparse.Namespace(**{**vars(args), "trial": []}))
+    trials = _load(args)
+    if len(trials) != 1:
+        raise GcOcpError(f"reproduce-seed takes one trial, but got {len(trials)}")
+    [trial] = trials
     kin = _kinematics(trial, args)
-    res = reproduce_seed(trial, kin, seeds=args.seeds, out_dir=args.out, progress=_progress)
-    print(res["table1_md"] if "table1_md" in res else json.dumps(res["table1"], indent=1))
-    print(f"wrote tables to {args.out}")
+    res = reproduce_seed(
+        trial, kin, seeds=args.seeds, out_dir=args.out,
+        progress=lambda done, total, label: _progress(f"[{done}/{total}] {label}"),
+    )
+    for note in res["notes"]:
+        _progress(f"note: {note}")
+    print(table1_markdown(res["table1"]))
+    print(table2_markdown(res["table2"]))
+    print(f"wrote table1.json, table1.md, table2.json, table2.md to {args.out}")
     return 0
 
 
