@@ -1,0 +1,139 @@
+"""Joint kinematics-contact estimation: built problem, synthetic recovery, held-out protocol, CLI."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gc_ocp.errors import InputError, SolveError
+from gc_ocp.estimation.components import (
+    ContactLaw, Param, PoseCorrection, SoleCorrection, full_model, seed_model,
+)
+from gc_ocp.estimation.problem import Weights, build_estimation
+from gc_ocp.estimation.solve import IpoptOptions, solve
+from gc_ocp.estimation.synthetic import default_truth, nominal_points, synthetic_stance
+from gc_ocp.sole import UNITS
+
+DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
+
+
+def _stances(rng, displacement=0.008, force_noise=0.0):
+    truth = default_truth()
+    disp, sts = {}, []
+    for side, t_off in (("left", 0.0), ("right", 0.55)):
+        d = rng.normal(size=(5, 3))
+        d *= (rng.uniform(0, displacement, 5) / np.linalg.norm(d, axis=1))[:, None]
+        disp[side] = d
+        for t0 in (0.0, 1.1):
+            sts.append(synthetic_stance(side, truth, nominal_points(side) + d, t0=t0 + t_off,
+                                        sink=0.010, rng=rng, force_noise=force_noise))
+    return truth, disp, sts
+
+
+def _model():
+    return (ContactLaw(k=Param("unit", 2e5, 1e2, 1e9), n=Param("shared", 1.2, 1, 3),
+                       c=Param("shared", 0.3, 0, 10), mu=Param("shared", 0.5, 0, 1.5)),
+            SoleCorrection(), PoseCorrection())
+
+
+def test_seed_and_full_model_are_configurations_of_one_builder():
+    _, _, sts = _stances(np.random.default_rng(0))
+    seed = build_estimation(sts, seed_model())
+    full = build_estimation(sts, full_model())
+    assert seed.x.shape[0] == 10  # one log k per unit per foot, nothing else
+    n_pose = sum(full.builder._index[k].stop - full.builder._index[k].start
+                 for k in full.builder._index if k[0] == "pose")
+    assert full.x.shape[0] == 10 + 3 + 2 * 5 * 3 + n_pose
+    # objective is evaluated without running Ipopt, and equals half the squared residuals
+    x = full.x0 + 0.01
+    import casadi as ca
+
+    r = np.asarray(ca.Function("r", [full.x], [full.residuals])(x)).ravel()
+    assert full.evaluate(x) == pytest.approx(0.5 * r @ r, rel=1e-12)
+
+
+def test_noiseless_synthetic_recovery():
+    """Per-unit k, n = 1.5, c = 1 s/m, mu = 0.8, points displaced by up to 8 mm, no noise.
+
+    The data weight is the noise model: noiseless data gets a small force sigma (0.1 % BW), so
+    the 5 mm sole prior and 2 mm / 1 deg pose prior do not bias the MAP estimate noticeably.
+    Tolerances: 5 % on k, n, c and 1.5 mm on the sole corrections (the issue's targets); the
+    residual bias comes from the smoothing of the contact law (0.5 mm penetration smoothing)."""
+    truth, disp, sts = _stances(np.random.default_rng(1))
+    res = solve(build_estimation(sts, _model(), Weights(force_sigma=1e-3)))
+    assert res.success
+    for side in ("left", "right"):
+        k = np.array([res.params[side][u]["k"] for u in UNITS])
+        assert np.all(np.abs(k / truth["k"] - 1) < 0.05), (side, k, truth["k"])
+        est = np.array([res.sole_corrections_mm[side][u] for u in UNITS])
+        assert np.abs(est - disp[side] * 1e3).max() < 1.5
+    for p in ("n", "c", "mu"):
+        assert res.params["shared"][p] == pytest.approx(truth[p], rel=0.05)
+    # standard errors exist and are positive for every estimated k
+    assert all(res.params[s][u]["k_se"] > 0 for s in ("left", "right") for u in UNITS)
+
+
+def test_non_converged_solve_raises_with_result():
+    _, _, sts = _stances(np.random.default_rng(2))
+    prob = build_estimation(sts, _model())
+    with pytest.raises(SolveError) as e:
+        solve(prob, IpoptOptions(max_iter=2))
+    assert e.value.result is not None and e.value.result.iterations <= 2
+    assert "did not converge" in str(e.value)
+
+
+def test_weights_make_cop_count_more_than_seed_normalisation():
+    w = Weights()
+    inv = w.inverse_sigmas(700.0)
+    # a torque error of F * 10 mm at F = BW counts (10 mm / torque_length) as much as BW error
+    assert inv[3] * 700 * 0.01 == pytest.approx(inv[0] * 700 * 0.01 / w.torque_length)
+
+
+@pytest.fixture(scope="module")
+def bundled():
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+
+    t = load_trial()
+    return t, compute_kinematics(t)
+
+
+def test_real_trial_fit_and_holdout(bundled):
+    """Bundled example: in-sample and held-out errors within the issue's targets."""
+    from gc_ocp.estimation.fit import fit
+
+    rep = fit([bundled], holdout="right@0.407")
+    r = rep.result
+    for side in ("left", "right"):
+        assert r.rms[side]["superior_force_pct_bw"] <= 3.0
+        assert r.rms[side]["anterior_force_pct_bw"] <= 5.0
+        assert r.rms[side]["lateral_force_pct_bw"] <= 3.0
+        assert r.cop_rms_mm[side] <= 25.0
+        assert all(r.params[side][u]["k"] > 0 for u in UNITS)
+    assert rep.heldout.rms["right"]["superior_force_pct_bw"] <= 5.0
+    d = rep.to_json()
+    assert set(d) >= {"params", "sole_corrections_mm", "pose_correction_rms", "rms", "cop_rms_mm",
+                      "heldout_rms", "solver"}
+
+
+def test_holdout_errors(bundled):
+    from gc_ocp.estimation.fit import fit
+
+    with pytest.raises(InputError, match="matches 0 stances"):
+        fit([bundled], holdout="nonexistent")
+    with pytest.raises(InputError, match="no other stance of the left foot"):
+        fit([bundled], holdout="left@")
+
+
+def test_cli_fit(tmp_path):
+    from gc_ocp.cli import main
+
+    assert main(["fit", "--out", str(tmp_path)]) == 0
+    d = json.loads((tmp_path / "fit.json").read_text())
+    assert d["solver"]["status"] == "Solve_Succeeded"
+    assert set(d["params"]["left"]) >= set(UNITS)
+    for name in ("fit_wrench.png", "fit_sole.png", "fit_pose_corrections.png"):
+        assert (tmp_path / name).stat().st_size > 10_000
