@@ -17,6 +17,7 @@ $(VENV)/.installed: pyproject.toml | $(BIN)/python
 demo: $(VENV)/.installed
 	$(BIN)/gc-ocp info
 	$(BIN)/gc-ocp kinematics --out $(OUT)/kinematics
+	$(BIN)/gc-ocp fit --holdout right@0.407 --out $(OUT)/fit
 	$(BIN)/gc-ocp reproduce-seed --seeds 5 --out $(OUT)/seed
 	@echo "Demo output written to $(abspath $(OUT))"
 
