@@ -10,7 +10,12 @@ import pytest
 
 from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.components import (
-    ContactLaw, Param, PoseCorrection, SoleCorrection, full_model, seed_model,
+    ContactLaw,
+    Param,
+    PoseCorrection,
+    SoleCorrection,
+    full_model,
+    seed_model,
 )
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.solve import IpoptOptions, solve

@@ -16,7 +16,13 @@ from collections.abc import Callable
 import numpy as np
 
 from gc_ocp.errors import InputError, RankError
-from gc_ocp.estimation.components import ContactLaw, Param, PoseCorrection, SoleCorrection, full_model
+from gc_ocp.estimation.components import (
+    ContactLaw,
+    Param,
+    PoseCorrection,
+    SoleCorrection,
+    full_model,
+)
 from gc_ocp.estimation.data import StanceData, stance_data
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.solve import EstimationResult, IpoptOptions, fit_quality, solve
@@ -104,7 +110,7 @@ def fixed_for_holdout(model: tuple, result: EstimationResult) -> tuple:
                 kw[name] = Param("fixed", val)
             comp = dataclasses.replace(comp, **kw)
         elif isinstance(comp, SoleCorrection):
-            fixed = {s: np.array(result.sole_corrections_mm[s][u] if False else [result.sole_corrections_mm[s][u] for u in UNITS]) * 1e-3
+            fixed = {s: np.array([result.sole_corrections_mm[s][u] for u in UNITS]) * 1e-3
                      for s in result.sole_corrections_mm}
             comp = dataclasses.replace(comp, fixed=fixed)
         out.append(comp)
@@ -144,7 +150,7 @@ def fit(
                 "hold out a foot that has at least two stances."
             )
     law = next(m for m in model if isinstance(m, ContactLaw))
-    n0 = law.n.value_for("left") if law.n.scope != "fixed" else law.n.value_for("left")
+    n0 = law.n.value_for("left")  # initial (or fixed) exponent
     say("initialising stiffness from the seed's linear least squares")
     k0 = lls_initial_k(trials, float(n0))
     model = _with_init(model, k0)

@@ -11,8 +11,8 @@ Objective (a MAP / weighted least-squares problem)::
 
 Channel sigmas (``Weights``): forces ``force_sigma`` x BW; torques ``force_sigma`` x BW x
 ``torque_length``. With ``torque_length = 0.25 m`` a 10 mm COP error at 1 BW costs as much as a
-4 % BW... i.e. the COP counts, unlike the seed's BW x height normalisation (1.7 m), under which a
-40 mm COP error weighs as little as a 2 % BW force error.
+4 % BW force error, so the COP counts; under the seed's BW x height normalisation (1.7 m) a 40 mm
+COP error at 1 BW weighs as little as a 2.4 % BW force error.
 """
 
 from __future__ import annotations
