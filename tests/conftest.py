@@ -1,6 +1,6 @@
 """Test helpers: minimal private loaders of the three shared datasets (the package loaders are
 written elsewhere). Markers in lab (Z up, X forward, Y left), metres; stances from
-/work/shared/data/README.md."""
+../shared/data/README.md."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 
 from gc_ocp.trial import Plate, Stance, Trial
 
-DATA = Path("/work/shared/data")
+DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"  # ../shared beside the repo
 YUP_TO_LAB = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])  # (x, y, z) -> (x, -z, y)
 
 
