@@ -143,6 +143,8 @@ class Builder:
         return np.concatenate([s[field_] for s in self._specs]) if self._specs else np.zeros(0)
 
     def prior_mask(self) -> np.ndarray:
+        if not self._specs:
+            return np.zeros(0, dtype=bool)
         return np.concatenate([np.full(s["size"], s["kind"] == "prior") for s in self._specs])
 
 
