@@ -103,22 +103,27 @@ class ContactLaw:
                     (self.name, pname, *key), v0, p.lower, p.upper, log=log
                 )
 
-    def values(self, b: Builder, side: str) -> dict:
-        """Symbolic (or fixed numeric) parameter values for ``side``: k (5,), n, c, mu."""
+    def values(self, b: Builder, side: str, log_k: bool = False) -> dict:
+        """Symbolic (or fixed numeric) parameter values for ``side``: k (5,), n, c, mu.
+        ``log_k``: return log k instead of k (linear in the decision vector)."""
         out = {}
         for pname in ("k", "n", "c", "mu"):
             p: Param = getattr(self, pname)
+            raw = log_k and pname == "k"
             if p.scope == "fixed":
                 if pname == "k":
-                    out[pname] = [p.value_for(side, u) for u in UNITS]
+                    ks = [p.value_for(side, u) for u in UNITS]
+                    out[pname] = [float(np.log(v)) for v in ks] if raw else ks
                 else:
                     out[pname] = p.value_for(side)
             elif p.scope == "unit":
-                out[pname] = [b.get((self.name, pname, side, u)) for u in UNITS]
+                out[pname] = [b.get((self.name, pname, side, u), raw=raw) for u in UNITS]
             elif p.scope == "foot":
-                out[pname] = b.get((self.name, pname, side))
+                out[pname] = b.get((self.name, pname, side), raw=raw)
             else:
-                out[pname] = b.get((self.name, pname))
+                out[pname] = b.get((self.name, pname), raw=raw)
+            if pname == "k" and p.scope in ("foot", "shared"):
+                out[pname] = [out[pname]] * len(UNITS)  # one stiffness for every unit
         return out
 
 

@@ -40,26 +40,48 @@ class Weights:
         return 1.0 / np.array([sf, sf, sf, sf * self.torque_length, sf * self.torque_length, sf * self.torque_length])
 
 
+N_Y = 35
+"""Per-frame model inputs that depend on the decision vector (all *linearly*):
+dp, dth, ddp, ddth (12, pose correction and its rate), unit positions in their parent frames
+(15, column-major 3 x 5), log k (5), n, c, mu."""
+N_D = 55
+"""Per-frame numeric data: Rh(9, column-major), oh, vh, wh, Rt(9), ot, vt, wt, measured wrench (6),
+inverse sigmas (6), ground height (1), belt velocity (3), reference point (3)."""
+
+
+def frame_data(st: StanceData, weights: Weights) -> np.ndarray:
+    """``(N_D, n)`` numeric per-frame inputs of one stance (time in columns)."""
+    f = st.foot
+    T = st.n
+    Rh = f.hindfoot_pose[:, :3, :3].transpose(0, 2, 1).reshape(T, 9)  # column-major R
+    Rt = f.toes_pose[:, :3, :3].transpose(0, 2, 1).reshape(T, 9)
+    const = np.concatenate([weights.inverse_sigmas(st.body_weight), [st.ground_height],
+                            st.belt_velocity, st.reference_point])
+    return np.hstack([
+        Rh, f.hindfoot_pose[:, :3, 3], f.hindfoot_twist, Rt, f.toes_pose[:, :3, 3], f.toes_twist,
+        st.measured, np.tile(const, (T, 1)),
+    ]).T
+
+
 def _contact_frame_function(depth_smoothing: float, slip_smoothing: float) -> ca.Function:
-    """Per-frame model wrench and weighted residual for one foot (SX, mapped over frames)."""
+    """Per-frame weighted residual, model wrench and unit forces of one foot, ``(D, y)`` -> ...
+
+    SX, so that it can be mapped over frames and differentiated cheaply (see :data:`N_D`, :data:`N_Y`).
+    """
     from gc_ocp.contact.laws import DEFAULT_SMOOTHING, unit_force_function
 
     unit_force = unit_force_function(smooth=True)
-
-    SX = ca.SX
-    Rh, Rt = SX.sym("Rh", 9), SX.sym("Rt", 9)
-    oh, vh, wh = SX.sym("oh", 3), SX.sym("vh", 3), SX.sym("wh", 3)
-    ot, vt, wt = SX.sym("ot", 3), SX.sym("vt", 3), SX.sym("wt", 3)
-    dp, dth, ddp, ddth = SX.sym("dp", 3), SX.sym("dth", 3), SX.sym("ddp", 3), SX.sym("ddth", 3)
-    meas, wts = SX.sym("meas", 6), SX.sym("wts", 6)
-    loc = SX.sym("loc", 3, 5)
-    k = SX.sym("k", 5)
-    n, c, mu = SX.sym("n"), SX.sym("c"), SX.sym("mu")
-    ground, belt, ref = SX.sym("ground"), SX.sym("belt", 3), SX.sym("ref", 3)
-
-    Rhm, Rtm = ca.reshape(Rh, 3, 3), ca.reshape(Rt, 3, 3)
-    F = SX.zeros(3)
-    M = SX.zeros(3)
+    D = ca.SX.sym("D", N_D)
+    y = ca.SX.sym("y", N_Y)
+    Rhm, oh, vh, wh = ca.reshape(D[0:9], 3, 3), D[9:12], D[12:15], D[15:18]
+    Rtm, ot, vt, wt = ca.reshape(D[18:27], 3, 3), D[27:30], D[30:33], D[33:36]
+    meas, wts, ground, belt, ref = D[36:42], D[42:48], D[48], D[49:52], D[52:55]
+    dp, dth, ddp, ddth = y[0:3], y[3:6], y[6:9], y[9:12]
+    loc = ca.reshape(y[12:27], 3, 5)
+    k = ca.exp(y[27:32])
+    n, c, mu = y[32], y[33], y[34]
+    F = ca.SX.zeros(3)
+    M = ca.SX.zeros(3)
     forces = []
     for i, u in enumerate(UNITS):
         if UNIT_PARENT[u] == "hindfoot":
@@ -74,17 +96,26 @@ def _contact_frame_function(depth_smoothing: float, slip_smoothing: float) -> ca
         rdot = vel - vh
         p = p + dp + ca.cross(dth, r)
         vel = vel + ddp + ca.cross(ddth, r) + ca.cross(dth, rdot)
-        f = unit_force(p, vel, k[i], n, c, mu, ground, belt, depth_smoothing, DEFAULT_SMOOTHING.eps_damping, slip_smoothing)
+        f = unit_force(p, vel, k[i], n, c, mu, ground, belt, depth_smoothing,
+                       DEFAULT_SMOOTHING.eps_damping, slip_smoothing)
         forces.append(f)
         F = F + f
         M = M + ca.cross(p - ref, f)
     wrench = ca.vertcat(F, M)
     res = (wrench - meas) * wts
-    return ca.Function(
-        "foot_frame",
-        [Rh, oh, vh, wh, Rt, ot, vt, wt, dp, dth, ddp, ddth, meas, wts, loc, k, n, c, mu, ground, belt, ref],
-        [res, wrench, ca.vertcat(*forces)],
-    )
+    return ca.Function("foot_frame", [D, y], [res, wrench, ca.vertcat(*forces)], ["D", "y"],
+                       ["res", "wrench", "forces"])
+
+
+def _frame_cost_derivatives(frame_fn: ca.Function) -> tuple[ca.Function, ca.Function]:
+    """Per-frame exact gradient and Hessian in ``y`` of ``phi = 1/2 ||res||^2`` (two SX functions,
+    so that Ipopt's gradient evaluations do not pay for the Hessian)."""
+    D = ca.SX.sym("D", N_D)
+    y = ca.SX.sym("y", N_Y)
+    res = frame_fn(D, y)[0]
+    phi = 0.5 * ca.sumsqr(res)
+    H, g = ca.hessian(phi, y)
+    return ca.Function("frame_grad", [D, y], [g]), ca.Function("frame_hess", [D, y], [H])
 
 
 class Builder:
@@ -124,15 +155,15 @@ class Builder:
         self.x = ca.MX.sym("x", n)
 
     # --- use pass ---------------------------------------------------------------------------
-    def get(self, key: tuple):
-        """Physical value of a declared variable (symbolic)."""
+    def get(self, key: tuple, raw: bool = False):
+        """Physical value of a declared variable (symbolic); ``raw``: log value for log variables."""
         if self.x is None:
             raise RuntimeError("Builder.get() before finalize()")
         sl = self._index[key]
         spec = next(s for s in self._specs if s["key"] == key)
         z = self.x[sl]
         if spec["log"]:
-            return ca.exp(z)
+            return z if raw else ca.exp(z)
         return z * spec["scale"]
 
     @property
@@ -165,6 +196,8 @@ class EstimationProblem:
     ubx: np.ndarray
     stance_outputs: list[ca.MX] = field(default_factory=list)  # per stance: (6, n) model wrench
     stance_points: list[ca.MX] = field(default_factory=list)  # per stance: (5*3, 1) corrected local points
+    gradient: ca.MX | None = None  # exact gradient of the objective
+    hessian: ca.MX | None = None  # exact Hessian of the objective (structured assembly)
 
     def objective_function(self) -> ca.Function:
         return ca.Function("J", [self.x], [self.objective])
@@ -197,14 +230,14 @@ def build_estimation(
     pose = next((m for m in model if isinstance(m, PoseCorrection)), None)
 
     frame_fn = _contact_frame_function(law.depth_smoothing, law.slip_smoothing)
-    residuals = []
-    outputs = []
-    points = []
+    grad_fn, hess_fn = _frame_cost_derivatives(frame_fn)
+    residuals, outputs, points, blocks = [], [], [], []
     n_data = 0
+    x = b.x
     for i, st in enumerate(stances):
         f = st.foot
         T = st.n
-        par = law.values(b, st.side)
+        par = law.values(b, st.side, log_k=True)
         loc = ca.MX(np.asarray(f.points_local, float).T)  # 3 x 5
         if sole is not None:
             off = sole.offsets(b, st.side)
@@ -214,27 +247,38 @@ def build_estimation(
             dp, dth, ddp, ddth = pose.trajectories(b, i)
         else:
             dp = dth = ddp = ddth = ca.MX.zeros(3, T)
-        Rh = f.hindfoot_pose[:, :3, :3].transpose(0, 2, 1).reshape(T, 9).T  # column-major R
-        Rt = f.toes_pose[:, :3, :3].transpose(0, 2, 1).reshape(T, 9).T
-        inv_sig = weights.inverse_sigmas(st.body_weight)
-        fmap = frame_fn.map(T)
-        res, wrench, _ = fmap(
-            Rh, f.hindfoot_pose[:, :3, 3].T, f.hindfoot_twist[:, :3].T, f.hindfoot_twist[:, 3:].T,
-            Rt, f.toes_pose[:, :3, 3].T, f.toes_twist[:, :3].T, f.toes_twist[:, 3:].T,
-            dp, dth, ddp, ddth, st.measured.T, np.tile(inv_sig[:, None], (1, T)),
-            loc, ca.vertcat(*par["k"]), par["n"], par["c"], par["mu"],
-            st.ground_height, st.belt_velocity, st.reference_point,
-        )
+        shared = ca.vertcat(ca.vec(loc), *par["k"], par["n"], par["c"], par["mu"])
+        Y = ca.vertcat(dp, dth, ddp, ddth, ca.repmat(shared, 1, T))  # N_Y x T, linear in x
+        # Y = reshape(A x + y0): A is constant because every component maps x linearly
+        A = ca.Function("A", [x], [ca.jacobian(ca.vec(Y), x)])(np.zeros(x.shape[0]))
+        y0 = ca.Function("y0", [x], [ca.vec(Y)])(np.zeros(x.shape[0]))
+        A = ca.DM(A)
+        Yl = ca.reshape(ca.mtimes(A, x) + ca.DM(y0), N_Y, T)
+        D = frame_data(st, weights)
+        res, wrench, _ = frame_fn.map(T)(D, Yl)
+        blocks.append((A, ca.DM(y0), D, T))
         residuals.append(ca.vec(res))
         outputs.append(wrench)
         n_data += 6 * T
     pmask = b.prior_mask()
     prior_idx = np.flatnonzero(pmask)
-    prior_res = b.x[prior_idx.tolist()] if prior_idx.size else ca.MX.zeros(0)
+    prior_res = x[prior_idx.tolist()] if prior_idx.size else ca.MX.zeros(0)
     r_all = ca.vertcat(*residuals, prior_res)
+    # objective, gradient and exact Hessian assembled from per-frame SX derivatives:
+    # J = sum_t phi(D_t, y_t) + 1/2 |x_prior|^2 = 1/2 |r_all|^2 with y = A x + y0, so
+    # grad = sum A^T g_t + P x and Hess = sum A^T blockdiag(H_t) A + P (P: prior selector).
     J = 0.5 * ca.sumsqr(r_all)
+    P = ca.DM(np.diag(pmask.astype(float))) if pmask.size else ca.DM(0, 0)
+    grad = ca.mtimes(P, x) if pmask.size else ca.MX.zeros(x.shape[0])
+    hess = P
+    for A, y0, D, T in blocks:
+        Yl = ca.reshape(ca.mtimes(A, x) + y0, N_Y, T)
+        g = grad_fn.map(T)(D, Yl)
+        H = hess_fn.map(T)(D, Yl)
+        grad = grad + ca.mtimes(A.T, ca.vec(g))
+        hess = hess + ca.mtimes(A.T, ca.mtimes(ca.diagcat(*ca.horzsplit(H, N_Y)), A))
     return EstimationProblem(
         stances=stances, model=model, weights=weights, builder=b, x=b.x, objective=J,
         residuals=r_all, n_data=n_data, x0=b.vector("x0"), lbx=b.vector("lb"), ubx=b.vector("ub"),
-        stance_outputs=outputs, stance_points=points,
+        stance_outputs=outputs, stance_points=points, gradient=grad, hessian=hess,
     )

@@ -102,22 +102,19 @@ def synthetic_stance(
     """One synthetic stance. ``truth``: ``{"k": (5,), "n", "c", "mu"}`` [SI]; ``points_local``:
     true unit positions (default nominal); ``force_noise`` [N] and ``marker_noise`` [m] standard
     deviations (marker noise perturbs the foot pose given to the fitter, through 3 virtual markers)."""
-    from gc_ocp.estimation.problem import Weights, _contact_frame_function
+    from gc_ocp.estimation.problem import Weights, _contact_frame_function, frame_data
 
     foot = rolling_foot(side, duration, rate, t0, sink)
     true_pts = nominal_points(side) if points_local is None else np.asarray(points_local)
     true_foot = foot.with_points(true_pts)
     T = foot.time.size
-    fn = _contact_frame_function(5e-4, 0.05).map(T)
     ref = np.array([0.6, 0.1 if side == "left" else -0.1, -0.04])
-    Rh = foot.hindfoot_pose[:, :3, :3].transpose(0, 2, 1).reshape(T, 9).T
-    z3 = np.zeros((3, T))
-    _, wrench, _ = fn(
-        Rh, foot.hindfoot_pose[:, :3, 3].T, foot.hindfoot_twist[:, :3].T, foot.hindfoot_twist[:, 3:].T,
-        Rh, foot.toes_pose[:, :3, 3].T, foot.toes_twist[:, :3].T, foot.toes_twist[:, 3:].T,
-        z3, z3, z3, z3, np.zeros((6, T)), np.ones((6, T)), true_pts.T, np.asarray(truth["k"], float),
-        truth["n"], truth["c"], truth["mu"], 0.0, np.zeros(3), ref,
-    )
+    probe = StanceData("synthetic", side, "", foot.time, foot, np.zeros((T, 6)), np.ones(T, bool), ref,
+                       0.0, np.zeros(3), body_weight, height)
+    D = frame_data(probe, Weights())
+    y = np.concatenate([np.zeros(12), true_pts.T.ravel(order="F"), np.log(np.asarray(truth["k"], float)),
+                        [truth["n"], truth["c"], truth["mu"]]])
+    _, wrench, _ = _contact_frame_function(5e-4, 0.05).map(T)(D, np.tile(y[:, None], (1, T)))
     meas = np.asarray(wrench).T
     rng = rng or np.random.default_rng(0)
     if force_noise > 0:
@@ -126,7 +123,6 @@ def synthetic_stance(
     if marker_noise > 0:
         fit_foot = _noisy_pose(fit_foot, marker_noise, rng)
     s = (foot.time >= t0) & (foot.time <= t0 + duration)
-    del Weights
     return StanceData(
         trial="synthetic", side=side, label=label or f"synthetic:{side}@{t0:.2f}s", time=foot.time,
         foot=fit_foot, measured=meas, in_contact=s, reference_point=ref, ground_height=0.0,
