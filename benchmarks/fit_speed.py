@@ -2,7 +2,8 @@
 
 Run:  python benchmarks/fit_speed.py [--quick]
 
-Our path  = build_estimation + nlpsol construction (expand) + Ipopt solve, exactly what
+Our path  = build_estimation + make_solver (Ipopt with CasADi gradient and the structured exact
+            Hessian, no SX expansion) + Ipopt solve, exactly what
             ``gc_ocp.estimation.solve.solve`` does before its post-processing (covariance, decoding),
             which is timed separately once on the real trial.
 Baseline  = scipy.optimize.least_squares(method="trf", jac="2-point") on the SAME residual vector
@@ -24,7 +25,7 @@ from scipy.optimize import least_squares
 
 from gc_ocp.estimation.components import ContactLaw, full_model
 from gc_ocp.estimation.problem import build_estimation
-from gc_ocp.estimation.solve import IpoptOptions, solve
+from gc_ocp.estimation.solve import IpoptOptions, make_solver, solve
 from gc_ocp.estimation.synthetic import default_truth, synthetic_stance
 
 
@@ -39,7 +40,7 @@ def ours(stances, model, repeats: int):
         t0 = time.perf_counter()
         prob = build_estimation(stances, model)
         t1 = time.perf_counter()
-        solver = ca.nlpsol("bench", "ipopt", {"x": prob.x, "f": prob.objective}, IpoptOptions().as_dict())
+        solver = make_solver(prob, IpoptOptions())
         t2 = time.perf_counter()
         sol = solver(x0=prob.x0, lbx=prob.lbx, ubx=prob.ubx)
         t3 = time.perf_counter()
@@ -125,14 +126,14 @@ def scaling(sizes: list[int], fd_sizes: list[int], repeats: int, budget: float, 
            f" {'ms/frame':>8} {'iters':>5} {'ms/iter':>8} {'runs':>4} {'J ours':>10} {'FD s':>8} {'J FD':>10} {'FD/ours':>8} {'FD/Ipopt':>8}")
     print(hdr)
     print("-" * len(hdr))
-    F, T, I = [], [], []
+    F, T, It = [], [], []
     for n in sizes:
         stances = [synthetic_stance("left" if i % 2 == 0 else "right", truth, t0=1.0 * i) for i in range(n)]
         frames = sum(s.n for s in stances)
         o, prob = ours(stances, model, repeats if n <= big else 1)
         F.append(frames)
         T.append(o["total"])
-        I.append(o["ipopt"])
+        It.append(o["ipopt"])
         fd = ""
         if n in fd_sizes:
             b = baseline(prob, budget)
@@ -144,7 +145,7 @@ def scaling(sizes: list[int], fd_sizes: list[int], repeats: int, budget: float, 
               f" {1e3 * o['ipopt'] / max(o['iters'], 1):8.1f} {o['n']:4d} {o['obj']:10.3g}{fd}")
     if len(F) >= 2:
         s_tot = np.polyfit(np.log(F), np.log(T), 1)[0]
-        s_ip = np.polyfit(np.log(F), np.log(I), 1)[0]
+        s_ip = np.polyfit(np.log(F), np.log(It), 1)[0]
         print(f"   log-log slope of time vs frames: total {s_tot:.2f}, Ipopt only {s_ip:.2f} (1 = linear)")
     print(f"   (times: median of 'runs' runs (1 above {big} stances, to keep the run short); FD baseline once;"
           f" '>' = FD stopped at the {budget:.0f} s budget, so the ratio is a lower bound)")

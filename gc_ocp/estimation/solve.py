@@ -244,10 +244,8 @@ def fit_quality(fits: list, stances) -> tuple[dict, dict]:
     return rms, cop
 
 
-def solve(problem: EstimationProblem, options: IpoptOptions | None = None, x0: np.ndarray | None = None,
-          raise_on_failure: bool = True) -> EstimationResult:
-    """Solve with Ipopt (exact CasADi derivatives). Raises :class:`SolveError` carrying the
-    result when Ipopt does not converge (unless ``raise_on_failure=False``)."""
+def make_solver(problem: EstimationProblem, options: IpoptOptions | None = None) -> ca.Function:
+    """The Ipopt solver (a ``casadi.Function``) with our gradient and structured Hessian callbacks."""
     options = options or IpoptOptions()
     nlp = {"x": problem.x, "f": problem.objective}
     opts = options.as_dict()
@@ -264,6 +262,15 @@ def solve(problem: EstimationProblem, options: IpoptOptions | None = None, x0: n
     else:
         raise ValueError(f'IpoptOptions.hessian must be "exact" or "gauss-newton", but got "{options.hessian}"')
     solver = ca.nlpsol("gc_ocp_fit", "ipopt", nlp, opts)
+    return solver
+
+
+def solve(problem: EstimationProblem, options: IpoptOptions | None = None, x0: np.ndarray | None = None,
+          raise_on_failure: bool = True) -> EstimationResult:
+    """Solve with Ipopt (exact CasADi derivatives). Raises :class:`SolveError` carrying the
+    result when Ipopt does not converge (unless ``raise_on_failure=False``)."""
+    options = options or IpoptOptions()
+    solver = make_solver(problem, options)
     x_init = problem.x0 if x0 is None else x0
     t0 = _time.perf_counter()
     sol = solver(x0=x_init, lbx=problem.lbx, ubx=problem.ubx)
