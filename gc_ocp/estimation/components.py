@@ -210,7 +210,30 @@ class PoseCorrection:
         return tr @ B.T, rot @ B.T, tr @ dB.T, rot @ dB.T
 
 
-Component = ContactLaw | SoleCorrection | PoseCorrection
+@dataclass(frozen=True)
+class BeltSpeed:
+    """Correction of the treadmill belt speed [m/s], one per treadmill trial.
+
+    The nominal speed (``Trial.belt_velocity``) is rarely known to better than a few cm/s, and the
+    sliding velocity of every unit is taken relative to the belt: a small error turns Coulomb
+    friction into a large spurious shear force. Gaussian prior N(0, sigma^2), bounds +-bound.
+    Trials with no belt (overground) get no variable.
+    """
+
+    sigma: float = 0.1
+    bound: float = 0.5
+    name: str = "belt"
+
+    def declare(self, b: Builder) -> None:
+        for trial in dict.fromkeys(st.trial for st in b.stances if np.any(st.belt_velocity != 0)):
+            b.prior_variable((self.name, trial), 1, self.sigma, self.bound)
+
+    def correction(self, b: Builder, trial: str):
+        key = (self.name, trial)
+        return b.get(key) if b.has(key) else 0.0
+
+
+Component = ContactLaw | SoleCorrection | PoseCorrection | BeltSpeed
 
 
 def seed_model(mu: float = 0.0) -> tuple:
@@ -219,5 +242,6 @@ def seed_model(mu: float = 0.0) -> tuple:
 
 
 def full_model() -> tuple:
-    """Today's model: contact law with k per unit, shared n, c, mu; sole and pose corrections."""
-    return (ContactLaw(), SoleCorrection(), PoseCorrection())
+    """Today's model: contact law with k per unit, shared n, c, mu; sole and pose corrections;
+    belt-speed correction (treadmill trials only)."""
+    return (ContactLaw(), SoleCorrection(), PoseCorrection(), BeltSpeed())

@@ -40,10 +40,10 @@ class Weights:
         return 1.0 / np.array([sf, sf, sf, sf * self.torque_length, sf * self.torque_length, sf * self.torque_length])
 
 
-N_Y = 35
+N_Y = 36
 """Per-frame model inputs that depend on the decision vector (all *linearly*):
 dp, dth, ddp, ddth (12, pose correction and its rate), unit positions in their parent frames
-(15, column-major 3 x 5), log k (5), n, c, mu."""
+(15, column-major 3 x 5), log k (5), n, c, mu, belt-speed correction (1, [m/s])."""
 N_D = 55
 """Per-frame numeric data: Rh(9, column-major), oh, vh, wh, Rt(9), ot, vt, wt, measured wrench (6),
 inverse sigmas (6), ground height (1), belt velocity (3), reference point (3)."""
@@ -80,6 +80,7 @@ def _contact_frame_function(depth_smoothing: float, slip_smoothing: float) -> ca
     loc = ca.reshape(y[12:27], 3, 5)
     k = ca.exp(y[27:32])
     n, c, mu = y[32], y[33], y[34]
+    belt = belt - ca.vertcat(y[35], 0, 0)  # the belt runs along -X: a faster belt is more negative
     F = ca.SX.zeros(3)
     M = ca.SX.zeros(3)
     forces = []
@@ -166,6 +167,9 @@ class Builder:
             return z if raw else ca.exp(z)
         return z * spec["scale"]
 
+    def has(self, key: tuple) -> bool:
+        return key in self._index
+
     @property
     def specs(self) -> list[dict]:
         return self._specs
@@ -214,7 +218,7 @@ def build_estimation(
     stances: list[StanceData], model: tuple, weights: Weights | None = None
 ) -> EstimationProblem:
     """Build the NLP for ``stances`` under ``model`` (a tuple of components)."""
-    from gc_ocp.estimation.components import ContactLaw, PoseCorrection, SoleCorrection
+    from gc_ocp.estimation.components import BeltSpeed, ContactLaw, PoseCorrection, SoleCorrection
 
     if not stances:
         raise ModelError("No stances to fit: the trial has no usable stance (see `gc-ocp info`).")
@@ -228,6 +232,7 @@ def build_estimation(
     b.finalize()
     sole = next((m for m in model if isinstance(m, SoleCorrection)), None)
     pose = next((m for m in model if isinstance(m, PoseCorrection)), None)
+    belt = next((m for m in model if isinstance(m, BeltSpeed)), None)
 
     frame_fn = _contact_frame_function(law.depth_smoothing, law.slip_smoothing)
     grad_fn, hess_fn = _frame_cost_derivatives(frame_fn)
@@ -247,7 +252,8 @@ def build_estimation(
             dp, dth, ddp, ddth = pose.trajectories(b, i)
         else:
             dp = dth = ddp = ddth = ca.MX.zeros(3, T)
-        shared = ca.vertcat(ca.vec(loc), *par["k"], par["n"], par["c"], par["mu"])
+        dv = belt.correction(b, st.trial) if belt is not None else 0.0
+        shared = ca.vertcat(ca.vec(loc), *par["k"], par["n"], par["c"], par["mu"], dv)
         Y = ca.vertcat(dp, dth, ddp, ddth, ca.repmat(shared, 1, T))  # N_Y x T, linear in x
         # Y = reshape(A x + y0): A is constant because every component maps x linearly
         A = ca.Function("A", [x], [ca.jacobian(ca.vec(Y), x)])(np.zeros(x.shape[0]))

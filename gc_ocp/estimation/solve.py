@@ -74,6 +74,7 @@ class EstimationResult:
     rms: dict
     cop_rms_mm: dict
     stance_fits: list = field(default_factory=list)
+    belt_speed: dict = field(default_factory=dict)
     covariance: np.ndarray | None = None
     problem: EstimationProblem | None = None
 
@@ -96,6 +97,8 @@ class EstimationResult:
             if side in self.pose_correction_rms:
                 pc = self.pose_correction_rms[side]
                 lines.append(f"{side:>5} pose correction RMS: {pc['mm']:.2f} mm, {pc['deg']:.2f} deg")
+        for trial, v in self.belt_speed.items():
+            lines.append(f"belt speed ({trial}): {v['value']:.3f} ± {v['se']:.3f} m/s (given {v['nominal']:.3f})")
         for k, v in self.params.get("shared", {}).items():
             if not k.endswith("_se"):
                 lines.append(f"shared {k} = {v:.4g} ± {self.params['shared'].get(k + '_se', float('nan')):.2g}")
@@ -109,6 +112,7 @@ class EstimationResult:
             "rms": self.rms,
             "cop_rms_mm": self.cop_rms_mm,
             "solver": {"status": self.status, "iterations": self.iterations, "seconds": self.seconds},
+            **({"belt_speed_m_s": self.belt_speed} if self.belt_speed else {}),
         }
 
 
@@ -181,6 +185,15 @@ def decode(problem: EstimationProblem, x: np.ndarray, cov: np.ndarray | None = N
             else:
                 params[side][pname] = p.value_for(side)
                 params[side][pname + "_se"] = 0.0
+    belt_speed: dict = {}
+    for st in problem.stances:
+        key = ("belt", st.trial)
+        if b.has(key) and st.trial not in belt_speed:
+            sl = b._index[key]
+            spec = next(s_ for s_ in b.specs if s_["key"] == key)
+            belt_speed[st.trial] = {"value": float(-st.belt_velocity[0] + x[sl][0] * spec["scale"]),
+                                    "se": float(np.sqrt(max(var[sl][0], 0.0)) * spec["scale"]),
+                                    "nominal": float(-st.belt_velocity[0])}
     sole_mm: dict = {}
     if sole is not None:
         for side in SIDES:
@@ -215,6 +228,7 @@ def decode(problem: EstimationProblem, x: np.ndarray, cov: np.ndarray | None = N
         for s, v in pose_sq.items() if v[0]
     }
     return {"params": {k: v for k, v in params.items() if v}, "sole_corrections_mm": sole_mm,
+            "belt_speed": belt_speed,
             "pose_correction_rms": pose_rms, "stance_fits": fits}
 
 
@@ -287,6 +301,7 @@ def solve(problem: EstimationProblem, options: IpoptOptions | None = None, x0: n
         seconds=seconds, objective=float(sol["f"]), params=dec["params"],
         sole_corrections_mm=dec["sole_corrections_mm"], pose_correction_rms=dec["pose_correction_rms"],
         rms=rms, cop_rms_mm=cop, stance_fits=dec["stance_fits"], covariance=cov, problem=problem,
+        belt_speed=dec["belt_speed"],
     )
     if not success and raise_on_failure:
         raise SolveError(f"Ipopt did not converge: {status} after {result.iterations} iterations", result)
