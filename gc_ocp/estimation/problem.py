@@ -129,7 +129,8 @@ class Builder:
         self.x: ca.MX | None = None
 
     # --- declaration pass -------------------------------------------------------------------
-    def _add(self, key: tuple, size: int, x0, lb, ub, kind: str, scale, log: bool) -> None:
+    def _add(self, key: tuple, size: int, x0, lb, ub, kind: str, scale, log: bool,
+             prior_weight: float = 0.0, prior_mean: float = 0.0) -> None:
         if key in self._index:
             raise ModelError(f"Variable {key} declared twice; two components claim the same parameter.")
         start = sum(s["size"] for s in self._specs)
@@ -137,19 +138,25 @@ class Builder:
         self._specs.append(dict(key=key, size=size, x0=np.broadcast_to(x0, size).astype(float),
                                 lb=np.broadcast_to(lb, size).astype(float),
                                 ub=np.broadcast_to(ub, size).astype(float),
-                                kind=kind, scale=scale, log=log))
+                                kind=kind, scale=scale, log=log,
+                                prior_weight=np.full(size, float(prior_weight)),
+                                prior_mean=np.full(size, float(prior_mean))))
 
-    def parameter(self, key: tuple, value: float, lower: float, upper: float, log: bool = False) -> None:
-        """A physical parameter without prior. ``log``: optimise log(value) (value > 0)."""
+    def parameter(self, key: tuple, value: float, lower: float, upper: float, log: bool = False,
+                  prior_sigma: float | None = None) -> None:
+        """A physical parameter. ``log``: optimise log(value) (value > 0). ``prior_sigma``: optional
+        Gaussian prior centred on ``value``, in the optimised units (log units when ``log``)."""
+        w = 0.0 if prior_sigma is None else 1.0 / prior_sigma
         if log:
-            self._add(key, 1, np.log(value), np.log(max(lower, 1e-300)), np.log(upper), "param", 1.0, True)
+            z0 = np.log(value)
+            self._add(key, 1, z0, np.log(max(lower, 1e-300)), np.log(upper), "param", 1.0, True, w, z0)
         else:
-            self._add(key, 1, value, lower, upper, "param", 1.0, False)
+            self._add(key, 1, value, lower, upper, "param", 1.0, False, w, value)
 
     def prior_variable(self, key: tuple, size: int, sigma: float, bound: float) -> None:
         """A vector with Gaussian prior N(0, sigma^2), stored in units of sigma, bounded by +-bound."""
         b = bound / sigma
-        self._add(key, size, 0.0, -b, b, "prior", sigma, False)
+        self._add(key, size, 0.0, -b, b, "prior", sigma, False, 1.0, 0.0)
 
     def finalize(self) -> None:
         n = sum(s["size"] for s in self._specs)
@@ -178,9 +185,8 @@ class Builder:
         return np.concatenate([s[field_] for s in self._specs]) if self._specs else np.zeros(0)
 
     def prior_mask(self) -> np.ndarray:
-        if not self._specs:
-            return np.zeros(0, dtype=bool)
-        return np.concatenate([np.full(s["size"], s["kind"] == "prior") for s in self._specs])
+        """Entries of the decision vector that carry a Gaussian prior."""
+        return self.vector("prior_weight") > 0
 
 
 @dataclass
@@ -266,16 +272,17 @@ def build_estimation(
         residuals.append(ca.vec(res))
         outputs.append(wrench)
         n_data += 6 * T
-    pmask = b.prior_mask()
-    prior_idx = np.flatnonzero(pmask)
-    prior_res = x[prior_idx.tolist()] if prior_idx.size else ca.MX.zeros(0)
+    pw, pm = b.vector("prior_weight"), b.vector("prior_mean")
+    prior_idx = np.flatnonzero(pw > 0)
+    prior_res = (pw[prior_idx] * (x[prior_idx.tolist()] - pm[prior_idx]) if prior_idx.size
+                 else ca.MX.zeros(0))
     r_all = ca.vertcat(*residuals, prior_res)
     # objective, gradient and exact Hessian assembled from per-frame SX derivatives:
-    # J = sum_t phi(D_t, y_t) + 1/2 |x_prior|^2 = 1/2 |r_all|^2 with y = A x + y0, so
-    # grad = sum A^T g_t + P x and Hess = sum A^T blockdiag(H_t) A + P (P: prior selector).
+    # J = sum_t phi(D_t, y_t) + 1/2 |W (x - m)|^2 = 1/2 |r_all|^2 with y = A x + y0, so
+    # grad = sum A^T g_t + W^2 (x - m) and Hess = sum A^T blockdiag(H_t) A + W^2 (W: prior weights).
     J = 0.5 * ca.sumsqr(r_all)
-    P = ca.DM(np.diag(pmask.astype(float))) if pmask.size else ca.DM(0, 0)
-    grad = ca.mtimes(P, x) if pmask.size else ca.MX.zeros(x.shape[0])
+    P = ca.DM(np.diag(pw**2)) if pw.size else ca.DM(0, 0)
+    grad = ca.mtimes(P, x - pm) if pw.size else ca.MX.zeros(x.shape[0])
     hess = P
     for A, y0, D, T in blocks:
         Yl = ca.reshape(ca.mtimes(A, x) + y0, N_Y, T)
