@@ -26,7 +26,13 @@ import time
 import casadi as ca
 import numpy as np
 
-from gc_ocp.estimation.components import BeltSpeed, ContactLaw, Param, PoseCorrection, SoleCorrection
+from gc_ocp.estimation.components import (
+    BeltSpeed,
+    ContactLaw,
+    Param,
+    PoseCorrection,
+    SoleCorrection,
+)
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.solve import solve
 from gc_ocp.estimation.synthetic import default_truth, nominal_points, synthetic_stance
