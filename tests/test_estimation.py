@@ -142,3 +142,52 @@ def test_cli_fit(tmp_path):
     assert set(d["params"]["left"]) >= set(UNITS)
     for name in ("fit_wrench.png", "fit_sole.png", "fit_pose_corrections.png"):
         assert (tmp_path / name).stat().st_size > 10_000
+
+
+REAL = ["plugingait", "rajagopal", "gait2392"]
+
+
+def _real(name):
+    import dataclasses
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from conftest import c3d_trial, gait2392_trial, rajagopal_trial
+
+    from gc_ocp.kinematics import compute_kinematics
+
+    t = {"plugingait": c3d_trial, "rajagopal": rajagopal_trial, "gait2392": gait2392_trial}[name]()
+    if name == "gait2392":  # treadmill: nominal belt speed from the markers, refined by the fit
+        from gc_ocp.io import estimate_belt_speed
+
+        v, _ = estimate_belt_speed(t)
+        t = dataclasses.replace(t, belt_velocity=np.array([-v, 0.0, 0.0]))
+    return t, compute_kinematics(t)
+
+
+@pytest.mark.parametrize("name", REAL)
+def test_real_trials_in_sample(name):
+    """Issue targets, every foot, in-sample: superior <= 3 % BW, anterior <= 5 % BW, lateral <= 3 % BW,
+    COP <= 25 mm, all k > 0 (true by construction: k = exp(z), checked anyway)."""
+    from gc_ocp.estimation.fit import fit
+
+    with __import__("warnings").catch_warnings():
+        __import__("warnings").simplefilter("ignore")  # height estimated from markers (OpenSim)
+        r = fit([_real(name)]).result
+    for side in ("left", "right"):
+        rms = r.rms[side]
+        assert rms["superior_force_pct_bw"] <= 3.0, (name, side, rms)
+        assert rms["anterior_force_pct_bw"] <= 5.0, (name, side, rms)
+        assert rms["lateral_force_pct_bw"] <= 3.0, (name, side, rms)
+        assert r.cop_rms_mm[side] <= 25.0, (name, side, r.cop_rms_mm)
+        assert all(r.params[side][u]["k"] > 0 for u in UNITS)
+
+
+def test_rajagopal_holdout_right():
+    """The Rajagopal right foot has two full stances: hold out the second one."""
+    from gc_ocp.estimation.fit import fit
+
+    with __import__("warnings").catch_warnings():
+        __import__("warnings").simplefilter("ignore")
+        rep = fit([_real("rajagopal")], holdout="right@1.4")
+    assert rep.heldout.rms["right"]["superior_force_pct_bw"] <= 5.0

@@ -79,6 +79,16 @@ class FitReport:
         return s
 
 
+def _with_height(trial: Trial, kin: TrialKinematics) -> Trial:
+    """The trial with the height the kinematics used, when the files gave none (with a warning)."""
+    if trial.height is not None or kin.info.get("height") is None:
+        return trial
+    h = float(kin.info["height"])
+    warnings.warn(f"{trial.source}: no subject height given; using {h:.3f} m estimated from the markers "
+                  "by the kinematics (pass height=... / --height M to override).", stacklevel=3)
+    return dataclasses.replace(trial, height=h, height_source="estimated from markers")
+
+
 def _with_init(model: tuple, k0: dict | None) -> tuple:
     if k0 is None:
         return model
@@ -132,6 +142,7 @@ def fit(
     say = progress or (lambda s: None)
     model = model or full_model()
     data: list[StanceData] = []
+    trials = [(_with_height(t, k), k) for t, k in trials]
     for trial, kin in trials:
         for st in trial.stances:
             data.append(stance_data(trial, kin, st))
