@@ -119,6 +119,50 @@ def _frame_cost_derivatives(frame_fn: ca.Function) -> tuple[ca.Function, ca.Func
     return ca.Function("frame_grad", [D, y], [g]), ca.Function("frame_hess", [D, y], [H])
 
 
+def _assemble_hessian(As: list[ca.DM], BDs: list[ca.MX], nx: int) -> ca.MX:
+    """``sum_s A_s^T BD_s A_s`` assembled in time linear in the number of stances.
+
+    Summing ``S`` global ``nx x nx`` matrices costs O(S * nnz). Instead, the variables are split
+    into *shared* ones (used by several stances: contact parameters, sole corrections) and each
+    stance's *own* ones (its pose correction); the Hessian has an arrow structure
+    ``[[H_SS, H_S1, H_S2, ...], [H_1S, H_11, 0, ...], ...]`` whose small shared block is the only
+    sum, and it is permuted back to the decision-vector order by one constant product.
+    """
+    cols = [np.unique(np.asarray(A.sparsity().get_col(), dtype=int)) for A in As]
+    count = np.zeros(nx, dtype=int)
+    for c in cols:
+        count[c] += 1
+    shared = np.flatnonzero(count >= 2)
+    pos_shared = {v: i for i, v in enumerate(shared)}
+    own = [c[count[c] == 1] for c in cols]
+    unused = np.flatnonzero(count == 0)
+    nS = shared.size
+    HSS = ca.MX(nS, nS)
+    HSO, HOO = [], []
+    for A, BD, c, o in zip(As, BDs, cols, own, strict=True):
+        sc = c[count[c] >= 2]
+        E = ca.DM(nS, sc.size)
+        for j, v in enumerate(sc):
+            E[pos_shared[v], j] = 1.0
+        AS, AO = A[:, sc.tolist()], A[:, o.tolist()]
+        BA_S, BA_O = ca.mtimes(BD, AS), ca.mtimes(BD, AO)
+        HSS = HSS + ca.mtimes(E, ca.mtimes(ca.mtimes(AS.T, BA_S), E.T))
+        HSO.append(ca.mtimes(E, ca.mtimes(AS.T, BA_O)))
+        HOO.append(ca.mtimes(AO.T, BA_O))
+    sizes = [o.size for o in own]
+    n_own = sum(sizes)
+    rows = [ca.horzcat(HSS, *HSO, ca.MX(nS, unused.size))]
+    before = 0
+    for hso, hoo, n in zip(HSO, HOO, sizes, strict=True):
+        rows.append(ca.horzcat(hso.T, ca.MX(n, before), hoo, ca.MX(n, n_own - before - n + unused.size)))
+        before += n
+    rows.append(ca.MX(unused.size, nx))
+    Hp = ca.vertcat(*rows)
+    order = np.concatenate([shared, *own, unused]).astype(int)
+    Pm = ca.DM(ca.Sparsity.triplet(nx, nx, list(range(nx)), order.tolist()), 1.0)  # x_perm = Pm x
+    return ca.mtimes(Pm.T, ca.mtimes(Hp, Pm))
+
+
 class Builder:
     """Collects decision variables from the model components (two passes: declare, then use)."""
 
@@ -281,15 +325,14 @@ def build_estimation(
     # J = sum_t phi(D_t, y_t) + 1/2 |W (x - m)|^2 = 1/2 |r_all|^2 with y = A x + y0, so
     # grad = sum A^T g_t + W^2 (x - m) and Hess = sum A^T blockdiag(H_t) A + W^2 (W: prior weights).
     J = 0.5 * ca.sumsqr(r_all)
-    P = ca.DM(np.diag(pw**2)) if pw.size else ca.DM(0, 0)
-    grad = ca.mtimes(P, x - pm) if pw.size else ca.MX.zeros(x.shape[0])
-    hess = P
+    grad = ca.DM(pw**2) * (x - pm) if pw.size else ca.MX.zeros(x.shape[0])
+    gs, hs = [], []
     for A, y0, D, T in blocks:
         Yl = ca.reshape(ca.mtimes(A, x) + y0, N_Y, T)
-        g = grad_fn.map(T)(D, Yl)
-        H = hess_fn.map(T)(D, Yl)
-        grad = grad + ca.mtimes(A.T, ca.vec(g))
-        hess = hess + ca.mtimes(A.T, ca.mtimes(ca.diagcat(*ca.horzsplit(H, N_Y)), A))
+        gs.append(ca.mtimes(A.T, ca.vec(grad_fn.map(T)(D, Yl))))
+        hs.append(ca.diagcat(*ca.horzsplit(hess_fn.map(T)(D, Yl), N_Y)))
+    grad = grad + ca.sum2(ca.horzcat(*gs)) if gs else grad
+    hess = _assemble_hessian([blk[0] for blk in blocks], hs, x.shape[0]) + ca.DM(np.diag(pw**2))
     return EstimationProblem(
         stances=stances, model=model, weights=weights, builder=b, x=b.x, objective=J,
         residuals=r_all, n_data=n_data, x0=b.vector("x0"), lbx=b.vector("lb"), ubx=b.vector("ub"),
