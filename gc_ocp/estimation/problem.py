@@ -64,13 +64,13 @@ def frame_data(st: StanceData, weights: Weights) -> np.ndarray:
 
 
 def _contact_frame_function(depth_smoothing: float, slip_smoothing: float) -> ca.Function:
-    """Per-frame weighted residual, model wrench and unit forces of one foot, ``(D, y)`` -> ...
+    """Per-frame weighted residual and model wrench of one foot, ``(D, y) -> (res, wrench)``.
 
     SX, so that it can be mapped over frames and differentiated cheaply (see :data:`N_D`, :data:`N_Y`).
     """
-    from gc_ocp.contact.laws import DEFAULT_SMOOTHING, unit_force_function
+    from gc_ocp.contact.laws import DEFAULT_SMOOTHING
+    from gc_ocp.contact.wrench_model import wrench_function
 
-    unit_force = unit_force_function(smooth=True)
     D = ca.SX.sym("D", N_D)
     y = ca.SX.sym("y", N_Y)
     Rhm, oh, vh, wh = ca.reshape(D[0:9], 3, 3), D[9:12], D[12:15], D[15:18]
@@ -81,9 +81,7 @@ def _contact_frame_function(depth_smoothing: float, slip_smoothing: float) -> ca
     k = ca.exp(y[27:32])
     n, c, mu = y[32], y[33], y[34]
     belt = belt - ca.vertcat(y[35], 0, 0)  # the belt runs along -X: a faster belt is more negative
-    F = ca.SX.zeros(3)
-    M = ca.SX.zeros(3)
-    forces = []
+    P, V = [], []
     for i, u in enumerate(UNITS):
         if UNIT_PARENT[u] == "hindfoot":
             R, o, v, w = Rhm, oh, vh, wh
@@ -95,17 +93,15 @@ def _contact_frame_function(depth_smoothing: float, slip_smoothing: float) -> ca
         # small pose correction about the hindfoot origin (first order in the rotation)
         r = p - oh
         rdot = vel - vh
-        p = p + dp + ca.cross(dth, r)
-        vel = vel + ddp + ca.cross(ddth, r) + ca.cross(dth, rdot)
-        f = unit_force(p, vel, k[i], n, c, mu, ground, belt, depth_smoothing,
-                       DEFAULT_SMOOTHING.eps_damping, slip_smoothing)
-        forces.append(f)
-        F = F + f
-        M = M + ca.cross(p - ref, f)
-    wrench = ca.vertcat(F, M)
+        P.append(p + dp + ca.cross(dth, r))
+        V.append(vel + ddp + ca.cross(ddth, r) + ca.cross(dth, rdot))
+    # the same equivalent-wrench Function (Eqs 4-9) as the seed study, smooth variant
+    wrench = wrench_function(True, len(UNITS))(
+        ca.horzcat(*P), ca.horzcat(*V), k, n, c, mu, ground, belt, ref,
+        depth_smoothing, DEFAULT_SMOOTHING.eps_damping, slip_smoothing,
+    )
     res = (wrench - meas) * wts
-    return ca.Function("foot_frame", [D, y], [res, wrench, ca.vertcat(*forces)], ["D", "y"],
-                       ["res", "wrench", "forces"])
+    return ca.Function("foot_frame", [D, y], [res, wrench], ["D", "y"], ["res", "wrench"])
 
 
 def _frame_cost_derivatives(frame_fn: ca.Function) -> tuple[ca.Function, ca.Function]:
@@ -311,7 +307,7 @@ def build_estimation(
         A = ca.DM(A)
         Yl = ca.reshape(ca.mtimes(A, x) + ca.DM(y0), N_Y, T)
         D = frame_data(st, weights)
-        res, wrench, _ = frame_fn.map(T)(D, Yl)
+        res, wrench = frame_fn.map(T)(D, Yl)
         blocks.append((A, ca.DM(y0), D, T))
         residuals.append(ca.vec(res))
         outputs.append(wrench)

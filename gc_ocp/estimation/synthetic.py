@@ -114,7 +114,7 @@ def synthetic_stance(
     D = frame_data(probe, Weights())
     y = np.concatenate([np.zeros(12), true_pts.T.ravel(order="F"), np.log(np.asarray(truth["k"], float)),
                         [truth["n"], truth["c"], truth["mu"], 0.0]])
-    _, wrench, _ = _contact_frame_function(5e-4, 0.05).map(T)(D, np.tile(y[:, None], (1, T)))
+    _, wrench = _contact_frame_function(5e-4, 0.05).map(T)(D, np.tile(y[:, None], (1, T)))
     meas = np.asarray(wrench).T
     rng = rng or np.random.default_rng(0)
     if force_noise > 0:
