@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from gc_ocp.cli import main
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS
 from gc_ocp.sole import UNITS
@@ -42,3 +44,44 @@ def test_reproduce_seed_cli(tmp_path, capsys):
         assert all(isinstance(v, float) for v in t2[side].values())
     for name in ("table1.md", "table2.md"):
         assert (out / name).read_text().startswith("# Table")
+
+
+def test_info_on_bundled_example(capsys):
+    assert main(["info"]) == 0
+    out = capsys.readouterr().out
+    assert "test_small" in out and "right" in out and "left" in out
+
+
+def test_kinematics_cli_writes_trajectories_summary_and_figure(tmp_path):
+    import numpy as np
+
+    assert main(["kinematics", "--out", str(tmp_path), "--format", "npz"]) == 0
+    d = np.load(tmp_path / "sole_points.npz")
+    n = d["time"].size
+    assert d["left_positions"].shape == (n, 5, 3) and d["q"].shape == (n, 27)
+    s = json.loads((tmp_path / "kinematics_summary.json").read_text())
+    assert s["marker_rms_mm"]["median"] < 15.0  # skin-marker artefact bound, as in test_kinematics
+    assert (tmp_path / "kinematics.png").stat().st_size > 10_000
+    assert not list(tmp_path.glob(".*.tmp*"))  # no temporary file left behind
+
+
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["info", "no_such_trial.c3d"], "does not exist"),
+        (["info", "walk.trc"], "does not exist"),
+        (["fit", "--holdout", "nonexistent", "--out", "OUT"], "matches 0 stances"),
+    ],
+)
+def test_bad_input_exits_2_with_one_clear_message(argv, needle, capsys, tmp_path):
+    argv = [str(tmp_path / "o") if a == "OUT" else a for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert needle in err and "Traceback" not in err
+
+
+def test_trc_without_grf_names_the_option(tmp_path, capsys):
+    trc = tmp_path / "walk.trc"
+    trc.write_text("PathFileType\t4\n")
+    assert main(["info", str(trc)]) == 2
+    assert "--grf" in capsys.readouterr().err
