@@ -116,6 +116,14 @@ def real_trial(repeats: int, budget: float):
     print(f"   ratio baseline/(Ipopt call only, excl. build+nlpsol setup) = {b['total'] / o['ipopt']:.1f}x")
     print(f"   note: gc_ocp.estimation.solve.solve() end to end (nlpsol setup + Ipopt + covariance + decoding)"
           f" took {t_full:.2f} s")
+    from gc_ocp.estimation.fit import best_of
+
+    t = time.perf_counter()
+    r = best_of(data, model)
+    t_fit = time.perf_counter() - t
+    print(f"   ours, fit() path (2 starts: direct + prior continuation, best kept): {t_fit:.2f} s, "
+          f"J = {r.objective:.6g}; ratio baseline/fit() = {b['total'] / t_fit:.1f}x "
+          f"(J baseline/fit() = {b['obj'] / r.objective:.4g})")
 
 
 def scaling(sizes: list[int], fd_sizes: list[int], repeats: int, budget: float, big: int):

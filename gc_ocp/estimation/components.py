@@ -15,7 +15,7 @@ denser sole, other friction laws, ...) as further components of this kind.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -146,6 +146,10 @@ class SoleCorrection:
     fixed: dict | None = None
     name: str = "sole"
 
+    def with_prior_scale(self, f: float) -> SoleCorrection:
+        """The same component with its prior width multiplied by ``f`` (the bound is kept)."""
+        return replace(self, sigma=self.sigma * f)
+
     def declare(self, b: Builder) -> None:
         if self.fixed is not None:
             return
@@ -175,6 +179,10 @@ class PoseCorrection:
     knot_spacing: float = 0.1
     bound_sigmas: float = 6.0
     name: str = "pose"
+
+    def with_prior_scale(self, f: float) -> PoseCorrection:
+        """The same component with its prior widths multiplied by ``f`` (bounds follow)."""
+        return replace(self, sigma_mm=self.sigma_mm * f, sigma_deg=self.sigma_deg * f)
 
     def basis(self, time: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """B-spline design matrices ``(n, K)`` for value and time derivative on ``time`` [s]."""
