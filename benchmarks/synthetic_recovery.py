@@ -53,6 +53,9 @@ def main() -> None:
     ap.add_argument("--stances", type=int, default=3, help="stances per foot")
     ap.add_argument("--force-noise", type=float, default=5.0, help="plate force noise sd [N]")
     ap.add_argument("--marker-noise", type=float, default=0.0, help="marker noise sd [m]")
+    ap.add_argument("--vary", type=float, default=0.0,
+                    help="stance-to-stance variation of the motion: each stance's strike/push-off pitch, "
+                         "roll and sink are scaled by U(1 - vary, 1 + vary) (0: identical stances)")
     args = ap.parse_args()
 
     truth = default_truth()
@@ -74,12 +77,15 @@ def main() -> None:
         f"{s}.{u}.d{a}" for s in SIDES for u in UNITS for a in "xyz"]
     truth_vec = np.concatenate([np.log(np.tile(truth["k"], 2)), [truth["n"], truth["c"], truth["mu"]],
                                 np.concatenate([disp[s].ravel() * 1e3 for s in SIDES])])
+    gs = np.random.default_rng(200)
+    styles = {(side, j): 1.0 + gs.uniform(-args.vary, args.vary, 4) for side in SIDES for j in range(args.stances)}
     est, sd_crb = [], []
     t_start = time.perf_counter()
     for draw in range(args.draws):
         rng = np.random.default_rng(draw)
         sts = [synthetic_stance(side, truth, nominal_points(side) + disp[side], t0=1.1 * j + 0.55 * i,
-                                sink=0.010, rng=rng, force_noise=args.force_noise, marker_noise=mn, body_weight=bw)
+                                sink=0.010, rng=rng, force_noise=args.force_noise, marker_noise=mn, body_weight=bw,
+                                style=styles[(side, j)])
                for i, side in enumerate(SIDES) for j in range(args.stances)]
         prob = build_estimation(sts, model, weights)
         res = solve(prob, raise_on_failure=False)
@@ -97,7 +103,7 @@ def main() -> None:
     spread = est.std(0, ddof=1)
     crb = np.sqrt(np.mean(sd_crb**2, axis=0))
     print(f"\n{args.draws} draws, {args.stances} stances/foot, force noise {args.force_noise} N, "
-          f"marker noise {mn * 1e3:.1f} mm, {time.perf_counter() - t_start:.0f} s")
+          f"marker noise {mn * 1e3:.1f} mm, stance variation {args.vary}, {time.perf_counter() - t_start:.0f} s")
     print("k as log k (so bias/spread are relative errors); sole corrections in mm")
     print(f"{'parameter':>14} {'truth':>9} {'bias':>9} {'spread':>9} {'CRB sd':>9} {'spread/CRB':>10}")
     for i, nm in enumerate(names):

@@ -43,8 +43,13 @@ def nominal_points(side: str) -> np.ndarray:
 
 
 def rolling_foot(side: str, duration: float = 0.65, rate: float = 100.0, t0: float = 0.0,
-                 sink: float = 0.006, margin: float = 0.03) -> FootKinematics:
-    """Foot kinematics over one stance (plus ``margin`` [s] each side), ``lab`` frame, ground z = 0."""
+                 sink: float = 0.006, margin: float = 0.03, style: np.ndarray | None = None) -> FootKinematics:
+    """Foot kinematics over one stance (plus ``margin`` [s] each side), ``lab`` frame, ground z = 0.
+
+    style: optional 4 factors (strike pitch, push-off pitch, roll, sink) scaling the nominal
+    motion, so that stances differ as real ones do (default: all 1)."""
+    fp, fo, fr, fs = (1.0, 1.0, 1.0, 1.0) if style is None else style
+    sink = sink * fs
     n = int(round((duration + 2 * margin) * rate)) + 1
     t = t0 - margin + np.arange(n) / rate
     s = np.clip((t - t0) / duration, -0.2, 1.2)  # stance phase
@@ -52,13 +57,13 @@ def rolling_foot(side: str, duration: float = 0.65, rate: float = 100.0, t0: flo
     def smooth(u):
         u = np.clip(u, 0, 1)
         return u * u * (3 - 2 * u)
-    pitch = np.deg2rad(12) * (1 - smooth(s / 0.15)) - np.deg2rad(20) * smooth((s - 0.55) / 0.45)
+    pitch = np.deg2rad(12 * fp) * (1 - smooth(s / 0.15)) - np.deg2rad(20 * fo) * smooth((s - 0.55) / 0.45)
     # positive pitch about +y lowers the toes: heel strike has toes up -> negative rotation about y
     ang = -pitch
     # roll about the long axis: inverted 6 deg at strike, everted 4 deg in mid-stance, inverted
     # 5 deg at push-off (so medial and lateral units load differently over time)
-    roll = np.deg2rad(6) * (1 - smooth(s / 0.2)) - np.deg2rad(4) * np.sin(np.pi * np.clip(s, 0, 1)) \
-        + np.deg2rad(5) * smooth((s - 0.6) / 0.4)
+    roll = fr * (np.deg2rad(6) * (1 - smooth(s / 0.2)) - np.deg2rad(4) * np.sin(np.pi * np.clip(s, 0, 1))
+                 + np.deg2rad(5) * smooth((s - 0.6) / 0.4))
     if side == "right":
         roll = -roll
     c_, s_ = np.cos(roll), np.sin(roll)
@@ -97,14 +102,14 @@ def synthetic_stance(
     side: str, truth: dict, points_local: np.ndarray | None = None, body_weight: float = 700.0,
     height: float = 1.75, rate: float = 100.0, duration: float = 0.65, t0: float = 0.0,
     rng: np.random.Generator | None = None, force_noise: float = 0.0, marker_noise: float = 0.0,
-    sink: float = 0.006, label: str | None = None,
+    sink: float = 0.006, label: str | None = None, style: np.ndarray | None = None,
 ) -> StanceData:
     """One synthetic stance. ``truth``: ``{"k": (5,), "n", "c", "mu"}`` [SI]; ``points_local``:
     true unit positions (default nominal); ``force_noise`` [N] and ``marker_noise`` [m] standard
     deviations (marker noise perturbs the foot pose given to the fitter, through 3 virtual markers)."""
     from gc_ocp.estimation.problem import Weights, _contact_frame_function, frame_data
 
-    foot = rolling_foot(side, duration, rate, t0, sink)
+    foot = rolling_foot(side, duration, rate, t0, sink, style=style)
     true_pts = nominal_points(side) if points_local is None else np.asarray(points_local)
     true_foot = foot.with_points(true_pts)
     T = foot.time.size
