@@ -109,24 +109,13 @@ def stances_from_trial(trial, kinematics) -> list[StanceData]:
     stance reference point; the ground is the plate's surface height; the belt velocity is the
     trial's (zeros overground). Frames with non-finite kinematics or plate data are dropped.
     """
+    from gc_ocp.stance_window import cut_stance
+
     out = []
     for st in trial.stances:
-        if st.side not in kinematics.feet:
-            raise InputError(f"Stance {st.label} is on the {st.side} foot but the kinematics have "
-                             f"feet {sorted(kinematics.feet)}")
-        d = stance_data(kinematics.feet[st.side], st.side, st.label, st.t_on, st.t_off,
-                        st.reference_point, None, trial.plates[st.plate].surface_height,
-                        trial.belt_velocity)
-        d = d.with_measured(trial.stance_wrench(st, d.time))
-        ok = (np.isfinite(d.positions).all(axis=(1, 2)) & np.isfinite(d.velocities).all(axis=(1, 2))
-              & np.isfinite(d.measured).all(axis=1))
-        if not ok.all():
-            if not ok.any():
-                raise InputError(f"Stance {st.label}: no frame with finite kinematics and plate "
-                                 "data; check marker gaps and the plate channels")
-            d = StanceData(d.side, d.label, d.time[ok], d.positions[ok], d.velocities[ok],
-                           d.measured[ok], d.reference_point, d.ground_height, d.belt_velocity)
-        out.append(d)
+        w = cut_stance(trial, kinematics, st)
+        out.append(StanceData(st.side, st.label, w.foot.time, w.foot.positions, w.foot.velocities,
+                              w.measured, w.reference_point, w.ground_height, w.belt_velocity))
     return out
 
 

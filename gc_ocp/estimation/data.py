@@ -8,6 +8,7 @@ import numpy as np
 
 from gc_ocp.errors import InputError
 from gc_ocp.sole import FootKinematics, TrialKinematics
+from gc_ocp.stance_window import cut_stance
 from gc_ocp.trial import Stance, Trial
 
 
@@ -50,29 +51,18 @@ def stance_data(
             f"{trial.source}: subject height unknown; pass height=... (CLI: --height M) so that "
             "torques can be reported in % BW x height."
         )
-    foot = kin.feet[stance.side]
-    t = foot.time
-    lo, hi = stance.t_on - margin, stance.t_off + margin
-    sel = (t >= max(lo, t[0])) & (t <= min(hi, t[-1]))
-    if sel.sum() < 5:
-        raise InputError(
-            f"{trial.source}: stance {stance.label} has fewer than 5 kinematic frames; "
-            "check the marker rate and the stance window."
-        )
-    f = foot.window(t[sel][0], t[sel][-1])
-    meas = trial.stance_wrench(stance, f.time)
-    plate = trial.plates[stance.plate]
+    w = cut_stance(trial, kin, stance, margin, min_frames=5)
     return StanceData(
         trial=trial.name,
         side=stance.side,
         label=f"{trial.name}:{stance.label}",
-        time=f.time,
-        foot=f,
-        measured=meas,
-        in_contact=(f.time >= stance.t_on) & (f.time <= stance.t_off),
-        reference_point=np.asarray(stance.reference_point, float),
-        ground_height=float(plate.surface_height),
-        belt_velocity=np.asarray(trial.belt_velocity, float),
+        time=w.foot.time,
+        foot=w.foot,
+        measured=w.measured,
+        in_contact=w.in_contact,
+        reference_point=w.reference_point,
+        ground_height=w.ground_height,
+        belt_velocity=w.belt_velocity,
         body_weight=trial.body_weight,
         height=float(trial.height),
     )
