@@ -164,9 +164,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("fit", help="Joint kinematics-contact estimation (CasADi + Ipopt).",
                        description="Co-estimate per-unit stiffness, shared exponent, damping and "
                        "friction, sole-point corrections and smooth foot-pose corrections against "
-                       "the measured wrenches of every stance; writes fit.json and figures. With "
-                       "--holdout, the named stance is left out of the fit and evaluated with the "
-                       "contact parameters fixed (only the pose correction re-estimated).")
+                       "the measured wrenches of every stance (and, on a treadmill, the belt speed); "
+                       "writes DIR/fit.json and fit_wrench.png, fit_sole.png, "
+                       "fit_pose_corrections.png. With --holdout, the named stance is left out of "
+                       "the fit and evaluated with the contact parameters fixed (only the pose "
+                       "correction re-estimated; heldout_wrench.png). Exit status 1 if Ipopt does "
+                       "not converge (the result is written to fit_failed.json), 2 on bad input.")
     _add_trial_args(p)
     p.add_argument("--holdout", help='Stance to hold out, e.g. "right@0.407s" (see `gc-ocp info`).')
     p.add_argument("--out", type=Path, required=True, help="Output folder.")
