@@ -207,3 +207,27 @@ def test_structured_derivatives_match_casadi_ad():
     g_ad = np.asarray(ca.Function("g2", [pb.x], [ca.gradient(pb.objective, pb.x)])(x)).ravel()
     assert np.abs(H - H_ad).max() <= 1e-10 * np.abs(H_ad).max()
     assert np.abs(g - g_ad).max() <= 1e-10 * np.abs(g_ad).max()
+
+
+def test_holdout_model_fixes_contact_and_applies_the_fitted_belt_speed():
+    """Held-out protocol: only the pose correction stays free; a treadmill stance gets the belt
+    speed the fit estimated for its trial (not the nominal one)."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from gc_ocp.estimation.components import BeltSpeed
+    from gc_ocp.estimation.fit import fixed_for_holdout, with_fitted_belt
+
+    _, _, sts = _stances(np.random.default_rng(5))
+    st = dataclasses.replace(sts[0], belt_velocity=np.array([-1.0, 0.0, 0.0]))
+    res = SimpleNamespace(
+        params={"left": {u: {"k": 1e5} for u in UNITS}, "right": {u: {"k": 2e5} for u in UNITS},
+                "shared": {"n": 1.4, "c": 0.9, "mu": 0.3}},
+        sole_corrections_mm={s: {u: [1.0, 0.0, -1.0] for u in UNITS} for s in ("left", "right")},
+        belt_speed={st.trial: {"value": 1.2, "se": 0.01, "nominal": 1.0}},
+    )
+    model = fixed_for_holdout(full_model(), res)
+    assert not any(isinstance(m, BeltSpeed) for m in model)
+    prob = build_estimation([with_fitted_belt(st, res)], model)
+    assert all(k[0] == "pose" for k in prob.builder._index)  # nothing else is estimated
+    assert with_fitted_belt(st, res).belt_velocity[0] == pytest.approx(-1.2)

@@ -17,15 +17,15 @@ import numpy as np
 
 from gc_ocp.errors import InputError, RankError, SolveError
 from gc_ocp.estimation.components import (
+    BeltSpeed,
     ContactLaw,
     Param,
-    PoseCorrection,
     SoleCorrection,
     full_model,
 )
 from gc_ocp.estimation.data import StanceData, stance_data
 from gc_ocp.estimation.problem import Weights, build_estimation
-from gc_ocp.estimation.solve import EstimationResult, IpoptOptions, fit_quality, solve
+from gc_ocp.estimation.solve import EstimationResult, IpoptOptions, solve
 from gc_ocp.sole import UNITS, TrialKinematics
 from gc_ocp.trial import SIDES, Trial
 
@@ -192,9 +192,14 @@ def _with_init(model: tuple, k0: dict | None) -> tuple:
 
 
 def fixed_for_holdout(model: tuple, result: EstimationResult) -> tuple:
-    """The model with every contact parameter and sole correction fixed at ``result``'s values."""
+    """The model with every contact parameter and sole correction fixed at ``result``'s values.
+
+    ``BeltSpeed`` is dropped: the fitted belt speed is applied to the held-out stance's data
+    instead (:func:`with_fitted_belt`), so that only the pose correction is re-estimated."""
     out = []
     for comp in model:
+        if isinstance(comp, BeltSpeed):
+            continue
         if isinstance(comp, ContactLaw):
             p = result.params
             kw = {}
@@ -216,6 +221,14 @@ def fixed_for_holdout(model: tuple, result: EstimationResult) -> tuple:
             comp = dataclasses.replace(comp, fixed=fixed)
         out.append(comp)
     return tuple(out)
+
+
+def with_fitted_belt(st: StanceData, result: EstimationResult) -> StanceData:
+    """``st`` with its belt velocity set to the belt speed ``result`` estimated for its trial."""
+    if st.trial not in result.belt_speed:
+        return st
+    v = result.belt_speed[st.trial]["value"]
+    return dataclasses.replace(st, belt_velocity=np.array([-v, 0.0, 0.0]))
 
 
 def fit(
@@ -263,8 +276,7 @@ def fit(
     report = FitReport(res)
     if held is not None:
         fixed = fixed_for_holdout(model, res)
-        fixed = tuple(m for m in fixed if isinstance(m, ContactLaw | SoleCorrection | PoseCorrection))
-        hp = build_estimation([held], fixed, weights)
+        hp = build_estimation([with_fitted_belt(held, res)], fixed, weights)
         hres = solve(hp, options)
         report.heldout = hres
         report.heldout_label = held.label
@@ -272,4 +284,4 @@ def fit(
     return report
 
 
-__all__ = ["fit", "FitReport", "fixed_for_holdout", "lls_initial_k", "fit_quality"]
+__all__ = ["fit", "FitReport", "fixed_for_holdout", "with_fitted_belt", "lls_initial_k", "estimate", "best_of"]

@@ -224,10 +224,6 @@ class Builder:
     def vector(self, field_: str) -> np.ndarray:
         return np.concatenate([s[field_] for s in self._specs]) if self._specs else np.zeros(0)
 
-    def prior_mask(self) -> np.ndarray:
-        """Entries of the decision vector that carry a Gaussian prior."""
-        return self.vector("prior_weight") > 0
-
 
 @dataclass
 class EstimationProblem:

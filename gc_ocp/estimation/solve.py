@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_rms_pct
+from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
 from gc_ocp.errors import SolveError
 from gc_ocp.estimation.components import ContactLaw, PoseCorrection, SoleCorrection
 from gc_ocp.estimation.problem import EstimationProblem
@@ -135,14 +135,13 @@ def _covariance(problem: EstimationProblem, x: np.ndarray) -> np.ndarray:
     n_data = problem.n_data
     dof = max(n_data - x.size, 1)
     s2 = float(r[:n_data] @ r[:n_data]) / dof  # a-posteriori variance factor of the data
-    H = Jr.T @ Jr
     # data part scaled by s2, priors are exact
     Jd = Jr[:n_data]
     Hs = Jd.T @ Jd / s2 + Jr[n_data:].T @ Jr[n_data:]
     try:
         return np.linalg.inv(Hs)
     except np.linalg.LinAlgError:
-        return np.linalg.pinv(H)
+        return np.linalg.pinv(Hs)  # same scaling as the regular case
 
 
 def decode(problem: EstimationProblem, x: np.ndarray, cov: np.ndarray | None = None) -> dict:
@@ -308,4 +307,4 @@ def solve(problem: EstimationProblem, options: IpoptOptions | None = None, x0: n
     return result
 
 
-__all__ = ["IpoptOptions", "EstimationResult", "solve", "decode", "fit_quality", "CHANNELS"]
+__all__ = ["IpoptOptions", "EstimationResult", "make_solver", "solve", "decode", "fit_quality"]
