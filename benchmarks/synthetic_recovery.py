@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import time
 
-import casadi as ca
 import numpy as np
 
 from gc_ocp.estimation.components import (
@@ -43,8 +42,8 @@ SIDES = ("left", "right")
 
 def fisher_inverse(problem, x: np.ndarray) -> np.ndarray:
     """(J^T J)^-1 of all weighted residuals (data with the true sigma, and priors) at ``x``."""
-    J = np.asarray(ca.Function("J", [problem.x], [ca.jacobian(problem.residuals, problem.x)])(x))
-    return np.linalg.inv(J.T @ J)
+    _, Jd = problem.data_jacobian(x)  # data rows; the prior rows are diag(prior weights)
+    return np.linalg.inv((Jd.T @ Jd).toarray() + np.diag(problem.prior_weights**2))
 
 
 def main() -> None:

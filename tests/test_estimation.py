@@ -207,6 +207,12 @@ def test_structured_derivatives_match_casadi_ad():
     g_ad = np.asarray(ca.Function("g2", [pb.x], [ca.gradient(pb.objective, pb.x)])(x)).ravel()
     assert np.abs(H - H_ad).max() <= 1e-10 * np.abs(H_ad).max()
     assert np.abs(g - g_ad).max() <= 1e-10 * np.abs(g_ad).max()
+    # the data Jacobian assembled from per-frame Jacobians (used for the covariance) equals the
+    # symbolic Jacobian of the residual vector (one product J_t A_t per entry: round-off 1e-12)
+    r, Jd = pb.data_jacobian(x)
+    Jr, rr = (np.asarray(a) for a in ca.Function("j", [pb.x], [ca.jacobian(pb.residuals, pb.x), pb.residuals])(x))
+    assert np.abs(Jd.toarray() - Jr[:pb.n_data]).max() <= 1e-12 * np.abs(Jr).max()
+    assert np.abs(r - rr.ravel()[:pb.n_data]).max() <= 1e-12 * np.abs(rr).max()
 
 
 def test_holdout_model_fixes_contact_and_applies_the_fitted_belt_speed():

@@ -244,6 +244,10 @@ class EstimationProblem:
     stance_points: list[ca.MX] = field(default_factory=list)  # per stance: (5*3, 1) corrected local points
     gradient: ca.MX | None = None  # exact gradient of the objective
     hessian: ca.MX | None = None  # exact Hessian of the objective (structured assembly)
+    frame_blocks: list = field(default_factory=list)  # per stance (A, y0, D, T): y = A x + y0
+    frame_jacobian: ca.Function | None = None  # (D, y) -> (res, d res / d y), one frame
+    prior_weights: np.ndarray | None = None
+    prior_means: np.ndarray | None = None
 
     def objective_function(self) -> ca.Function:
         return ca.Function("J", [self.x], [self.objective])
@@ -254,6 +258,22 @@ class EstimationProblem:
 
     def component(self, cls):
         return next((m for m in self.model if isinstance(m, cls)), None)
+
+    def data_jacobian(self, x: np.ndarray):
+        """Weighted data residuals ``r`` (n_data,) and their Jacobian in ``x`` (scipy CSR,
+        n_data x nx) at ``x``, from the per-frame Jacobians (``J_t A_t``): no symbolic Jacobian
+        of the whole graph is built. Rows are in the order of :attr:`residuals`."""
+        import scipy.sparse as sp
+
+        rs, Js = [], []
+        for A, y0, D, T in self.frame_blocks:
+            A_sp = A.sparse() if hasattr(A, "sparse") else sp.csc_matrix(np.asarray(A))
+            Y = (A_sp @ x + np.asarray(y0).ravel()).reshape(T, N_Y).T
+            res, jac = (np.asarray(a) for a in self.frame_jacobian.map(T)(D, Y))
+            rs.append(res.T.ravel())
+            blocks = jac.reshape(6, T, N_Y).transpose(1, 0, 2)  # (T, 6, N_Y)
+            Js.append(sp.block_diag(list(blocks), format="csr") @ A_sp)
+        return np.concatenate(rs), sp.vstack(Js, format="csr")
 
 
 def build_estimation(
@@ -276,8 +296,9 @@ def build_estimation(
     pose = next((m for m in model if isinstance(m, PoseCorrection)), None)
     belt = next((m for m in model if isinstance(m, BeltSpeed)), None)
 
-    frame_fn = _contact_frame_function(law.depth_smoothing, law.slip_smoothing)
-    grad_fn, hess_fn = _frame_cost_derivatives(frame_fn)
+    from gc_ocp.estimation.compiled import frame_functions
+
+    frame_fn, grad_fn, hess_fn = frame_functions(law.depth_smoothing, law.slip_smoothing)
     residuals, outputs, points, blocks = [], [], [], []
     n_data = 0
     x = b.x
@@ -325,8 +346,12 @@ def build_estimation(
         hs.append(ca.diagcat(*ca.horzsplit(hess_fn.map(T)(D, Yl), N_Y)))
     grad = grad + ca.sum2(ca.horzcat(*gs)) if gs else grad
     hess = _assemble_hessian([blk[0] for blk in blocks], hs, x.shape[0]) + ca.DM(np.diag(pw**2))
+    Dsym, ysym = ca.SX.sym("D", N_D), ca.SX.sym("y", N_Y)
+    res_sym = frame_fn(Dsym, ysym)[0]
+    jac_fn = ca.Function("frame_jac", [Dsym, ysym], [res_sym, ca.jacobian(res_sym, ysym)])
     return EstimationProblem(
         stances=stances, model=model, weights=weights, builder=b, x=b.x, objective=J,
         residuals=r_all, n_data=n_data, x0=b.vector("x0"), lbx=b.vector("lb"), ubx=b.vector("ub"),
         stance_outputs=outputs, stance_points=points, gradient=grad, hessian=hess,
+        frame_blocks=blocks, frame_jacobian=jac_fn, prior_weights=pw, prior_means=pm,
     )

@@ -129,15 +129,12 @@ def gauss_newton_hessian(problem: EstimationProblem) -> ca.Function:
 
 def _covariance(problem: EstimationProblem, x: np.ndarray) -> np.ndarray:
     """Gauss-Newton covariance of the decision vector, scaled by the residual variance."""
-    Jf = ca.Function("Jr", [problem.x], [ca.jacobian(problem.residuals, problem.x), problem.residuals])
-    Jr, r = (np.asarray(a) for a in Jf(x))
-    r = r.ravel()
+    r, Jd = problem.data_jacobian(x)
     n_data = problem.n_data
     dof = max(n_data - x.size, 1)
-    s2 = float(r[:n_data] @ r[:n_data]) / dof  # a-posteriori variance factor of the data
-    # data part scaled by s2, priors are exact
-    Jd = Jr[:n_data]
-    Hs = Jd.T @ Jd / s2 + Jr[n_data:].T @ Jr[n_data:]
+    s2 = float(r @ r) / dof  # a-posteriori variance factor of the data
+    # data part scaled by s2, priors are exact (their Jacobian is diag(prior weights))
+    Hs = (Jd.T @ Jd).toarray() / s2 + np.diag(problem.prior_weights**2)
     try:
         return np.linalg.inv(Hs)
     except np.linalg.LinAlgError:

@@ -107,7 +107,8 @@ def synthetic_stance(
     """One synthetic stance. ``truth``: ``{"k": (5,), "n", "c", "mu"}`` [SI]; ``points_local``:
     true unit positions (default nominal); ``force_noise`` [N] and ``marker_noise`` [m] standard
     deviations (marker noise perturbs the foot pose given to the fitter, through 3 virtual markers)."""
-    from gc_ocp.estimation.problem import Weights, _contact_frame_function, frame_data
+    from gc_ocp.estimation.compiled import frame_functions
+    from gc_ocp.estimation.problem import Weights, frame_data
 
     foot = rolling_foot(side, duration, rate, t0, sink, style=style)
     true_pts = nominal_points(side) if points_local is None else np.asarray(points_local)
@@ -119,7 +120,7 @@ def synthetic_stance(
     D = frame_data(probe, Weights())
     y = np.concatenate([np.zeros(12), true_pts.T.ravel(order="F"), np.log(np.asarray(truth["k"], float)),
                         [truth["n"], truth["c"], truth["mu"], 0.0]])
-    _, wrench = _contact_frame_function(5e-4, 0.05).map(T)(D, np.tile(y[:, None], (1, T)))
+    _, wrench = frame_functions(5e-4, 0.05)[0].map(T)(D, np.tile(y[:, None], (1, T)))
     meas = np.asarray(wrench).T
     rng = rng or np.random.default_rng(0)
     if force_noise > 0:
