@@ -38,6 +38,9 @@ from gc_ocp.estimation.synthetic import default_truth, nominal_points, synthetic
 from gc_ocp.sole import UNITS
 
 SIDES = ("left", "right")
+X_REF = 0.005
+"""Reference depth [m] for k_ref = k * X_REF**n, the unit's force at 5 mm penetration [N]."""
+LN_XREF = float(np.log(X_REF))
 
 
 def fisher_inverse(problem, x: np.ndarray) -> np.ndarray:
@@ -78,7 +81,9 @@ def main() -> None:
                                 np.concatenate([disp[s].ravel() * 1e3 for s in SIDES])])
     gs = np.random.default_rng(200)
     styles = {(side, j): 1.0 + gs.uniform(-args.vary, args.vary, 4) for side in SIDES for j in range(args.stances)}
-    est, sd_crb = [], []
+    est, sd_crb, corr_kn = [], [], []
+    names += [f"{s}.kref_{u}" for s in SIDES for u in UNITS]
+    truth_vec = np.concatenate([truth_vec, truth_vec[:10] + truth["n"] * LN_XREF])
     t_start = time.perf_counter()
     for draw in range(args.draws):
         rng = np.random.default_rng(draw)
@@ -93,9 +98,16 @@ def main() -> None:
                + [b._index[("contact", p)].start for p in ("n", "c", "mu")]
                + [b._index[("sole", s, u)].start + a for s in SIDES for u in UNITS for a in range(3)])
         scale = np.array([1.0] * 13 + [SoleCorrection().sigma * 1e3] * 30)  # sole in mm
-        est.append(res.x[idx] * scale)
-        cov = fisher_inverse(prob, res.x)
-        sd_crb.append(np.sqrt(np.diag(cov)[idx]) * scale)
+        # log k at the reference depth: log k_ref = log k + n ln(x_ref) (the force-depth level)
+        e = res.x[idx] * scale
+        est.append(np.concatenate([e, e[:10] + e[10] * LN_XREF]))
+        cov = fisher_inverse(prob, res.x)[np.ix_(idx, idx)] * np.outer(scale, scale)
+        G = np.zeros((10, 43))  # Jacobian of log k_ref in (log k, n, ...)
+        G[np.arange(10), np.arange(10)] = 1.0
+        G[:, 10] = LN_XREF
+        var = np.concatenate([np.diag(cov), np.diag(G @ cov @ G.T)])
+        sd_crb.append(np.sqrt(var))
+        corr_kn.append(cov[:10, 10] / np.sqrt(cov[10, 10] * np.diag(cov)[:10]))
         print(f"draw {draw + 1}/{args.draws}: {res.status}, {res.iterations} it, {res.seconds:.1f} s", flush=True)
     est, sd_crb = np.array(est), np.array(sd_crb)
     bias = est.mean(0) - truth_vec
@@ -107,16 +119,31 @@ def main() -> None:
     print(f"{'parameter':>14} {'truth':>9} {'bias':>9} {'spread':>9} {'CRB sd':>9} {'spread/CRB':>10}")
     for i, nm in enumerate(names):
         print(f"{nm:>14} {truth_vec[i]:9.3f} {bias[i]:9.4f} {spread[i]:9.4f} {crb[i]:9.4f} {spread[i] / crb[i]:10.2f}")
-    groups = {"k": slice(0, 10), "n, c, mu": slice(10, 13), "sole": slice(13, 43)}
+    groups = {"log k": slice(0, 10), "n, c, mu": slice(10, 13), "sole": slice(13, 43),
+              "log k_ref": slice(43, 53)}
     for gname, sl in groups.items():
         r = spread[sl] / crb[sl]
         print(f"spread/CRB {gname}: median {np.median(r):.2f}, max {r.max():.2f}; "
               f"max |bias| {np.abs(bias[sl]).max():.4f}, max |error| {np.abs(est[:, sl] - truth_vec[sl]).max():.4f}")
-    rel = np.abs(np.exp(est[:, :10] - truth_vec[:10]) - 1)
-    print(f"k relative error: median {np.median(rel):.3%}, max {rel.max():.3%}; "
-          f"n, c max relative error {np.max(np.abs(est[:, 10:12] / truth_vec[10:12] - 1)):.3%}; "
-          f"sole max error {np.abs(est[:, 13:] - truth_vec[13:]).max():.2f} mm")
+    corr = np.mean(corr_kn, axis=0)
+    print(f"correlation of log k with n (inverse Fisher, mean over draws): median {np.median(corr):.3f}, "
+          f"min {corr.min():.3f}, max {corr.max():.3f}")
 
+    def rel(sl):
+        return np.abs(np.exp(est[:, sl] - truth_vec[sl]) - 1), np.abs(np.exp(bias[sl]) - 1)
+
+    err = est - truth_vec
+    print("\nrecovery (per draw: every estimate of every draw; bias: mean over draws - truth):")
+    for label, (e_, b_) in (("k [N/m^n]", rel(slice(0, 10))), ("k_ref = k x_ref^n, force at 5 mm", rel(slice(43, 53)))):
+        print(f"  {label:>34}: per draw median {np.median(e_):.1%}, max {e_.max():.1%}; |bias| max {b_.max():.1%}")
+    for j, nm in ((10, "n"), (11, "c")):
+        e_ = np.abs(est[:, j] / truth_vec[j] - 1)
+        print(f"  {nm:>34}: per draw median {np.median(e_):.1%}, max {e_.max():.1%}; |bias| {abs(bias[j] / truth_vec[j]):.1%}")
+    for a, ax in enumerate("xyz"):
+        sl = slice(13 + a, 43, 3)
+        e_ = np.abs(err[:, sl])
+        print(f"  {'sole d' + ax + ' [mm]':>34}: per draw median {np.median(e_):.2f}, max {e_.max():.2f};"
+              f" |bias| max {np.abs(bias[sl]).max():.2f}; CRB sd median {np.median(crb[sl]):.2f}, max {crb[sl].max():.2f}")
 
 if __name__ == "__main__":
     main()

@@ -345,7 +345,8 @@ def build_estimation(
         gs.append(ca.mtimes(A.T, ca.vec(grad_fn.map(T)(D, Yl))))
         hs.append(ca.diagcat(*ca.horzsplit(hess_fn.map(T)(D, Yl), N_Y)))
     grad = grad + ca.sum2(ca.horzcat(*gs)) if gs else grad
-    hess = _assemble_hessian([blk[0] for blk in blocks], hs, x.shape[0]) + ca.DM(np.diag(pw**2))
+    # the prior term as a *sparse* diagonal (a DM built from a dense array would make H dense)
+    hess = _assemble_hessian([blk[0] for blk in blocks], hs, x.shape[0]) + ca.DM(ca.Sparsity.diag(x.shape[0]), pw**2)
     Dsym, ysym = ca.SX.sym("D", N_D), ca.SX.sym("y", N_Y)
     res_sym = frame_fn(Dsym, ysym)[0]
     jac_fn = ca.Function("frame_jac", [Dsym, ysym], [res_sym, ca.jacobian(res_sym, ysym)])
