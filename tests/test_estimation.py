@@ -79,6 +79,18 @@ def test_noiseless_synthetic_recovery():
         assert res.params["shared"][p] == pytest.approx(truth[p], rel=0.05)
     # standard errors exist and are positive for every estimated k
     assert all(res.params[s][u]["k_se"] > 0 for s in ("left", "right") for u in UNITS)
+    # f_ref = k d_ref^n; k and n are positively correlated (ln f_ref = ln k + n ln d_ref with
+    # ln d_ref < 0), so the force at the reference depth is better determined than k itself
+    n = res.params["shared"]["n"]
+    rel_k, rel_f = [], []
+    for s in ("left", "right"):
+        for u in UNITS:
+            e = res.params[s][u]
+            assert e["f_ref"] == pytest.approx(e["k"] * 0.005**n, rel=1e-12)
+            rel_k.append(e["k_se"] / e["k"])
+            rel_f.append(e["f_ref_se"] / e["f_ref"])
+    assert np.median(rel_f) < np.median(rel_k)
+    print(f"\nrelative SE median: k {np.median(rel_k):.3%}, f_ref {np.median(rel_f):.3%}")
 
 
 def test_non_converged_solve_raises_with_result():

@@ -65,6 +65,8 @@ class ContactLaw:
     c: Hunt-Crossley damping [s/m]; mu: friction coefficient [-].
     depth_smoothing: smoothing length of the penetration [m] (see ``gc_ocp.contact.laws``).
     slip_smoothing: sliding speed below which friction is smoothed [m/s].
+    reference_depth: penetration [m] at which each unit's force ``f_ref = k d^n`` is reported
+    (the well-determined summary of its force-depth curve; see ``EstimationResult.params``).
     """
 
     # weak log-k prior (factor 7.4 at 1 sd) around the initial value: keeps a unit whose stiffness
@@ -76,6 +78,7 @@ class ContactLaw:
     mu: Param = field(default_factory=lambda: Param("shared", 0.5, 0.0, 1.5))
     depth_smoothing: float = 5e-4
     slip_smoothing: float = 0.05
+    reference_depth: float = 0.005
     name: str = "contact"
 
     @classmethod

@@ -55,8 +55,10 @@ class IpoptOptions:
 class EstimationResult:
     """Estimated parameters, their standard errors, corrections, fit quality and solver stats.
 
-    params: ``{"left": {"PL": {"k": .., "k_se": ..}, ...}, "right": ..., "shared": {"n": .., "n_se": ..}}``
-    (per-foot parameters appear under each side); sole_corrections_mm: ``{side: {unit: [dx,dy,dz]}}``
+    params: ``{"left": {"PL": {"k": .., "k_se": .., "f_ref": .., "f_ref_se": ..}, ...}, "right": ...,
+    "shared": {"n": .., "n_se": ..}}`` (per-foot parameters appear under each side); ``f_ref`` [N]
+    is the unit's force at the reference depth ``ContactLaw.reference_depth`` (5 mm), far better
+    determined than k because k and n are strongly correlated; sole_corrections_mm: ``{side: {unit: [dx,dy,dz]}}``
     in the foot frame [mm]; pose_correction_rms: ``{side: {"mm": .., "deg": ..}}``;
     rms: per side, per channel RMS (% BW, % BW·H with the trial's BW and height);
     cop_rms_mm: per side, COP error where measured Fz > 10 % BW; stance_fits: per stance arrays.
@@ -89,6 +91,8 @@ class EstimationResult:
             )
             if ks:
                 lines.append(f"{side:>5} k [N/m^n]: {ks}")
+                fs = ", ".join(f"{u} {p[u]['f_ref']:.0f}±{p[u]['f_ref_se']:.2g}" for u in UNITS if "f_ref" in p.get(u, {}))
+                lines.append(f"{side:>5} force at the reference depth [N]: {fs}")
             r = self.rms[side]
             lines.append(
                 f"{side:>5} RMS: " + ", ".join(f"{c.split('_')[0]} {r[c]:.2f}" for c in r)
@@ -141,6 +145,37 @@ def _covariance(problem: EstimationProblem, x: np.ndarray) -> np.ndarray:
         return np.linalg.pinv(Hs)  # same scaling as the regular case
 
 
+def _add_reference_force(params: dict, law: ContactLaw, b, x: np.ndarray, cov: np.ndarray | None) -> None:
+    """Add ``f_ref`` / ``f_ref_se`` to every unit: its force at the reference penetration without
+    damping, ``k * d_ref**n`` [N] (``ContactLaw.reference_depth``).
+
+    k [N/m^n] and n are strongly correlated (``ln k_ref = ln k + n ln d_ref`` with
+    ``ln 0.005 = -5.3``: a 1 % change of n = 1.5 moves k by 8 % at the same force), so k's standard
+    error is large even where the unit's force-depth curve is well determined; f_ref's is not.
+    Its standard error follows by the delta method from the covariance of (log k, n)."""
+    L = float(np.log(law.reference_depth))
+    for side in SIDES:
+        for u in UNITS:
+            entry = params.get(side, {}).get(u)
+            if entry is None or "k" not in entry:
+                continue
+            n_val = params[side]["n"] if "n" in params.get(side, {}) else params["shared"].get("n")
+            if n_val is None:
+                n_val = law.n.value_for(side)
+            entry["f_ref"] = float(entry["k"] * law.reference_depth ** n_val)
+            ik = b._index.get((law.name, "k", side, u))
+            in_ = b._index.get((law.name, "n", side)) or b._index.get((law.name, "n"))
+            if cov is None or ik is None:
+                entry["f_ref_se"] = float("nan") if ik is not None else 0.0
+                continue
+            g = np.zeros(x.size)
+            g[ik.start] = 1.0  # d ln f_ref / d ln k
+            if in_ is not None:
+                g[in_.start] = L  # d ln f_ref / d n
+            var = float(g @ cov @ g) if in_ is not None else float(cov[ik.start, ik.start])
+            entry["f_ref_se"] = float(entry["f_ref"] * np.sqrt(max(var, 0.0)))
+
+
 def decode(problem: EstimationProblem, x: np.ndarray, cov: np.ndarray | None = None) -> dict:
     """Physical parameters, corrections and per-stance fits at decision vector ``x``."""
     b = problem.builder
@@ -181,6 +216,7 @@ def decode(problem: EstimationProblem, x: np.ndarray, cov: np.ndarray | None = N
             else:
                 params[side][pname] = p.value_for(side)
                 params[side][pname + "_se"] = 0.0
+    _add_reference_force(params, law, b, x, cov)
     belt_speed: dict = {}
     for st in problem.stances:
         key = ("belt", st.trial)
