@@ -167,7 +167,7 @@ def main() -> None:
     if a.quick:
         sizes, fd_sizes, budget, big = [1, 2, 4], [1, 2], 60.0, 4
     else:
-        sizes, fd_sizes, budget, big = [2, 4, 8, 16], [2, 4], 240.0, 4
+        sizes, fd_sizes, budget, big = [2, 4, 8, 16, 32], [2, 4], 240.0, 4
     print(f"fit_speed: casadi {ca.__version__}, repeats {repeats}, FD budget {budget:.0f} s per run")
     real_trial(repeats, budget)
     scaling(sizes, fd_sizes, repeats, budget, big)

@@ -49,6 +49,30 @@ def fisher_inverse(problem, x: np.ndarray) -> np.ndarray:
     return np.linalg.inv((Jd.T @ Jd).toarray() + np.diag(problem.prior_weights**2))
 
 
+def pose_error_sd(marker_noise: float, knot_spacing: float, samples: int = 40) -> tuple[tuple, tuple]:
+    """Per-axis sd of the B-spline coefficients that best fit the foot-pose error of the simulated
+    marker pipeline (``_noisy_pose``: 4 markers, Kabsch, 6 Hz low-pass) — the right prior for the
+    pose correction when the only kinematic error is marker noise. Seeds 10000+ (not the draws')."""
+    from scipy.spatial.transform import Rotation
+
+    from gc_ocp.estimation.synthetic import _noisy_pose, rolling_foot
+
+    pc = PoseCorrection(knot_spacing=knot_spacing)
+    ct, cr = [], []
+    for i in range(samples):
+        f = rolling_foot("left", sink=0.010)
+        g = _noisy_pose(f, marker_noise, np.random.default_rng(10_000 + i))
+        d = g.hindfoot_pose[:, :3, 3] - f.hindfoot_pose[:, :3, 3]
+        th = Rotation.from_matrix(np.einsum("nij,nkj->nik", g.hindfoot_pose[:, :3, :3],
+                                            f.hindfoot_pose[:, :3, :3])).as_rotvec()  # lab axes
+        B, _ = pc.basis(f.time)
+        ct.append(np.linalg.lstsq(B, d, rcond=None)[0])
+        cr.append(np.linalg.lstsq(B, th, rcond=None)[0])
+    s_mm = np.sqrt(np.mean(np.concatenate(ct) ** 2, axis=0)) * 1e3
+    s_deg = np.rad2deg(np.sqrt(np.mean(np.concatenate(cr) ** 2, axis=0)))
+    return tuple(map(float, s_mm)), tuple(map(float, s_deg))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--draws", type=int, default=20)
@@ -58,6 +82,7 @@ def main() -> None:
     ap.add_argument("--vary", type=float, default=0.0,
                     help="stance-to-stance variation of the motion: each stance's strike/push-off pitch, "
                          "roll and sink are scaled by U(1 - vary, 1 + vary) (0: identical stances)")
+    ap.add_argument("--knots", type=float, default=0.03, help="pose-correction knot spacing [s] with marker noise")
     args = ap.parse_args()
 
     truth = default_truth()
@@ -68,8 +93,13 @@ def main() -> None:
         d *= (g.uniform(0, 0.008, 5) / np.linalg.norm(d, axis=1))[:, None]
         disp[side] = d
     mn = args.marker_noise
-    pose = (PoseCorrection(knot_spacing=0.03, sigma_mm=max(0.3e3 * mn, 0.05), sigma_deg=max(0.25e3 * mn, 0.02))
-            if mn > 0 else PoseCorrection())
+    if mn > 0:
+        s_mm, s_deg = pose_error_sd(mn, args.knots)
+        pose = PoseCorrection(knot_spacing=args.knots, sigma_mm=s_mm, sigma_deg=s_deg)
+        print(f"pose prior from the simulated marker pipeline ({args.knots * 1e3:.0f} ms knots): "
+              f"translation {np.round(s_mm, 3)} mm, rotation {np.round(s_deg, 3)} deg (lab x, y, z)")
+    else:
+        pose = PoseCorrection()
     law = ContactLaw(k=Param("unit", 2e5, 1e2, 1e9), n=Param("shared", 1.2, 1, 3),
                      c=Param("shared", 0.3, 0, 10), mu=Param("shared", 0.5, 0, 1.5))
     model = (law, SoleCorrection(), pose, BeltSpeed())

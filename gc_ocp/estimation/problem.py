@@ -193,10 +193,13 @@ class Builder:
         else:
             self._add(key, 1, value, lower, upper, "param", 1.0, False, w, value)
 
-    def prior_variable(self, key: tuple, size: int, sigma: float, bound: float) -> None:
-        """A vector with Gaussian prior N(0, sigma^2), stored in units of sigma, bounded by +-bound."""
-        b = bound / sigma
-        self._add(key, size, 0.0, -b, b, "prior", sigma, False, 1.0, 0.0)
+    def prior_variable(self, key: tuple, size: int, sigma, bound) -> None:
+        """A vector with Gaussian prior N(0, sigma^2), stored in units of sigma, bounded by +-bound.
+        ``sigma`` and ``bound``: scalars, or arrays of length ``size`` (one per entry)."""
+        sig = np.broadcast_to(np.asarray(sigma, float), size)
+        b = np.broadcast_to(np.asarray(bound, float), size) / sig
+        scale = float(sig[0]) if np.all(sig == sig[0]) else sig.copy()
+        self._add(key, size, 0.0, -b, b, "prior", scale, False, 1.0, 0.0)
 
     def finalize(self) -> None:
         n = sum(s["size"] for s in self._specs)
@@ -212,7 +215,7 @@ class Builder:
         z = self.x[sl]
         if spec["log"]:
             return z if raw else ca.exp(z)
-        return z * spec["scale"]
+        return z * (spec["scale"] if np.isscalar(spec["scale"]) else ca.DM(spec["scale"]))
 
     def has(self, key: tuple) -> bool:
         return key in self._index
