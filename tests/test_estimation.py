@@ -249,3 +249,26 @@ def test_holdout_model_fixes_contact_and_applies_the_fitted_belt_speed():
     prob = build_estimation([with_fitted_belt(st, res)], model)
     assert all(k[0] == "pose" for k in prob.builder._index)  # nothing else is estimated
     assert with_fitted_belt(st, res).belt_velocity[0] == pytest.approx(-1.2)
+
+
+def test_pose_prior_per_axis():
+    """Per-axis prior widths land on the right lab axis: with every stored (unit-sigma) pose
+    coefficient at 1, the correction is (sigma_x, sigma_y, sigma_z) at every frame (the cubic
+    B-spline basis sums to 1), and the bounds scale with each axis' sigma."""
+    import casadi as ca
+
+    _, _, sts = _stances(np.random.default_rng(5))
+    pose = PoseCorrection(sigma_mm=(1.0, 2.0, 3.0), sigma_deg=(0.5, 1.0, 1.5))
+    pb = build_estimation(sts[:1], (ContactLaw(), pose))
+    b = pb.builder
+    x = np.zeros(pb.x0.size)
+    for part in ("trans", "rot"):
+        x[b._index[("pose", 0, part)]] = 1.0
+    d, th, _, _ = pose.trajectories(b, 0)
+    dv, tv = (np.asarray(a) for a in ca.Function("p", [pb.x], [d, th])(x))
+    np.testing.assert_allclose(dv, np.array([[1e-3], [2e-3], [3e-3]]) * np.ones((1, sts[0].n)), rtol=1e-12)
+    np.testing.assert_allclose(np.rad2deg(tv), np.array([[0.5], [1.0], [1.5]]) * np.ones((1, sts[0].n)), rtol=1e-12)
+    sl = b._index[("pose", 0, "trans")]
+    np.testing.assert_allclose(pb.ubx[sl], pose.bound_sigmas)  # bound in units of each sigma
+    # the prior-width continuation scales every axis
+    assert pose.with_prior_scale(0.5).sigma_mm == (0.5, 1.0, 1.5)
