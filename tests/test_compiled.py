@@ -77,3 +77,18 @@ def test_missing_compiler_falls_back_with_a_warning(monkeypatch):
     with pytest.warns(UserWarning, match="No C compiler"):
         out = cmod.compiled(_small(), "gc_test_none", say=lambda s: None)
     assert out[0].class_name() == "SXFunction"
+
+
+@needs_cc
+def test_unwritable_cache_falls_back_to_the_temporary_directory(tmp_path, monkeypatch):
+    import tempfile
+
+    blocker = tmp_path / "not_a_dir"
+    blocker.write_text("a file where the cache directory should be")
+    monkeypatch.setenv("GC_OCP_CACHE_DIR", str(blocker / "cache"))
+    tmpdir = tmp_path / "tmp"
+    tmpdir.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(tmpdir))
+    out = cmod.compiled(_small(), "gc_test_fallback", say=lambda s: None)
+    assert out[0].class_name() == "External"
+    assert list(tmpdir.glob("gc_ocp-*/gc_test_fallback-*.so"))
