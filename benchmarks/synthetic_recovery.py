@@ -73,6 +73,42 @@ def pose_error_sd(marker_noise: float, knot_spacing: float, samples: int = 40) -
     return tuple(map(float, s_mm)), tuple(map(float, s_deg))
 
 
+def spline_pose_error(st, pose: PoseCorrection, rng: np.random.Generator):
+    """``st`` with its foot pose perturbed by a pose error drawn from ``pose``'s own prior (a
+    B-spline with independent Gaussian coefficients), so that the estimator's kinematic-error model
+    is exactly right (``--pose-noise spline``: a diagnostic, not a lab pipeline)."""
+    import dataclasses
+
+    from scipy.spatial.transform import Rotation
+
+    from gc_ocp.sole import FootKinematics
+
+    f = st.foot
+    B, dB = pose.basis(f.time)
+    K = B.shape[1]
+    s_t = np.broadcast_to(np.asarray(pose.sigma_mm, float), 3) * 1e-3
+    s_r = np.deg2rad(np.broadcast_to(np.asarray(pose.sigma_deg, float), 3))
+    ct, cr = rng.normal(size=(K, 3)) * s_t, rng.normal(size=(K, 3)) * s_r
+    d, dd, th, dth = B @ ct, dB @ ct, B @ cr, dB @ cr
+    # the estimator corrects p -> p + d + th x (p - o_h): apply the inverse to the foot
+    Rm = Rotation.from_rotvec(-th).as_matrix()
+    poses = []
+    for P in (f.hindfoot_pose, f.toes_pose):
+        Q = P.copy()
+        Q[:, :3, :3] = np.einsum("nij,njk->nik", Rm, P[:, :3, :3])
+        Q[:, :3, 3] = f.hindfoot_pose[:, :3, 3] - d + np.einsum("nij,nj->ni", Rm, P[:, :3, 3] - f.hindfoot_pose[:, :3, 3])
+        poses.append(Q)
+    tw = []
+    for P, T in ((f.hindfoot_pose, f.hindfoot_twist), (f.toes_pose, f.toes_twist)):
+        r = P[:, :3, 3] - f.hindfoot_pose[:, :3, 3]
+        v = T[:, :3] - dd - np.cross(dth, r) - np.cross(th, T[:, :3] - f.hindfoot_twist[:, :3])
+        # omega' = exp(-th) omega - th_dot (to first order), so that the estimator's first-order
+        # velocity correction (d_dot + th_dot x r + th x r_dot) restores the true unit velocities
+        tw.append(np.hstack([v, T[:, 3:] - dth - np.cross(th, T[:, 3:])]))
+    foot = FootKinematics(f.side, f.time, poses[0], poses[1], tw[0], tw[1], f.points_local)
+    return dataclasses.replace(st, foot=foot)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--draws", type=int, default=20)
@@ -83,6 +119,9 @@ def main() -> None:
                     help="stance-to-stance variation of the motion: each stance's strike/push-off pitch, "
                          "roll and sink are scaled by U(1 - vary, 1 + vary) (0: identical stances)")
     ap.add_argument("--knots", type=float, default=0.03, help="pose-correction knot spacing [s] with marker noise")
+    ap.add_argument("--pose-noise", choices=("pipeline", "spline"), default="pipeline",
+                    help="kinematic error: 'pipeline' = marker noise through Kabsch + 6 Hz filter; 'spline' "
+                         "= drawn from the estimator's own pose prior (diagnostic: the error model is exact)")
     args = ap.parse_args()
 
     truth = default_truth()
@@ -118,9 +157,12 @@ def main() -> None:
     for draw in range(args.draws):
         rng = np.random.default_rng(draw)
         sts = [synthetic_stance(side, truth, nominal_points(side) + disp[side], t0=1.1 * j + 0.55 * i,
-                                sink=0.010, rng=rng, force_noise=args.force_noise, marker_noise=mn, body_weight=bw,
+                                sink=0.010, rng=rng, force_noise=args.force_noise,
+                                marker_noise=mn if args.pose_noise == "pipeline" else 0.0, body_weight=bw,
                                 style=styles[(side, j)])
                for i, side in enumerate(SIDES) for j in range(args.stances)]
+        if args.pose_noise == "spline" and mn > 0:
+            sts = [spline_pose_error(st, pose, rng) for st in sts]
         prob = build_estimation(sts, model, weights)
         res = solve(prob, raise_on_failure=False)
         b = prob.builder
