@@ -73,6 +73,31 @@ def pose_error_sd(marker_noise: float, knot_spacing: float, samples: int = 40) -
     return tuple(map(float, s_mm)), tuple(map(float, s_deg))
 
 
+def knot_correlation(marker_noise: float, knot_spacing: float, samples: int = 40) -> tuple[float, ...]:
+    """Correlation of the fitted pose-error spline coefficients at lags 0, 1, 2, ... knots (mean
+    over the 6 axes and the simulated stances), cut where it first drops below 0.05."""
+    from scipy.spatial.transform import Rotation
+
+    from gc_ocp.estimation.synthetic import _noisy_pose, rolling_foot
+
+    pc = PoseCorrection(knot_spacing=knot_spacing)
+    num, den = np.zeros(8), 0.0
+    for i in range(samples):
+        f = rolling_foot("left", sink=0.010)
+        g = _noisy_pose(f, marker_noise, np.random.default_rng(10_000 + i))
+        d = g.hindfoot_pose[:, :3, 3] - f.hindfoot_pose[:, :3, 3]
+        th = Rotation.from_matrix(np.einsum("nij,nkj->nik", g.hindfoot_pose[:, :3, :3],
+                                            f.hindfoot_pose[:, :3, :3])).as_rotvec()
+        B, _ = pc.basis(f.time)
+        c = np.hstack([np.linalg.lstsq(B, d, rcond=None)[0], np.linalg.lstsq(B, th, rcond=None)[0]])
+        c = c / c.std(axis=0)
+        den += np.mean(c * c)
+        num += [np.mean(c[: c.shape[0] - lag] * c[lag:]) for lag in range(8)]
+    rho = num / den
+    cut = int(np.argmax(rho < 0.05)) if np.any(rho < 0.05) else rho.size
+    return tuple(float(r) for r in rho[:cut] / rho[0])
+
+
 def spline_pose_error(st, pose: PoseCorrection, rng: np.random.Generator):
     """``st`` with its foot pose perturbed by a pose error drawn from ``pose``'s own prior (a
     B-spline with independent Gaussian coefficients), so that the estimator's kinematic-error model
@@ -88,7 +113,8 @@ def spline_pose_error(st, pose: PoseCorrection, rng: np.random.Generator):
     K = B.shape[1]
     s_t = np.broadcast_to(np.asarray(pose.sigma_mm, float), 3) * 1e-3
     s_r = np.deg2rad(np.broadcast_to(np.asarray(pose.sigma_deg, float), 3))
-    ct, cr = rng.normal(size=(K, 3)) * s_t, rng.normal(size=(K, 3)) * s_r
+    L = pose.correlation_factor(K)
+    ct, cr = L @ rng.normal(size=(K, 3)) * s_t, L @ rng.normal(size=(K, 3)) * s_r
     d, dd, th, dth = B @ ct, dB @ ct, B @ cr, dB @ cr
     # the estimator corrects p -> p + d + th x (p - o_h): apply the inverse to the foot
     Rm = Rotation.from_rotvec(-th).as_matrix()
@@ -119,6 +145,8 @@ def main() -> None:
                     help="stance-to-stance variation of the motion: each stance's strike/push-off pitch, "
                          "roll and sink are scaled by U(1 - vary, 1 + vary) (0: identical stances)")
     ap.add_argument("--knots", type=float, default=0.03, help="pose-correction knot spacing [s] with marker noise")
+    ap.add_argument("--pose-prior", choices=("independent", "correlated"), default="independent",
+                    help="pose-correction prior: independent coefficients, or with the pipeline's knot-to-knot correlation")
     ap.add_argument("--pose-noise", choices=("pipeline", "spline"), default="pipeline",
                     help="kinematic error: 'pipeline' = marker noise through Kabsch + 6 Hz filter; 'spline' "
                          "= drawn from the estimator's own pose prior (diagnostic: the error model is exact)")
@@ -134,9 +162,11 @@ def main() -> None:
     mn = args.marker_noise
     if mn > 0:
         s_mm, s_deg = pose_error_sd(mn, args.knots)
-        pose = PoseCorrection(knot_spacing=args.knots, sigma_mm=s_mm, sigma_deg=s_deg)
+        rho = knot_correlation(mn, args.knots) if args.pose_prior == "correlated" else None
+        pose = PoseCorrection(knot_spacing=args.knots, sigma_mm=s_mm, sigma_deg=s_deg, knot_correlation=rho)
         print(f"pose prior from the simulated marker pipeline ({args.knots * 1e3:.0f} ms knots): "
-              f"translation {np.round(s_mm, 3)} mm, rotation {np.round(s_deg, 3)} deg (lab x, y, z)")
+              f"translation {np.round(s_mm, 3)} mm, rotation {np.round(s_deg, 3)} deg (lab x, y, z); "
+              f"knot correlation {None if rho is None else np.round(rho, 3)}")
     else:
         pose = PoseCorrection()
     law = ContactLaw(k=Param("unit", 2e5, 1e2, 1e9), n=Param("shared", 1.2, 1, 3),

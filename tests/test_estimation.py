@@ -272,3 +272,22 @@ def test_pose_prior_per_axis():
     np.testing.assert_allclose(pb.ubx[sl], pose.bound_sigmas)  # bound in units of each sigma
     # the prior-width continuation scales every axis
     assert pose.with_prior_scale(0.5).sigma_mm == (0.5, 1.0, 1.5)
+
+
+def test_pose_prior_knot_correlation():
+    """With ``knot_correlation`` the coefficients are sigma * L z: L L^T is the Toeplitz
+    correlation matrix (exact to the 1e-9 jitter), and an invalid sequence is refused clearly."""
+    pose = PoseCorrection(knot_correlation=(1.0, 0.7, 0.25))
+    L = pose.correlation_factor(12)
+    C = L @ L.T
+    np.testing.assert_allclose(np.diag(C), 1.0, atol=1e-8)
+    np.testing.assert_allclose(np.diag(C, 1), 0.7, atol=1e-8)
+    np.testing.assert_allclose(np.diag(C, 2), 0.25, atol=1e-8)
+    np.testing.assert_allclose(np.diag(C, 3), 0.0, atol=1e-8)
+    np.testing.assert_array_equal(PoseCorrection().correlation_factor(4), np.eye(4))
+    with pytest.raises(ValueError, match="positive definite"):
+        PoseCorrection(knot_correlation=(1.0, 0.99, 0.0)).correlation_factor(10)
+    with pytest.raises(ValueError, match="start with 1"):
+        PoseCorrection(knot_correlation=(0.5, 0.2)).correlation_factor(10)
+    # the continuation keeps the correlation
+    assert pose.with_prior_scale(0.5).knot_correlation == (1.0, 0.7, 0.25)
