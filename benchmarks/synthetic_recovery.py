@@ -145,6 +145,9 @@ def main() -> None:
                     help="stance-to-stance variation of the motion: each stance's strike/push-off pitch, "
                          "roll and sink are scaled by U(1 - vary, 1 + vary) (0: identical stances)")
     ap.add_argument("--knots", type=float, default=0.03, help="pose-correction knot spacing [s] with marker noise")
+    ap.add_argument("--starts", choices=("single", "best"), default="single",
+                    help="single: one Ipopt solve from the generic start; best: fit()'s two starts "
+                         "(direct + prior-width continuation), lower objective kept (~3x slower)")
     ap.add_argument("--pose-prior", choices=("independent", "correlated"), default="independent",
                     help="pose-correction prior: independent coefficients, or with the pipeline's knot-to-knot correlation")
     ap.add_argument("--pose-noise", choices=("pipeline", "spline"), default="pipeline",
@@ -194,7 +197,13 @@ def main() -> None:
         if args.pose_noise == "spline" and mn > 0:
             sts = [spline_pose_error(st, pose, rng) for st in sts]
         prob = build_estimation(sts, model, weights)
-        res = solve(prob, raise_on_failure=False)
+        if args.starts == "best":  # the product's path: direct + prior continuation, lower objective kept
+            from gc_ocp.estimation.fit import best_of
+
+            res = best_of(sts, model, weights)
+            prob = res.problem
+        else:
+            res = solve(prob, raise_on_failure=False)
         b = prob.builder
         idx = ([b._index[("contact", "k", s, u)].start for s in SIDES for u in UNITS]
                + [b._index[("contact", p)].start for p in ("n", "c", "mu")]
