@@ -49,16 +49,16 @@ def fisher_inverse(problem, x: np.ndarray) -> np.ndarray:
     return np.linalg.inv((Jd.T @ Jd).toarray() + np.diag(problem.prior_weights**2))
 
 
-def pose_error_sd(marker_noise: float, knot_spacing: float, samples: int = 40) -> tuple[tuple, tuple]:
-    """Per-axis sd of the B-spline coefficients that best fit the foot-pose error of the simulated
-    marker pipeline (``_noisy_pose``: 4 markers, Kabsch, 6 Hz low-pass) — the right prior for the
-    pose correction when the only kinematic error is marker noise. Seeds 10000+ (not the draws')."""
+def _pipeline_coefficients(marker_noise: float, knot_spacing: float, samples: int = 40) -> list[np.ndarray]:
+    """B-spline coefficients ``(K, 6)`` (translation [m], rotation [rad], lab axes) that best fit the
+    foot-pose error of the simulated marker pipeline (``_noisy_pose``: 4 markers, Kabsch, 6 Hz
+    low-pass), one array per simulated stance. Seeds 10000+ (not the draws')."""
     from scipy.spatial.transform import Rotation
 
     from gc_ocp.estimation.synthetic import _noisy_pose, rolling_foot
 
     pc = PoseCorrection(knot_spacing=knot_spacing)
-    ct, cr = [], []
+    out = []
     for i in range(samples):
         f = rolling_foot("left", sink=0.010)
         g = _noisy_pose(f, marker_noise, np.random.default_rng(10_000 + i))
@@ -66,30 +66,24 @@ def pose_error_sd(marker_noise: float, knot_spacing: float, samples: int = 40) -
         th = Rotation.from_matrix(np.einsum("nij,nkj->nik", g.hindfoot_pose[:, :3, :3],
                                             f.hindfoot_pose[:, :3, :3])).as_rotvec()  # lab axes
         B, _ = pc.basis(f.time)
-        ct.append(np.linalg.lstsq(B, d, rcond=None)[0])
-        cr.append(np.linalg.lstsq(B, th, rcond=None)[0])
-    s_mm = np.sqrt(np.mean(np.concatenate(ct) ** 2, axis=0)) * 1e3
-    s_deg = np.rad2deg(np.sqrt(np.mean(np.concatenate(cr) ** 2, axis=0)))
-    return tuple(map(float, s_mm)), tuple(map(float, s_deg))
+        out.append(np.linalg.lstsq(B, np.hstack([d, th]), rcond=None)[0])
+    return out
+
+
+def pose_error_sd(marker_noise: float, knot_spacing: float, samples: int = 40) -> tuple[tuple, tuple]:
+    """Per-axis sd of the pipeline's pose-error spline coefficients (translation [mm], rotation
+    [deg]) — the right prior width for the pose correction when the only kinematic error is marker
+    noise."""
+    c = np.concatenate(_pipeline_coefficients(marker_noise, knot_spacing, samples))
+    sd = np.sqrt(np.mean(c**2, axis=0))
+    return tuple(map(float, sd[:3] * 1e3)), tuple(map(float, np.rad2deg(sd[3:])))
 
 
 def knot_correlation(marker_noise: float, knot_spacing: float, samples: int = 40) -> tuple[float, ...]:
-    """Correlation of the fitted pose-error spline coefficients at lags 0, 1, 2, ... knots (mean
+    """Correlation of the pipeline's pose-error spline coefficients at lags 0, 1, 2, ... knots (mean
     over the 6 axes and the simulated stances), cut where it first drops below 0.05."""
-    from scipy.spatial.transform import Rotation
-
-    from gc_ocp.estimation.synthetic import _noisy_pose, rolling_foot
-
-    pc = PoseCorrection(knot_spacing=knot_spacing)
     num, den = np.zeros(8), 0.0
-    for i in range(samples):
-        f = rolling_foot("left", sink=0.010)
-        g = _noisy_pose(f, marker_noise, np.random.default_rng(10_000 + i))
-        d = g.hindfoot_pose[:, :3, 3] - f.hindfoot_pose[:, :3, 3]
-        th = Rotation.from_matrix(np.einsum("nij,nkj->nik", g.hindfoot_pose[:, :3, :3],
-                                            f.hindfoot_pose[:, :3, :3])).as_rotvec()
-        B, _ = pc.basis(f.time)
-        c = np.hstack([np.linalg.lstsq(B, d, rcond=None)[0], np.linalg.lstsq(B, th, rcond=None)[0]])
+    for c in _pipeline_coefficients(marker_noise, knot_spacing, samples):
         c = c / c.std(axis=0)
         den += np.mean(c * c)
         num += [np.mean(c[: c.shape[0] - lag] * c[lag:]) for lag in range(8)]
