@@ -24,12 +24,15 @@ import time
 
 import numpy as np
 import scipy.sparse as sp
-from synthetic_recovery import pose_error_sd  # noqa: E402 (same folder; run as a script)
+from synthetic_recovery import (  # same folder; run as a script
+    estimator_law,
+    pose_error_sd,
+    sole_displacements,
+    stance_styles,
+)
 
 from gc_ocp.estimation.components import (
     BeltSpeed,
-    ContactLaw,
-    Param,
     PoseCorrection,
     SoleCorrection,
 )
@@ -42,17 +45,7 @@ TRUTH = default_truth()
 BW = 700.0
 
 
-def displacements():
-    g = np.random.default_rng(100)
-    disp = {}
-    for side in SIDES:
-        d = g.normal(size=(5, 3))
-        d *= (g.uniform(0, 0.008, 5) / np.linalg.norm(d, axis=1))[:, None]
-        disp[side] = d
-    return disp
-
-
-DISP = displacements()
+DISP = sole_displacements()
 _S_MM, _S_DEG = pose_error_sd(0.001, 0.03)
 POSE_A = PoseCorrection(knot_spacing=0.03, sigma_mm=_S_MM, sigma_deg=_S_DEG)
 
@@ -60,12 +53,9 @@ POSE_A = PoseCorrection(knot_spacing=0.03, sigma_mm=_S_MM, sigma_deg=_S_DEG)
 def build(stances=3, vary=0.0, pose=POSE_A, sink=0.010, torque_length=0.05, force_noise=5.0,
           style_scale=None, sole=None):
     sole = sole or SoleCorrection()
-    law = ContactLaw(k=Param("unit", 2e5, 1e2, 1e9), n=Param("shared", 1.2, 1, 3),
-                     c=Param("shared", 0.3, 0, 10), mu=Param("shared", 0.5, 0, 1.5))
-    model = tuple(m for m in (law, sole, pose, BeltSpeed()) if m is not None)
+    model = tuple(m for m in (estimator_law(), sole, pose, BeltSpeed()) if m is not None)
     weights = Weights(force_sigma=force_noise / BW, torque_length=torque_length)
-    gs = np.random.default_rng(200)
-    styles = {(s, j): 1.0 + gs.uniform(-vary, vary, 4) for s in SIDES for j in range(stances)}
+    styles = stance_styles(stances, vary)
     if style_scale is not None:
         styles = {key: v * np.asarray(style_scale) for key, v in styles.items()}
     sts = [synthetic_stance(side, TRUTH, nominal_points(side) + DISP[side], t0=1.1 * j + 0.55 * i,

@@ -49,6 +49,30 @@ def fisher_inverse(problem, x: np.ndarray) -> np.ndarray:
     return np.linalg.inv((Jd.T @ Jd).toarray() + np.diag(problem.prior_weights**2))
 
 
+def sole_displacements() -> dict:
+    """The truth's sole-point displacements ``{side: (5, 3)}`` [m]: random directions, lengths
+    U(0, 8 mm), one fixed draw (seed 100) shared by every run and by ``crb_design.py``."""
+    g = np.random.default_rng(100)
+    disp = {}
+    for side in SIDES:
+        d = g.normal(size=(5, 3))
+        d *= (g.uniform(0, 0.008, 5) / np.linalg.norm(d, axis=1))[:, None]
+        disp[side] = d
+    return disp
+
+
+def estimator_law() -> ContactLaw:
+    """The estimated contact law: k per unit, shared n, c, mu, started away from the truth."""
+    return ContactLaw(k=Param("unit", 2e5, 1e2, 1e9), n=Param("shared", 1.2, 1, 3),
+                      c=Param("shared", 0.3, 0, 10), mu=Param("shared", 0.5, 0, 1.5))
+
+
+def stance_styles(stances: int, vary: float) -> dict:
+    """Per-stance motion factors ``{(side, j): (4,)}``, 1 + U(-vary, vary) (seed 200)."""
+    gs = np.random.default_rng(200)
+    return {(side, j): 1.0 + gs.uniform(-vary, vary, 4) for side in SIDES for j in range(stances)}
+
+
 def _pipeline_coefficients(marker_noise: float, knot_spacing: float, samples: int = 40) -> list[np.ndarray]:
     """B-spline coefficients ``(K, 6)`` (translation [m], rotation [rad], lab axes) that best fit the
     foot-pose error of the simulated marker pipeline (``_noisy_pose``: 4 markers, Kabsch, 6 Hz
@@ -150,12 +174,7 @@ def main() -> None:
     args = ap.parse_args()
 
     truth = default_truth()
-    g = np.random.default_rng(100)
-    disp = {}
-    for side in SIDES:
-        d = g.normal(size=(5, 3))
-        d *= (g.uniform(0, 0.008, 5) / np.linalg.norm(d, axis=1))[:, None]
-        disp[side] = d
+    disp = sole_displacements()
     mn = args.marker_noise
     if mn > 0:
         s_mm, s_deg = pose_error_sd(mn, args.knots)
@@ -166,17 +185,14 @@ def main() -> None:
               f"knot correlation {None if rho is None else np.round(rho, 3)}")
     else:
         pose = PoseCorrection()
-    law = ContactLaw(k=Param("unit", 2e5, 1e2, 1e9), n=Param("shared", 1.2, 1, 3),
-                     c=Param("shared", 0.3, 0, 10), mu=Param("shared", 0.5, 0, 1.5))
-    model = (law, SoleCorrection(), pose, BeltSpeed())
+    model = (estimator_law(), SoleCorrection(), pose, BeltSpeed())
     bw = 700.0
     weights = Weights(force_sigma=args.force_noise / bw, torque_length=0.05)
     names = [f"{s}.k_{u}" for s in SIDES for u in UNITS] + ["n", "c", "mu"] + [
         f"{s}.{u}.d{a}" for s in SIDES for u in UNITS for a in "xyz"]
     truth_vec = np.concatenate([np.log(np.tile(truth["k"], 2)), [truth["n"], truth["c"], truth["mu"]],
                                 np.concatenate([disp[s].ravel() * 1e3 for s in SIDES])])
-    gs = np.random.default_rng(200)
-    styles = {(side, j): 1.0 + gs.uniform(-args.vary, args.vary, 4) for side in SIDES for j in range(args.stances)}
+    styles = stance_styles(args.stances, args.vary)
     est, sd_crb, corr_kn = [], [], []
     names += [f"{s}.kref_{u}" for s in SIDES for u in UNITS]
     truth_vec = np.concatenate([truth_vec, truth_vec[:10] + truth["n"] * LN_XREF])
