@@ -50,18 +50,37 @@ _S_MM, _S_DEG = pose_error_sd(0.001, 0.03)
 POSE_A = PoseCorrection(knot_spacing=0.03, sigma_mm=_S_MM, sigma_deg=_S_DEG)
 
 
-def build(stances=3, vary=0.0, pose=POSE_A, sink=0.010, torque_length=0.05, force_noise=5.0,
-          style_scale=None, sole=None):
+def build(
+    stances=3,
+    vary=0.0,
+    pose=POSE_A,
+    sink=0.010,
+    torque_length=0.05,
+    force_noise=5.0,
+    style_scale=None,
+    sole=None,
+):
     sole = sole or SoleCorrection()
     model = tuple(m for m in (estimator_law(), sole, pose, BeltSpeed()) if m is not None)
     weights = Weights(force_sigma=force_noise / BW, torque_length=torque_length)
     styles = stance_styles(stances, vary)
     if style_scale is not None:
         styles = {key: v * np.asarray(style_scale) for key, v in styles.items()}
-    sts = [synthetic_stance(side, TRUTH, nominal_points(side) + DISP[side], t0=1.1 * j + 0.55 * i,
-                            sink=sink, rng=np.random.default_rng(0), force_noise=0.0, body_weight=BW,
-                            style=styles[(side, j)])
-           for i, side in enumerate(SIDES) for j in range(stances)]
+    sts = [
+        synthetic_stance(
+            side,
+            TRUTH,
+            nominal_points(side) + DISP[side],
+            t0=1.1 * j + 0.55 * i,
+            sink=sink,
+            rng=np.random.default_rng(0),
+            force_noise=0.0,
+            body_weight=BW,
+            style=styles[(side, j)],
+        )
+        for i, side in enumerate(SIDES)
+        for j in range(stances)
+    ]
     prob = build_estimation(sts, model, weights)
     b = prob.builder
     x = np.zeros(prob.x.shape[0])
@@ -133,12 +152,20 @@ def summarise(label, r, sole_sigma=0.005):
     out["c"] = get.get((("contact", "c"), 0), np.nan) / TRUTH["c"] * 100
     out["mu"] = get.get((("contact", "mu"), 0), np.nan) / TRUTH["mu"] * 100
     for a, ax in enumerate("xyz"):
-        v = np.array([get.get((("sole", s, u), a), np.nan) for s in SIDES for u in UNITS]) * sole_sigma * 1e3
-        out[f"d{ax}_med"], out[f"d{ax}_max"] = (np.median(v), v.max()) if np.all(np.isfinite(v)) else (np.nan, np.nan)
+        v = (
+            np.array([get.get((("sole", s, u), a), np.nan) for s in SIDES for u in UNITS])
+            * sole_sigma
+            * 1e3
+        )
+        out[f"d{ax}_med"], out[f"d{ax}_max"] = (
+            (np.median(v), v.max()) if np.all(np.isfinite(v)) else (np.nan, np.nan)
+        )
     out["k_units"] = k * 100
-    line = (f"{label:<38} k med {out['k_med']:6.2f}% max {out['k_max']:6.2f}% | n {out['n']:5.2f}% c {out['c']:5.2f}% "
-            f"mu {out['mu']:5.2f}% | dx {out['dx_med']:.2f}/{out['dx_max']:.2f} dy {out['dy_med']:.2f}/{out['dy_max']:.2f} "
-            f"dz {out['dz_med']:.2f}/{out['dz_max']:.2f} mm")
+    line = (
+        f"{label:<38} k med {out['k_med']:6.2f}% max {out['k_max']:6.2f}% | n {out['n']:5.2f}% c {out['c']:5.2f}% "
+        f"mu {out['mu']:5.2f}% | dx {out['dx_med']:.2f}/{out['dx_max']:.2f} dy {out['dy_med']:.2f}/{out['dy_max']:.2f} "
+        f"dz {out['dz_med']:.2f}/{out['dz_max']:.2f} mm"
+    )
     print(line, flush=True)
     ni = names.index((("contact", "n"), 0)) if (("contact", "n"), 0) in names else None
     if ni is not None:
@@ -153,11 +180,23 @@ def summarise(label, r, sole_sigma=0.005):
                 dopt.append(np.exp(Lo) * 1e3)
                 fopt.append(np.sqrt(V[ki, ki] - V[ki, ni] ** 2 / V[ni, ni]) * 100)
         out["F5_med"], out["F5_max"] = np.median(f5), np.max(f5)
-        print(f"    force at 5 mm depth, k*d^n: sd med {np.median(f5):.2f}% max {np.max(f5):.2f}%; "
-              f"best-determined depth per unit [mm] " + " ".join(f"{d:.1f}" for d in dopt)
-              + f" (sd there med {np.median(fopt):.2f}% max {np.max(fopt):.2f}%)", flush=True)
-    print("    k per unit [%]: " + " ".join(f"{s[0]}{u}:{v:.2f}" for (s, u), v in
-                                          zip([(s, u) for s in SIDES for u in UNITS], out["k_units"], strict=True)), flush=True)
+        print(
+            f"    force at 5 mm depth, k*d^n: sd med {np.median(f5):.2f}% max {np.max(f5):.2f}%; "
+            f"best-determined depth per unit [mm] "
+            + " ".join(f"{d:.1f}" for d in dopt)
+            + f" (sd there med {np.median(fopt):.2f}% max {np.max(fopt):.2f}%)",
+            flush=True,
+        )
+    print(
+        "    k per unit [%]: "
+        + " ".join(
+            f"{s[0]}{u}:{v:.2f}"
+            for (s, u), v in zip(
+                [(s, u) for s in SIDES for u in UNITS], out["k_units"], strict=True
+            )
+        ),
+        flush=True,
+    )
     return out
 
 
@@ -189,6 +228,7 @@ def fix_group(group):
         if group == "mu":
             return key[0] == "contact" and key[1] == "mu"
         return False
+
     return f
 
 
@@ -218,7 +258,13 @@ def correlations(r, top=5):
             for j, nm in enumerate(names):
                 if j == i:
                     continue
-                g = nm[0][0] if nm[0][0] != "contact" else "contact." + nm[0][1] + ("" if len(nm[0]) == 2 else f".{nm[0][2]}.{nm[0][3]}")
+                g = (
+                    nm[0][0]
+                    if nm[0][0] != "contact"
+                    else "contact."
+                    + nm[0][1]
+                    + ("" if len(nm[0]) == 2 else f".{nm[0][2]}.{nm[0][3]}")
+                )
                 if g not in best or abs(c[j]) > abs(c[best[g]]):
                     best[g] = j
             # multiple correlation R^2 of log k with each group (fraction of var explained)
@@ -246,19 +292,45 @@ if __name__ == "__main__":
             r = analyse(prob, x, dense=True)
             results[d] = summarise("A  3 st/foot, pose 30 ms", r)
             r2 = analyse(prob, x)
-            print("    (Schur vs dense max rel diff {:.1e})".format(np.max(np.abs(r2["sd"] / r["sd"] - 1))))
+            print(
+                "    (Schur vs dense max rel diff {:.1e})".format(
+                    np.max(np.abs(r2["sd"] / r["sd"] - 1))
+                )
+            )
             C = correlations(r)
-            print("\n  R^2 of each log k on a group (share of its variance due to that group's uncertainty is ~ R^2):")
-            grp = {"other k": lambda nm: nm[0][:2] == ("contact", "k"),
-                   "n,c,mu": fix_group("ncmu"), "sole all": fix_group("sole"), "sole z": fix_group("sole_z"),
-                   "sole xy": fix_group("sole_xy"), "pose all": fix_group("pose"),
-                   "pose trans": fix_group("pose_trans"), "pose rot": fix_group("pose_rot")}
+            print(
+                "\n  R^2 of each log k on a group (share of its variance due to that group's uncertainty is ~ R^2):"
+            )
+            grp = {
+                "other k": lambda nm: nm[0][:2] == ("contact", "k"),
+                "n,c,mu": fix_group("ncmu"),
+                "sole all": fix_group("sole"),
+                "sole z": fix_group("sole_z"),
+                "sole xy": fix_group("sole_xy"),
+                "pose all": fix_group("pose"),
+                "pose trans": fix_group("pose_trans"),
+                "pose rot": fix_group("pose_rot"),
+            }
             for s in SIDES:
                 for u in UNITS:
                     nm = (("contact", "k", s, u), 0)
-                    print(f"  {s}.k_{u}: " + ", ".join(f"{g} {multiple_r2(r, nm, p):.2f}" for g, p in grp.items()))
+                    print(
+                        f"  {s}.k_{u}: "
+                        + ", ".join(f"{g} {multiple_r2(r, nm, p):.2f}" for g, p in grp.items())
+                    )
             print("\n  k CRB with one group fixed at truth (design A):")
-            for g in ("ncmu", "n", "c", "mu", "sole", "sole_z", "sole_xy", "pose", "pose_trans", "pose_rot"):
+            for g in (
+                "ncmu",
+                "n",
+                "c",
+                "mu",
+                "sole",
+                "sole_z",
+                "sole_xy",
+                "pose",
+                "pose_trans",
+                "pose_rot",
+            ):
                 summarise(f"A, {g} known", analyse(prob, x, fix=(fix_group(g),)))
             summarise("E  A + sole z only (x,y known)", analyse(prob, x, fix=(fix_xy,)))
         elif d == "B":
@@ -266,7 +338,9 @@ if __name__ == "__main__":
             results[d] = summarise("B  A without PoseCorrection", analyse(prob, x))
             summarise("B+E  no pose, sole z only", analyse(prob, x, fix=(fix_xy,)))
         elif d == "C":
-            prob, x = build(pose=PoseCorrection(knot_spacing=0.08, sigma_mm=_S_MM, sigma_deg=_S_DEG))
+            prob, x = build(
+                pose=PoseCorrection(knot_spacing=0.08, sigma_mm=_S_MM, sigma_deg=_S_DEG)
+            )
             results[d] = summarise("C  pose knots 80 ms", analyse(prob, x))
             summarise("C+E  pose 80 ms, sole z only", analyse(prob, x, fix=(fix_xy,)))
         elif d.startswith("D"):  # D3, D10, D20 ; D3s = identical stances with n stances
@@ -286,15 +360,22 @@ if __name__ == "__main__":
                 "Ftl25": dict(torque_length=0.25),
                 "Ftl01": dict(torque_length=0.01),
                 "Fnoise2": dict(force_noise=2.0),
-                "Fpose_wide": dict(pose=PoseCorrection(knot_spacing=0.03, sigma_mm=1.0, sigma_deg=1.0)),
-                "Fpose_narrow": dict(pose=PoseCorrection(knot_spacing=0.03, sigma_mm=0.1, sigma_deg=0.1)),
+                "Fpose_wide": dict(
+                    pose=PoseCorrection(knot_spacing=0.03, sigma_mm=1.0, sigma_deg=1.0)
+                ),
+                "Fpose_narrow": dict(
+                    pose=PoseCorrection(knot_spacing=0.03, sigma_mm=0.1, sigma_deg=0.1)
+                ),
                 "Fsole2": dict(sole=SoleCorrection(sigma=0.002)),  # noqa: B008
                 "Fsole10": dict(sole=SoleCorrection(sigma=0.010)),
             }[d]
             prob, x = build(**opts)
             sig = opts.get("sole", SoleCorrection()).sigma
-            results[d] = summarise(f"{d} {opts if 'pose' not in opts and 'sole' not in opts else d}",
-                                   analyse(prob, x), sole_sigma=sig)
+            results[d] = summarise(
+                f"{d} {opts if 'pose' not in opts and 'sole' not in opts else d}",
+                analyse(prob, x),
+                sole_sigma=sig,
+            )
             summarise(f"{d} + sole z only", analyse(prob, x, fix=(fix_xy,)), sole_sigma=sig)
         print(f"  [{d}: {time.perf_counter() - t:.0f} s]", flush=True)
     print(f"total {time.perf_counter() - t0:.0f} s")

@@ -45,9 +45,17 @@ def ours(stances, model, repeats: int):
         sol = solver(x0=prob.x0, lbx=prob.lbx, ubx=prob.ubx)
         t3 = time.perf_counter()
         st = solver.stats()
-        rows.append(dict(build=t1 - t0, nlpsol=t2 - t1, ipopt=t3 - t2, total=t3 - t0,
-                         iters=int(st["iter_count"]), status=str(st["return_status"]),
-                         obj=float(sol["f"])))
+        rows.append(
+            dict(
+                build=t1 - t0,
+                nlpsol=t2 - t1,
+                ipopt=t3 - t2,
+                total=t3 - t0,
+                iters=int(st["iter_count"]),
+                status=str(st["return_status"]),
+                obj=float(sol["f"]),
+            )
+        )
     med = {k: statistics.median(r[k] for r in rows) for k in ("build", "nlpsol", "ipopt", "total")}
     med["spread"] = (min(r["total"] for r in rows), max(r["total"] for r in rows))
     med.update(iters=rows[-1]["iters"], status=rows[-1]["status"], obj=rows[-1]["obj"], n=repeats)
@@ -82,7 +90,9 @@ def baseline(prob, budget_s: float):
         capped = True
         obj = best["obj"]
         status = f"STOPPED at the {budget_s:.0f} s budget"
-    return dict(total=time.perf_counter() - t0, obj=obj, capped=capped, status=status, nfev=best["nfev"])
+    return dict(
+        total=time.perf_counter() - t0, obj=obj, capped=capped, status=status, nfev=best["nfev"]
+    )
 
 
 def real_trial(repeats: int, budget: float):
@@ -96,47 +106,72 @@ def real_trial(repeats: int, budget: float):
     data = [stance_data(trial, kin, s) for s in trial.stances]
     model = full_model()
     law = next(m for m in model if isinstance(m, ContactLaw))
-    model = _with_init(model, lls_initial_k([(trial, kin)], float(law.n.value_for("left"))))  # as fit()
+    model = _with_init(
+        model, lls_initial_k([(trial, kin)], float(law.n.value_for("left")))
+    )  # as fit()
     frames = sum(d.n for d in data)
-    print(f"\n== 1. Real trial (bundled example): {len(data)} stances "
-          f"({', '.join(d.side for d in data)}), {frames} frames, full model ==")
+    print(
+        f"\n== 1. Real trial (bundled example): {len(data)} stances "
+        f"({', '.join(d.side for d in data)}), {frames} frames, full model =="
+    )
     o, prob = ours(data, model, repeats)
     print(f"   {prob.x.shape[0]} variables, {prob.residuals.shape[0]} residuals")
     t = time.perf_counter()
     solve(prob)
     t_full = time.perf_counter() - t
     b = baseline(prob, budget)
-    print(f"   ours     : {o['total']:8.2f} s  (median of {o['n']}; min {o['spread'][0]:.2f}, max {o['spread'][1]:.2f};"
-          f" build {o['build']:.2f} + nlpsol {o['nlpsol']:.2f} + Ipopt {o['ipopt']:.2f})"
-          f"  J = {o['obj']:.6g}  {o['iters']} it, {o['status']}")
-    print(f"   baseline : {b['total']:8.2f} s  J = {b['obj']:.6g}  {b['nfev']} residual evals, {b['status']}")
-    print(f"   ratio baseline/ours = {b['total'] / o['total']:.1f}x"
-          + (f"  (LOWER BOUND: baseline stopped, J {b['obj'] / o['obj']:.3g}x ours)" if b["capped"]
-             else f"  (J baseline/ours = {b['obj'] / o['obj']:.4g})"))
-    print(f"   ratio baseline/(Ipopt call only, excl. build+nlpsol setup) = {b['total'] / o['ipopt']:.1f}x")
-    print(f"   note: gc_ocp.estimation.solve.solve() end to end (nlpsol setup + Ipopt + covariance + decoding)"
-          f" took {t_full:.2f} s")
+    print(
+        f"   ours     : {o['total']:8.2f} s  (median of {o['n']}; min {o['spread'][0]:.2f}, max {o['spread'][1]:.2f};"
+        f" build {o['build']:.2f} + nlpsol {o['nlpsol']:.2f} + Ipopt {o['ipopt']:.2f})"
+        f"  J = {o['obj']:.6g}  {o['iters']} it, {o['status']}"
+    )
+    print(
+        f"   baseline : {b['total']:8.2f} s  J = {b['obj']:.6g}  {b['nfev']} residual evals, {b['status']}"
+    )
+    print(
+        f"   ratio baseline/ours = {b['total'] / o['total']:.1f}x"
+        + (
+            f"  (LOWER BOUND: baseline stopped, J {b['obj'] / o['obj']:.3g}x ours)"
+            if b["capped"]
+            else f"  (J baseline/ours = {b['obj'] / o['obj']:.4g})"
+        )
+    )
+    print(
+        f"   ratio baseline/(Ipopt call only, excl. build+nlpsol setup) = {b['total'] / o['ipopt']:.1f}x"
+    )
+    print(
+        f"   note: gc_ocp.estimation.solve.solve() end to end (nlpsol setup + Ipopt + covariance + decoding)"
+        f" took {t_full:.2f} s"
+    )
     from gc_ocp.estimation.fit import best_of
 
     t = time.perf_counter()
     r = best_of(data, model)
     t_fit = time.perf_counter() - t
-    print(f"   ours, fit() path (2 starts: direct + prior continuation, best kept): {t_fit:.2f} s, "
-          f"J = {r.objective:.6g}; ratio baseline/fit() = {b['total'] / t_fit:.1f}x "
-          f"(J baseline/fit() = {b['obj'] / r.objective:.4g})")
+    print(
+        f"   ours, fit() path (2 starts: direct + prior continuation, best kept): {t_fit:.2f} s, "
+        f"J = {r.objective:.6g}; ratio baseline/fit() = {b['total'] / t_fit:.1f}x "
+        f"(J baseline/fit() = {b['obj'] / r.objective:.4g})"
+    )
 
 
 def scaling(sizes: list[int], fd_sizes: list[int], repeats: int, budget: float, big: int):
     truth = default_truth()
     model = full_model()
-    print("\n== 2. Scaling, synthetic stances (alternating left/right, 0.65 s at 100 Hz, no noise) ==")
-    hdr = (f"{'stances':>7} {'frames':>6} {'vars':>5} {'build s':>8} {'nlpsol s':>8} {'Ipopt s':>8} {'total s':>8}"
-           f" {'ms/frame':>8} {'iters':>5} {'ms/iter':>8} {'runs':>4} {'J ours':>10} {'FD s':>8} {'J FD':>10} {'FD/ours':>8} {'FD/Ipopt':>8}")
+    print(
+        "\n== 2. Scaling, synthetic stances (alternating left/right, 0.65 s at 100 Hz, no noise) =="
+    )
+    hdr = (
+        f"{'stances':>7} {'frames':>6} {'vars':>5} {'build s':>8} {'nlpsol s':>8} {'Ipopt s':>8} {'total s':>8}"
+        f" {'ms/frame':>8} {'iters':>5} {'ms/iter':>8} {'runs':>4} {'J ours':>10} {'FD s':>8} {'J FD':>10} {'FD/ours':>8} {'FD/Ipopt':>8}"
+    )
     print(hdr)
     print("-" * len(hdr))
     F, T, It = [], [], []
     for n in sizes:
-        stances = [synthetic_stance("left" if i % 2 == 0 else "right", truth, t0=1.0 * i) for i in range(n)]
+        stances = [
+            synthetic_stance("left" if i % 2 == 0 else "right", truth, t0=1.0 * i) for i in range(n)
+        ]
         frames = sum(s.n for s in stances)
         o, prob = ours(stances, model, repeats if n <= big else 1)
         F.append(frames)
@@ -146,21 +181,31 @@ def scaling(sizes: list[int], fd_sizes: list[int], repeats: int, budget: float, 
         if n in fd_sizes:
             b = baseline(prob, budget)
             mark = ">" if b["capped"] else ""
-            fd = (f" {b['total']:8.2f} {b['obj']:10.3g} {mark + format(b['total'] / o['total'], '.1f') + 'x':>8}"
-                  f" {mark + format(b['total'] / o['ipopt'], '.1f') + 'x':>8}")
-        print(f"{n:7d} {frames:6d} {prob.x.shape[0]:5d} {o['build']:8.3f} {o['nlpsol']:8.3f} {o['ipopt']:8.2f}"
-              f" {o['total']:8.2f} {1e3 * o['total'] / frames:8.2f} {o['iters']:5d}"
-              f" {1e3 * o['ipopt'] / max(o['iters'], 1):8.1f} {o['n']:4d} {o['obj']:10.3g}{fd}")
+            fd = (
+                f" {b['total']:8.2f} {b['obj']:10.3g} {mark + format(b['total'] / o['total'], '.1f') + 'x':>8}"
+                f" {mark + format(b['total'] / o['ipopt'], '.1f') + 'x':>8}"
+            )
+        print(
+            f"{n:7d} {frames:6d} {prob.x.shape[0]:5d} {o['build']:8.3f} {o['nlpsol']:8.3f} {o['ipopt']:8.2f}"
+            f" {o['total']:8.2f} {1e3 * o['total'] / frames:8.2f} {o['iters']:5d}"
+            f" {1e3 * o['ipopt'] / max(o['iters'], 1):8.1f} {o['n']:4d} {o['obj']:10.3g}{fd}"
+        )
     if len(F) >= 2:
         s_tot = np.polyfit(np.log(F), np.log(T), 1)[0]
         s_ip = np.polyfit(np.log(F), np.log(It), 1)[0]
-        print(f"   log-log slope of time vs frames: total {s_tot:.2f}, Ipopt only {s_ip:.2f} (1 = linear)")
-    print(f"   (times: median of 'runs' runs (1 above {big} stances, to keep the run short); FD baseline once;"
-          f" '>' = FD stopped at the {budget:.0f} s budget, so the ratio is a lower bound)")
+        print(
+            f"   log-log slope of time vs frames: total {s_tot:.2f}, Ipopt only {s_ip:.2f} (1 = linear)"
+        )
+    print(
+        f"   (times: median of 'runs' runs (1 above {big} stances, to keep the run short); FD baseline once;"
+        f" '>' = FD stopped at the {budget:.0f} s budget, so the ratio is a lower bound)"
+    )
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     ap.add_argument("--quick", action="store_true", help="smaller sizes and budgets (~1-2 min)")
     a = ap.parse_args()
     repeats = 3
@@ -168,7 +213,9 @@ def main() -> None:
         sizes, fd_sizes, budget, big = [1, 2, 4], [1, 2], 60.0, 4
     else:
         sizes, fd_sizes, budget, big = [2, 4, 8, 16, 32], [2, 4], 240.0, 4
-    print(f"fit_speed: casadi {ca.__version__}, repeats {repeats}, FD budget {budget:.0f} s per run")
+    print(
+        f"fit_speed: casadi {ca.__version__}, repeats {repeats}, FD budget {budget:.0f} s per run"
+    )
     real_trial(repeats, budget)
     scaling(sizes, fd_sizes, repeats, budget, big)
 

@@ -63,8 +63,12 @@ def sole_displacements() -> dict:
 
 def estimator_law() -> ContactLaw:
     """The estimated contact law: k per unit, shared n, c, mu, started away from the truth."""
-    return ContactLaw(k=Param("unit", 2e5, 1e2, 1e9), n=Param("shared", 1.2, 1, 3),
-                      c=Param("shared", 0.3, 0, 10), mu=Param("shared", 0.5, 0, 1.5))
+    return ContactLaw(
+        k=Param("unit", 2e5, 1e2, 1e9),
+        n=Param("shared", 1.2, 1, 3),
+        c=Param("shared", 0.3, 0, 10),
+        mu=Param("shared", 0.5, 0, 1.5),
+    )
 
 
 def stance_styles(stances: int, vary: float) -> dict:
@@ -73,7 +77,9 @@ def stance_styles(stances: int, vary: float) -> dict:
     return {(side, j): 1.0 + gs.uniform(-vary, vary, 4) for side in SIDES for j in range(stances)}
 
 
-def _pipeline_coefficients(marker_noise: float, knot_spacing: float, samples: int = 40) -> list[np.ndarray]:
+def _pipeline_coefficients(
+    marker_noise: float, knot_spacing: float, samples: int = 40
+) -> list[np.ndarray]:
     """B-spline coefficients ``(K, 6)`` (translation [m], rotation [rad], lab axes) that best fit the
     foot-pose error of the simulated marker pipeline (``_noisy_pose``: 4 markers, Kabsch, 6 Hz
     low-pass), one array per simulated stance. Seeds 10000+ (not the draws')."""
@@ -87,14 +93,17 @@ def _pipeline_coefficients(marker_noise: float, knot_spacing: float, samples: in
         f = rolling_foot("left", sink=0.010)
         g = _noisy_pose(f, marker_noise, np.random.default_rng(10_000 + i))
         d = g.hindfoot_pose[:, :3, 3] - f.hindfoot_pose[:, :3, 3]
-        th = Rotation.from_matrix(np.einsum("nij,nkj->nik", g.hindfoot_pose[:, :3, :3],
-                                            f.hindfoot_pose[:, :3, :3])).as_rotvec()  # lab axes
+        th = Rotation.from_matrix(
+            np.einsum("nij,nkj->nik", g.hindfoot_pose[:, :3, :3], f.hindfoot_pose[:, :3, :3])
+        ).as_rotvec()  # lab axes
         B, _ = pc.basis(f.time)
         out.append(np.linalg.lstsq(B, np.hstack([d, th]), rcond=None)[0])
     return out
 
 
-def pose_error_sd(marker_noise: float, knot_spacing: float, samples: int = 40) -> tuple[tuple, tuple]:
+def pose_error_sd(
+    marker_noise: float, knot_spacing: float, samples: int = 40
+) -> tuple[tuple, tuple]:
     """Per-axis sd of the pipeline's pose-error spline coefficients (translation [mm], rotation
     [deg]) — the right prior width for the pose correction when the only kinematic error is marker
     noise."""
@@ -103,7 +112,9 @@ def pose_error_sd(marker_noise: float, knot_spacing: float, samples: int = 40) -
     return tuple(map(float, sd[:3] * 1e3)), tuple(map(float, np.rad2deg(sd[3:])))
 
 
-def knot_correlation(marker_noise: float, knot_spacing: float, samples: int = 40) -> tuple[float, ...]:
+def knot_correlation(
+    marker_noise: float, knot_spacing: float, samples: int = 40
+) -> tuple[float, ...]:
     """Correlation of the pipeline's pose-error spline coefficients at lags 0, 1, 2, ... knots (mean
     over the 6 axes and the simulated stances), cut where it first drops below 0.05."""
     num, den = np.zeros(8), 0.0
@@ -140,7 +151,11 @@ def spline_pose_error(st, pose: PoseCorrection, rng: np.random.Generator):
     for P in (f.hindfoot_pose, f.toes_pose):
         Q = P.copy()
         Q[:, :3, :3] = np.einsum("nij,njk->nik", Rm, P[:, :3, :3])
-        Q[:, :3, 3] = f.hindfoot_pose[:, :3, 3] - d + np.einsum("nij,nj->ni", Rm, P[:, :3, 3] - f.hindfoot_pose[:, :3, 3])
+        Q[:, :3, 3] = (
+            f.hindfoot_pose[:, :3, 3]
+            - d
+            + np.einsum("nij,nj->ni", Rm, P[:, :3, 3] - f.hindfoot_pose[:, :3, 3])
+        )
         poses.append(Q)
     tw = []
     for P, T in ((f.hindfoot_pose, f.hindfoot_twist), (f.toes_pose, f.toes_twist)):
@@ -159,18 +174,39 @@ def main() -> None:
     ap.add_argument("--stances", type=int, default=3, help="stances per foot")
     ap.add_argument("--force-noise", type=float, default=5.0, help="plate force noise sd [N]")
     ap.add_argument("--marker-noise", type=float, default=0.0, help="marker noise sd [m]")
-    ap.add_argument("--vary", type=float, default=0.0,
-                    help="stance-to-stance variation of the motion: each stance's strike/push-off pitch, "
-                         "roll and sink are scaled by U(1 - vary, 1 + vary) (0: identical stances)")
-    ap.add_argument("--knots", type=float, default=0.03, help="pose-correction knot spacing [s] with marker noise")
-    ap.add_argument("--starts", choices=("single", "best"), default="single",
-                    help="single: one Ipopt solve from the generic start; best: fit()'s two starts "
-                         "(direct + prior-width continuation), lower objective kept (~3x slower)")
-    ap.add_argument("--pose-prior", choices=("independent", "correlated"), default="independent",
-                    help="pose-correction prior: independent coefficients, or with the pipeline's knot-to-knot correlation")
-    ap.add_argument("--pose-noise", choices=("pipeline", "spline"), default="pipeline",
-                    help="kinematic error: 'pipeline' = marker noise through Kabsch + 6 Hz filter; 'spline' "
-                         "= drawn from the estimator's own pose prior (diagnostic: the error model is exact)")
+    ap.add_argument(
+        "--vary",
+        type=float,
+        default=0.0,
+        help="stance-to-stance variation of the motion: each stance's strike/push-off pitch, "
+        "roll and sink are scaled by U(1 - vary, 1 + vary) (0: identical stances)",
+    )
+    ap.add_argument(
+        "--knots",
+        type=float,
+        default=0.03,
+        help="pose-correction knot spacing [s] with marker noise",
+    )
+    ap.add_argument(
+        "--starts",
+        choices=("single", "best"),
+        default="single",
+        help="single: one Ipopt solve from the generic start; best: fit()'s two starts "
+        "(direct + prior-width continuation), lower objective kept (~3x slower)",
+    )
+    ap.add_argument(
+        "--pose-prior",
+        choices=("independent", "correlated"),
+        default="independent",
+        help="pose-correction prior: independent coefficients, or with the pipeline's knot-to-knot correlation",
+    )
+    ap.add_argument(
+        "--pose-noise",
+        choices=("pipeline", "spline"),
+        default="pipeline",
+        help="kinematic error: 'pipeline' = marker noise through Kabsch + 6 Hz filter; 'spline' "
+        "= drawn from the estimator's own pose prior (diagnostic: the error model is exact)",
+    )
     args = ap.parse_args()
 
     truth = default_truth()
@@ -179,19 +215,31 @@ def main() -> None:
     if mn > 0:
         s_mm, s_deg = pose_error_sd(mn, args.knots)
         rho = knot_correlation(mn, args.knots) if args.pose_prior == "correlated" else None
-        pose = PoseCorrection(knot_spacing=args.knots, sigma_mm=s_mm, sigma_deg=s_deg, knot_correlation=rho)
-        print(f"pose prior from the simulated marker pipeline ({args.knots * 1e3:.0f} ms knots): "
-              f"translation {np.round(s_mm, 3)} mm, rotation {np.round(s_deg, 3)} deg (lab x, y, z); "
-              f"knot correlation {None if rho is None else np.round(rho, 3)}")
+        pose = PoseCorrection(
+            knot_spacing=args.knots, sigma_mm=s_mm, sigma_deg=s_deg, knot_correlation=rho
+        )
+        print(
+            f"pose prior from the simulated marker pipeline ({args.knots * 1e3:.0f} ms knots): "
+            f"translation {np.round(s_mm, 3)} mm, rotation {np.round(s_deg, 3)} deg (lab x, y, z); "
+            f"knot correlation {None if rho is None else np.round(rho, 3)}"
+        )
     else:
         pose = PoseCorrection()
     model = (estimator_law(), SoleCorrection(), pose, BeltSpeed())
     bw = 700.0
     weights = Weights(force_sigma=args.force_noise / bw, torque_length=0.05)
-    names = [f"{s}.k_{u}" for s in SIDES for u in UNITS] + ["n", "c", "mu"] + [
-        f"{s}.{u}.d{a}" for s in SIDES for u in UNITS for a in "xyz"]
-    truth_vec = np.concatenate([np.log(np.tile(truth["k"], 2)), [truth["n"], truth["c"], truth["mu"]],
-                                np.concatenate([disp[s].ravel() * 1e3 for s in SIDES])])
+    names = (
+        [f"{s}.k_{u}" for s in SIDES for u in UNITS]
+        + ["n", "c", "mu"]
+        + [f"{s}.{u}.d{a}" for s in SIDES for u in UNITS for a in "xyz"]
+    )
+    truth_vec = np.concatenate(
+        [
+            np.log(np.tile(truth["k"], 2)),
+            [truth["n"], truth["c"], truth["mu"]],
+            np.concatenate([disp[s].ravel() * 1e3 for s in SIDES]),
+        ]
+    )
     styles = stance_styles(args.stances, args.vary)
     est, sd_crb, corr_kn = [], [], []
     names += [f"{s}.kref_{u}" for s in SIDES for u in UNITS]
@@ -199,15 +247,28 @@ def main() -> None:
     t_start = time.perf_counter()
     for draw in range(args.draws):
         rng = np.random.default_rng(draw)
-        sts = [synthetic_stance(side, truth, nominal_points(side) + disp[side], t0=1.1 * j + 0.55 * i,
-                                sink=0.010, rng=rng, force_noise=args.force_noise,
-                                marker_noise=mn if args.pose_noise == "pipeline" else 0.0, body_weight=bw,
-                                style=styles[(side, j)])
-               for i, side in enumerate(SIDES) for j in range(args.stances)]
+        sts = [
+            synthetic_stance(
+                side,
+                truth,
+                nominal_points(side) + disp[side],
+                t0=1.1 * j + 0.55 * i,
+                sink=0.010,
+                rng=rng,
+                force_noise=args.force_noise,
+                marker_noise=mn if args.pose_noise == "pipeline" else 0.0,
+                body_weight=bw,
+                style=styles[(side, j)],
+            )
+            for i, side in enumerate(SIDES)
+            for j in range(args.stances)
+        ]
         if args.pose_noise == "spline" and mn > 0:
             sts = [spline_pose_error(st, pose, rng) for st in sts]
         prob = build_estimation(sts, model, weights)
-        if args.starts == "best":  # the product's path: direct + prior continuation, lower objective kept
+        if (
+            args.starts == "best"
+        ):  # the product's path: direct + prior continuation, lower objective kept
             from gc_ocp.estimation.fit import best_of
 
             res = best_of(sts, model, weights)
@@ -215,9 +276,11 @@ def main() -> None:
         else:
             res = solve(prob, raise_on_failure=False)
         b = prob.builder
-        idx = ([b._index[("contact", "k", s, u)].start for s in SIDES for u in UNITS]
-               + [b._index[("contact", p)].start for p in ("n", "c", "mu")]
-               + [b._index[("sole", s, u)].start + a for s in SIDES for u in UNITS for a in range(3)])
+        idx = (
+            [b._index[("contact", "k", s, u)].start for s in SIDES for u in UNITS]
+            + [b._index[("contact", p)].start for p in ("n", "c", "mu")]
+            + [b._index[("sole", s, u)].start + a for s in SIDES for u in UNITS for a in range(3)]
+        )
         scale = np.array([1.0] * 13 + [SoleCorrection().sigma * 1e3] * 30)  # sole in mm
         # log k at the reference depth: log k_ref = log k + n ln(x_ref) (the force-depth level)
         e = res.x[idx] * scale
@@ -229,42 +292,69 @@ def main() -> None:
         var = np.concatenate([np.diag(cov), np.diag(G @ cov @ G.T)])
         sd_crb.append(np.sqrt(var))
         corr_kn.append(cov[:10, 10] / np.sqrt(cov[10, 10] * np.diag(cov)[:10]))
-        print(f"draw {draw + 1}/{args.draws}: {res.status}, {res.iterations} it, {res.seconds:.1f} s", flush=True)
+        print(
+            f"draw {draw + 1}/{args.draws}: {res.status}, {res.iterations} it, {res.seconds:.1f} s",
+            flush=True,
+        )
     est, sd_crb = np.array(est), np.array(sd_crb)
     bias = est.mean(0) - truth_vec
     spread = est.std(0, ddof=1)
     crb = np.sqrt(np.mean(sd_crb**2, axis=0))
-    print(f"\n{args.draws} draws, {args.stances} stances/foot, force noise {args.force_noise} N, "
-          f"marker noise {mn * 1e3:.1f} mm, stance variation {args.vary}, {time.perf_counter() - t_start:.0f} s")
+    print(
+        f"\n{args.draws} draws, {args.stances} stances/foot, force noise {args.force_noise} N, "
+        f"marker noise {mn * 1e3:.1f} mm, stance variation {args.vary}, {time.perf_counter() - t_start:.0f} s"
+    )
     print("k as log k (so bias/spread are relative errors); sole corrections in mm")
-    print(f"{'parameter':>14} {'truth':>9} {'bias':>9} {'spread':>9} {'CRB sd':>9} {'spread/CRB':>10}")
+    print(
+        f"{'parameter':>14} {'truth':>9} {'bias':>9} {'spread':>9} {'CRB sd':>9} {'spread/CRB':>10}"
+    )
     for i, nm in enumerate(names):
-        print(f"{nm:>14} {truth_vec[i]:9.3f} {bias[i]:9.4f} {spread[i]:9.4f} {crb[i]:9.4f} {spread[i] / crb[i]:10.2f}")
-    groups = {"log k": slice(0, 10), "n, c, mu": slice(10, 13), "sole": slice(13, 43),
-              "log k_ref": slice(43, 53)}
+        print(
+            f"{nm:>14} {truth_vec[i]:9.3f} {bias[i]:9.4f} {spread[i]:9.4f} {crb[i]:9.4f} {spread[i] / crb[i]:10.2f}"
+        )
+    groups = {
+        "log k": slice(0, 10),
+        "n, c, mu": slice(10, 13),
+        "sole": slice(13, 43),
+        "log k_ref": slice(43, 53),
+    }
     for gname, sl in groups.items():
         r = spread[sl] / crb[sl]
-        print(f"spread/CRB {gname}: median {np.median(r):.2f}, max {r.max():.2f}; "
-              f"max |bias| {np.abs(bias[sl]).max():.4f}, max |error| {np.abs(est[:, sl] - truth_vec[sl]).max():.4f}")
+        print(
+            f"spread/CRB {gname}: median {np.median(r):.2f}, max {r.max():.2f}; "
+            f"max |bias| {np.abs(bias[sl]).max():.4f}, max |error| {np.abs(est[:, sl] - truth_vec[sl]).max():.4f}"
+        )
     corr = np.mean(corr_kn, axis=0)
-    print(f"correlation of log k with n (inverse Fisher, mean over draws): median {np.median(corr):.3f}, "
-          f"min {corr.min():.3f}, max {corr.max():.3f}")
+    print(
+        f"correlation of log k with n (inverse Fisher, mean over draws): median {np.median(corr):.3f}, "
+        f"min {corr.min():.3f}, max {corr.max():.3f}"
+    )
 
     def rel(sl):
         return np.abs(np.exp(est[:, sl] - truth_vec[sl]) - 1), np.abs(np.exp(bias[sl]) - 1)
 
     err = est - truth_vec
     print("\nrecovery (per draw: every estimate of every draw; bias: mean over draws - truth):")
-    for label, (e_, b_) in (("k [N/m^n]", rel(slice(0, 10))), ("k_ref = k x_ref^n, force at 5 mm", rel(slice(43, 53)))):
-        print(f"  {label:>34}: per draw median {np.median(e_):.1%}, max {e_.max():.1%}; |bias| max {b_.max():.1%}")
+    for label, (e_, b_) in (
+        ("k [N/m^n]", rel(slice(0, 10))),
+        ("k_ref = k x_ref^n, force at 5 mm", rel(slice(43, 53))),
+    ):
+        print(
+            f"  {label:>34}: per draw median {np.median(e_):.1%}, max {e_.max():.1%}; |bias| max {b_.max():.1%}"
+        )
     for j, nm in ((10, "n"), (11, "c")):
         e_ = np.abs(est[:, j] / truth_vec[j] - 1)
-        print(f"  {nm:>34}: per draw median {np.median(e_):.1%}, max {e_.max():.1%}; |bias| {abs(bias[j] / truth_vec[j]):.1%}")
+        print(
+            f"  {nm:>34}: per draw median {np.median(e_):.1%}, max {e_.max():.1%}; |bias| {abs(bias[j] / truth_vec[j]):.1%}"
+        )
     for a, ax in enumerate("xyz"):
         sl = slice(13 + a, 43, 3)
         e_ = np.abs(err[:, sl])
-        print(f"  {'sole d' + ax + ' [mm]':>34}: per draw median {np.median(e_):.2f}, max {e_.max():.2f};"
-              f" |bias| max {np.abs(bias[sl]).max():.2f}; CRB sd median {np.median(crb[sl]):.2f}, max {crb[sl].max():.2f}")
+        print(
+            f"  {'sole d' + ax + ' [mm]':>34}: per draw median {np.median(e_):.2f}, max {e_.max():.2f};"
+            f" |bias| max {np.abs(bias[sl]).max():.2f}; CRB sd median {np.median(crb[sl]):.2f}, max {crb[sl].max():.2f}"
+        )
+
 
 if __name__ == "__main__":
     main()

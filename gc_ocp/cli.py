@@ -17,20 +17,35 @@ from gc_ocp.errors import GcOcpError, SolveError
 
 def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> None:
     p.add_argument(
-        "trial", nargs="*", type=Path,
+        "trial",
+        nargs="*",
+        type=Path,
         help="C3D file, or TRC marker file (then give --grf). Default: the bundled example C3D.",
     )
     p.add_argument("--grf", type=Path, help="OpenSim MOT/STO ground reactions for a TRC trial.")
     p.add_argument("--mass", type=float, help="Subject mass [kg] (overrides the file).")
     p.add_argument("--height", type=float, help="Subject height [m] (overrides the file).")
-    p.add_argument("--belt-speed", type=float, dest="belt_speed",
-                   help="Treadmill belt speed [m/s]; the belt moves backward (-X lab).")
+    p.add_argument(
+        "--belt-speed",
+        type=float,
+        dest="belt_speed",
+        help="Treadmill belt speed [m/s]; the belt moves backward (-X lab).",
+    )
     if with_static:
-        p.add_argument("--static", type=Path, help="Static standing trial (TRC or C3D) for scaling.")
-        p.add_argument("--markerset", help="Marker set name (plugingait, rajagopal, gait2392) or TOML file. "
-                       "Default: detected from the marker labels.")
-        p.add_argument("--cutoff", type=float, default=None,
-                       help="Marker low-pass cutoff [Hz] (zero-lag 4th-order Butterworth; default 6).")
+        p.add_argument(
+            "--static", type=Path, help="Static standing trial (TRC or C3D) for scaling."
+        )
+        p.add_argument(
+            "--markerset",
+            help="Marker set name (plugingait, rajagopal, gait2392) or TOML file. "
+            "Default: detected from the marker labels.",
+        )
+        p.add_argument(
+            "--cutoff",
+            type=float,
+            default=None,
+            help="Marker low-pass cutoff [Hz] (zero-lag 4th-order Butterworth; default 6).",
+        )
 
 
 def _load(args: argparse.Namespace):
@@ -38,7 +53,9 @@ def _load(args: argparse.Namespace):
 
     trials = args.trial or [None]
     if args.grf is not None and len(trials) > 1:
-        raise GcOcpError("--grf applies to one TRC trial; give one trial per command when using --grf.")
+        raise GcOcpError(
+            "--grf applies to one TRC trial; give one trial per command when using --grf."
+        )
     return [
         load_trial(t, grf=args.grf, mass=args.mass, height=args.height, belt_speed=args.belt_speed)
         for t in trials
@@ -57,7 +74,9 @@ def _kinematics(trial, args):
     if args.cutoff is not None:
         kw["cutoff_hz"] = args.cutoff
     static = load_static(args.static, trial) if args.static is not None else None
-    return compute_kinematics(trial, markerset=args.markerset, static=static, progress=_progress, **kw)
+    return compute_kinematics(
+        trial, markerset=args.markerset, static=static, progress=_progress, **kw
+    )
 
 
 def cmd_info(args: argparse.Namespace) -> int:
@@ -90,7 +109,10 @@ def cmd_reproduce_seed(args: argparse.Namespace) -> int:
     [trial] = trials
     kin = _kinematics(trial, args)
     res = reproduce_seed(
-        trial, kin, seeds=args.seeds, out_dir=args.out,
+        trial,
+        kin,
+        seeds=args.seeds,
+        out_dir=args.out,
         progress=lambda done, total, label: _progress(f"[{done}/{total}] {label}"),
     )
     for note in res["notes"]:
@@ -112,14 +134,23 @@ def cmd_fit(args: argparse.Namespace) -> int:
         report = fit(pairs, holdout=args.holdout, progress=_progress)
     except SolveError as e:
         if e.result is not None:
-            atomic_write_text(args.out / "fit_failed.json", json.dumps(e.result.to_json(), indent=2))
-            print(f"wrote the non-converged result to {args.out / 'fit_failed.json'}", file=sys.stderr)
+            atomic_write_text(
+                args.out / "fit_failed.json", json.dumps(e.result.to_json(), indent=2)
+            )
+            print(
+                f"wrote the non-converged result to {args.out / 'fit_failed.json'}", file=sys.stderr
+            )
         raise
     print(report.summary())
-    figs = {"fit_wrench.png": plot_fit(report.result), "fit_sole.png": plot_sole_fit(report.result),
-            "fit_pose_corrections.png": plot_pose_corrections(report.result)}
+    figs = {
+        "fit_wrench.png": plot_fit(report.result),
+        "fit_sole.png": plot_sole_fit(report.result),
+        "fit_pose_corrections.png": plot_pose_corrections(report.result),
+    }
     if report.heldout is not None:
-        figs["heldout_wrench.png"] = plot_fit(report.heldout, title=f"held-out {report.heldout_label}")
+        figs["heldout_wrench.png"] = plot_fit(
+            report.heldout, title=f"held-out {report.heldout_label}"
+        )
     for name, fig in figs.items():
         atomic_savefig(fig, args.out / name, dpi=100)
     atomic_write_text(args.out / "fit.json", json.dumps(report.to_json(), indent=2))
@@ -135,41 +166,57 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    p = sub.add_parser("info", help="Print rates, markers, plates, stances and body weight of a trial.",
-                       description="Load a trial and print what was found: marker and analog rates, "
-                       "markers, force plates, detected stances (foot, plate, window) and excluded "
-                       "ones with the reason, body weight and its check against the plates.")
+    p = sub.add_parser(
+        "info",
+        help="Print rates, markers, plates, stances and body weight of a trial.",
+        description="Load a trial and print what was found: marker and analog rates, "
+        "markers, force plates, detected stances (foot, plate, window) and excluded "
+        "ones with the reason, body weight and its check against the plates.",
+    )
     _add_trial_args(p, with_static=False)
     p.set_defaults(func=cmd_info)
 
-    p = sub.add_parser("kinematics", help="Inverse kinematics and sole-point trajectories.",
-                       description="Scale the 27-DOF body model, run per-frame inverse kinematics "
-                       "(Pinocchio, Levenberg-Marquardt) and write the five sole points' lab "
-                       "positions and velocities per foot plus a figure of marker residuals and "
-                       "sole-point heights with stances shaded.")
+    p = sub.add_parser(
+        "kinematics",
+        help="Inverse kinematics and sole-point trajectories.",
+        description="Scale the 27-DOF body model, run per-frame inverse kinematics "
+        "(Pinocchio, Levenberg-Marquardt) and write the five sole points' lab "
+        "positions and velocities per foot plus a figure of marker residuals and "
+        "sole-point heights with stances shaded.",
+    )
     _add_trial_args(p)
     p.add_argument("--out", type=Path, required=True, help="Output folder.")
-    p.add_argument("--format", choices=("csv", "npz"), default="csv", help="Trajectory file format.")
+    p.add_argument(
+        "--format", choices=("csv", "npz"), default="csv", help="Trajectory file format."
+    )
     p.set_defaults(func=cmd_kinematics)
 
-    p = sub.add_parser("reproduce-seed", help="The seed report's five applications (Tables 1 and 2).",
-                       description="Linear least squares for k (n=1, c=0) on four synthetic data sets "
-                       "driven by the trial's motion and on the trial's real ground reactions; "
-                       "writes table1/table2 as JSON and Markdown beside the seed's values.")
+    p = sub.add_parser(
+        "reproduce-seed",
+        help="The seed report's five applications (Tables 1 and 2).",
+        description="Linear least squares for k (n=1, c=0) on four synthetic data sets "
+        "driven by the trial's motion and on the trial's real ground reactions; "
+        "writes table1/table2 as JSON and Markdown beside the seed's values.",
+    )
     _add_trial_args(p)
-    p.add_argument("--seeds", type=int, default=20, help="Noise draws for the noisy rows (default 20).")
+    p.add_argument(
+        "--seeds", type=int, default=20, help="Noise draws for the noisy rows (default 20)."
+    )
     p.add_argument("--out", type=Path, required=True, help="Output folder.")
     p.set_defaults(func=cmd_reproduce_seed)
 
-    p = sub.add_parser("fit", help="Joint kinematics-contact estimation (CasADi + Ipopt).",
-                       description="Co-estimate per-unit stiffness, shared exponent, damping and "
-                       "friction, sole-point corrections and smooth foot-pose corrections against "
-                       "the measured wrenches of every stance (and, on a treadmill, the belt speed); "
-                       "writes DIR/fit.json and fit_wrench.png, fit_sole.png, "
-                       "fit_pose_corrections.png. With --holdout, the named stance is left out of "
-                       "the fit and evaluated with the contact parameters fixed (only the pose "
-                       "correction re-estimated; heldout_wrench.png). Exit status 1 if Ipopt does "
-                       "not converge (the result is written to fit_failed.json), 2 on bad input.")
+    p = sub.add_parser(
+        "fit",
+        help="Joint kinematics-contact estimation (CasADi + Ipopt).",
+        description="Co-estimate per-unit stiffness, shared exponent, damping and "
+        "friction, sole-point corrections and smooth foot-pose corrections against "
+        "the measured wrenches of every stance (and, on a treadmill, the belt speed); "
+        "writes DIR/fit.json and fit_wrench.png, fit_sole.png, "
+        "fit_pose_corrections.png. With --holdout, the named stance is left out of "
+        "the fit and evaluated with the contact parameters fixed (only the pose "
+        "correction re-estimated; heldout_wrench.png). Exit status 1 if Ipopt does "
+        "not converge (the result is written to fit_failed.json), 2 on bad input.",
+    )
     _add_trial_args(p)
     p.add_argument("--holdout", help='Stance to hold out, e.g. "right@0.407s" (see `gc-ocp info`).')
     p.add_argument("--out", type=Path, required=True, help="Output folder.")
@@ -191,7 +238,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"gc-ocp {args.command}: error: {e}", file=sys.stderr)
         return 2
     except FileNotFoundError as e:
-        print(f"gc-ocp {args.command}: error: file not found: {e.filename}; check the path.", file=sys.stderr)
+        print(
+            f"gc-ocp {args.command}: error: file not found: {e.filename}; check the path.",
+            file=sys.stderr,
+        )
         return 2
 
 

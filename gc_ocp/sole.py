@@ -16,7 +16,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 UNITS: tuple[str, ...] = ("PL", "PM", "AL", "AM", "TT")
-UNIT_PARENT: dict[str, str] = {"PL": "hindfoot", "PM": "hindfoot", "AL": "hindfoot", "AM": "hindfoot", "TT": "toes"}
+UNIT_PARENT: dict[str, str] = {
+    "PL": "hindfoot",
+    "PM": "hindfoot",
+    "AL": "hindfoot",
+    "AM": "hindfoot",
+    "TT": "toes",
+}
 
 
 def _ro(a: np.ndarray) -> np.ndarray:
@@ -25,7 +31,9 @@ def _ro(a: np.ndarray) -> np.ndarray:
     return a
 
 
-def points_in_lab(pose: np.ndarray, twist: np.ndarray, local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def points_in_lab(
+    pose: np.ndarray, twist: np.ndarray, local: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Positions and velocities in ``lab`` of points fixed in a moving frame.
 
     pose: ``(n, 4, 4)`` frame-to-lab placements; twist: ``(n, 6)`` (v_origin, omega) in ``lab``;
@@ -60,7 +68,14 @@ class FootKinematics:
     velocities: np.ndarray = field(default=None)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
-        for a in ("time", "hindfoot_pose", "toes_pose", "hindfoot_twist", "toes_twist", "points_local"):
+        for a in (
+            "time",
+            "hindfoot_pose",
+            "toes_pose",
+            "hindfoot_twist",
+            "toes_twist",
+            "points_local",
+        ):
             object.__setattr__(self, a, _ro(getattr(self, a)))
         if self.positions is None or self.velocities is None:
             pos, vel = self.unit_trajectories(self.points_local)
@@ -88,17 +103,28 @@ class FootKinematics:
     def with_points(self, points_local: np.ndarray) -> FootKinematics:
         """The same foot motion with the units moved to ``points_local`` (5, 3) [m]."""
         return FootKinematics(
-            self.side, self.time, self.hindfoot_pose, self.toes_pose,
-            self.hindfoot_twist, self.toes_twist, points_local,
+            self.side,
+            self.time,
+            self.hindfoot_pose,
+            self.toes_pose,
+            self.hindfoot_twist,
+            self.toes_twist,
+            points_local,
         )
 
     def window(self, t0: float, t1: float) -> FootKinematics:
         """Frames with ``t0 <= time <= t1``."""
         s = (self.time >= t0 - 1e-9) & (self.time <= t1 + 1e-9)
         return FootKinematics(
-            self.side, self.time[s], self.hindfoot_pose[s], self.toes_pose[s],
-            self.hindfoot_twist[s], self.toes_twist[s], self.points_local,
-            self.positions[s], self.velocities[s],
+            self.side,
+            self.time[s],
+            self.hindfoot_pose[s],
+            self.toes_pose[s],
+            self.hindfoot_twist[s],
+            self.toes_twist[s],
+            self.points_local,
+            self.positions[s],
+            self.velocities[s],
         )
 
 

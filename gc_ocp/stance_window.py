@@ -28,14 +28,17 @@ class StanceWindow:
     belt_velocity: np.ndarray
 
 
-def cut_stance(trial: Trial, kin: TrialKinematics, stance: Stance, margin: float = 0.0,
-               min_frames: int = 1) -> StanceWindow:
+def cut_stance(
+    trial: Trial, kin: TrialKinematics, stance: Stance, margin: float = 0.0, min_frames: int = 1
+) -> StanceWindow:
     """Frames of ``kin.feet[stance.side]`` within ``[t_on - margin, t_off + margin]`` [s], with the
     measured wrench there. Frames with non-finite kinematics or plate data are dropped; fewer than
     ``min_frames`` left is an :class:`InputError` naming the stance and the likely cause."""
     if stance.side not in kin.feet:
-        raise InputError(f"Stance {stance.label} is on the {stance.side} foot but the kinematics have "
-                         f"feet {sorted(kin.feet)}")
+        raise InputError(
+            f"Stance {stance.label} is on the {stance.side} foot but the kinematics have "
+            f"feet {sorted(kin.feet)}"
+        )
     foot = kin.feet[stance.side]
     t = foot.time
     sel = (t >= stance.t_on - margin - 1e-9) & (t <= stance.t_off + margin + 1e-9)
@@ -43,8 +46,11 @@ def cut_stance(trial: Trial, kin: TrialKinematics, stance: Stance, margin: float
     if idx.size:
         w = foot.window(t[idx[0]], t[idx[-1]])
         meas = trial.stance_wrench(stance, w.time)
-        ok = (np.isfinite(w.positions).all(axis=(1, 2)) & np.isfinite(w.velocities).all(axis=(1, 2))
-              & np.isfinite(meas).all(axis=1))
+        ok = (
+            np.isfinite(w.positions).all(axis=(1, 2))
+            & np.isfinite(w.velocities).all(axis=(1, 2))
+            & np.isfinite(meas).all(axis=1)
+        )
     if idx.size == 0 or ok.sum() < min_frames:
         raise InputError(
             f"{trial.source}: stance {stance.label} [{stance.t_on:.3f}, {stance.t_off:.3f}] s has "
@@ -52,8 +58,17 @@ def cut_stance(trial: Trial, kin: TrialKinematics, stance: Stance, margin: float
             "check marker gaps, the plate channels and that the kinematics cover the stance."
         )
     if not ok.all():
-        w = FootKinematics(w.side, w.time[ok], w.hindfoot_pose[ok], w.toes_pose[ok], w.hindfoot_twist[ok],
-                           w.toes_twist[ok], w.points_local, w.positions[ok], w.velocities[ok])
+        w = FootKinematics(
+            w.side,
+            w.time[ok],
+            w.hindfoot_pose[ok],
+            w.toes_pose[ok],
+            w.hindfoot_twist[ok],
+            w.toes_twist[ok],
+            w.points_local,
+            w.positions[ok],
+            w.velocities[ok],
+        )
         meas = meas[ok]
     return StanceWindow(
         foot=w,

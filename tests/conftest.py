@@ -58,7 +58,9 @@ def gait2392_trial() -> Trial:
     from gc_ocp.io import load_trial
 
     _need_data()
-    return _quiet(load_trial, G23 / "subject01_walk1.trc", grf=G23 / "subject01_walk1_grf.mot", mass=72.6)
+    return _quiet(
+        load_trial, G23 / "subject01_walk1.trc", grf=G23 / "subject01_walk1_grf.mot", mass=72.6
+    )
 
 
 @functools.cache

@@ -11,14 +11,18 @@ import pytest
 from gc_ocp.estimation import compiled as cmod
 from gc_ocp.estimation.problem import N_D, N_Y, _contact_frame_function, _frame_cost_derivatives
 
-needs_cc = pytest.mark.skipif(shutil.which("gcc") is None and shutil.which("cc") is None,
-                              reason="no C compiler on this machine")
+needs_cc = pytest.mark.skipif(
+    shutil.which("gcc") is None and shutil.which("cc") is None,
+    reason="no C compiler on this machine",
+)
 
 
 def _small() -> list[ca.Function]:
     x = ca.SX.sym("x", 3)
-    return [ca.Function("gc_test_f", [x], [ca.sin(x[0]) * x[1] + ca.exp(x[2])]),
-            ca.Function("gc_test_g", [x], [ca.vertcat(x[0] * x[1], ca.sqrt(x[2] ** 2 + 1))])]
+    return [
+        ca.Function("gc_test_f", [x], [ca.sin(x[0]) * x[1] + ca.exp(x[2])]),
+        ca.Function("gc_test_g", [x], [ca.vertcat(x[0] * x[1], ca.sqrt(x[2] ** 2 + 1))]),
+    ]
 
 
 @needs_cc

@@ -60,8 +60,9 @@ def reference_unit_force(p, v, k, n, c, mu, h, vb, smooth, sm=DEFAULT_SMOOTHING)
 
 def random_contact_state(rng, size):
     """Positions within +-8 mm of the ground and velocities of a few cm/s (stance-like)."""
-    p = np.column_stack([rng.uniform(-0.2, 0.2, size), rng.uniform(-0.2, 0.2, size),
-                         rng.uniform(-8e-3, 8e-3, size)])
+    p = np.column_stack(
+        [rng.uniform(-0.2, 0.2, size), rng.uniform(-0.2, 0.2, size), rng.uniform(-8e-3, 8e-3, size)]
+    )
     v = rng.normal(0, 0.03, (size, 3))
     return p, v
 
@@ -79,8 +80,10 @@ def template(feet):
     ]
 
 
-K_TRUE_EXP = {"right": np.array([40e3, 35e3, 30e3, 30e3, 20e3]),
-              "left": np.array([38e3, 36e3, 28e3, 33e3, 22e3])}
+K_TRUE_EXP = {
+    "right": np.array([40e3, 35e3, 30e3, 30e3, 20e3]),
+    "left": np.array([38e3, 36e3, 28e3, 33e3, 22e3]),
+}
 PLATE_NOISE_N = 2.0
 
 
@@ -88,17 +91,27 @@ PLATE_NOISE_N = 2.0
 def fake_trial(feet):
     """A Trial whose plates record the model wrench (k = K_TRUE_EXP) plus 2 N / 2 N·m noise."""
     plates, stances = [], []
-    for i, (side, t0, ec) in enumerate([("right", 0.0, [0.2, -0.1, -0.04]),
-                                        ("left", 0.55, [0.9, 0.1, -0.04])]):
+    for i, (side, t0, ec) in enumerate(
+        [("right", 0.0, [0.2, -0.1, -0.04]), ("left", 0.55, [0.9, 0.1, -0.04])]
+    ):
         f = feet[side]
         t = f.time  # plate sampled at the kinematic frames: no interpolation error
         w = model_wrench(f.positions, f.velocities, K_TRUE_EXP[side], ec, SEED_LAW)
         w = w + np.random.default_rng(i).normal(0, PLATE_NOISE_N, w.shape)
-        plates.append(Plate(f"plate{i + 1}", t, w[:, :3], w[:, 3:], np.array(ec),
-                            "electrical_center"))
+        plates.append(
+            Plate(f"plate{i + 1}", t, w[:, :3], w[:, 3:], np.array(ec), "electrical_center")
+        )
         stances.append(Stance(side, i, t0, t0 + 0.65, np.array(ec), "electrical_center"))
-    trial = Trial(Path("fake.c3d"), (), np.zeros((0, 0, 3)), np.zeros(0), tuple(plates), 70.0,
-                  1.75, tuple(stances))
+    trial = Trial(
+        Path("fake.c3d"),
+        (),
+        np.zeros((0, 0, 3)),
+        np.zeros(0),
+        tuple(plates),
+        70.0,
+        1.75,
+        tuple(stances),
+    )
     kin = TrialKinematics("fake", np.zeros(0), np.zeros((0, 1)), np.zeros(0), feet, 6.0)
     return trial, kin
 
@@ -110,12 +123,41 @@ def fake_trial(feet):
 def test_zero_and_negative_penetration_give_exactly_zero_force(n):
     f = unit_force_function(smooth=False)
     p = ca.SX.sym("p", 3)
-    jac = ca.Function("J", [p], [ca.jacobian(f(p, [0.01, 0.02, -0.5], K0, n, 1.0, 0.8, 0.0,
-                                                  [0.0, 0, 0], *DEFAULT_SMOOTHING.as_tuple()), p)])
+    jac = ca.Function(
+        "J",
+        [p],
+        [
+            ca.jacobian(
+                f(
+                    p,
+                    [0.01, 0.02, -0.5],
+                    K0,
+                    n,
+                    1.0,
+                    0.8,
+                    0.0,
+                    [0.0, 0, 0],
+                    *DEFAULT_SMOOTHING.as_tuple(),
+                ),
+                p,
+            )
+        ],
+    )
     for z in (0.0, 1e-12, 1e-3, 0.5):  # p_z >= ground: x <= 0
         for vz in (-1.0, 0.0, 2.0):
-            out = np.asarray(f([0.1, 0.2, z], [0.3, -0.1, vz], K0, n, 1.0, 0.8, 0.0, [0, 0, 0],
-                               *DEFAULT_SMOOTHING.as_tuple())).ravel()
+            out = np.asarray(
+                f(
+                    [0.1, 0.2, z],
+                    [0.3, -0.1, vz],
+                    K0,
+                    n,
+                    1.0,
+                    0.8,
+                    0.0,
+                    [0, 0, 0],
+                    *DEFAULT_SMOOTHING.as_tuple(),
+                )
+            ).ravel()
             assert np.array_equal(out, np.zeros(3))  # exactly, not approximately
         assert np.array_equal(np.asarray(jac([0.1, 0.2, z])), np.zeros((3, 3)))
     # the vectorised path too
@@ -128,8 +170,9 @@ def test_no_pulling_when_separating_fast():
     out = unit_forces(np.array([0, 0, -0.004]), np.array([0.0, 0, 2.0]), K0, 1.0, 1.0, 0.8)
     assert np.array_equal(out, np.zeros(3))
     # smooth variant: positive and below the smoothing bias k*x*eps_d^2/(4*|d|) * (1 + margin)
-    out_s = unit_forces(np.array([0, 0, -0.004]), np.array([0.0, 0, 2.0]), K0, 1.0, 1.0, 0.0,
-                        smooth=True)
+    out_s = unit_forces(
+        np.array([0, 0, -0.004]), np.array([0.0, 0, 2.0]), K0, 1.0, 1.0, 0.0, smooth=True
+    )
     xs = 0.5 * (0.004 + np.sqrt(0.004**2 + DEFAULT_SMOOTHING.eps_x**2))
     assert 0 < out_s[2] <= K0 * xs * DEFAULT_SMOOTHING.eps_damping**2 / 4 * 1.01
 
@@ -140,8 +183,9 @@ def test_smooth_variant_is_positive_and_converges_to_exact():
     fs = normal_forces(x, 0.0, K0, 1.0, 0.0, smooth=True)
     fe = normal_forces(x, 0.0, K0, 1.0, 0.0, smooth=False)
     assert np.all(fs > 0)
-    assert fs[2] == pytest.approx(K0 * sm.eps_x / 2 * (0.5 * (1 + np.sqrt(1 + sm.eps_damping**2))),
-                                  rel=1e-14)
+    assert fs[2] == pytest.approx(
+        K0 * sm.eps_x / 2 * (0.5 * (1 + np.sqrt(1 + sm.eps_damping**2))), rel=1e-14
+    )
     # x_s - x = (sqrt(x^2+eps^2) - x)/2 <= eps^2/(4x) for x > 0, plus the damping bias eps_d^2/4
     pos = x > 0
     bound = K0 * (sm.eps_x**2 / (4 * x[pos]) + x[pos] * sm.eps_damping**2 / 4) * 1.0001
@@ -157,19 +201,23 @@ def test_numeric_symbolic_and_reference_agree(smooth):
     k = rng.uniform(5e3, 5e4, 200)
     n, c, mu, h, vb = 1.3, 0.7, 0.6, 0.001, np.array([-1.1, 0.05, 0.0])
     num = unit_forces(p, v, k, n, c, mu, h, vb, smooth=smooth)
-    ref = np.array([reference_unit_force(p[i], v[i], k[i], n, c, mu, h, vb, smooth)
-                    for i in range(200)])
+    ref = np.array(
+        [reference_unit_force(p[i], v[i], k[i], n, c, mu, h, vb, smooth) for i in range(200)]
+    )
     # Same operations in a different order: agreement to a few ulps of the force scale.
     scale = np.abs(ref).max()
     np.testing.assert_allclose(num, ref, rtol=0, atol=1e3 * EPS * scale)
     f = unit_force_function(smooth)
     # SX: symbolic call, then numeric evaluation of the resulting expression graph.
     ps, vs = ca.SX.sym("p", 3), ca.SX.sym("v", 3)
-    g = ca.Function("g", [ps, vs], [f(ps, vs, k[0], n, c, mu, h, vb, *DEFAULT_SMOOTHING.as_tuple())])
+    g = ca.Function(
+        "g", [ps, vs], [f(ps, vs, k[0], n, c, mu, h, vb, *DEFAULT_SMOOTHING.as_tuple())]
+    )
     # MX: the same Function embedded in an MX graph.
     pm, vm = ca.MX.sym("p", 3), ca.MX.sym("v", 3)
-    gm = ca.Function("gm", [pm, vm], [f(pm, vm, k[0], n, c, mu, h, vb,
-                                        *DEFAULT_SMOOTHING.as_tuple())])
+    gm = ca.Function(
+        "gm", [pm, vm], [f(pm, vm, k[0], n, c, mu, h, vb, *DEFAULT_SMOOTHING.as_tuple())]
+    )
     for i in range(20):
         a = np.asarray(g(p[i], v[i])).ravel()
         b = np.asarray(gm(p[i], v[i])).ravel()
@@ -182,8 +230,9 @@ def test_numeric_symbolic_and_reference_agree(smooth):
 def _stacked_function(smooth):
     """unit_force as a function of one vector z = (p, v, k, n, c, mu, h, vb) (14,)."""
     z = ca.SX.sym("z", 14)
-    f = unit_force_function(smooth)(z[0:3], z[3:6], z[6], z[7], z[8], z[9], z[10], z[11:14],
-                                    *DEFAULT_SMOOTHING.as_tuple())
+    f = unit_force_function(smooth)(
+        z[0:3], z[3:6], z[6], z[7], z[8], z[9], z[10], z[11:14], *DEFAULT_SMOOTHING.as_tuple()
+    )
     return z, f
 
 
@@ -209,8 +258,16 @@ def test_casadi_jacobian_matches_central_differences(smooth):
     checked = 0
     for _ in range(200):
         p, v = random_contact_state(rng, 1)
-        z0 = np.r_[p[0], v[0], rng.uniform(5e3, 5e4), rng.uniform(1, 2), rng.uniform(0, 1),
-                   rng.uniform(0.3, 1), 0.0, rng.normal(0, 0.5, 3)]
+        z0 = np.r_[
+            p[0],
+            v[0],
+            rng.uniform(5e3, 5e4),
+            rng.uniform(1, 2),
+            rng.uniform(0, 1),
+            rng.uniform(0.3, 1),
+            0.0,
+            rng.normal(0, 0.5, 3),
+        ]
         if not smooth:  # stay away from the kinks x = 0 and 1 + c*xdot = 0
             x = -z0[2]
             if abs(x) < 1e-4 or 1 + z0[8] * (-z0[5]) < 1e-2:
@@ -238,16 +295,21 @@ def test_friction_opposes_sliding_is_bounded_and_respects_belt():
     assert np.all(fn > 0)
     assert np.all(np.einsum("ij,ij->i", ft, vs) < 0)  # opposite the sliding
     # anti-parallel: the 2-D cross product vanishes up to round-off
-    np.testing.assert_allclose(ft[:, 0] * vs[:, 1] - ft[:, 1] * vs[:, 0], 0,
-                               atol=1e3 * EPS * (np.abs(ft).max() * np.abs(vs).max()))
+    np.testing.assert_allclose(
+        ft[:, 0] * vs[:, 1] - ft[:, 1] * vs[:, 0],
+        0,
+        atol=1e3 * EPS * (np.abs(ft).max() * np.abs(vs).max()),
+    )
     mag = np.linalg.norm(ft, axis=1)
     assert np.all(mag < mu * fn)
     speed = np.linalg.norm(vs, axis=1)
-    np.testing.assert_allclose(mag, mu * fn * speed / np.hypot(speed, DEFAULT_SMOOTHING.v_eps),
-                               rtol=1e-13)
+    np.testing.assert_allclose(
+        mag, mu * fn * speed / np.hypot(speed, DEFAULT_SMOOTHING.v_eps), rtol=1e-13
+    )
     # a foot moving with the belt does not slide: no friction; vertical velocity is not sliding
-    F0 = unit_forces(np.array([0, 0, -0.003]), np.array([-1.2, 0.0, -0.02]), K0, 1.0, 0.0, mu,
-                     0.0, vb)
+    F0 = unit_forces(
+        np.array([0, 0, -0.003]), np.array([-1.2, 0.0, -0.02]), K0, 1.0, 0.0, mu, 0.0, vb
+    )
     assert F0[0] == 0 and F0[1] == 0 and F0[2] > 0
     # standing still on a belt moving backwards: the foot slides forward relative to the belt
     F1 = unit_forces(np.array([0, 0, -0.003]), np.zeros(3), K0, 1.0, 0.0, mu, 0.0, vb)
@@ -317,19 +379,30 @@ def test_lls_rejects_a_unit_never_in_contact(template):
     st = template[0]
     pos = st.positions.copy()
     pos[:, UNITS.index("TT"), 2] += 0.2  # toe tip 20 cm above the ground all stance
-    lifted = StanceData(st.side, st.label, st.time, pos, st.velocities,
-                        np.ones_like(st.measured), st.reference_point)
+    lifted = StanceData(
+        st.side,
+        st.label,
+        st.time,
+        pos,
+        st.velocities,
+        np.ones_like(st.measured),
+        st.reference_point,
+    )
     with pytest.raises(RankError, match=r"right/TT.*never in contact"):
-        fit_stiffness_lls([lifted, template[1].with_measured(np.ones((len(template[1].time), 6)))],
-                          SEED_BW, SEED_BWH)
+        fit_stiffness_lls(
+            [lifted, template[1].with_measured(np.ones((len(template[1].time), 6)))],
+            SEED_BW,
+            SEED_BWH,
+        )
 
 
 def test_lls_rejects_inseparable_units(template):
     st = template[0]
     pos, vel = st.positions.copy(), st.velocities.copy()
     pos[:, 1], vel[:, 1] = pos[:, 0], vel[:, 0]  # PM on top of PL: identical regressor columns
-    twin = StanceData(st.side, st.label, st.time, pos, vel, np.ones_like(st.measured),
-                      st.reference_point)
+    twin = StanceData(
+        st.side, st.label, st.time, pos, vel, np.ones_like(st.measured), st.reference_point
+    )
     with pytest.raises(RankError, match=r"rank 4 < 5.*right/P[LM].*right/P[LM]"):
         fit_stiffness_lls([twin], SEED_BW, SEED_BWH)
 
@@ -354,13 +427,14 @@ def test_noisy_synthetic_is_reproducible_and_differs_from_nominal(template, feet
 def test_reproduce_seed_tables(fake_trial, tmp_path):
     trial, kin = fake_trial
     calls = []
-    res = reproduce_seed(trial, kin, seeds=3, out_dir=tmp_path,
-                         progress=lambda d, n, label: calls.append((d, n)))
+    res = reproduce_seed(
+        trial, kin, seeds=3, out_dir=tmp_path, progress=lambda d, n, label: calls.append((d, n))
+    )
     rows = res["table1"]
     assert [r["case"] for r in rows] == list(TABLE1_CASES)
     for r in rows:
         assert list(r)[: len(TABLE1_KEYS)] == list(TABLE1_KEYS)
-        extra = list(r)[len(TABLE1_KEYS):]
+        extra = list(r)[len(TABLE1_KEYS) :]
         if "noisy" in r["case"]:
             assert extra == [k + "_sd" for k in TABLE1_KEYS[1:]]
         else:
@@ -376,13 +450,16 @@ def test_reproduce_seed_tables(fake_trial, tmp_path):
     # written files: exact keys/order, seed values side by side
     assert sorted(os.listdir(tmp_path)) == ["table1.json", "table1.md", "table2.json", "table2.md"]
     assert json.loads((tmp_path / "table1.json").read_text()) == json.loads(json.dumps(rows))
-    assert [list(r) for r in json.loads((tmp_path / "table1.json").read_text())] == \
-        [list(r) for r in rows]
+    assert [list(r) for r in json.loads((tmp_path / "table1.json").read_text())] == [
+        list(r) for r in rows
+    ]
     assert list(json.loads((tmp_path / "table2.json").read_text())) == ["left", "right"]
     md = (tmp_path / "table1.md").read_text()
     assert "20.3" in md and "2.31e-13" in md  # seed's experimental superior force, noiseless k
-    assert "-6.79e+04" in (tmp_path / "table2.md").read_text() or \
-        "-67927.68" in (tmp_path / "table2.md").read_text()
+    assert (
+        "-6.79e+04" in (tmp_path / "table2.md").read_text()
+        or "-67927.68" in (tmp_path / "table2.md").read_text()
+    )
     assert SEED_TABLE1["experimental"]["superior_force_pct_bw"] == 20.26
 
 
@@ -428,11 +505,17 @@ def test_channel_rms_normalisation():
 
 def test_plots_return_figures(template, feet):
     data = synthetic_stances(template, feet, {s: np.full(5, K0) for s in ("left", "right")})
-    fig = plot_wrench_fit([d.time for d in data], [d.measured for d in data],
-                          [d.measured * 1.01 for d in data], sides=[d.side for d in data])
+    fig = plot_wrench_fit(
+        [d.time for d in data],
+        [d.measured for d in data],
+        [d.measured * 1.01 for d in data],
+        sides=[d.side for d in data],
+    )
     assert isinstance(fig, Figure) and len(fig.axes) == 12
-    fig2 = plot_sole({s: feet[s].points_local for s in ("left", "right")},
-                     k={"left": dict.fromkeys(UNITS, K0), "right": dict.fromkeys(UNITS, -K0)})
+    fig2 = plot_sole(
+        {s: feet[s].points_local for s in ("left", "right")},
+        k={"left": dict.fromkeys(UNITS, K0), "right": dict.fromkeys(UNITS, -K0)},
+    )
     assert isinstance(fig2, Figure) and len(fig2.axes) == 2
     assert laws.unit_force_function(False).n_in() == len(laws.UNIT_FORCE_INPUTS)
 
@@ -445,8 +528,16 @@ def test_frames_with_missing_plate_data_are_dropped(fake_trial):
     force = p0.force.copy()
     force[10:15] = np.nan  # a 5-sample gap in the plate record
     gappy = Plate(p0.name, p0.time, force, p0.moment, p0.reference_point, p0.reference_kind)
-    trial2 = Trial(trial.source, (), trial.markers, trial.marker_time, (gappy, trial.plates[1]),
-                   trial.mass, trial.height, trial.stances)
+    trial2 = Trial(
+        trial.source,
+        (),
+        trial.markers,
+        trial.marker_time,
+        (gappy, trial.plates[1]),
+        trial.mass,
+        trial.height,
+        trial.stances,
+    )
     full = stances_from_trial(trial, kin)
     cut = stances_from_trial(trial2, kin)
     assert len(cut[0].time) == len(full[0].time) - 5

@@ -33,15 +33,31 @@ def _stances(rng, displacement=0.008, force_noise=0.0):
         d *= (rng.uniform(0, displacement, 5) / np.linalg.norm(d, axis=1))[:, None]
         disp[side] = d
         for t0 in (0.0, 1.1):
-            sts.append(synthetic_stance(side, truth, nominal_points(side) + d, t0=t0 + t_off,
-                                        sink=0.010, rng=rng, force_noise=force_noise))
+            sts.append(
+                synthetic_stance(
+                    side,
+                    truth,
+                    nominal_points(side) + d,
+                    t0=t0 + t_off,
+                    sink=0.010,
+                    rng=rng,
+                    force_noise=force_noise,
+                )
+            )
     return truth, disp, sts
 
 
 def _model():
-    return (ContactLaw(k=Param("unit", 2e5, 1e2, 1e9), n=Param("shared", 1.2, 1, 3),
-                       c=Param("shared", 0.3, 0, 10), mu=Param("shared", 0.5, 0, 1.5)),
-            SoleCorrection(), PoseCorrection())
+    return (
+        ContactLaw(
+            k=Param("unit", 2e5, 1e2, 1e9),
+            n=Param("shared", 1.2, 1, 3),
+            c=Param("shared", 0.3, 0, 10),
+            mu=Param("shared", 0.5, 0, 1.5),
+        ),
+        SoleCorrection(),
+        PoseCorrection(),
+    )
 
 
 def test_seed_and_full_model_are_configurations_of_one_builder():
@@ -49,8 +65,11 @@ def test_seed_and_full_model_are_configurations_of_one_builder():
     seed = build_estimation(sts, seed_model())
     full = build_estimation(sts, full_model())
     assert seed.x.shape[0] == 10  # one log k per unit per foot, nothing else
-    n_pose = sum(full.builder._index[k].stop - full.builder._index[k].start
-                 for k in full.builder._index if k[0] == "pose")
+    n_pose = sum(
+        full.builder._index[k].stop - full.builder._index[k].start
+        for k in full.builder._index
+        if k[0] == "pose"
+    )
     assert full.x.shape[0] == 10 + 3 + 2 * 5 * 3 + n_pose
     # objective is evaluated without running Ipopt, and equals half the squared residuals
     x = full.x0 + 0.01
@@ -132,8 +151,15 @@ def test_real_trial_fit_and_holdout(bundled):
         assert all(r.params[side][u]["k"] > 0 for u in UNITS)
     assert rep.heldout.rms["right"]["superior_force_pct_bw"] <= 5.0
     d = rep.to_json()
-    assert set(d) >= {"params", "sole_corrections_mm", "pose_correction_rms", "rms", "cop_rms_mm",
-                      "heldout_rms", "solver"}
+    assert set(d) >= {
+        "params",
+        "sole_corrections_mm",
+        "pose_correction_rms",
+        "rms",
+        "cop_rms_mm",
+        "heldout_rms",
+        "solver",
+    }
 
 
 def test_holdout_errors(bundled):
@@ -222,9 +248,12 @@ def test_structured_derivatives_match_casadi_ad():
     # the data Jacobian assembled from per-frame Jacobians (used for the covariance) equals the
     # symbolic Jacobian of the residual vector (one product J_t A_t per entry: round-off 1e-12)
     r, Jd = pb.data_jacobian(x)
-    Jr, rr = (np.asarray(a) for a in ca.Function("j", [pb.x], [ca.jacobian(pb.residuals, pb.x), pb.residuals])(x))
-    assert np.abs(Jd.toarray() - Jr[:pb.n_data]).max() <= 1e-12 * np.abs(Jr).max()
-    assert np.abs(r - rr.ravel()[:pb.n_data]).max() <= 1e-12 * np.abs(rr).max()
+    Jr, rr = (
+        np.asarray(a)
+        for a in ca.Function("j", [pb.x], [ca.jacobian(pb.residuals, pb.x), pb.residuals])(x)
+    )
+    assert np.abs(Jd.toarray() - Jr[: pb.n_data]).max() <= 1e-12 * np.abs(Jr).max()
+    assert np.abs(r - rr.ravel()[: pb.n_data]).max() <= 1e-12 * np.abs(rr).max()
 
 
 def test_holdout_model_fixes_contact_and_applies_the_fitted_belt_speed():
@@ -239,8 +268,11 @@ def test_holdout_model_fixes_contact_and_applies_the_fitted_belt_speed():
     _, _, sts = _stances(np.random.default_rng(5))
     st = dataclasses.replace(sts[0], belt_velocity=np.array([-1.0, 0.0, 0.0]))
     res = SimpleNamespace(
-        params={"left": {u: {"k": 1e5} for u in UNITS}, "right": {u: {"k": 2e5} for u in UNITS},
-                "shared": {"n": 1.4, "c": 0.9, "mu": 0.3}},
+        params={
+            "left": {u: {"k": 1e5} for u in UNITS},
+            "right": {u: {"k": 2e5} for u in UNITS},
+            "shared": {"n": 1.4, "c": 0.9, "mu": 0.3},
+        },
         sole_corrections_mm={s: {u: [1.0, 0.0, -1.0] for u in UNITS} for s in ("left", "right")},
         belt_speed={st.trial: {"value": 1.2, "se": 0.01, "nominal": 1.0}},
     )
@@ -266,8 +298,12 @@ def test_pose_prior_per_axis():
         x[b._index[("pose", 0, part)]] = 1.0
     d, th, _, _ = pose.trajectories(b, 0)
     dv, tv = (np.asarray(a) for a in ca.Function("p", [pb.x], [d, th])(x))
-    np.testing.assert_allclose(dv, np.array([[1e-3], [2e-3], [3e-3]]) * np.ones((1, sts[0].n)), rtol=1e-12)
-    np.testing.assert_allclose(np.rad2deg(tv), np.array([[0.5], [1.0], [1.5]]) * np.ones((1, sts[0].n)), rtol=1e-12)
+    np.testing.assert_allclose(
+        dv, np.array([[1e-3], [2e-3], [3e-3]]) * np.ones((1, sts[0].n)), rtol=1e-12
+    )
+    np.testing.assert_allclose(
+        np.rad2deg(tv), np.array([[0.5], [1.0], [1.5]]) * np.ones((1, sts[0].n)), rtol=1e-12
+    )
     sl = b._index[("pose", 0, "trans")]
     np.testing.assert_allclose(pb.ubx[sl], pose.bound_sigmas)  # bound in units of each sigma
     # the prior-width continuation scales every axis

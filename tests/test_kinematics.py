@@ -26,7 +26,9 @@ def test_lowpass_zero_lag_and_gaps():
     # 1 Hz passes with |H|^2 = 1/(1+(1/6)^8) ~ 1 - 6e-7 and no phase lag; 30 Hz is cut by ~(30/6)^-4
     np.testing.assert_allclose(y[core], np.sin(2 * np.pi * t[core]), atol=5e-3)
     # near the gap the spline fill through the 30 Hz ripple leaves < 0.1 of error, but no NaN
-    assert np.all(np.isfinite(y)) and np.max(np.abs(y[85:120] - np.sin(2 * np.pi * t[85:120]))) < 0.1
+    assert (
+        np.all(np.isfinite(y)) and np.max(np.abs(y[85:120] - np.sin(2 * np.pi * t[85:120]))) < 0.1
+    )
     x[150:200] = np.nan  # 0.5 s gap: too long to fill, stays NaN
     y = lowpass(x[:, None], rate, 6.0)[:, 0]
     assert np.all(np.isnan(y[150:200])) and np.all(np.isfinite(y[:150]))
@@ -55,7 +57,9 @@ def test_ik_recovers_synthetic_configuration():
     assert np.max(res.marker_rms) < 1e-4
     # joints seen by >= 3 markers are recovered; tolerance 1e-3 rad because arm and shank joints are
     # weakly observable with Plug-in Gait's single lateral markers (LM converges slowly there)
-    legs = [mm.body.q_index(j) for j in mm.body.joint_names if not j.startswith(("shoulder", "elbow"))]
+    legs = [
+        mm.body.q_index(j) for j in mm.body.joint_names if not j.startswith(("shoulder", "elbow"))
+    ]
     np.testing.assert_allclose(res.q[:, legs], q_true[:, legs], atol=1e-3)
 
 
@@ -64,7 +68,9 @@ def test_ik_respects_limits():
     bad = markers.copy()
     bad[:, :, 2] += np.linspace(0, 3, len(bad))[:, None]  # unreachable: limits must hold
     res = solve_ik(mm, bad[:5])
-    assert np.all(res.q >= mm.body.lower_limits - 1e-12) and np.all(res.q <= mm.body.upper_limits + 1e-12)
+    assert np.all(res.q >= mm.body.lower_limits - 1e-12) and np.all(
+        res.q <= mm.body.upper_limits + 1e-12
+    )
 
 
 DATASETS = {
@@ -96,7 +102,9 @@ def _heights(trial, kin, lo, hi):
 def test_real_marker_rms(name):
     trial, kin = _kin(name)
     med, p95 = 1e3 * np.median(kin.marker_rms), 1e3 * np.percentile(kin.marker_rms, 95)
-    print(f"\n{name}: marker RMS median {med:.1f} mm, p95 {p95:.1f} mm, IK {kin.info['ik_seconds']:.1f} s")
+    print(
+        f"\n{name}: marker RMS median {med:.1f} mm, p95 {p95:.1f} mm, IK {kin.info['ik_seconds']:.1f} s"
+    )
     # Skin-marker soft-tissue artefact is 10-30 mm on the thigh and 5-15 mm on the shank/foot
     # (Leardini et al. 2005, Gait Posture 21:212); a rigid-segment model cannot fit it, so the
     # per-frame RMS of a good fit is ~5-15 mm. Median < 15 mm, 95th percentile < 25 mm.
@@ -113,8 +121,11 @@ def test_mid_stance_sole_heights(name):
     late = _heights(trial, kin, 0.50, 0.75)
     i = {u: k for k, u in enumerate(UNITS)}
     for u in UNITS:
-        print(f"\n{name} {u}: 25-50% [{early[:, i[u]].min():.1f}, {early[:, i[u]].max():.1f}] mm, "
-              f"50-75% [{late[:, i[u]].min():.1f}, {late[:, i[u]].max():.1f}] mm", end="")
+        print(
+            f"\n{name} {u}: 25-50% [{early[:, i[u]].min():.1f}, {early[:, i[u]].max():.1f}] mm, "
+            f"50-75% [{late[:, i[u]].min():.1f}, {late[:, i[u]].max():.1f}] mm",
+            end="",
+        )
     # Foot-flat (25-50 % of stance): the whole sole is on the floor. 50-75 %: heel-off has
     # started (heel rises, here up to ~25 mm) and the foot rolls over the metatarsal heads, so only
     # the anterior hindfoot units must stay on the floor; the welded toe tip then dips below it

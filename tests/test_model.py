@@ -15,8 +15,9 @@ from gc_ocp.model.urdf import SEED_SUBJECT, SEED_URDF
 from gc_ocp.sole import UNITS
 
 H, M = 1.70, 689.0 / 9.81
-SEGMENTS = ["pelvis", "torso"] + [f"{s}_{x}" for x in "lr" for s in
-                                  ("thigh", "shank", "hindfoot", "toes", "upper_arm", "forearm")]
+SEGMENTS = ["pelvis", "torso"] + [
+    f"{s}_{x}" for x in "lr" for s in ("thigh", "shank", "hindfoot", "toes", "upper_arm", "forearm")
+]
 
 
 @pytest.fixture(scope="module")
@@ -31,8 +32,11 @@ def test_urdf_structure(body):
     # 14 segments with mass: 12 on moving joints, the toes carried by the hindfoot joints
     # (Pinocchio merges a fixed-joint child's inertia into its parent joint).
     root = ET.fromstring(generate_urdf(H, M))
-    masses = {ln.get("name"): float(ln.find("inertial/mass").get("value"))
-              for ln in root.findall("link") if ln.find("inertial") is not None}
+    masses = {
+        ln.get("name"): float(ln.find("inertial/mass").get("value"))
+        for ln in root.findall("link")
+        if ln.find("inertial") is not None
+    }
     assert sorted(masses) == sorted(SEGMENTS)
     assert all(v > 0 for v in masses.values())
     assert len(massive) == 12
@@ -48,8 +52,9 @@ def test_urdf_structure(body):
 
 
 def test_seed_urdf_is_generated():
-    assert SEED_URDF.read_text() == generate_urdf(SEED_SUBJECT["height"], SEED_SUBJECT["mass"],
-                                                  name="gc_ocp_seed_subject")
+    assert SEED_URDF.read_text() == generate_urdf(
+        SEED_SUBJECT["height"], SEED_SUBJECT["mass"], name="gc_ocp_seed_subject"
+    )
 
 
 def _rodrigues(axis, angle):
@@ -69,7 +74,9 @@ def _numpy_placement(root, link, qd):
         A[:3, 3] = o
         B = np.eye(4)
         if j.get("type") == "revolute":
-            B[:3, :3] = _rodrigues(np.array(j.find("axis").get("xyz").split(), float), qd[j.get("name")])
+            B[:3, :3] = _rodrigues(
+                np.array(j.find("axis").get("xyz").split(), float), qd[j.get("name")]
+            )
         elif j.get("type") == "prismatic":
             B[:3, 3] = np.array(j.find("axis").get("xyz").split(), float) * qd[j.get("name")]
         T = A @ B @ T
@@ -81,7 +88,10 @@ def test_foot_placements_match_numpy_chain(body):
     root = ET.fromstring(body.urdf)
     rng = np.random.default_rng(0)
     data = body.create_data()
-    frames = [f"{n}_{s}" for s in "lr" for n in ("hindfoot", "toes", *UNITS)] + ["torso", "forearm_l"]
+    frames = [f"{n}_{s}" for s in "lr" for n in ("hindfoot", "toes", *UNITS)] + [
+        "torso",
+        "forearm_l",
+    ]
     for _ in range(5):
         q = rng.uniform(np.maximum(body.lower_limits, -1.0), np.minimum(body.upper_limits, 1.0))
         qd = {n: q[body.q_index(n)] for n in body.joint_names}
@@ -99,10 +109,21 @@ def test_neutral_pose_geometry(body):
     from gc_ocp.kinematics.scaling import hip_height_ratio
 
     for u in ("PL", "PM", "AL", "AM"):
-        assert data.oMf[body.frame_id(f"{u}_l")].translation[2] == pytest.approx(-hip_height_ratio() * H)
-    assert data.oMf[body.frame_id("AL_l")].translation[1] > data.oMf[body.frame_id("AM_l")].translation[1]
-    assert data.oMf[body.frame_id("AL_r")].translation[1] < data.oMf[body.frame_id("AM_r")].translation[1]
-    assert data.oMf[body.frame_id("TT_l")].translation[0] > data.oMf[body.frame_id("AL_l")].translation[0]
+        assert data.oMf[body.frame_id(f"{u}_l")].translation[2] == pytest.approx(
+            -hip_height_ratio() * H
+        )
+    assert (
+        data.oMf[body.frame_id("AL_l")].translation[1]
+        > data.oMf[body.frame_id("AM_l")].translation[1]
+    )
+    assert (
+        data.oMf[body.frame_id("AL_r")].translation[1]
+        < data.oMf[body.frame_id("AM_r")].translation[1]
+    )
+    assert (
+        data.oMf[body.frame_id("TT_l")].translation[0]
+        > data.oMf[body.frame_id("AL_l")].translation[0]
+    )
 
 
 @pytest.mark.parametrize("name", ["plugingait", "rajagopal", "gait2392"])

@@ -95,8 +95,11 @@ def penetration_function() -> ca.Function:
     """``(p(3), v(3), ground_height) -> (x, xdot)``: penetration [m] and its rate [m/s]."""
     p, v, h = ca.SX.sym("p", 3), ca.SX.sym("v", 3), ca.SX.sym("ground_height")
     return ca.Function(
-        "penetration", [p, v, h], [h - p[2], -v[2]],
-        ["p", "v", "ground_height"], ["x", "xdot"],
+        "penetration",
+        [p, v, h],
+        [h - p[2], -v[2]],
+        ["p", "v", "ground_height"],
+        ["x", "xdot"],
     )
 
 
@@ -119,8 +122,11 @@ def normal_force_function(smooth: bool = False) -> ca.Function:
         fn = ca.if_else(x > 0, k * ca.fmax(x, 0) ** n * ca.fmax(d, 0), 0)
     name = "normal_force_smooth" if smooth else "normal_force"
     return ca.Function(
-        name, [x, xdot, k, n, c, eps_x, eps_d], [fn],
-        ["x", "xdot", "k", "n", "c", "eps_x", "eps_damping"], ["F_n"],
+        name,
+        [x, xdot, k, n, c, eps_x, eps_d],
+        [fn],
+        ["x", "xdot", "k", "n", "c", "eps_x", "eps_damping"],
+        ["F_n"],
     )
 
 
@@ -136,13 +142,26 @@ def friction_force_function() -> ca.Function:
     direction = vs / ca.sqrt(ca.sumsqr(vs) + v_eps * v_eps)
     ft = ca.vertcat(-mu * fn * direction, 0)
     return ca.Function(
-        "friction_force", [fn, v, vb, mu, v_eps], [ft],
-        ["F_n", "v", "belt_velocity", "mu", "v_eps"], ["F_t"],
+        "friction_force",
+        [fn, v, vb, mu, v_eps],
+        [ft],
+        ["F_n", "v", "belt_velocity", "mu", "v_eps"],
+        ["F_t"],
     )
 
 
 UNIT_FORCE_INPUTS = (
-    "p", "v", "k", "n", "c", "mu", "ground_height", "belt_velocity", "eps_x", "eps_damping", "v_eps",
+    "p",
+    "v",
+    "k",
+    "n",
+    "c",
+    "mu",
+    "ground_height",
+    "belt_velocity",
+    "eps_x",
+    "eps_damping",
+    "v_eps",
 )
 
 
@@ -219,19 +238,27 @@ def unit_forces(
 
     vb = np.asarray(belt_velocity, dtype=float).reshape(3)
     args = [
-        positions.reshape(m, 3).T, velocities.reshape(m, 3).T,
-        _row(per_point(k), m), _row(per_point(n), m), _row(per_point(c), m),
-        _row(per_point(mu), m), _row(per_point(ground_height), m), vb.reshape(3, 1),
+        positions.reshape(m, 3).T,
+        velocities.reshape(m, 3).T,
+        _row(per_point(k), m),
+        _row(per_point(n), m),
+        _row(per_point(c), m),
+        _row(per_point(mu), m),
+        _row(per_point(ground_height), m),
+        vb.reshape(3, 1),
         *smoothing.as_tuple(),
     ]
     out = _mapped("unit_force", smooth, m)(*args)
     return np.asarray(out).T.reshape(*batch, 3)
 
 
-def normal_forces(x, xdot, k, n=1.0, c=0.0, smooth: bool = False,
-                  smoothing: Smoothing = DEFAULT_SMOOTHING) -> np.ndarray:
+def normal_forces(
+    x, xdot, k, n=1.0, c=0.0, smooth: bool = False, smoothing: Smoothing = DEFAULT_SMOOTHING
+) -> np.ndarray:
     """Evaluate :func:`normal_force_function` elementwise on broadcastable arrays [N]."""
-    x, xdot, k, n, c = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (x, xdot, k, n, c)))
+    x, xdot, k, n, c = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (x, xdot, k, n, c))
+    )
     shape = x.shape
     m = max(int(np.prod(shape)), 1)
     args = [a.reshape(1, -1) if a.size else np.zeros((1, 1)) for a in (x, xdot, k, n, c)]

@@ -61,21 +61,36 @@ class StanceData:
 
     def __post_init__(self) -> None:
         n = np.asarray(self.time).shape[0]
-        for name, shape in (("positions", (n, len(UNITS), 3)), ("velocities", (n, len(UNITS), 3)),
-                            ("measured", (n, 6)), ("reference_point", (3,))):
+        for name, shape in (
+            ("positions", (n, len(UNITS), 3)),
+            ("velocities", (n, len(UNITS), 3)),
+            ("measured", (n, 6)),
+            ("reference_point", (3,)),
+        ):
             a = np.array(getattr(self, name), dtype=float, copy=True)
             if a.shape != shape:
-                raise InputError(f"StanceData {self.label!r}: {name} must have shape {shape}, "
-                                 f"but got {a.shape}")
+                raise InputError(
+                    f"StanceData {self.label!r}: {name} must have shape {shape}, but got {a.shape}"
+                )
             a.setflags(write=False)
             object.__setattr__(self, name, a)
         if self.side not in SIDES:
-            raise InputError(f"StanceData {self.label!r}: side must be one of {SIDES}, "
-                             f"but got {self.side!r}")
+            raise InputError(
+                f"StanceData {self.label!r}: side must be one of {SIDES}, but got {self.side!r}"
+            )
 
     def with_measured(self, measured: np.ndarray) -> StanceData:
-        return StanceData(self.side, self.label, self.time, self.positions, self.velocities,
-                          measured, self.reference_point, self.ground_height, self.belt_velocity)
+        return StanceData(
+            self.side,
+            self.label,
+            self.time,
+            self.positions,
+            self.velocities,
+            measured,
+            self.reference_point,
+            self.ground_height,
+            self.belt_velocity,
+        )
 
 
 def stance_data(
@@ -93,12 +108,22 @@ def stance_data(
     w = foot.window(t_on, t_off)
     n = w.time.shape[0]
     if n == 0:
-        raise InputError(f"Stance {label!r} [{t_on:.3f}, {t_off:.3f}] s has no kinematic frame; "
-                         "check that the kinematics cover the stance")
+        raise InputError(
+            f"Stance {label!r} [{t_on:.3f}, {t_off:.3f}] s has no kinematic frame; "
+            "check that the kinematics cover the stance"
+        )
     meas = np.zeros((n, 6)) if measured is None else measured
-    return StanceData(side, label, w.time, w.positions, w.velocities, meas,
-                      np.asarray(reference_point, dtype=float), float(ground_height),
-                      np.asarray(belt_velocity, dtype=float))
+    return StanceData(
+        side,
+        label,
+        w.time,
+        w.positions,
+        w.velocities,
+        meas,
+        np.asarray(reference_point, dtype=float),
+        float(ground_height),
+        np.asarray(belt_velocity, dtype=float),
+    )
 
 
 def stances_from_trial(trial, kinematics) -> list[StanceData]:
@@ -114,8 +139,19 @@ def stances_from_trial(trial, kinematics) -> list[StanceData]:
     out = []
     for st in trial.stances:
         w = cut_stance(trial, kinematics, st)
-        out.append(StanceData(st.side, st.label, w.foot.time, w.foot.positions, w.foot.velocities,
-                              w.measured, w.reference_point, w.ground_height, w.belt_velocity))
+        out.append(
+            StanceData(
+                st.side,
+                st.label,
+                w.foot.time,
+                w.foot.positions,
+                w.foot.velocities,
+                w.measured,
+                w.reference_point,
+                w.ground_height,
+                w.belt_velocity,
+            )
+        )
     return out
 
 
@@ -143,9 +179,11 @@ class LLSResult:
     law: ContactLaw
 
     def summary(self) -> str:
-        lines = [f"LLS stiffness fit: {len(self.stances)} stances, "
-                 f"{sum(len(s.time) for s in self.stances)} frames, rank {self.rank}/"
-                 f"{len(self.unknowns)}, condition {self.condition_number:.3g}"]
+        lines = [
+            f"LLS stiffness fit: {len(self.stances)} stances, "
+            f"{sum(len(s.time) for s in self.stances)} frames, rank {self.rank}/"
+            f"{len(self.unknowns)}, condition {self.condition_number:.3g}"
+        ]
         for side, ks in self.k.items():
             lines.append(f"  {side:5s} " + "  ".join(f"{u}={v:10.1f}" for u, v in ks.items()))
         lines.append("  RMS: " + ", ".join(f"{c}={self.rms_pct[c]:.3g}" for c in CHANNELS))
@@ -167,7 +205,9 @@ def build_lls_system(
     if not stances:
         raise InputError("No stance to fit; the trial needs at least one usable stance")
     if not body_weight > 0 or not bw_height > 0:
-        raise InputError(f"body_weight and bw_height must be > 0, but got {body_weight}, {bw_height}")
+        raise InputError(
+            f"body_weight and bw_height must be > 0, but got {body_weight}, {bw_height}"
+        )
     if sides is None:
         sides = [s for s in SIDES if any(st.side == s for st in stances)]
     unknowns = tuple((s, u) for s in sides for u in UNITS)
@@ -176,11 +216,12 @@ def build_lls_system(
     for st in stances:
         if st.side not in sides:
             raise InputError(f"Stance {st.label!r} is on side {st.side!r}, not in {list(sides)}")
-        reg = wrench_per_unit_stiffness(st.positions, st.velocities, st.reference_point, law,
-                                        st.ground_height, st.belt_velocity)  # (n, 6, 5)
+        reg = wrench_per_unit_stiffness(
+            st.positions, st.velocities, st.reference_point, law, st.ground_height, st.belt_velocity
+        )  # (n, 6, 5)
         a = np.zeros((reg.shape[0], 6, len(unknowns)))
         j0 = list(sides).index(st.side) * len(UNITS)
-        a[:, :, j0:j0 + len(UNITS)] = reg / scale[None, :, None]
+        a[:, :, j0 : j0 + len(UNITS)] = reg / scale[None, :, None]
         blocks_a.append(a.reshape(-1, len(unknowns)))
         blocks_b.append((st.measured / scale).reshape(-1))
     return np.vstack(blocks_a), np.concatenate(blocks_b), unknowns
@@ -225,9 +266,15 @@ def fit_stiffness_lls(
         )
     k, *_ = np.linalg.lstsq(A, b, rcond=None)
     fitted = tuple(
-        model_wrench(st.positions, st.velocities,
-                     k[[unknowns.index((st.side, u)) for u in UNITS]],
-                     st.reference_point, law, st.ground_height, st.belt_velocity)
+        model_wrench(
+            st.positions,
+            st.velocities,
+            k[[unknowns.index((st.side, u)) for u in UNITS]],
+            st.reference_point,
+            law,
+            st.ground_height,
+            st.belt_velocity,
+        )
         for st in stances
     )
     meas = np.vstack([st.measured for st in stances])
@@ -235,8 +282,20 @@ def fit_stiffness_lls(
     kd: dict[str, dict[str, float]] = {}
     for (side, unit), v in zip(unknowns, k, strict=True):
         kd.setdefault(side, {})[unit] = float(v)
-    return LLSResult(unknowns, k, kd, tuple(stances), fitted, rms, rank, s,
-                     float(s[0] / s[-1]), float(body_weight), float(bw_height), law)
+    return LLSResult(
+        unknowns,
+        k,
+        kd,
+        tuple(stances),
+        fitted,
+        rms,
+        rank,
+        s,
+        float(s[0] / s[-1]),
+        float(body_weight),
+        float(bw_height),
+        law,
+    )
 
 
 def k_dict_to_vector(k: Mapping[str, Mapping[str, float]], unknowns) -> np.ndarray:

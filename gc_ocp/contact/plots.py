@@ -12,9 +12,14 @@ from gc_ocp.contact.channels import CHANNELS, WRENCH_COLUMN
 from gc_ocp.errors import InputError
 from gc_ocp.sole import UNITS
 
-_UNIT_LABEL = {"anterior_force": "N", "superior_force": "N", "lateral_force": "N",
-               "anteroposterior_torque": "N·m", "longitudinal_torque": "N·m",
-               "mediolateral_torque": "N·m"}
+_UNIT_LABEL = {
+    "anterior_force": "N",
+    "superior_force": "N",
+    "lateral_force": "N",
+    "anteroposterior_torque": "N·m",
+    "longitudinal_torque": "N·m",
+    "mediolateral_torque": "N·m",
+}
 
 
 def plot_wrench_fit(
@@ -36,8 +41,10 @@ def plot_wrench_fit(
         times, measured, simulated = [times], [measured], [simulated]
     n_st = len(times)
     if not (len(measured) == len(simulated) == n_st):
-        raise InputError(f"times, measured, simulated must have the same number of stances, "
-                         f"but got {n_st}, {len(measured)}, {len(simulated)}")
+        raise InputError(
+            f"times, measured, simulated must have the same number of stances, "
+            f"but got {n_st}, {len(measured)}, {len(simulated)}"
+        )
     sides = list(sides) if sides is not None else ["foot"] * n_st
     cols = list(dict.fromkeys(sides))
     fig = Figure(figsize=(4.5 * len(cols), 11), layout="constrained")
@@ -50,7 +57,7 @@ def plot_wrench_fit(
         for i, ch in enumerate(CHANNELS):
             ax = axes[i, j]
             c = WRENCH_COLUMN[ch]
-            line, = ax.plot(t, m[:, c], lw=1.5, label=f"{lab} measured")
+            (line,) = ax.plot(t, m[:, c], lw=1.5, label=f"{lab} measured")
             ax.plot(t, q[:, c], lw=1.2, ls="--", color=line.get_color(), label=f"{lab} model")
     for j, side in enumerate(cols):
         axes[0, j].set_title(side)
@@ -83,8 +90,9 @@ def plot_sole(
     for ax, side in zip(axes, sides, strict=True):
         pts = np.array(points_local_by_side[side], dtype=float)
         if pts.shape != (len(UNITS), 3):
-            raise InputError(f"points_local_by_side[{side!r}] must have shape (5, 3), "
-                             f"but got {pts.shape}")
+            raise InputError(
+                f"points_local_by_side[{side!r}] must have shape (5, 3), but got {pts.shape}"
+            )
         if toes_offset is not None and side in toes_offset:
             pts[UNITS.index("TT")] += np.asarray(toes_offset[side], dtype=float)
         order = [UNITS.index(u) for u in ("PL", "AL", "TT", "AM", "PM", "PL")]
@@ -95,11 +103,23 @@ def plot_sole(
             val = kk.get(u)
             size = 60 + 240 * (abs(val) / kmax if val is not None else 0.3)
             hollow = val is not None and val < 0
-            ax.scatter(pts[i, 1] * 100, pts[i, 0] * 100, s=size,
-                       facecolors="none" if hollow else "C0", edgecolors="C0", zorder=3)
+            ax.scatter(
+                pts[i, 1] * 100,
+                pts[i, 0] * 100,
+                s=size,
+                facecolors="none" if hollow else "C0",
+                edgecolors="C0",
+                zorder=3,
+            )
             text = u if val is None else f"{u}\n{val / 1000:.1f} kN/m"
-            ax.annotate(text, (pts[i, 1] * 100, pts[i, 0] * 100), textcoords="offset points",
-                        xytext=(8, 0), fontsize=8, va="center")
+            ax.annotate(
+                text,
+                (pts[i, 1] * 100, pts[i, 0] * 100),
+                textcoords="offset points",
+                xytext=(8, 0),
+                fontsize=8,
+                va="center",
+            )
         ax.set_aspect("equal")
         ax.invert_xaxis()  # top view: looking down Z, x up the page, y (left) to the left
         ax.set_xlabel("y (left) [cm]")

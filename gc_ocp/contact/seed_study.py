@@ -51,8 +51,24 @@ TABLE1_KEYS: tuple[str, ...] = ("case", "k_rms_pct", *(TABLE_KEYS[c] for c in CH
 SEED_TABLE1: dict[str, dict[str, float | None]] = {
     case: dict(zip(TABLE1_KEYS[1:], vals, strict=True))
     for case, vals in {
-        "synthetic_noiseless_uniform_k": (2.31e-13, 2.55e-16, 3.74e-14, 2.21e-16, 4.23e-15, 1.01e-16, 1.89e-14),
-        "synthetic_noiseless_random_k": (2.32e-13, 2.43e-16, 3.33e-14, 2.06e-16, 3.73e-15, 7.81e-17, 1.48e-14),
+        "synthetic_noiseless_uniform_k": (
+            2.31e-13,
+            2.55e-16,
+            3.74e-14,
+            2.21e-16,
+            4.23e-15,
+            1.01e-16,
+            1.89e-14,
+        ),
+        "synthetic_noiseless_random_k": (
+            2.32e-13,
+            2.43e-16,
+            3.33e-14,
+            2.06e-16,
+            3.73e-15,
+            7.81e-17,
+            1.48e-14,
+        ),
         "synthetic_noisy_uniform_k": (3.13, 0.013, 2.27, 0.013, 0.16, 0.0045, 0.74),
         "synthetic_noisy_random_k": (6.59, 0.015, 2.52, 0.014, 0.21, 0.0050, 0.81),
         "experimental": (None, 6.46, 20.26, 1.83, 3.35, 0.29, 7.09),
@@ -151,8 +167,10 @@ def reproduce_seed(
     height = trial.height
     if height is None:
         height = SEED_BWH / SEED_BW
-        notes.append(f"Subject height unknown: torques normalised with H = {height:.3f} m "
-                     "(the seed's BW*H / BW).")
+        notes.append(
+            f"Subject height unknown: torques normalised with H = {height:.3f} m "
+            "(the seed's BW*H / BW)."
+        )
     fit = fit_stiffness_lls(real, bw, bw * height, law)
     tick("experimental")
     rows.append(_row("experimental", None, fit.rms_pct))
@@ -162,11 +180,19 @@ def reproduce_seed(
         "table2": table2,
         "experimental_fit": fit,
         "settings": {
-            "law": {"n": law.n, "c": law.c, "mu": law.mu, "smooth": law.smooth,
-                    "v_eps": law.smoothing.v_eps},
-            "seeds": seeds, "rng_seed": rng_seed, "synthetic_depth_m": synthetic_depth,
+            "law": {
+                "n": law.n,
+                "c": law.c,
+                "mu": law.mu,
+                "smooth": law.smooth,
+                "v_eps": law.smoothing.v_eps,
+            },
+            "seeds": seeds,
+            "rng_seed": rng_seed,
+            "synthetic_depth_m": synthetic_depth,
             "synthetic_ground_heights_m": [st.ground_height for st in template],
-            "body_weight_n": bw, "height_m": height,
+            "body_weight_n": bw,
+            "height_m": height,
             "stances": [st.label for st in real],
         },
         "notes": notes,
@@ -183,11 +209,12 @@ def _check_table1(rows: list[dict]) -> None:
     for r in rows:
         keys = list(r)
         if keys[: len(TABLE1_KEYS)] != list(TABLE1_KEYS) or any(
-            k not in TABLE1_KEYS and not (k.endswith("_sd") and k[:-3] in TABLE1_KEYS)
-            for k in keys
+            k not in TABLE1_KEYS and not (k.endswith("_sd") and k[:-3] in TABLE1_KEYS) for k in keys
         ):
-            raise InputError(f"Table 1 row {r['case']!r} must have keys {list(TABLE1_KEYS)} "
-                             f"(+ optional '_sd' keys), but got {keys}")
+            raise InputError(
+                f"Table 1 row {r['case']!r} must have keys {list(TABLE1_KEYS)} "
+                f"(+ optional '_sd' keys), but got {keys}"
+            )
 
 
 def table1_json(rows: list[dict]) -> str:
@@ -235,13 +262,19 @@ def table1_markdown(rows: list[dict]) -> str:
 
 def table2_markdown(table2: dict) -> str:
     """Markdown of Table 2: experimental k per unit per foot, ours and the seed's [N/m]."""
-    lines = ["# Table 2: experimental stiffness k [N/m]", "",
-             "| side | unit | ours | seed |", "|---|---|---|---|"]
+    lines = [
+        "# Table 2: experimental stiffness k [N/m]",
+        "",
+        "| side | unit | ours | seed |",
+        "|---|---|---|---|",
+    ]
     for side in ("left", "right"):
         for u in UNITS:
             ours = table2.get(side, {}).get(u)
-            lines.append(f"| {side} | {u} | {_fmt(ours) if ours is None else f'{ours:.2f}'} | "
-                         f"{SEED_TABLE2[side][u]:.2f} |")
+            lines.append(
+                f"| {side} | {u} | {_fmt(ours) if ours is None else f'{ours:.2f}'} | "
+                f"{SEED_TABLE2[side][u]:.2f} |"
+            )
     return "\n".join(lines) + "\n"
 
 

@@ -47,13 +47,26 @@ DEFAULT_DEPTH = 5e-3
 """Penetration of the lowest unit at mid-stance used by :func:`auto_ground_heights` [m]."""
 
 
-def auto_ground_heights(stances: Sequence[StanceData], depth: float = DEFAULT_DEPTH) -> list[StanceData]:
+def auto_ground_heights(
+    stances: Sequence[StanceData], depth: float = DEFAULT_DEPTH
+) -> list[StanceData]:
     """Copies of ``stances`` with ``ground_height = median_t(min_i p_z,i) + depth`` [m]."""
     out = []
     for st in stances:
         h = float(np.median(st.positions[:, :, 2].min(axis=1))) + depth
-        out.append(StanceData(st.side, st.label, st.time, st.positions, st.velocities, st.measured,
-                              st.reference_point, h, st.belt_velocity))
+        out.append(
+            StanceData(
+                st.side,
+                st.label,
+                st.time,
+                st.positions,
+                st.velocities,
+                st.measured,
+                st.reference_point,
+                h,
+                st.belt_velocity,
+            )
+        )
     return out
 
 
@@ -96,13 +109,22 @@ def synthetic_stances(
             idx = np.searchsorted(foot.time, st.time)
             idx = np.clip(idx, 0, len(foot.time) - 1)
             if not np.allclose(foot.time[idx], st.time, rtol=0, atol=1e-9):
-                raise InputError(f"Stance {st.label!r}: its frames are not frames of the "
-                                 f"{st.side} foot kinematics; build the template from the same feet")
+                raise InputError(
+                    f"Stance {st.label!r}: its frames are not frames of the "
+                    f"{st.side} foot kinematics; build the template from the same feet"
+                )
             pos, vel = foot.positions[idx], foot.velocities[idx]
         else:
             pos, vel = st.positions, st.velocities
-        meas = model_wrench(pos, vel, np.asarray(k_true[st.side]), st.reference_point, law,
-                            st.ground_height, st.belt_velocity)
+        meas = model_wrench(
+            pos,
+            vel,
+            np.asarray(k_true[st.side]),
+            st.reference_point,
+            law,
+            st.ground_height,
+            st.belt_velocity,
+        )
         out.append(st.with_measured(meas))
     return out
 
@@ -145,8 +167,15 @@ def rolling_foot(
     t = t_on + np.arange(int(round(duration * rate)) + 1) / rate
     s = (t - t_on) / duration
     mtp = 0.18
-    pts = np.array([[0.0, -0.030, 0.0], [0.0, 0.025, 0.0], [0.15, -0.045, 0.0],
-                    [0.17, 0.040, 0.0], [0.055, 0.005, 0.0]])
+    pts = np.array(
+        [
+            [0.0, -0.030, 0.0],
+            [0.0, 0.025, 0.0],
+            [0.15, -0.045, 0.0],
+            [0.17, 0.040, 0.0],
+            [0.055, 0.005, 0.0],
+        ]
+    )
     pts[:, 1] *= sgn
     theta = np.where(s < 0.15, np.radians(heel_strike_pitch_deg) * (1 - s / 0.15) ** 2, 0.0)
     theta = np.where(s > 0.55, -np.radians(push_off_pitch_deg) * ((s - 0.55) / 0.45) ** 2, theta)
@@ -169,10 +198,18 @@ def rolling_foot(
     def twist(R, p):
         v = np.gradient(p, t, axis=0)
         W = np.gradient(R, t, axis=0) @ R.transpose(0, 2, 1)
-        w = 0.5 * np.column_stack([W[:, 2, 1] - W[:, 1, 2], W[:, 0, 2] - W[:, 2, 0],
-                                   W[:, 1, 0] - W[:, 0, 1]])
+        w = 0.5 * np.column_stack(
+            [W[:, 2, 1] - W[:, 1, 2], W[:, 0, 2] - W[:, 2, 0], W[:, 1, 0] - W[:, 0, 1]]
+        )
         return np.hstack([v, w])
 
     toes_local = pts  # TT is expressed in the toes frame (origin on the MTP line)
-    return FootKinematics(side, t, pose(r_hind, origin), pose(r_toes, toes_origin),
-                          twist(r_hind, origin), twist(r_toes, toes_origin), toes_local)
+    return FootKinematics(
+        side,
+        t,
+        pose(r_hind, origin),
+        pose(r_toes, toes_origin),
+        twist(r_hind, origin),
+        twist(r_toes, toes_origin),
+        toes_local,
+    )

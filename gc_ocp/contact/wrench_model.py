@@ -68,8 +68,20 @@ def wrench_function(smooth: bool = False, n_units: int = N_UNITS) -> ca.Function
         "contact_wrench_smooth" if smooth else "contact_wrench",
         [P, V, k, n, c, mu, h, vb, ref, *eps],
         [ca.vertcat(force, moment)],
-        ["P", "V", "k", "n", "c", "mu", "ground_height", "belt_velocity", "reference",
-         "eps_x", "eps_damping", "v_eps"],
+        [
+            "P",
+            "V",
+            "k",
+            "n",
+            "c",
+            "mu",
+            "ground_height",
+            "belt_velocity",
+            "reference",
+            "eps_x",
+            "eps_damping",
+            "v_eps",
+        ],
         ["W"],
     )
 
@@ -113,8 +125,13 @@ def model_wrench(
     out = fun(
         positions.transpose(2, 1, 0).reshape(3, m * nf, order="F"),
         velocities.transpose(2, 1, 0).reshape(3, m * nf, order="F"),
-        k.reshape(m, 1), law.n, law.c, law.mu, h.reshape(1, nf),
-        np.asarray(belt_velocity, dtype=float).reshape(3, 1), ref.T,
+        k.reshape(m, 1),
+        law.n,
+        law.c,
+        law.mu,
+        h.reshape(1, nf),
+        np.asarray(belt_velocity, dtype=float).reshape(3, 1),
+        ref.T,
         *law.smoothing.as_tuple(),
     )
     return np.asarray(out).T.copy()
@@ -136,8 +153,9 @@ def wrench_per_unit_stiffness(
     """
     m = np.asarray(positions).shape[1]
     cols = [
-        model_wrench(positions, velocities, np.eye(m)[j], reference_point, law, ground_height,
-                     belt_velocity)
+        model_wrench(
+            positions, velocities, np.eye(m)[j], reference_point, law, ground_height, belt_velocity
+        )
         for j in range(m)
     ]
     return np.stack(cols, axis=2)
@@ -148,11 +166,14 @@ def model_cop(
 ) -> np.ndarray:
     """Centre of pressure ``(n, 3)`` [m] of a modelled wrench on ``z = surface_height``."""
     wrench = np.asarray(wrench, dtype=float)
-    return cop_from_wrench(wrench[:, :3], wrench[:, 3:], reference_point, surface_height,
-                           min_vertical)
+    return cop_from_wrench(
+        wrench[:, :3], wrench[:, 3:], reference_point, surface_height, min_vertical
+    )
 
 
-def model_free_moment(wrench: np.ndarray, reference_point, surface_height: float = 0.0) -> np.ndarray:
+def model_free_moment(
+    wrench: np.ndarray, reference_point, surface_height: float = 0.0
+) -> np.ndarray:
     """Vertical free moment ``(n,)`` [N·m] of a modelled wrench about its COP."""
     wrench = np.asarray(wrench, dtype=float)
     return free_moment(wrench[:, :3], wrench[:, 3:], reference_point, surface_height)

@@ -78,9 +78,13 @@ def _build(src: str, cc: str, target: Path, say) -> None:
         c_file = Path(tmp, "src.c")
         c_file.write_text(src)
         so = Path(tmp, target.name)
-        say(f"compiling the per-frame contact functions to C with {Path(cc).name} {' '.join(FLAGS)} "
-            f"(once per machine, ~10-20 s; cached in {target.parent})")
-        proc = subprocess.run([cc, *FLAGS, str(c_file), "-o", str(so), "-lm"], capture_output=True, text=True)
+        say(
+            f"compiling the per-frame contact functions to C with {Path(cc).name} {' '.join(FLAGS)} "
+            f"(once per machine, ~10-20 s; cached in {target.parent})"
+        )
+        proc = subprocess.run(
+            [cc, *FLAGS, str(c_file), "-o", str(so), "-lm"], capture_output=True, text=True
+        )
         if proc.returncode != 0:
             raise RuntimeError(f"{cc} failed: {proc.stderr.strip()[-500:]}")
         os.replace(so, target)  # atomic: other processes see no file or the whole file
@@ -98,13 +102,21 @@ def compiled(functions: list[ca.Function], name: str, say=None) -> list[ca.Funct
     say = say or _default_say
     cc = _compiler()
     if cc is None:
-        warnings.warn("No C compiler found (set CC, or install gcc): the estimator uses CasADi's "
-                      "slower SX virtual machine. Set GC_OCP_COMPILE=0 to silence this.", stacklevel=3)
+        warnings.warn(
+            "No C compiler found (set CC, or install gcc): the estimator uses CasADi's "
+            "slower SX virtual machine. Set GC_OCP_COMPILE=0 to silence this.",
+            stacklevel=3,
+        )
         return list(functions)
     src = _source(functions, name)
-    key = hashlib.sha256("\0".join([src, cc, *FLAGS, ca.__version__, sys.platform]).encode()).hexdigest()[:16]
+    key = hashlib.sha256(
+        "\0".join([src, cc, *FLAGS, ca.__version__, sys.platform]).encode()
+    ).hexdigest()[:16]
     errors = []
-    for d in (cache_dir(), Path(tempfile.gettempdir()) / f"gc_ocp-{os.getuid() if hasattr(os, 'getuid') else 'u'}"):
+    for d in (
+        cache_dir(),
+        Path(tempfile.gettempdir()) / f"gc_ocp-{os.getuid() if hasattr(os, 'getuid') else 'u'}",
+    ):
         target = d / f"{name}-{key}.so"
         try:
             if not target.exists():
@@ -112,14 +124,20 @@ def compiled(functions: list[ca.Function], name: str, say=None) -> list[ca.Funct
             return [ca.external(f.name(), str(target)) for f in functions]
         except (OSError, RuntimeError) as e:
             errors.append(f"{d}: {e}")
-    warnings.warn("Could not compile the estimator's per-frame functions (" + "; ".join(errors)
-                  + "): using CasADi's slower SX virtual machine. Set GC_OCP_CACHE_DIR to a writable "
-                  "directory, or GC_OCP_COMPILE=0 to silence this.", stacklevel=3)
+    warnings.warn(
+        "Could not compile the estimator's per-frame functions ("
+        + "; ".join(errors)
+        + "): using CasADi's slower SX virtual machine. Set GC_OCP_CACHE_DIR to a writable "
+        "directory, or GC_OCP_COMPILE=0 to silence this.",
+        stacklevel=3,
+    )
     return list(functions)
 
 
 @functools.lru_cache(maxsize=8)
-def frame_functions(depth_smoothing: float, slip_smoothing: float) -> tuple[ca.Function, ca.Function, ca.Function]:
+def frame_functions(
+    depth_smoothing: float, slip_smoothing: float
+) -> tuple[ca.Function, ca.Function, ca.Function]:
     """``(frame, grad, hess)`` per-frame functions of the estimator (see
     :mod:`gc_ocp.estimation.problem`); ``grad`` and ``hess`` compiled when possible. Built once
     per process."""

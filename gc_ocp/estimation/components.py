@@ -100,16 +100,30 @@ class ContactLaw:
             keys: list[tuple[str, ...]]
             if p.scope == "unit":
                 if pname != "k":
-                    raise ValueError(f'Param "{pname}" cannot have scope "unit"; choose foot, shared or fixed.')
+                    raise ValueError(
+                        f'Param "{pname}" cannot have scope "unit"; choose foot, shared or fixed.'
+                    )
                 keys = [(s, u) for s in SIDES for u in UNITS]
             elif p.scope == "foot":
                 keys = [(s,) for s in SIDES]
             else:
                 keys = [()]
             for key in keys:
-                v0 = p.value_for(*key) if p.scope != "shared" else p.value_for(SIDES[0], UNITS[0]) if isinstance(p.value, dict) else float(p.value)
-                b.parameter((self.name, pname, *key), v0, p.lower, p.upper, log=log,
-                            prior_sigma=p.prior_sigma)
+                v0 = (
+                    p.value_for(*key)
+                    if p.scope != "shared"
+                    else p.value_for(SIDES[0], UNITS[0])
+                    if isinstance(p.value, dict)
+                    else float(p.value)
+                )
+                b.parameter(
+                    (self.name, pname, *key),
+                    v0,
+                    p.lower,
+                    p.upper,
+                    log=log,
+                    prior_sigma=p.prior_sigma,
+                )
 
     def values(self, b: Builder, side: str, log_k: bool = False) -> dict:
         """Symbolic (or fixed numeric) parameter values for ``side``: k (5,), n, c, mu.
@@ -194,8 +208,10 @@ class PoseCorrection:
 
     def with_prior_scale(self, f: float) -> PoseCorrection:
         """The same component with its prior widths multiplied by ``f`` (bounds follow)."""
+
         def scaled(v):
             return v * f if np.isscalar(v) else tuple(float(a) * f for a in v)
+
         return replace(self, sigma_mm=scaled(self.sigma_mm), sigma_deg=scaled(self.sigma_deg))
 
     def basis(self, time: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -227,14 +243,18 @@ class PoseCorrection:
         rho = np.zeros(K)
         r = np.asarray(self.knot_correlation, float)[:K]
         if r.size == 0 or r[0] != 1.0 or np.any(np.abs(r) > 1):
-            raise ValueError(f"knot_correlation must start with 1 and stay within [-1, 1], got {self.knot_correlation}")
+            raise ValueError(
+                f"knot_correlation must start with 1 and stay within [-1, 1], got {self.knot_correlation}"
+            )
         rho[: r.size] = r
         C = rho[np.abs(np.subtract.outer(np.arange(K), np.arange(K)))]
         try:
             return np.linalg.cholesky(C + 1e-9 * np.eye(K))
         except np.linalg.LinAlgError as e:
-            raise ValueError(f"knot_correlation {self.knot_correlation} is not a valid (positive definite) "
-                             "correlation sequence; taper its tail towards 0.") from e
+            raise ValueError(
+                f"knot_correlation {self.knot_correlation} is not a valid (positive definite) "
+                "correlation sequence; taper its tail towards 0."
+            ) from e
 
     def declare(self, b: Builder) -> None:
         for i, st in enumerate(b.stances):

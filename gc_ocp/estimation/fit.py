@@ -43,14 +43,18 @@ def lls_initial_k(trials: list[tuple[Trial, TrialKinematics]], n0: float) -> dic
     try:
         res = fit_stiffness_lls(sts, t0.body_weight, t0.body_weight * (t0.height or 1.7))
     except RankError as e:
-        warnings.warn(f"LLS initialisation not possible ({e}); starting from a uniform stiffness.", stacklevel=2)
+        warnings.warn(
+            f"LLS initialisation not possible ({e}); starting from a uniform stiffness.",
+            stacklevel=2,
+        )
         return None
     out = {}
     k_all = np.array([v for s in res.k.values() for v in s.values()])
     floor = max(np.median(k_all[k_all > 0]) * 0.1, 1e3) if np.any(k_all > 0) else 1e4
     for side in SIDES:
         out[side] = {
-            u: float(max(res.k.get(side, {}).get(u, floor), floor) * TYPICAL_DEPTH ** (1 - n0)) for u in UNITS
+            u: float(max(res.k.get(side, {}).get(u, floor), floor) * TYPICAL_DEPTH ** (1 - n0))
+            for u in UNITS
         }
     return out
 
@@ -101,14 +105,19 @@ def estimate(
     total_s, total_it = 0.0, 0
     res = None
     for f in steps:
-        m = tuple(c.with_prior_scale(f) if hasattr(c, "with_prior_scale") and f != 1.0 else c for c in model)
+        m = tuple(
+            c.with_prior_scale(f) if hasattr(c, "with_prior_scale") and f != 1.0 else c
+            for c in model
+        )
         prob = build_estimation(data, m, weights)
         x0 = _rescaled_start(prev, prob) if prev is not None else None
         last = f == steps[-1]
         res = solve(prob, options, x0=x0, raise_on_failure=last)
         total_s += res.seconds
         total_it += res.iterations
-        say(f"  prior scale {f:g}: {res.status}, {res.iterations} iterations, J = {res.objective:.1f}")
+        say(
+            f"  prior scale {f:g}: {res.status}, {res.iterations} iterations, J = {res.objective:.1f}"
+        )
         prev = (prob, res.x)
     res.seconds, res.iterations = total_s, total_it
     return res
@@ -175,8 +184,11 @@ def _with_height(trial: Trial, kin: TrialKinematics) -> Trial:
     if trial.height is not None or kin.info.get("height") is None:
         return trial
     h = float(kin.info["height"])
-    warnings.warn(f"{trial.source}: no subject height given; using {h:.3f} m estimated from the markers "
-                  "by the kinematics (pass height=... / --height M to override).", stacklevel=3)
+    warnings.warn(
+        f"{trial.source}: no subject height given; using {h:.3f} m estimated from the markers "
+        "by the kinematics (pass height=... / --height M to override).",
+        stacklevel=3,
+    )
     return dataclasses.replace(trial, height=h, height_source="estimated from markers")
 
 
@@ -216,8 +228,10 @@ def fixed_for_holdout(model: tuple, result: EstimationResult) -> tuple:
                 kw[name] = Param("fixed", val)
             comp = dataclasses.replace(comp, **kw)
         elif isinstance(comp, SoleCorrection):
-            fixed = {s: np.array([result.sole_corrections_mm[s][u] for u in UNITS]) * 1e-3
-                     for s in result.sole_corrections_mm}
+            fixed = {
+                s: np.array([result.sole_corrections_mm[s][u] for u in UNITS]) * 1e-3
+                for s in result.sole_corrections_mm
+            }
             comp = dataclasses.replace(comp, fixed=fixed)
         out.append(comp)
     return tuple(out)
@@ -280,8 +294,18 @@ def fit(
         hres = solve(hp, options)
         report.heldout = hres
         report.heldout_label = held.label
-        say(f"held-out {held.label}: superior force RMS {hres.rms[held.side]['superior_force_pct_bw']:.2f} % BW")
+        say(
+            f"held-out {held.label}: superior force RMS {hres.rms[held.side]['superior_force_pct_bw']:.2f} % BW"
+        )
     return report
 
 
-__all__ = ["fit", "FitReport", "fixed_for_holdout", "with_fitted_belt", "lls_initial_k", "estimate", "best_of"]
+__all__ = [
+    "fit",
+    "FitReport",
+    "fixed_for_holdout",
+    "with_fitted_belt",
+    "lls_initial_k",
+    "estimate",
+    "best_of",
+]

@@ -10,12 +10,19 @@ from gc_ocp.estimation.solve import EstimationResult
 from gc_ocp.sole import UNITS
 
 
-def plot_fit(result: EstimationResult, title: str = "measured (solid) vs fitted (dashed)") -> Figure:
+def plot_fit(
+    result: EstimationResult, title: str = "measured (solid) vs fitted (dashed)"
+) -> Figure:
     """Measured vs fitted six channels per foot, every stance."""
     f = result.stance_fits
-    return plot_wrench_fit([s["time"] for s in f], [s["measured"] for s in f], [s["model"] for s in f],
-                           sides=[s["side"] for s in f], labels=[s["label"].split(":")[-1] for s in f],
-                           title=title)
+    return plot_wrench_fit(
+        [s["time"] for s in f],
+        [s["measured"] for s in f],
+        [s["model"] for s in f],
+        sides=[s["side"] for s in f],
+        labels=[s["label"].split(":")[-1] for s in f],
+        title=title,
+    )
 
 
 def _toes_offset(stance) -> np.ndarray:
@@ -38,7 +45,9 @@ def plot_sole_fit(result: EstimationResult) -> Figure:
     for ax, side in zip(fig.axes, pts, strict=False):
         nom = nominal[side].copy()
         nom[UNITS.index("TT")] += toes[side]
-        ax.scatter(nom[:, 1] * 100, nom[:, 0] * 100, marker="x", color="C3", zorder=4, label="nominal")
+        ax.scatter(
+            nom[:, 1] * 100, nom[:, 0] * 100, marker="x", color="C3", zorder=4, label="nominal"
+        )
         ax.legend(fontsize=7, loc="lower right")
     return fig
 

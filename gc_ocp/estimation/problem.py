@@ -37,7 +37,9 @@ class Weights:
 
     def inverse_sigmas(self, body_weight: float) -> np.ndarray:
         sf = self.force_sigma * body_weight
-        return 1.0 / np.array([sf, sf, sf, sf * self.torque_length, sf * self.torque_length, sf * self.torque_length])
+        return 1.0 / np.array(
+            [sf, sf, sf, sf * self.torque_length, sf * self.torque_length, sf * self.torque_length]
+        )
 
 
 N_Y = 36
@@ -55,12 +57,26 @@ def frame_data(st: StanceData, weights: Weights) -> np.ndarray:
     T = st.n
     Rh = f.hindfoot_pose[:, :3, :3].transpose(0, 2, 1).reshape(T, 9)  # column-major R
     Rt = f.toes_pose[:, :3, :3].transpose(0, 2, 1).reshape(T, 9)
-    const = np.concatenate([weights.inverse_sigmas(st.body_weight), [st.ground_height],
-                            st.belt_velocity, st.reference_point])
-    return np.hstack([
-        Rh, f.hindfoot_pose[:, :3, 3], f.hindfoot_twist, Rt, f.toes_pose[:, :3, 3], f.toes_twist,
-        st.measured, np.tile(const, (T, 1)),
-    ]).T
+    const = np.concatenate(
+        [
+            weights.inverse_sigmas(st.body_weight),
+            [st.ground_height],
+            st.belt_velocity,
+            st.reference_point,
+        ]
+    )
+    return np.hstack(
+        [
+            Rh,
+            f.hindfoot_pose[:, :3, 3],
+            f.hindfoot_twist,
+            Rt,
+            f.toes_pose[:, :3, 3],
+            f.toes_twist,
+            st.measured,
+            np.tile(const, (T, 1)),
+        ]
+    ).T
 
 
 def _contact_frame_function(depth_smoothing: float, slip_smoothing: float) -> ca.Function:
@@ -97,8 +113,18 @@ def _contact_frame_function(depth_smoothing: float, slip_smoothing: float) -> ca
         V.append(vel + ddp + ca.cross(ddth, r) + ca.cross(dth, rdot))
     # the same equivalent-wrench Function (Eqs 4-9) as the seed study, smooth variant
     wrench = wrench_function(True, len(UNITS))(
-        ca.horzcat(*P), ca.horzcat(*V), k, n, c, mu, ground, belt, ref,
-        depth_smoothing, DEFAULT_SMOOTHING.eps_damping, slip_smoothing,
+        ca.horzcat(*P),
+        ca.horzcat(*V),
+        k,
+        n,
+        c,
+        mu,
+        ground,
+        belt,
+        ref,
+        depth_smoothing,
+        DEFAULT_SMOOTHING.eps_damping,
+        slip_smoothing,
     )
     res = (wrench - meas) * wts
     return ca.Function("foot_frame", [D, y], [res, wrench], ["D", "y"], ["res", "wrench"])
@@ -150,7 +176,9 @@ def _assemble_hessian(As: list[ca.DM], BDs: list[ca.MX], nx: int) -> ca.MX:
     rows = [ca.horzcat(HSS, *HSO, ca.MX(nS, unused.size))]
     before = 0
     for hso, hoo, n in zip(HSO, HOO, sizes, strict=True):
-        rows.append(ca.horzcat(hso.T, ca.MX(n, before), hoo, ca.MX(n, n_own - before - n + unused.size)))
+        rows.append(
+            ca.horzcat(hso.T, ca.MX(n, before), hoo, ca.MX(n, n_own - before - n + unused.size))
+        )
         before += n
     rows.append(ca.MX(unused.size, nx))
     Hp = ca.vertcat(*rows)
@@ -169,27 +197,57 @@ class Builder:
         self.x: ca.MX | None = None
 
     # --- declaration pass -------------------------------------------------------------------
-    def _add(self, key: tuple, size: int, x0, lb, ub, kind: str, scale, log: bool,
-             prior_weight: float = 0.0, prior_mean: float = 0.0) -> None:
+    def _add(
+        self,
+        key: tuple,
+        size: int,
+        x0,
+        lb,
+        ub,
+        kind: str,
+        scale,
+        log: bool,
+        prior_weight: float = 0.0,
+        prior_mean: float = 0.0,
+    ) -> None:
         if key in self._index:
-            raise ModelError(f"Variable {key} declared twice; two components claim the same parameter.")
+            raise ModelError(
+                f"Variable {key} declared twice; two components claim the same parameter."
+            )
         start = sum(s["size"] for s in self._specs)
         self._index[key] = slice(start, start + size)
-        self._specs.append(dict(key=key, size=size, x0=np.broadcast_to(x0, size).astype(float),
-                                lb=np.broadcast_to(lb, size).astype(float),
-                                ub=np.broadcast_to(ub, size).astype(float),
-                                kind=kind, scale=scale, log=log,
-                                prior_weight=np.full(size, float(prior_weight)),
-                                prior_mean=np.full(size, float(prior_mean))))
+        self._specs.append(
+            dict(
+                key=key,
+                size=size,
+                x0=np.broadcast_to(x0, size).astype(float),
+                lb=np.broadcast_to(lb, size).astype(float),
+                ub=np.broadcast_to(ub, size).astype(float),
+                kind=kind,
+                scale=scale,
+                log=log,
+                prior_weight=np.full(size, float(prior_weight)),
+                prior_mean=np.full(size, float(prior_mean)),
+            )
+        )
 
-    def parameter(self, key: tuple, value: float, lower: float, upper: float, log: bool = False,
-                  prior_sigma: float | None = None) -> None:
+    def parameter(
+        self,
+        key: tuple,
+        value: float,
+        lower: float,
+        upper: float,
+        log: bool = False,
+        prior_sigma: float | None = None,
+    ) -> None:
         """A physical parameter. ``log``: optimise log(value) (value > 0). ``prior_sigma``: optional
         Gaussian prior centred on ``value``, in the optimised units (log units when ``log``)."""
         w = 0.0 if prior_sigma is None else 1.0 / prior_sigma
         if log:
             z0 = np.log(value)
-            self._add(key, 1, z0, np.log(max(lower, 1e-300)), np.log(upper), "param", 1.0, True, w, z0)
+            self._add(
+                key, 1, z0, np.log(max(lower, 1e-300)), np.log(upper), "param", 1.0, True, w, z0
+            )
         else:
             self._add(key, 1, value, lower, upper, "param", 1.0, False, w, value)
 
@@ -244,7 +302,9 @@ class EstimationProblem:
     lbx: np.ndarray
     ubx: np.ndarray
     stance_outputs: list[ca.MX] = field(default_factory=list)  # per stance: (6, n) model wrench
-    stance_points: list[ca.MX] = field(default_factory=list)  # per stance: (5*3, 1) corrected local points
+    stance_points: list[ca.MX] = field(
+        default_factory=list
+    )  # per stance: (5*3, 1) corrected local points
     gradient: ca.MX | None = None  # exact gradient of the objective
     hessian: ca.MX | None = None  # exact Hessian of the objective (structured assembly)
     frame_blocks: list = field(default_factory=list)  # per stance (A, y0, D, T): y = A x + y0
@@ -334,8 +394,11 @@ def build_estimation(
         n_data += 6 * T
     pw, pm = b.vector("prior_weight"), b.vector("prior_mean")
     prior_idx = np.flatnonzero(pw > 0)
-    prior_res = (pw[prior_idx] * (x[prior_idx.tolist()] - pm[prior_idx]) if prior_idx.size
-                 else ca.MX.zeros(0))
+    prior_res = (
+        pw[prior_idx] * (x[prior_idx.tolist()] - pm[prior_idx])
+        if prior_idx.size
+        else ca.MX.zeros(0)
+    )
     r_all = ca.vertcat(*residuals, prior_res)
     # objective, gradient and exact Hessian assembled from per-frame SX derivatives:
     # J = sum_t phi(D_t, y_t) + 1/2 |W (x - m)|^2 = 1/2 |r_all|^2 with y = A x + y0, so
@@ -349,13 +412,30 @@ def build_estimation(
         hs.append(ca.diagcat(*ca.horzsplit(hess_fn.map(T)(D, Yl), N_Y)))
     grad = grad + ca.sum2(ca.horzcat(*gs)) if gs else grad
     # the prior term as a *sparse* diagonal (a DM built from a dense array would make H dense)
-    hess = _assemble_hessian([blk[0] for blk in blocks], hs, x.shape[0]) + ca.DM(ca.Sparsity.diag(x.shape[0]), pw**2)
+    hess = _assemble_hessian([blk[0] for blk in blocks], hs, x.shape[0]) + ca.DM(
+        ca.Sparsity.diag(x.shape[0]), pw**2
+    )
     Dsym, ysym = ca.SX.sym("D", N_D), ca.SX.sym("y", N_Y)
     res_sym = frame_fn(Dsym, ysym)[0]
     jac_fn = ca.Function("frame_jac", [Dsym, ysym], [res_sym, ca.jacobian(res_sym, ysym)])
     return EstimationProblem(
-        stances=stances, model=model, weights=weights, builder=b, x=b.x, objective=J,
-        residuals=r_all, n_data=n_data, x0=b.vector("x0"), lbx=b.vector("lb"), ubx=b.vector("ub"),
-        stance_outputs=outputs, stance_points=points, gradient=grad, hessian=hess,
-        frame_blocks=blocks, frame_jacobian=jac_fn, prior_weights=pw, prior_means=pm,
+        stances=stances,
+        model=model,
+        weights=weights,
+        builder=b,
+        x=b.x,
+        objective=J,
+        residuals=r_all,
+        n_data=n_data,
+        x0=b.vector("x0"),
+        lbx=b.vector("lb"),
+        ubx=b.vector("ub"),
+        stance_outputs=outputs,
+        stance_points=points,
+        gradient=grad,
+        hessian=hess,
+        frame_blocks=blocks,
+        frame_jacobian=jac_fn,
+        prior_weights=pw,
+        prior_means=pm,
     )

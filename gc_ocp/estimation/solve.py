@@ -81,31 +81,42 @@ class EstimationResult:
     problem: EstimationProblem | None = None
 
     def summary(self) -> str:
-        lines = [f"Ipopt: {self.status} in {self.iterations} iterations, {self.seconds:.2f} s; objective {self.objective:.4g}"]
+        lines = [
+            f"Ipopt: {self.status} in {self.iterations} iterations, {self.seconds:.2f} s; objective {self.objective:.4g}"
+        ]
         for side in SIDES:
             if side not in self.rms:
                 continue
             p = self.params.get(side, {})
-            ks = ", ".join(
-                f"{u} {p[u]['k']:.3g}±{p[u]['k_se']:.2g}" for u in UNITS if u in p
-            )
+            ks = ", ".join(f"{u} {p[u]['k']:.3g}±{p[u]['k_se']:.2g}" for u in UNITS if u in p)
             if ks:
                 lines.append(f"{side:>5} k [N/m^n]: {ks}")
-                fs = ", ".join(f"{u} {p[u]['f_ref']:.0f}±{p[u]['f_ref_se']:.2g}" for u in UNITS if "f_ref" in p.get(u, {}))
+                fs = ", ".join(
+                    f"{u} {p[u]['f_ref']:.0f}±{p[u]['f_ref_se']:.2g}"
+                    for u in UNITS
+                    if "f_ref" in p.get(u, {})
+                )
                 lines.append(f"{side:>5} force at the reference depth [N]: {fs}")
             r = self.rms[side]
             lines.append(
-                f"{side:>5} RMS: " + ", ".join(f"{c.split('_')[0]} {r[c]:.2f}" for c in r)
+                f"{side:>5} RMS: "
+                + ", ".join(f"{c.split('_')[0]} {r[c]:.2f}" for c in r)
                 + f"; COP {self.cop_rms_mm.get(side, float('nan')):.1f} mm"
             )
             if side in self.pose_correction_rms:
                 pc = self.pose_correction_rms[side]
-                lines.append(f"{side:>5} pose correction RMS: {pc['mm']:.2f} mm, {pc['deg']:.2f} deg")
+                lines.append(
+                    f"{side:>5} pose correction RMS: {pc['mm']:.2f} mm, {pc['deg']:.2f} deg"
+                )
         for trial, v in self.belt_speed.items():
-            lines.append(f"belt speed ({trial}): {v['value']:.3f} ± {v['se']:.3f} m/s (given {v['nominal']:.3f})")
+            lines.append(
+                f"belt speed ({trial}): {v['value']:.3f} ± {v['se']:.3f} m/s (given {v['nominal']:.3f})"
+            )
         for k, v in self.params.get("shared", {}).items():
             if not k.endswith("_se"):
-                lines.append(f"shared {k} = {v:.4g} ± {self.params['shared'].get(k + '_se', float('nan')):.2g}")
+                lines.append(
+                    f"shared {k} = {v:.4g} ± {self.params['shared'].get(k + '_se', float('nan')):.2g}"
+                )
         return "\n".join(lines)
 
     def to_json(self) -> dict:
@@ -115,7 +126,11 @@ class EstimationResult:
             "pose_correction_rms": self.pose_correction_rms,
             "rms": self.rms,
             "cop_rms_mm": self.cop_rms_mm,
-            "solver": {"status": self.status, "iterations": self.iterations, "seconds": self.seconds},
+            "solver": {
+                "status": self.status,
+                "iterations": self.iterations,
+                "seconds": self.seconds,
+            },
             **({"belt_speed_m_s": self.belt_speed} if self.belt_speed else {}),
         }
 
@@ -127,8 +142,13 @@ def gauss_newton_hessian(problem: EstimationProblem) -> ca.Function:
     lam_f = ca.MX.sym("lam_f")
     lam_g = ca.MX.sym("lam_g", 0, 1)
     p = ca.MX.sym("p", 0, 1)
-    return ca.Function("nlp_hess_l", [problem.x, p, lam_f, lam_g], [lam_f * H],
-                       ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+    return ca.Function(
+        "nlp_hess_l",
+        [problem.x, p, lam_f, lam_g],
+        [lam_f * H],
+        ["x", "p", "lam_f", "lam_g"],
+        ["triu_hess_gamma_x_x"],
+    )
 
 
 def _covariance(problem: EstimationProblem, x: np.ndarray) -> np.ndarray:
@@ -145,7 +165,9 @@ def _covariance(problem: EstimationProblem, x: np.ndarray) -> np.ndarray:
         return np.linalg.pinv(Hs)  # same scaling as the regular case
 
 
-def _add_reference_force(params: dict, law: ContactLaw, b, x: np.ndarray, cov: np.ndarray | None) -> None:
+def _add_reference_force(
+    params: dict, law: ContactLaw, b, x: np.ndarray, cov: np.ndarray | None
+) -> None:
     """Add ``f_ref`` / ``f_ref_se`` to every unit: its force at the reference penetration without
     damping, ``k * d_ref**n`` [N] (``ContactLaw.reference_depth``).
 
@@ -162,7 +184,7 @@ def _add_reference_force(params: dict, law: ContactLaw, b, x: np.ndarray, cov: n
             n_val = params[side]["n"] if "n" in params.get(side, {}) else params["shared"].get("n")
             if n_val is None:
                 n_val = law.n.value_for(side)
-            entry["f_ref"] = float(entry["k"] * law.reference_depth ** n_val)
+            entry["f_ref"] = float(entry["k"] * law.reference_depth**n_val)
             ik = b._index.get((law.name, "k", side, u))
             in_ = b._index.get((law.name, "n", side)) or b._index.get((law.name, "n"))
             if cov is None or ik is None:
@@ -223,17 +245,23 @@ def decode(problem: EstimationProblem, x: np.ndarray, cov: np.ndarray | None = N
         if b.has(key) and st.trial not in belt_speed:
             sl = b._index[key]
             spec = next(s_ for s_ in b.specs if s_["key"] == key)
-            belt_speed[st.trial] = {"value": float(-st.belt_velocity[0] + x[sl][0] * spec["scale"]),
-                                    "se": float(np.sqrt(max(var[sl][0], 0.0)) * spec["scale"]),
-                                    "nominal": float(-st.belt_velocity[0])}
+            belt_speed[st.trial] = {
+                "value": float(-st.belt_velocity[0] + x[sl][0] * spec["scale"]),
+                "se": float(np.sqrt(max(var[sl][0], 0.0)) * spec["scale"]),
+                "nominal": float(-st.belt_velocity[0]),
+            }
     sole_mm: dict = {}
     if sole is not None:
         for side in SIDES:
             if sole.fixed is not None:
-                sole_mm[side] = {u: list(map(float, np.asarray(sole.fixed[side])[i] * 1e3)) for i, u in enumerate(UNITS)}
+                sole_mm[side] = {
+                    u: list(map(float, np.asarray(sole.fixed[side])[i] * 1e3))
+                    for i, u in enumerate(UNITS)
+                }
             else:
                 sole_mm[side] = {
-                    u: list(map(float, x[b._index[(sole.name, side, u)]] * sole.sigma * 1e3)) for u in UNITS
+                    u: list(map(float, x[b._index[(sole.name, side, u)]] * sole.sigma * 1e3))
+                    for u in UNITS
                 }
     fn = ca.Function("out", [problem.x], problem.stance_outputs + problem.stance_points)
     outs = fn(x)
@@ -243,8 +271,15 @@ def decode(problem: EstimationProblem, x: np.ndarray, cov: np.ndarray | None = N
     for i, st in enumerate(problem.stances):
         model_w = np.asarray(outs[i]).T
         pts = np.asarray(outs[ns + i]).reshape(5, 3)
-        fit = {"label": st.label, "side": st.side, "time": st.time, "measured": st.measured,
-               "model": model_w, "in_contact": st.in_contact, "points_local": pts}
+        fit = {
+            "label": st.label,
+            "side": st.side,
+            "time": st.time,
+            "measured": st.measured,
+            "model": model_w,
+            "in_contact": st.in_contact,
+            "points_local": pts,
+        }
         if pose is not None:
             d, th, _, _ = pose.trajectories(b, i)
             f2 = ca.Function("p", [problem.x], [d, th])
@@ -255,13 +290,20 @@ def decode(problem: EstimationProblem, x: np.ndarray, cov: np.ndarray | None = N
             pose_sq[st.side][1].append(np.sum(tv**2, axis=0))
         fits.append(fit)
     pose_rms = {
-        s: {"mm": float(np.sqrt(np.mean(np.concatenate(v[0])))) * 1e3,
-            "deg": float(np.rad2deg(np.sqrt(np.mean(np.concatenate(v[1])))))}
-        for s, v in pose_sq.items() if v[0]
+        s: {
+            "mm": float(np.sqrt(np.mean(np.concatenate(v[0])))) * 1e3,
+            "deg": float(np.rad2deg(np.sqrt(np.mean(np.concatenate(v[1]))))),
+        }
+        for s, v in pose_sq.items()
+        if v[0]
     }
-    return {"params": {k: v for k, v in params.items() if v}, "sole_corrections_mm": sole_mm,
-            "belt_speed": belt_speed,
-            "pose_correction_rms": pose_rms, "stance_fits": fits}
+    return {
+        "params": {k: v for k, v in params.items() if v},
+        "sole_corrections_mm": sole_mm,
+        "belt_speed": belt_speed,
+        "pose_correction_rms": pose_rms,
+        "stance_fits": fits,
+    }
 
 
 def fit_quality(fits: list, stances) -> tuple[dict, dict]:
@@ -281,7 +323,9 @@ def fit_quality(fits: list, stances) -> tuple[dict, dict]:
         for i in idx:
             st = stances[i]
             m, f = fits[i]["measured"], fits[i]["model"]
-            c_meas = cop_from_wrench(m[:, :3], m[:, 3:], st.reference_point, st.ground_height, 0.10 * st.body_weight)
+            c_meas = cop_from_wrench(
+                m[:, :3], m[:, 3:], st.reference_point, st.ground_height, 0.10 * st.body_weight
+            )
             c_mod = cop_from_wrench(f[:, :3], f[:, 3:], st.reference_point, st.ground_height, 1e-6)
             ok = np.isfinite(c_meas[:, 0]) & np.isfinite(c_mod[:, 0])
             errs.append(np.linalg.norm((c_meas - c_mod)[ok, :2], axis=1))
@@ -296,23 +340,38 @@ def make_solver(problem: EstimationProblem, options: IpoptOptions | None = None)
     nlp = {"x": problem.x, "f": problem.objective}
     opts = options.as_dict()
     p = ca.MX.sym("p", 0, 1)
-    opts["grad_f"] = ca.Function("nlp_grad_f", [problem.x, p], [problem.objective, problem.gradient],
-                                 ["x", "p"], ["f", "grad_f_x"])
+    opts["grad_f"] = ca.Function(
+        "nlp_grad_f",
+        [problem.x, p],
+        [problem.objective, problem.gradient],
+        ["x", "p"],
+        ["f", "grad_f_x"],
+    )
     if options.hessian == "gauss-newton":
         opts["hess_lag"] = gauss_newton_hessian(problem)
     elif options.hessian == "exact":
         lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", 0, 1)
-        opts["hess_lag"] = ca.Function("nlp_hess_l", [problem.x, p, lam_f, lam_g],
-                                       [lam_f * ca.triu(problem.hessian)],
-                                       ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+        opts["hess_lag"] = ca.Function(
+            "nlp_hess_l",
+            [problem.x, p, lam_f, lam_g],
+            [lam_f * ca.triu(problem.hessian)],
+            ["x", "p", "lam_f", "lam_g"],
+            ["triu_hess_gamma_x_x"],
+        )
     else:
-        raise ValueError(f'IpoptOptions.hessian must be "exact" or "gauss-newton", but got "{options.hessian}"')
+        raise ValueError(
+            f'IpoptOptions.hessian must be "exact" or "gauss-newton", but got "{options.hessian}"'
+        )
     solver = ca.nlpsol("gc_ocp_fit", "ipopt", nlp, opts)
     return solver
 
 
-def solve(problem: EstimationProblem, options: IpoptOptions | None = None, x0: np.ndarray | None = None,
-          raise_on_failure: bool = True) -> EstimationResult:
+def solve(
+    problem: EstimationProblem,
+    options: IpoptOptions | None = None,
+    x0: np.ndarray | None = None,
+    raise_on_failure: bool = True,
+) -> EstimationResult:
     """Solve with Ipopt (exact CasADi derivatives). Raises :class:`SolveError` carrying the
     result when Ipopt does not converge (unless ``raise_on_failure=False``)."""
     options = options or IpoptOptions()
@@ -324,19 +383,34 @@ def solve(problem: EstimationProblem, options: IpoptOptions | None = None, x0: n
     stats = solver.stats()
     x = np.asarray(sol["x"]).ravel()
     status = str(stats.get("return_status", "unknown"))
-    success = bool(stats.get("success", False)) or status in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+    success = bool(stats.get("success", False)) or status in (
+        "Solve_Succeeded",
+        "Solved_To_Acceptable_Level",
+    )
     cov = _covariance(problem, x) if np.all(np.isfinite(x)) else None
     dec = decode(problem, x, cov)
     rms, cop = fit_quality(dec["stance_fits"], problem.stances)
     result = EstimationResult(
-        x=x, status=status, success=success, iterations=int(stats.get("iter_count", -1)),
-        seconds=seconds, objective=float(sol["f"]), params=dec["params"],
-        sole_corrections_mm=dec["sole_corrections_mm"], pose_correction_rms=dec["pose_correction_rms"],
-        rms=rms, cop_rms_mm=cop, stance_fits=dec["stance_fits"], covariance=cov, problem=problem,
+        x=x,
+        status=status,
+        success=success,
+        iterations=int(stats.get("iter_count", -1)),
+        seconds=seconds,
+        objective=float(sol["f"]),
+        params=dec["params"],
+        sole_corrections_mm=dec["sole_corrections_mm"],
+        pose_correction_rms=dec["pose_correction_rms"],
+        rms=rms,
+        cop_rms_mm=cop,
+        stance_fits=dec["stance_fits"],
+        covariance=cov,
+        problem=problem,
         belt_speed=dec["belt_speed"],
     )
     if not success and raise_on_failure:
-        raise SolveError(f"Ipopt did not converge: {status} after {result.iterations} iterations", result)
+        raise SolveError(
+            f"Ipopt did not converge: {status} after {result.iterations} iterations", result
+        )
     return result
 
 

@@ -15,13 +15,15 @@ from gc_ocp.sole import FootKinematics
 from gc_ocp.trial import GRAVITY
 
 # nominal unit positions in the foot frame (origin at the ankle, sole 70 mm below) [m]
-NOMINAL_POINTS = np.array([
-    [-0.045, -0.025, -0.070],  # PL (for the left foot lateral is +y; mirrored for the right)
-    [-0.045, 0.020, -0.070],  # PM
-    [0.140, -0.040, -0.070],  # AL
-    [0.140, 0.035, -0.070],  # AM
-    [0.190, 0.000, -0.070],  # TT
-])
+NOMINAL_POINTS = np.array(
+    [
+        [-0.045, -0.025, -0.070],  # PL (for the left foot lateral is +y; mirrored for the right)
+        [-0.045, 0.020, -0.070],  # PM
+        [0.140, -0.040, -0.070],  # AL
+        [0.140, 0.035, -0.070],  # AM
+        [0.190, 0.000, -0.070],  # TT
+    ]
+)
 
 
 def _rot_y(a: np.ndarray) -> np.ndarray:
@@ -42,8 +44,15 @@ def nominal_points(side: str) -> np.ndarray:
     return p
 
 
-def rolling_foot(side: str, duration: float = 0.65, rate: float = 100.0, t0: float = 0.0,
-                 sink: float = 0.006, margin: float = 0.03, style: np.ndarray | None = None) -> FootKinematics:
+def rolling_foot(
+    side: str,
+    duration: float = 0.65,
+    rate: float = 100.0,
+    t0: float = 0.0,
+    sink: float = 0.006,
+    margin: float = 0.03,
+    style: np.ndarray | None = None,
+) -> FootKinematics:
     """Foot kinematics over one stance (plus ``margin`` [s] each side), ``lab`` frame, ground z = 0.
 
     style: optional 4 factors (strike pitch, push-off pitch, roll, sink) scaling the nominal
@@ -53,17 +62,24 @@ def rolling_foot(side: str, duration: float = 0.65, rate: float = 100.0, t0: flo
     n = int(round((duration + 2 * margin) * rate)) + 1
     t = t0 - margin + np.arange(n) / rate
     s = np.clip((t - t0) / duration, -0.2, 1.2)  # stance phase
+
     # pitch: +12 deg at strike -> 0 by 15 % -> 0 until 55 % -> -35 deg at toe-off (smooth steps)
     def smooth(u):
         u = np.clip(u, 0, 1)
         return u * u * (3 - 2 * u)
-    pitch = np.deg2rad(12 * fp) * (1 - smooth(s / 0.15)) - np.deg2rad(20 * fo) * smooth((s - 0.55) / 0.45)
+
+    pitch = np.deg2rad(12 * fp) * (1 - smooth(s / 0.15)) - np.deg2rad(20 * fo) * smooth(
+        (s - 0.55) / 0.45
+    )
     # positive pitch about +y lowers the toes: heel strike has toes up -> negative rotation about y
     ang = -pitch
     # roll about the long axis: inverted 6 deg at strike, everted 4 deg in mid-stance, inverted
     # 5 deg at push-off (so medial and lateral units load differently over time)
-    roll = fr * (np.deg2rad(6) * (1 - smooth(s / 0.2)) - np.deg2rad(4) * np.sin(np.pi * np.clip(s, 0, 1))
-                 + np.deg2rad(5) * smooth((s - 0.6) / 0.4))
+    roll = fr * (
+        np.deg2rad(6) * (1 - smooth(s / 0.2))
+        - np.deg2rad(4) * np.sin(np.pi * np.clip(s, 0, 1))
+        + np.deg2rad(5) * smooth((s - 0.6) / 0.4)
+    )
     if side == "right":
         roll = -roll
     c_, s_ = np.cos(roll), np.sin(roll)
@@ -82,7 +98,9 @@ def rolling_foot(side: str, duration: float = 0.65, rate: float = 100.0, t0: flo
     org = np.zeros((n, 3))
     for i in range(n):
         pivot_local = heel if s[i] < 0.35 else mth
-        pivot_lab = np.array([0.5 + drift[i] + (0 if s[i] < 0.35 else mth[0] - heel[0]), 0.0, -depth[i]])
+        pivot_lab = np.array(
+            [0.5 + drift[i] + (0 if s[i] < 0.35 else mth[0] - heel[0]), 0.0, -depth[i]]
+        )
         org[i] = pivot_lab - R[i] @ pivot_local
     # continuity at the pivot switch: foot is flat there so both pivots agree in x up to drift
     org[:, 1] = 0.1 if side == "left" else -0.1
@@ -99,10 +117,20 @@ def rolling_foot(side: str, duration: float = 0.65, rate: float = 100.0, t0: flo
 
 
 def synthetic_stance(
-    side: str, truth: dict, points_local: np.ndarray | None = None, body_weight: float = 700.0,
-    height: float = 1.75, rate: float = 100.0, duration: float = 0.65, t0: float = 0.0,
-    rng: np.random.Generator | None = None, force_noise: float = 0.0, marker_noise: float = 0.0,
-    sink: float = 0.006, label: str | None = None, style: np.ndarray | None = None,
+    side: str,
+    truth: dict,
+    points_local: np.ndarray | None = None,
+    body_weight: float = 700.0,
+    height: float = 1.75,
+    rate: float = 100.0,
+    duration: float = 0.65,
+    t0: float = 0.0,
+    rng: np.random.Generator | None = None,
+    force_noise: float = 0.0,
+    marker_noise: float = 0.0,
+    sink: float = 0.006,
+    label: str | None = None,
+    style: np.ndarray | None = None,
 ) -> StanceData:
     """One synthetic stance. ``truth``: ``{"k": (5,), "n", "c", "mu"}`` [SI]; ``points_local``:
     true unit positions (default nominal); ``force_noise`` [N] and ``marker_noise`` [m] standard
@@ -115,11 +143,29 @@ def synthetic_stance(
     true_foot = foot.with_points(true_pts)
     T = foot.time.size
     ref = np.array([0.6, 0.1 if side == "left" else -0.1, -0.04])
-    probe = StanceData("synthetic", side, "", foot.time, foot, np.zeros((T, 6)), np.ones(T, bool), ref,
-                       0.0, np.zeros(3), body_weight, height)
+    probe = StanceData(
+        "synthetic",
+        side,
+        "",
+        foot.time,
+        foot,
+        np.zeros((T, 6)),
+        np.ones(T, bool),
+        ref,
+        0.0,
+        np.zeros(3),
+        body_weight,
+        height,
+    )
     D = frame_data(probe, Weights())
-    y = np.concatenate([np.zeros(12), true_pts.T.ravel(order="F"), np.log(np.asarray(truth["k"], float)),
-                        [truth["n"], truth["c"], truth["mu"], 0.0]])
+    y = np.concatenate(
+        [
+            np.zeros(12),
+            true_pts.T.ravel(order="F"),
+            np.log(np.asarray(truth["k"], float)),
+            [truth["n"], truth["c"], truth["mu"], 0.0],
+        ]
+    )
     _, wrench = frame_functions(5e-4, 0.05)[0].map(T)(D, np.tile(y[:, None], (1, T)))
     meas = np.asarray(wrench).T
     rng = rng or np.random.default_rng(0)
@@ -130,9 +176,18 @@ def synthetic_stance(
         fit_foot = _noisy_pose(fit_foot, marker_noise, rng)
     s = (foot.time >= t0) & (foot.time <= t0 + duration)
     return StanceData(
-        trial="synthetic", side=side, label=label or f"synthetic:{side}@{t0:.2f}s", time=foot.time,
-        foot=fit_foot, measured=meas, in_contact=s, reference_point=ref, ground_height=0.0,
-        belt_velocity=np.zeros(3), body_weight=body_weight, height=height,
+        trial="synthetic",
+        side=side,
+        label=label or f"synthetic:{side}@{t0:.2f}s",
+        time=foot.time,
+        foot=fit_foot,
+        measured=meas,
+        in_contact=s,
+        reference_point=ref,
+        ground_height=0.0,
+        belt_velocity=np.zeros(3),
+        body_weight=body_weight,
+        height=height,
     )
 
 
@@ -141,10 +196,16 @@ def _noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) ->
     from scipy.signal import butter, filtfilt
     from scipy.spatial.transform import Rotation
 
-    mk = np.array([[-0.07, 0.0, -0.03], [0.16, 0.0, -0.04], [0.0, -0.04, 0.0], [0.10, -0.045, -0.04]])
+    mk = np.array(
+        [[-0.07, 0.0, -0.03], [0.16, 0.0, -0.04], [0.0, -0.04, 0.0], [0.10, -0.045, -0.04]]
+    )
     T = foot.time.size
     P = foot.hindfoot_pose
-    obs = np.einsum("nij,mj->nmi", P[:, :3, :3], mk) + P[:, None, :3, 3] + rng.normal(0, sigma, (T, len(mk), 3))
+    obs = (
+        np.einsum("nij,mj->nmi", P[:, :3, :3], mk)
+        + P[:, None, :3, 3]
+        + rng.normal(0, sigma, (T, len(mk), 3))
+    )
     Rs = np.empty((T, 3, 3))
     os_ = np.empty((T, 3))
     mc = mk.mean(0)
@@ -172,7 +233,9 @@ def _noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) ->
     W = np.einsum("nij,nkj->nik", dRn, Rn)
     w = np.stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]], axis=1)
     twist = np.hstack([v, w])
-    return FootKinematics(foot.side, foot.time, pose, pose.copy(), twist, twist.copy(), foot.points_local)
+    return FootKinematics(
+        foot.side, foot.time, pose, pose.copy(), twist, twist.copy(), foot.points_local
+    )
 
 
 def default_truth(seed: int = 0, body_weight: float = 700.0) -> dict:

@@ -431,13 +431,27 @@ def load_static(path: str | Path, walking: Trial) -> Trial:
         file_rot = Y_UP_TO_LAB
     elif suffix == ".c3d":
         raw = read_c3d(path)
-        names, time, markers, file_rot = raw.marker_names, raw.marker_time, raw.markers, raw.file_rotation
+        names, time, markers, file_rot = (
+            raw.marker_names,
+            raw.marker_time,
+            raw.markers,
+            raw.file_rotation,
+        )
     else:
-        raise InputError(f'{path}: unsupported static-trial type "{suffix}"; give a .trc or .c3d file.')
+        raise InputError(
+            f'{path}: unsupported static-trial type "{suffix}"; give a .trc or .c3d file.'
+        )
     rot = walking.lab_rotation @ np.linalg.inv(file_rot)
     markers, _ = fill_short_gaps(markers @ rot.T, time)
     return dataclasses.replace(
-        walking, source=path, marker_names=tuple(names), markers=markers, marker_time=time,
-        plates=(), stances=(), excluded_stances=(), grf_source=None,
+        walking,
+        source=path,
+        marker_names=tuple(names),
+        markers=markers,
+        marker_time=time,
+        plates=(),
+        stances=(),
+        excluded_stances=(),
+        grf_source=None,
         load_notes=(f"static trial in the lab frame of {walking.source.name}",),
     )

@@ -5,5 +5,13 @@ from gc_ocp.kinematics.ik import IKResult, MarkerModel, solve_ik
 from gc_ocp.kinematics.scaling import estimate_height, register_markers
 from gc_ocp.kinematics.sole import compute_kinematics, foot_kinematics
 
-__all__ = ["IKResult", "MarkerModel", "compute_kinematics", "estimate_height", "foot_kinematics",
-           "lowpass", "register_markers", "solve_ik"]
+__all__ = [
+    "IKResult",
+    "MarkerModel",
+    "compute_kinematics",
+    "estimate_height",
+    "foot_kinematics",
+    "lowpass",
+    "register_markers",
+    "solve_ik",
+]

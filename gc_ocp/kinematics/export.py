@@ -29,7 +29,9 @@ def floor_height(trial: Trial) -> float:
     return float(np.median([p.surface_height for p in trial.plates])) if trial.plates else 0.0
 
 
-def midstance_heights(trial: Trial, kin: TrialKinematics, lo: float = 0.25, hi: float = 0.5) -> list[dict]:
+def midstance_heights(
+    trial: Trial, kin: TrialKinematics, lo: float = 0.25, hi: float = 0.5
+) -> list[dict]:
     """Per stance, the units' mean height above the plate surface [mm] over [lo, hi] of stance."""
     out = []
     for st in trial.stances:
@@ -40,8 +42,13 @@ def midstance_heights(trial: Trial, kin: TrialKinematics, lo: float = 0.25, hi: 
         if not sel.any():
             continue
         h = (foot.positions[sel, :, 2] - trial.plates[st.plate].surface_height) * 1e3
-        out.append({"stance": st.label, "side": st.side,
-                    "height_mm": {u: float(np.mean(h[:, i])) for i, u in enumerate(UNITS)}})
+        out.append(
+            {
+                "stance": st.label,
+                "side": st.side,
+                "height_mm": {u: float(np.mean(h[:, i])) for i, u in enumerate(UNITS)},
+            }
+        )
     return out
 
 
@@ -51,7 +58,10 @@ def kinematics_summary(trial: Trial, kin: TrialKinematics) -> dict:
         "trial": str(trial.source),
         "frames": int(kin.time.size),
         "cutoff_hz": kin.cutoff_hz,
-        "marker_rms_mm": {"median": float(np.nanmedian(rms)), "p95": float(np.nanpercentile(rms, 95))},
+        "marker_rms_mm": {
+            "median": float(np.nanmedian(rms)),
+            "p95": float(np.nanpercentile(rms, 95)),
+        },
         "midstance_sole_heights_mm": midstance_heights(trial, kin),
     }
 
@@ -81,7 +91,9 @@ def plot_kinematics(trial: Trial, kin: TrialKinematics):
     return fig
 
 
-def write_kinematics(trial: Trial, kin: TrialKinematics, out_dir: str | Path, fmt: str = "csv") -> list[Path]:
+def write_kinematics(
+    trial: Trial, kin: TrialKinematics, out_dir: str | Path, fmt: str = "csv"
+) -> list[Path]:
     """Write trajectories (``fmt`` = ``"csv"`` or ``"npz"``), summary JSON and figure; returns paths."""
     import matplotlib.pyplot as plt
 
@@ -94,10 +106,17 @@ def write_kinematics(trial: Trial, kin: TrialKinematics, out_dir: str | Path, fm
             for j, t in enumerate(foot.time):
                 for i, u in enumerate(UNITS):
                     p, v = foot.positions[j, i], foot.velocities[j, i]
-                    buf.write(f"{t:.6f},{side},{u},{p[0]:.6f},{p[1]:.6f},{p[2]:.6f},{v[0]:.6f},{v[1]:.6f},{v[2]:.6f}\n")
+                    buf.write(
+                        f"{t:.6f},{side},{u},{p[0]:.6f},{p[1]:.6f},{p[2]:.6f},{v[0]:.6f},{v[1]:.6f},{v[2]:.6f}\n"
+                    )
         paths.append(atomic_write_text(out_dir / "sole_points.csv", buf.getvalue()))
     elif fmt == "npz":
-        arrays = {"time": kin.time, "q": kin.q, "marker_rms": kin.marker_rms, "units": np.array(UNITS)}
+        arrays = {
+            "time": kin.time,
+            "q": kin.q,
+            "marker_rms": kin.marker_rms,
+            "units": np.array(UNITS),
+        }
         for side, foot in kin.feet.items():
             arrays[f"{side}_positions"] = foot.positions
             arrays[f"{side}_velocities"] = foot.velocities
@@ -112,8 +131,12 @@ def write_kinematics(trial: Trial, kin: TrialKinematics, out_dir: str | Path, fm
         from gc_ocp.errors import InputError
 
         raise InputError(f'Unknown output format "{fmt}"; choose "csv" or "npz".')
-    paths.append(atomic_write_text(out_dir / "kinematics_summary.json",
-                                   json.dumps(kinematics_summary(trial, kin), indent=2)))
+    paths.append(
+        atomic_write_text(
+            out_dir / "kinematics_summary.json",
+            json.dumps(kinematics_summary(trial, kin), indent=2),
+        )
+    )
     fig = plot_kinematics(trial, kin)
     paths.append(atomic_savefig(fig, out_dir / "kinematics.png", dpi=110))
     plt.close(fig)

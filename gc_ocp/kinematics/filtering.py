@@ -36,8 +36,13 @@ def fill_gaps(x: np.ndarray, time: np.ndarray, max_gap: float = MAX_GAP_S) -> np
     return flat.reshape(x.shape)
 
 
-def lowpass(x: np.ndarray, rate: float, cutoff_hz: float = DEFAULT_CUTOFF_HZ, order: int = 4,
-            time: np.ndarray | None = None) -> np.ndarray:
+def lowpass(
+    x: np.ndarray,
+    rate: float,
+    cutoff_hz: float = DEFAULT_CUTOFF_HZ,
+    order: int = 4,
+    time: np.ndarray | None = None,
+) -> np.ndarray:
     """Zero-lag Butterworth low-pass along axis 0 (``filtfilt`` of an ``order/2`` design, so the
     effective order is ``order``, 4 by default), NaN-aware.
 
@@ -47,7 +52,9 @@ def lowpass(x: np.ndarray, rate: float, cutoff_hz: float = DEFAULT_CUTOFF_HZ, or
     if not 0 < cutoff_hz < rate / 2:
         from gc_ocp.errors import InputError
 
-        raise InputError(f"cutoff_hz must be in (0, {rate / 2}) Hz for a {rate} Hz signal, but got {cutoff_hz}")
+        raise InputError(
+            f"cutoff_hz must be in (0, {rate / 2}) Hz for a {rate} Hz signal, but got {cutoff_hz}"
+        )
     if time is None:
         time = np.arange(x.shape[0]) / rate
     x = fill_gaps(x, time)

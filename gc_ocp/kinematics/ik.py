@@ -49,8 +49,13 @@ class MarkerModel:
             seg_id = body.frame_id(s)
             seg = model.frames[seg_id]
             placement = seg.placement * pin.SE3(np.eye(3), p)
-            ids.append(model.addFrame(pin.Frame(f"marker:{n}", seg.parentJoint, seg_id, placement,
-                                                pin.FrameType.OP_FRAME)))
+            ids.append(
+                model.addFrame(
+                    pin.Frame(
+                        f"marker:{n}", seg.parentJoint, seg_id, placement, pin.FrameType.OP_FRAME
+                    )
+                )
+            )
         local = np.array(local, float)
         local.setflags(write=False)
         w = np.array(weights, float)
@@ -174,10 +179,15 @@ class _Solver:
         return q, it
 
 
-def solve_ik(mm: MarkerModel, markers: np.ndarray, q0: np.ndarray | None = None,
-             max_iter: int = 30, first_iter: int = 300,
-             progress: Callable[[int, int], None] | None = None,
-             q_guess: np.ndarray | None = None) -> IKResult:
+def solve_ik(
+    mm: MarkerModel,
+    markers: np.ndarray,
+    q0: np.ndarray | None = None,
+    max_iter: int = 30,
+    first_iter: int = 300,
+    progress: Callable[[int, int], None] | None = None,
+    q_guess: np.ndarray | None = None,
+) -> IKResult:
     """IK over all frames.
 
     mm: marker model; markers: ``(n, m, 3)`` lab positions [m] in ``mm.names`` order, NaN = missing;
@@ -198,7 +208,9 @@ def solve_ik(mm: MarkerModel, markers: np.ndarray, q0: np.ndarray | None = None,
         if q_guess is not None:
             guess = q_guess[k]
         elif k > 0 and qprev is not None:
-            guess = np.clip(q + 0.5 * (q - qprev), s.lo, s.hi)  # damped constant-velocity prediction
+            guess = np.clip(
+                q + 0.5 * (q - qprev), s.lo, s.hi
+            )  # damped constant-velocity prediction
         else:
             guess = q
         qprev = q

@@ -30,8 +30,9 @@ def hip_height_ratio() -> float:
     return a.thigh_length + a.shank_length + ANKLE_HEIGHT_RATIO
 
 
-def estimate_height(markers: np.ndarray, names, markerset: MarkerSet, floor: float = 0.0,
-                    standing: bool = False) -> float:
+def estimate_height(
+    markers: np.ndarray, names, markerset: MarkerSet, floor: float = 0.0, standing: bool = False
+) -> float:
     """Subject height [m] from the pelvis markers' height above the floor.
 
     Standing (static trial): median height of each pelvis marker; walking: its 95th percentile
@@ -54,8 +55,10 @@ def estimate_height(markers: np.ndarray, names, markerset: MarkerSet, floor: flo
         zm = np.median(z) if standing else np.percentile(z, 95)
         est.append(zm / (hh + m.position[2] / markerset.reference_height))
     if not est:
-        raise MarkerError(f'No pelvis marker of marker set "{markerset.name}" in the trial: cannot '
-                          "estimate the subject height; give the height (Trial.height).")
+        raise MarkerError(
+            f'No pelvis marker of marker set "{markerset.name}" in the trial: cannot '
+            "estimate the subject height; give the height (Trial.height)."
+        )
     return float(np.median(est))
 
 
@@ -63,8 +66,13 @@ def build_marker_model(body: BodyModel, markerset: MarkerSet, names, height: flo
     """Marker model with the nominal positions of ``names`` scaled to ``height`` [m]."""
     pos = markerset.positions(height)
     defs = [markerset.markers[n] for n in names]
-    return MarkerModel.build(body, list(names), [d.segment for d in defs], [pos[n] for n in names],
-                             [d.weight for d in defs])
+    return MarkerModel.build(
+        body,
+        list(names),
+        [d.segment for d in defs],
+        [pos[n] for n in names],
+        [d.weight for d in defs],
+    )
 
 
 def local_coordinates(mm: MarkerModel, q: np.ndarray, markers: np.ndarray) -> np.ndarray:
@@ -82,9 +90,15 @@ def local_coordinates(mm: MarkerModel, q: np.ndarray, markers: np.ndarray) -> np
     return out
 
 
-def register_markers(mm: MarkerModel, markers: np.ndarray, cluster: np.ndarray, n_iter: int = 4,
-                     prior_frames: float | np.ndarray = 3.0, anatomical_first: bool = True,
-                     progress: Callable[[str], None] | None = None) -> tuple[MarkerModel, IKResult, list[float]]:
+def register_markers(
+    mm: MarkerModel,
+    markers: np.ndarray,
+    cluster: np.ndarray,
+    n_iter: int = 4,
+    prior_frames: float | np.ndarray = 3.0,
+    anatomical_first: bool = True,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[MarkerModel, IKResult, list[float]]:
     """Alternate IK and marker re-estimation on ``markers`` ``(n, m, 3)`` (a few frames).
 
     cluster: ``(m,)`` bool, tracking markers (no prior, weight 0 in the first IK pass if

@@ -49,7 +49,9 @@ def _floor(trial: Trial) -> float:
     return float(np.mean([p.surface_height for p in trial.plates])) if trial.plates else 0.0
 
 
-def _stance_frames(trial: Trial, time: np.ndarray, side: str, window) -> list[tuple[np.ndarray, float]]:
+def _stance_frames(
+    trial: Trial, time: np.ndarray, side: str, window
+) -> list[tuple[np.ndarray, float]]:
     out = []
     for st in trial.stances:
         if st.side != side:
@@ -58,13 +60,18 @@ def _stance_frames(trial: Trial, time: np.ndarray, side: str, window) -> list[tu
         b = st.t_on + window[1] * st.duration
         idx = np.flatnonzero((time >= a) & (time <= b))
         if len(idx):
-            h = trial.plates[st.plate].surface_height if st.plate < len(trial.plates) else _floor(trial)
+            h = (
+                trial.plates[st.plate].surface_height
+                if st.plate < len(trial.plates)
+                else _floor(trial)
+            )
             out.append((idx, h))
     return out
 
 
-def sole_points_xy(mm: MarkerModel, markerset: MarkerSet, body: BodyModel, side: str,
-                   height: float) -> np.ndarray:
+def sole_points_xy(
+    mm: MarkerModel, markerset: MarkerSet, body: BodyModel, side: str, height: float
+) -> np.ndarray:
     """Unit positions ``(5, 3)`` in their parent frames with X, Y from the registered foot markers
     (Z left at the model default; see the module docstring)."""
     s = "l" if side == "left" else "r"
@@ -82,7 +89,8 @@ def sole_points_xy(mm: MarkerModel, markerset: MarkerSet, body: BodyModel, side:
         return default
     mtl, mtm = role("metatarsal_lateral"), role("metatarsal_medial")
     fore = [p for p in (mtl, mtm, role("metatarsal_2")) if p is not None] or [
-        p for p in (role("toe"),) if p is not None]
+        p for p in (role("toe"),) if p is not None
+    ]
     xa = np.mean([p[0] for p in fore]) if fore else default[2, 0]
     if mtl is not None and mtm is not None:
         yal, yam = mtl[1], mtm[1]
@@ -102,18 +110,21 @@ def sole_points_xy(mm: MarkerModel, markerset: MarkerSet, body: BodyModel, side:
     if tip is not None and markerset.by_role(side, "toe_tip").segment.startswith("toes"):
         tt_hf = toes_in_hf.act(tip)  # the marker position was in the toes frame
     z = default[0, 2]
-    pts = np.array([
-        [xp, heel[1] + lat * yp, z],
-        [xp, heel[1] - lat * yp, z],
-        [xa, yal, z],
-        [xa, yam, z],
-        toes_in_hf.actInv(tt_hf),
-    ])
+    pts = np.array(
+        [
+            [xp, heel[1] + lat * yp, z],
+            [xp, heel[1] - lat * yp, z],
+            [xa, yal, z],
+            [xa, yam, z],
+            toes_in_hf.actInv(tt_hf),
+        ]
+    )
     return pts
 
 
-def calibrate_sole_height(body: BodyModel, side: str, q: np.ndarray, points: np.ndarray,
-                          floors: np.ndarray) -> np.ndarray:
+def calibrate_sole_height(
+    body: BodyModel, side: str, q: np.ndarray, points: np.ndarray, floors: np.ndarray
+) -> np.ndarray:
     """Set each unit's local Z so that its mean lab height over poses ``q`` ``(n, nq)`` equals
     ``floors`` ``(n,)`` [m] (feet flat on the floor). Returns the new ``(5, 3)`` points."""
     data = body.create_data()
@@ -133,8 +144,9 @@ def calibrate_sole_height(body: BodyModel, side: str, q: np.ndarray, points: np.
     return pts
 
 
-def foot_kinematics(body: BodyModel, q: np.ndarray, time: np.ndarray, side: str,
-                    points_local: np.ndarray) -> FootKinematics:
+def foot_kinematics(
+    body: BodyModel, q: np.ndarray, time: np.ndarray, side: str, points_local: np.ndarray
+) -> FootKinematics:
     """Hindfoot/toes placements and twists (``LOCAL_WORLD_ALIGNED``) over ``q`` ``(n, nq)``.
 
     q-dot is ``np.gradient(q, time)`` (q comes from low-pass filtered markers, so it is smooth).
@@ -152,14 +164,25 @@ def foot_kinematics(body: BodyModel, q: np.ndarray, time: np.ndarray, side: str,
             poses[name][k] = data.oMf[f].homogeneous
             tw = pin.getFrameVelocity(body.model, data, f, pin.LOCAL_WORLD_ALIGNED)
             twists[name][k] = np.r_[tw.linear, tw.angular]
-    return FootKinematics(side, time, poses["hindfoot"], poses["toes"], twists["hindfoot"],
-                          twists["toes"], points_local)
+    return FootKinematics(
+        side,
+        time,
+        poses["hindfoot"],
+        poses["toes"],
+        twists["hindfoot"],
+        twists["toes"],
+        points_local,
+    )
 
 
-def compute_kinematics(trial: Trial, model: BodyModel | None = None,
-                       markerset: MarkerSet | str | None = None, static: Trial | None = None,
-                       cutoff_hz: float = DEFAULT_CUTOFF_HZ,
-                       progress: Callable[[str], None] | None = None) -> TrialKinematics:
+def compute_kinematics(
+    trial: Trial,
+    model: BodyModel | None = None,
+    markerset: MarkerSet | str | None = None,
+    static: Trial | None = None,
+    cutoff_hz: float = DEFAULT_CUTOFF_HZ,
+    progress: Callable[[str], None] | None = None,
+) -> TrialKinematics:
     """Full kinematics pipeline for one walking trial.
 
     trial: the walking trial; model: body model (default: de Leva model of the trial's height and
@@ -181,19 +204,29 @@ def compute_kinematics(trial: Trial, model: BodyModel | None = None,
     st_markers = None
     if static is not None:
         st_names = [n for n in names if n in static.marker_names]
-        missing = [m.name for s in ("left", "right") for m in markerset.foot_markers(s)
-                   if m.name not in static.marker_names]
+        missing = [
+            m.name
+            for s in ("left", "right")
+            for m in markerset.foot_markers(s)
+            if m.name not in static.marker_names
+        ]
         if missing:
-            raise InputError(f"Static trial {static.source} lacks foot markers {missing}; "
-                             "pass static=None to calibrate on the walking trial.")
+            raise InputError(
+                f"Static trial {static.source} lacks foot markers {missing}; "
+                "pass static=None to calibrate on the walking trial."
+            )
         sidx = [static.marker_names.index(n) for n in st_names]
-        k = np.linspace(0, len(static.marker_time) - 1, min(N_STATIC_FRAMES, len(static.marker_time)))
+        k = np.linspace(
+            0, len(static.marker_time) - 1, min(N_STATIC_FRAMES, len(static.marker_time))
+        )
         st_markers = np.asarray(static.markers)[k.astype(int)][:, sidx]
         static_all = [n for n in markerset.markers if n in static.marker_names]
     height = trial.height if model is None or model.height is None else model.height
     if height is None:
         if st_markers is not None:
-            height = estimate_height(st_markers, st_names, markerset, _floor(static) if static.plates else floor, True)
+            height = estimate_height(
+                st_markers, st_names, markerset, _floor(static) if static.plates else floor, True
+            )
         else:
             height = estimate_height(markers, names, markerset, floor, False)
         say(f"estimated height {height:.3f} m")
@@ -202,8 +235,9 @@ def compute_kinematics(trial: Trial, model: BodyModel | None = None,
     # ---- registration
     if st_markers is not None:
         sidx_all = [static.marker_names.index(n) for n in static_all]
-        reg_m = np.asarray(static.markers)[np.linspace(0, len(static.marker_time) - 1,
-                                                       st_markers.shape[0]).astype(int)][:, sidx_all]
+        reg_m = np.asarray(static.markers)[
+            np.linspace(0, len(static.marker_time) - 1, st_markers.shape[0]).astype(int)
+        ][:, sidx_all]
         reg_names = static_all
     else:
         k = np.linspace(0, len(markers) - 1, min(N_REGISTRATION_FRAMES, len(markers))).astype(int)
@@ -224,8 +258,15 @@ def compute_kinematics(trial: Trial, model: BodyModel | None = None,
         foot = np.array([markerset.markers[n].is_foot for n in names])
         in_static = np.array([n in loc for n in names])
         prior = np.where(foot, 1e9, np.where(in_static, STATIC_PRIOR_FRAMES, 0.0))
-        mm, _, h2 = register_markers(mm, markers[k], ~in_static, n_iter=2, prior_frames=prior,
-                                     anatomical_first=False, progress=say)
+        mm, _, h2 = register_markers(
+            mm,
+            markers[k],
+            ~in_static,
+            n_iter=2,
+            prior_frames=prior,
+            anatomical_first=False,
+            progress=say,
+        )
         history += h2
 
     # ---- IK
@@ -245,8 +286,10 @@ def compute_kinematics(trial: Trial, model: BodyModel | None = None,
         else:
             frames = _stance_frames(trial, t, side, FOOT_FLAT)
             if not frames:
-                raise InputError(f"No {side} stance in {trial.source} to calibrate the sole height; "
-                                 "give a static trial or stances.")
+                raise InputError(
+                    f"No {side} stance in {trial.source} to calibrate the sole height; "
+                    "give a static trial or stances."
+                )
             qs = np.concatenate([q[i] for i, _ in frames])
             floors = np.concatenate([np.full(len(i), h) for i, h in frames])
             src = f"walking foot-flat {FOOT_FLAT[0]:.0%}-{FOOT_FLAT[1]:.0%} of stance"
@@ -254,9 +297,15 @@ def compute_kinematics(trial: Trial, model: BodyModel | None = None,
         sole_info[side] = src
         feet[side] = foot_kinematics(body, q, t, side, pts)
     info = {
-        "height": height, "mass": trial.mass, "markerset": markerset.name,
-        "registration_rms_history": history, "ik_seconds": res.seconds,
-        "sole_height_source": sole_info, "marker_local": dict(zip(mm.names, mm.local, strict=True)),
-        "body": body, "marker_model": mm, "residuals": res.residuals,
+        "height": height,
+        "mass": trial.mass,
+        "markerset": markerset.name,
+        "registration_rms_history": history,
+        "ik_seconds": res.seconds,
+        "sole_height_source": sole_info,
+        "marker_local": dict(zip(mm.names, mm.local, strict=True)),
+        "body": body,
+        "marker_model": mm,
+        "residuals": res.residuals,
     }
     return TrialKinematics(trial.name, t, q, res.marker_rms, feet, cutoff_hz, tuple(names), info)

@@ -4,4 +4,11 @@ from gc_ocp.model.anthropometry import Anthropometry, anthropometry
 from gc_ocp.model.body import BodyModel
 from gc_ocp.model.urdf import generate_urdf, write_seed_urdf, write_urdf
 
-__all__ = ["Anthropometry", "BodyModel", "anthropometry", "generate_urdf", "write_seed_urdf", "write_urdf"]
+__all__ = [
+    "Anthropometry",
+    "BodyModel",
+    "anthropometry",
+    "generate_urdf",
+    "write_seed_urdf",
+    "write_urdf",
+]

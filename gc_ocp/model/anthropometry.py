@@ -132,7 +132,9 @@ class Anthropometry:
         return -self.ankle_height * (1.0 - MTP_HEIGHT)
 
 
-def _rod(mass: float, length: float, com_frac: float, r: tuple[float, float, float], down: bool) -> Segment:
+def _rod(
+    mass: float, length: float, com_frac: float, r: tuple[float, float, float], down: bool
+) -> Segment:
     """Segment along -Z (``down``) or +Z from its proximal joint; radii as fractions of length."""
     sgn = -1.0 if down else 1.0
     com = np.array([0.0, 0.0, sgn * com_frac * length])
@@ -221,7 +223,9 @@ def anthropometry(height: float, mass: float, sex: str = "male") -> Anthropometr
         heel_x = -HEEL_BEHIND_ANKLE * foot_len
         com = np.array([heel_x + cp / 100.0 * foot_len, 0.0, -0.5 * ankle_h])
         # Foot radii: sagittal about Y, transverse about Z, longitudinal about X (foot lies along X).
-        ifoot = np.diag([(rl / 100 * foot_len) ** 2, (rs / 100 * foot_len) ** 2, (rt / 100 * foot_len) ** 2])
+        ifoot = np.diag(
+            [(rl / 100 * foot_len) ** 2, (rs / 100 * foot_len) ** 2, (rt / 100 * foot_len) ** 2]
+        )
         mtoe = TOES_MASS_FRACTION * fm
         segs[f"hindfoot_{side}"] = Segment(f"hindfoot_{side}", fm - mtoe, com, (fm - mtoe) * ifoot)
         toe_len = (1 - METATARSAL_FROM_HEEL) * foot_len
@@ -233,15 +237,23 @@ def anthropometry(height: float, mass: float, sex: str = "male") -> Anthropometr
     # add up to 99.99 %).
     total = sum(s.mass for s in segs.values())
     segs = {
-        n: Segment(n, s.mass * mass / total, s.com, s.inertia * mass / total) for n, s in segs.items()
+        n: Segment(n, s.mass * mass / total, s.com, s.inertia * mass / total)
+        for n, s in segs.items()
     }
     return Anthropometry(
-        height=height, mass=mass, sex=sex,
+        height=height,
+        mass=mass,
+        sex=sex,
         thigh_length=t["thigh"][1] / 1000 * k,
         shank_length=t["shank"][1] / 1000 * k,
         upper_arm_length=t["upper_arm"][1] / 1000 * k,
         forearm_length=t["forearm"][1] / 1000 * k,
-        foot_length=foot_len, foot_width=FOOT_WIDTH_RATIO * height, ankle_height=ankle_h,
-        hip_width=hip_w, lumbar_height=lumbar_h, shoulder_height=sh_h, shoulder_width=sh_w,
+        foot_length=foot_len,
+        foot_width=FOOT_WIDTH_RATIO * height,
+        ankle_height=ankle_h,
+        hip_width=hip_w,
+        lumbar_height=lumbar_h,
+        shoulder_height=sh_h,
+        shoulder_width=sh_w,
         segments=segs,
     )

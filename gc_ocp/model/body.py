@@ -49,8 +49,10 @@ class BodyModel:
         for side in ("l", "r"):
             for name in ("hindfoot", "toes", *UNITS):
                 if f"{name}_{side}" not in ids:
-                    raise ModelError(f'frame "{name}_{side}" is missing from the URDF; regenerate it '
-                                     "with gc_ocp.model.urdf.generate_urdf")
+                    raise ModelError(
+                        f'frame "{name}_{side}" is missing from the URDF; regenerate it '
+                        "with gc_ocp.model.urdf.generate_urdf"
+                    )
 
     # ---------------------------------------------------------------- construction
     @classmethod
@@ -70,8 +72,12 @@ class BodyModel:
         """Anthropometric model (de Leva 1996) of a subject of ``height`` [m] and ``mass`` [kg]."""
         from gc_ocp.model.urdf import generate_urdf
 
-        return cls(pin.buildModelFromXML(generate_urdf(height, mass, sex=sex)),
-                   generate_urdf(height, mass, sex=sex), height, sex)
+        return cls(
+            pin.buildModelFromXML(generate_urdf(height, mass, sex=sex)),
+            generate_urdf(height, mass, sex=sex),
+            height,
+            sex,
+        )
 
     @classmethod
     def seed_subject(cls) -> BodyModel:
@@ -124,7 +130,9 @@ class BodyModel:
         try:
             return self._frame_ids[name]
         except KeyError:
-            raise ModelError(f'Name "{name}" is not a model frame name in {sorted(self._frame_ids)}') from None
+            raise ModelError(
+                f'Name "{name}" is not a model frame name in {sorted(self._frame_ids)}'
+            ) from None
 
     def foot_frames(self, side: str) -> dict[str, int]:
         """Frame ids of ``hindfoot`` and ``toes`` of ``side`` ("left"/"right")."""

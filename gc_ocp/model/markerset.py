@@ -124,14 +124,26 @@ def load_markerset(name_or_path: str | Path) -> MarkerSet:
             pos = np.array(d["position"], dtype=float)
             seg = str(d["segment"])
         except KeyError as e:
-            raise MarkerError(f'Marker "{label}" in {p} has no {e.args[0]}; each marker needs '
-                              "segment and position") from None
+            raise MarkerError(
+                f'Marker "{label}" in {p} has no {e.args[0]}; each marker needs '
+                "segment and position"
+            ) from None
         if pos.shape != (3,):
-            raise MarkerError(f'Marker "{label}" in {p}: position must have 3 values, but got {pos.shape}')
+            raise MarkerError(
+                f'Marker "{label}" in {p}: position must have 3 values, but got {pos.shape}'
+            )
         pos.setflags(write=False)
-        markers[label] = MarkerDef(label, seg, pos, float(d.get("weight", 1.0)), str(d.get("role", "")),
-                                   bool(d.get("cluster", False)))
-    return MarkerSet(str(data.get("name", p.stem)), p, float(data.get("reference_height", 1.70)), markers)
+        markers[label] = MarkerDef(
+            label,
+            seg,
+            pos,
+            float(d.get("weight", 1.0)),
+            str(d.get("role", "")),
+            bool(d.get("cluster", False)),
+        )
+    return MarkerSet(
+        str(data.get("name", p.stem)), p, float(data.get("reference_height", 1.70)), markers
+    )
 
 
 def detect_markerset(marker_names) -> MarkerSet:

@@ -80,7 +80,9 @@ def _joint(name, kind, parent, child, xyz=(0, 0, 0), axis=None, lim=None) -> str
     if axis is not None:
         s += f'    <axis xyz="{_v(axis)}"/>\n'
     if lim is not None:
-        s += f'    <limit lower="{_f(lim[0])}" upper="{_f(lim[1])}" effort="1000" velocity="100"/>\n'
+        s += (
+            f'    <limit lower="{_f(lim[0])}" upper="{_f(lim[1])}" effort="1000" velocity="100"/>\n'
+        )
     return s + "  </joint>\n"
 
 
@@ -113,7 +115,9 @@ def sole_points_default(a: Anthropometry, side: str) -> dict[str, np.ndarray]:
     }
 
 
-def generate_urdf(height_m: float, mass_kg: float, name: str = "gc_ocp_subject", sex: str = "male") -> str:
+def generate_urdf(
+    height_m: float, mass_kg: float, name: str = "gc_ocp_subject", sex: str = "male"
+) -> str:
     """URDF text of the gait model scaled to ``height_m`` [m] and ``mass_kg`` [kg] (de Leva 1996)."""
     a = anthropometry(height_m, mass_kg, sex)
     S = a.segments
@@ -135,7 +139,10 @@ def generate_urdf(height_m: float, mass_kg: float, name: str = "gc_ocp_subject",
             ("pelvis_rx", "revolute", (1, 0, 0), (-80 * D, 80 * D)),
             ("pelvis_ry", "revolute", (0, 1, 0), (-80 * D, 80 * D)),
         ],
-        "ground", "pelvis", (0, 0, 0), S["pelvis"],
+        "ground",
+        "pelvis",
+        (0, 0, 0),
+        S["pelvis"],
     )
     _chain(
         parts,
@@ -144,7 +151,10 @@ def generate_urdf(height_m: float, mass_kg: float, name: str = "gc_ocp_subject",
             ("lumbar_bending", "revolute", (1, 0, 0), (-40 * D, 40 * D)),
             ("lumbar_rotation", "revolute", (0, 0, 1), (-45 * D, 45 * D)),
         ],
-        "pelvis", "torso", (0, 0, a.lumbar_height), S["torso"],
+        "pelvis",
+        "torso",
+        (0, 0, a.lumbar_height),
+        S["torso"],
     )
     for s in ("l", "r"):
         m = 1.0 if s == "l" else -1.0  # mirror for the right side
@@ -155,19 +165,33 @@ def generate_urdf(height_m: float, mass_kg: float, name: str = "gc_ocp_subject",
                 (f"hip_adduction_{s}", "revolute", (-m, 0, 0), (-50 * D, 30 * D)),
                 (f"hip_rotation_{s}", "revolute", (0, 0, -m), (-45 * D, 45 * D)),
             ],
-            "pelvis", f"thigh_{s}", (0, m * a.hip_width / 2, 0), S[f"thigh_{s}"],
+            "pelvis",
+            f"thigh_{s}",
+            (0, m * a.hip_width / 2, 0),
+            S[f"thigh_{s}"],
         )
-        _chain(parts, [(f"knee_{s}", "revolute", (0, 1, 0), (-15 * D, 140 * D))],
-               f"thigh_{s}", f"shank_{s}", (0, 0, -a.thigh_length), S[f"shank_{s}"])
+        _chain(
+            parts,
+            [(f"knee_{s}", "revolute", (0, 1, 0), (-15 * D, 140 * D))],
+            f"thigh_{s}",
+            f"shank_{s}",
+            (0, 0, -a.thigh_length),
+            S[f"shank_{s}"],
+        )
         _chain(
             parts,
             [
                 (f"ankle_{s}", "revolute", (0, -1, 0), (-60 * D, 45 * D)),
                 (f"subtalar_{s}", "revolute", (-m, 0, 0), (-35 * D, 35 * D)),
             ],
-            f"shank_{s}", f"hindfoot_{s}", (0, 0, -a.shank_length), S[f"hindfoot_{s}"],
+            f"shank_{s}",
+            f"hindfoot_{s}",
+            (0, 0, -a.shank_length),
+            S[f"hindfoot_{s}"],
         )
-        parts.append(_joint(f"mtp_{s}", "fixed", f"hindfoot_{s}", f"toes_{s}", (a.metatarsal_x, 0, a.mtp_z)))
+        parts.append(
+            _joint(f"mtp_{s}", "fixed", f"hindfoot_{s}", f"toes_{s}", (a.metatarsal_x, 0, a.mtp_z))
+        )
         parts.append(_link(f"toes_{s}", S[f"toes_{s}"]))
         for u, p in sole_points_default(a, s).items():
             parent = f"toes_{s}" if u == "TT" else f"hindfoot_{s}"
@@ -179,17 +203,30 @@ def generate_urdf(height_m: float, mass_kg: float, name: str = "gc_ocp_subject",
                 (f"shoulder_flexion_{s}", "revolute", (0, -1, 0), (-90 * D, 180 * D)),
                 (f"shoulder_abduction_{s}", "revolute", (m, 0, 0), (-30 * D, 180 * D)),
             ],
-            "torso", f"upper_arm_{s}", (0, m * a.shoulder_width / 2, a.shoulder_height),
+            "torso",
+            f"upper_arm_{s}",
+            (0, m * a.shoulder_width / 2, a.shoulder_height),
             S[f"upper_arm_{s}"],
         )
-        _chain(parts, [(f"elbow_{s}", "revolute", (0, -1, 0), (-5 * D, 160 * D))],
-               f"upper_arm_{s}", f"forearm_{s}", (0, 0, -a.upper_arm_length), S[f"forearm_{s}"])
+        _chain(
+            parts,
+            [(f"elbow_{s}", "revolute", (0, -1, 0), (-5 * D, 160 * D))],
+            f"upper_arm_{s}",
+            f"forearm_{s}",
+            (0, 0, -a.upper_arm_length),
+            S[f"forearm_{s}"],
+        )
     parts.append("</robot>\n")
     return "".join(parts)
 
 
-def write_urdf(path: str | Path, height_m: float, mass_kg: float, name: str = "gc_ocp_subject",
-               sex: str = "male") -> Path:
+def write_urdf(
+    path: str | Path,
+    height_m: float,
+    mass_kg: float,
+    name: str = "gc_ocp_subject",
+    sex: str = "male",
+) -> Path:
     """Write :func:`generate_urdf` to ``path``; returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -199,7 +236,9 @@ def write_urdf(path: str | Path, height_m: float, mass_kg: float, name: str = "g
 
 def write_seed_urdf(path: str | Path = SEED_URDF) -> Path:
     """Regenerate ``models/gc_ocp_seed_subject.urdf`` (689 N, 1.70 m)."""
-    return write_urdf(path, SEED_SUBJECT["height"], SEED_SUBJECT["mass"], name="gc_ocp_seed_subject")
+    return write_urdf(
+        path, SEED_SUBJECT["height"], SEED_SUBJECT["mass"], name="gc_ocp_seed_subject"
+    )
 
 
 if __name__ == "__main__":  # python -m gc_ocp.model.urdf
