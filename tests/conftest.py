@@ -77,3 +77,33 @@ def datasets():
         "rajagopal": (rajagopal_trial, rajagopal_static),
         "gait2392": (gait2392_trial, gait2392_static),
     }
+
+
+PINS = Path(__file__).resolve().parent / "pins"
+PIN_OBJECTIVE_RTOL = 1e-5
+"""Ipopt stops when the objective changes by < 1e-6 (relative) over 5 iterations
+(``IpoptOptions.acceptable_obj_change_tol``): a refit that takes another path to the same
+minimum ends within a few such steps of it."""
+PIN_RMS_ATOL = 0.01
+"""[% BW or % BW x H]: the precision the reports print; RMS moves by ~1e-4 of itself at the
+objective tolerance above, while a different local minimum moves it by tenths."""
+PIN_COP_ATOL_MM = 0.1
+
+
+def assert_matches_pins(name: str, report) -> None:
+    """The fitted objective, RMS per channel and COP RMS of ``report`` equal the pinned ones
+    (``tests/pins/fit_pins.json``) within the solver's tolerance."""
+    import json
+
+    pin = json.loads((PINS / "fit_pins.json").read_text())[name]
+    parts = [(report.result, pin)]
+    if "heldout" in pin:
+        assert report.heldout_label == pin["heldout"]["label"]
+        parts.append((report.heldout, pin["heldout"]))
+    for res, p in parts:
+        assert res.objective == pytest.approx(p["objective"], rel=PIN_OBJECTIVE_RTOL), name
+        assert set(res.rms) == set(p["rms"]), name
+        for side, chans in p["rms"].items():
+            for ch, v in chans.items():
+                assert res.rms[side][ch] == pytest.approx(v, abs=PIN_RMS_ATOL), (name, side, ch)
+            assert res.cop_rms_mm[side] == pytest.approx(p["cop_rms_mm"][side], abs=PIN_COP_ATOL_MM)

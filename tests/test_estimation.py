@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import assert_matches_pins  # noqa: E402
 
 from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.components import (
@@ -142,6 +143,7 @@ def test_real_trial_fit_and_holdout(bundled):
     from gc_ocp.estimation.fit import fit
 
     rep = fit([bundled], holdout="right@0.407")
+    assert_matches_pins("bundled_holdout", rep)
     r = rep.result
     for side in ("left", "right"):
         assert r.rms[side]["superior_force_pct_bw"] <= 3.0
@@ -211,7 +213,9 @@ def test_real_trials_in_sample(name):
 
     with __import__("warnings").catch_warnings():
         __import__("warnings").simplefilter("ignore")  # height estimated from markers (OpenSim)
-        r = fit([_real(name)]).result
+        rep = fit([_real(name)])
+    assert_matches_pins(name, rep)
+    r = rep.result
     for side in ("left", "right"):
         rms = r.rms[side]
         assert rms["superior_force_pct_bw"] <= 3.0, (name, side, rms)

@@ -1,0 +1,139 @@
+"""Write the pinned numbers of the estimator (run by hand, only on a deliberate model change).
+
+Generated once at commit bb2d7d0 (before the composable-estimator refactor) with::
+
+    .venv/bin/python tests/pins/make_pins.py
+
+* ``estimator_pins.npz``: for a synthetic problem (4 stances) and for the bundled trial (its
+  stance inputs are stored too, so the pin does not depend on the kinematics pipeline), the
+  objective, gradient and dense Hessian of the full model at a fixed decision vector, with the
+  variable layout (key, start, size) so that a later ordering of the variables can be mapped.
+* ``fit_pins.json``: fitted objective and RMS per channel of the three shared trials and the
+  bundled trial's held-out fit (the figures ``tests/test_pins.py`` keeps).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import warnings
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+
+
+def key_str(key: tuple) -> str:
+    return "/".join(map(str, key))
+
+
+def synthetic_stances():
+    from gc_ocp.estimation.synthetic import default_truth, nominal_points, synthetic_stance
+
+    rng = np.random.default_rng(3)
+    truth = default_truth()
+    sts = []
+    for side, t_off in (("left", 0.0), ("right", 0.55)):
+        d = rng.normal(size=(5, 3))
+        d *= (rng.uniform(0, 0.008, 5) / np.linalg.norm(d, axis=1))[:, None]
+        for t0 in (0.0, 1.1):
+            sts.append(
+                synthetic_stance(
+                    side, truth, nominal_points(side) + d, t0=t0 + t_off, sink=0.010, rng=rng
+                )
+            )
+    return sts
+
+
+def stance_arrays(prefix: str, sts) -> dict:
+    out = {}
+    for i, st in enumerate(sts):
+        p = f"{prefix}/stance{i}/"
+        f = st.foot
+        out[p + "time"] = st.time
+        out[p + "hindfoot_pose"] = f.hindfoot_pose
+        out[p + "toes_pose"] = f.toes_pose
+        out[p + "hindfoot_twist"] = f.hindfoot_twist
+        out[p + "toes_twist"] = f.toes_twist
+        out[p + "points_local"] = f.points_local
+        out[p + "measured"] = st.measured
+        out[p + "in_contact"] = st.in_contact
+        out[p + "reference_point"] = st.reference_point
+        out[p + "scalars"] = np.array([st.ground_height, st.body_weight, st.height])
+        out[p + "belt_velocity"] = st.belt_velocity
+        out[p + "names"] = np.array([st.trial, st.side, st.label])
+    out[f"{prefix}/n_stances"] = np.array(len(sts))
+    return out
+
+
+def derivative_pins(prefix: str, sts, seed: int) -> dict:
+    from gc_ocp.estimation.components import full_model
+    from gc_ocp.estimation.problem import build_estimation
+
+    pb = build_estimation(sts, full_model())
+    b = pb.builder
+    x = pb.x0 + 0.05 * np.random.default_rng(seed).normal(size=pb.x0.size)
+    f = ca.Function("pin", [pb.x], [pb.objective, pb.gradient, pb.hessian])
+    J, g, H = (np.asarray(a) for a in f(x))
+    keys = [s["key"] for s in b.specs]
+    return {
+        f"{prefix}/x": x,
+        f"{prefix}/objective": np.array(float(J.ravel()[0])),
+        f"{prefix}/gradient": g.ravel(),
+        f"{prefix}/hessian": H,
+        f"{prefix}/keys": np.array([key_str(k) for k in keys]),
+        f"{prefix}/starts": np.array([b._index[k].start for k in keys]),
+        f"{prefix}/sizes": np.array([b._index[k].stop - b._index[k].start for k in keys]),
+    }
+
+
+def bundled_stances():
+    from gc_ocp.estimation.data import stance_data
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+
+    t = load_trial()
+    kin = compute_kinematics(t)
+    return [stance_data(t, kin, s) for s in t.stances], (t, kin)
+
+
+def fit_figures(rep) -> dict:
+    r = rep.result
+    d = {"objective": r.objective, "rms": r.rms, "cop_rms_mm": r.cop_rms_mm, "status": r.status}
+    if rep.heldout is not None:
+        d["heldout"] = {
+            "label": rep.heldout_label,
+            "objective": rep.heldout.objective,
+            "rms": rep.heldout.rms,
+            "cop_rms_mm": rep.heldout.cop_rms_mm,
+        }
+    return d
+
+
+def main() -> None:
+    from test_estimation import _real
+
+    from gc_ocp.estimation.fit import fit
+
+    arrays = {}
+    syn = synthetic_stances()
+    arrays.update(stance_arrays("synthetic", syn))
+    arrays.update(derivative_pins("synthetic", syn, 4))
+    real, bundled = bundled_stances()
+    arrays.update(stance_arrays("bundled", real))
+    arrays.update(derivative_pins("bundled", real, 5))
+    np.savez_compressed(HERE / "estimator_pins.npz", **arrays)
+    figs = {"bundled_holdout": fit_figures(fit([bundled], holdout="right@0.407"))}
+    for name in ("plugingait", "rajagopal", "gait2392"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            figs[name] = fit_figures(fit([_real(name)]))
+        print(name, figs[name]["objective"], flush=True)
+    (HERE / "fit_pins.json").write_text(json.dumps(figs, indent=1, sort_keys=True) + "\n")
+
+
+if __name__ == "__main__":
+    main()
