@@ -96,14 +96,14 @@ def baseline(prob, budget_s: float):
 
 
 def real_trial(repeats: int, budget: float):
-    from gc_ocp.estimation.data import stance_data
     from gc_ocp.estimation.fit import _with_init, lls_initial_k
     from gc_ocp.io import load_trial
     from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.stance import stance_data
 
     trial = load_trial()
     kin = compute_kinematics(trial)
-    data = [stance_data(trial, kin, s) for s in trial.stances]
+    data = [stance_data(trial, kin, s, 0.03, 5) for s in trial.stances]
     model = full_model()
     law = next(m for m in model if isinstance(m, ContactLaw))
     model = _with_init(

@@ -35,7 +35,7 @@ from gc_ocp.estimation.components import (
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.solve import solve
 from gc_ocp.estimation.synthetic import default_truth, nominal_points, synthetic_stance
-from gc_ocp.sole import UNITS
+from gc_ocp.foot import UNITS
 
 SIDES = ("left", "right")
 X_REF = 0.005
@@ -135,7 +135,7 @@ def spline_pose_error(st, pose: PoseCorrection, rng: np.random.Generator):
 
     from scipy.spatial.transform import Rotation
 
-    from gc_ocp.sole import FootKinematics
+    from gc_ocp.foot import FootKinematics
 
     f = st.foot
     B, dB = pose.basis(f.time)

@@ -8,7 +8,7 @@ import pytest
 
 from gc_ocp.cli import main
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS
-from gc_ocp.sole import UNITS
+from gc_ocp.foot import UNITS
 
 TABLE1_CASES = [
     "synthetic_noiseless_uniform_k",

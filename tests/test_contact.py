@@ -20,7 +20,7 @@ from gc_ocp.contact.laws import (
     unit_force_function,
     unit_forces,
 )
-from gc_ocp.contact.lls import SEED_LAW, StanceData, fit_stiffness_lls, stance_data
+from gc_ocp.contact.lls import SEED_LAW, fit_stiffness_lls
 from gc_ocp.contact.plots import plot_sole, plot_wrench_fit
 from gc_ocp.contact.seed_study import (
     SEED_TABLE1,
@@ -31,9 +31,10 @@ from gc_ocp.contact.seed_study import (
     write_tables,
 )
 from gc_ocp.contact.synthetic import SYNTHETIC_CASES, draw_case, rolling_foot, synthetic_stances
-from gc_ocp.contact.wrench_model import ContactLaw, model_wrench, wrench_per_unit_stiffness
+from gc_ocp.contact.wrench_model import LawParams, model_wrench, wrench_per_unit_stiffness
 from gc_ocp.errors import InputError, RankError
-from gc_ocp.sole import UNITS, TrialKinematics
+from gc_ocp.foot import UNITS, TrialKinematics
+from gc_ocp.stance import StanceData
 from gc_ocp.trial import Plate, Stance, Trial
 from gc_ocp.wrench import transport_moment
 
@@ -72,11 +73,16 @@ def feet():
     return {"right": rolling_foot("right", 0.0, x0=0.0), "left": rolling_foot("left", 0.55, x0=0.7)}
 
 
+def _stance(foot, label, t_on, t_off, ref):
+    w = foot.window(t_on, t_off)
+    return StanceData(foot.side, label, w, np.zeros((w.time.size, 6)), ref)
+
+
 @pytest.fixture(scope="module")
 def template(feet):
     return [
-        stance_data(feet["right"], "right", "R1", 0.0, 0.65, [0.2, -0.1, -0.04]),
-        stance_data(feet["left"], "left", "L1", 0.55, 1.2, [0.9, 0.1, -0.04]),
+        _stance(feet["right"], "R1", 0.0, 0.65, [0.2, -0.1, -0.04]),
+        _stance(feet["left"], "L1", 0.55, 1.2, [0.9, 0.1, -0.04]),
     ]
 
 
@@ -337,7 +343,7 @@ def test_model_wrench_sums_unit_forces_and_torques(feet):
     np.testing.assert_allclose(R @ k, W, rtol=0, atol=1e3 * EPS * np.abs(W).max())
 
 
-@pytest.mark.parametrize("law", [SEED_LAW, ContactLaw(n=1.5, c=0.8, mu=0.9, smooth=True)])
+@pytest.mark.parametrize("law", [SEED_LAW, LawParams(n=1.5, c=0.8, mu=0.9, smooth=True)])
 def test_moving_reference_point_transports_the_wrench(feet, law):
     f = feet["left"]
     k = np.array([1e4, 2e4, 3e4, 4e4, 5e4])
@@ -377,17 +383,9 @@ def test_lls_recovers_k_and_wrench_on_noiseless_data(case, template, feet):
 
 def test_lls_rejects_a_unit_never_in_contact(template):
     st = template[0]
-    pos = st.positions.copy()
-    pos[:, UNITS.index("TT"), 2] += 0.2  # toe tip 20 cm above the ground all stance
-    lifted = StanceData(
-        st.side,
-        st.label,
-        st.time,
-        pos,
-        st.velocities,
-        np.ones_like(st.measured),
-        st.reference_point,
-    )
+    pts = st.foot.points_local.copy()
+    pts[UNITS.index("TT"), 2] += 0.2  # toe tip 20 cm above the sole: never in contact
+    lifted = st.with_foot(st.foot.with_points(pts)).with_measured(np.ones_like(st.measured))
     with pytest.raises(RankError, match=r"right/TT.*never in contact"):
         fit_stiffness_lls(
             [lifted, template[1].with_measured(np.ones((len(template[1].time), 6)))],
@@ -398,11 +396,9 @@ def test_lls_rejects_a_unit_never_in_contact(template):
 
 def test_lls_rejects_inseparable_units(template):
     st = template[0]
-    pos, vel = st.positions.copy(), st.velocities.copy()
-    pos[:, 1], vel[:, 1] = pos[:, 0], vel[:, 0]  # PM on top of PL: identical regressor columns
-    twin = StanceData(
-        st.side, st.label, st.time, pos, vel, np.ones_like(st.measured), st.reference_point
-    )
+    pts = st.foot.points_local.copy()
+    pts[1] = pts[0]  # PM on top of PL: identical regressor columns
+    twin = st.with_foot(st.foot.with_points(pts)).with_measured(np.ones_like(st.measured))
     with pytest.raises(RankError, match=r"rank 4 < 5.*right/P[LM].*right/P[LM]"):
         fit_stiffness_lls([twin], SEED_BW, SEED_BWH)
 

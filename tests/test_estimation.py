@@ -21,7 +21,7 @@ from gc_ocp.estimation.components import (
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.solve import IpoptOptions, solve
 from gc_ocp.estimation.synthetic import default_truth, nominal_points, synthetic_stance
-from gc_ocp.sole import UNITS
+from gc_ocp.foot import UNITS
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
 

@@ -9,11 +9,11 @@ import pinocchio as pin
 import pytest
 from conftest import c3d_trial, gait2392_static, gait2392_trial, rajagopal_static, rajagopal_trial
 
+from gc_ocp.foot import UNITS
 from gc_ocp.kinematics import compute_kinematics, lowpass, solve_ik
 from gc_ocp.kinematics.scaling import build_marker_model
 from gc_ocp.model import BodyModel
 from gc_ocp.model.markerset import load_markerset
-from gc_ocp.sole import UNITS
 
 
 def test_lowpass_zero_lag_and_gaps():

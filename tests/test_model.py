@@ -9,10 +9,10 @@ import pinocchio as pin
 import pytest
 
 from gc_ocp.errors import MarkerError
+from gc_ocp.foot import UNITS
 from gc_ocp.model import BodyModel, generate_urdf
 from gc_ocp.model.markerset import available_markersets, detect_markerset, load_markerset
 from gc_ocp.model.urdf import SEED_SUBJECT, SEED_URDF
-from gc_ocp.sole import UNITS
 
 H, M = 1.70, 689.0 / 9.81
 SEGMENTS = ["pelvis", "torso"] + [

@@ -29,8 +29,8 @@ def pins():
 
 
 def _stances(pins, prefix):
-    from gc_ocp.estimation.data import StanceData
-    from gc_ocp.sole import FootKinematics
+    from gc_ocp.foot import FootKinematics
+    from gc_ocp.stance import StanceData
 
     out = []
     for i in range(int(pins[f"{prefix}/n_stances"])):
@@ -51,7 +51,6 @@ def _stances(pins, prefix):
                 trial=trial,
                 side=side,
                 label=label,
-                time=pins[p + "time"],
                 foot=foot,
                 measured=pins[p + "measured"],
                 in_contact=pins[p + "in_contact"],
@@ -112,9 +111,8 @@ def test_per_frame_model_equals_the_numpy_wrench(pins):
     """Sole offsets on, pose correction zero: the estimator's model wrench of every stance equals
     the NumPy evaluation of the equivalent wrench on the corrected unit trajectories."""
     from gc_ocp.contact.laws import Smoothing
-    from gc_ocp.contact.wrench_model import ContactLaw as LawParams
-    from gc_ocp.contact.wrench_model import model_wrench
-    from gc_ocp.sole import UNITS
+    from gc_ocp.contact.wrench_model import LawParams, model_wrench
+    from gc_ocp.foot import UNITS
 
     stances = _stances(pins, "bundled")
     pb, index = _problem(stances)

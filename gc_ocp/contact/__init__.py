@@ -19,13 +19,11 @@ from gc_ocp.contact.laws import (
 from gc_ocp.contact.lls import (
     SEED_LAW,
     LLSResult,
-    StanceData,
     fit_stiffness_lls,
-    stance_data,
     stances_from_trial,
 )
 from gc_ocp.contact.wrench_model import (
-    ContactLaw,
+    LawParams,
     model_cop,
     model_free_moment,
     model_wrench,
@@ -46,11 +44,9 @@ __all__ = [
     "unit_forces",
     "SEED_LAW",
     "LLSResult",
-    "StanceData",
     "fit_stiffness_lls",
-    "stance_data",
     "stances_from_trial",
-    "ContactLaw",
+    "LawParams",
     "model_cop",
     "model_free_moment",
     "model_wrench",

@@ -22,137 +22,28 @@ below the ground in any stance) are reported by name.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from gc_ocp.contact.channels import CHANNELS, channel_rms_pct, wrench_scale
-from gc_ocp.contact.wrench_model import ContactLaw, model_wrench, wrench_per_unit_stiffness
+from gc_ocp.contact.wrench_model import LawParams, model_wrench, wrench_per_unit_stiffness
 from gc_ocp.errors import InputError, RankError
-from gc_ocp.sole import UNITS, FootKinematics
+from gc_ocp.foot import UNITS
+from gc_ocp.stance import StanceData, trial_stances
 from gc_ocp.trial import SIDES
 
 DEFAULT_MU = 0.5
 """Friction coefficient used by the seed reproduction (the seed's value is not reported)."""
 
-SEED_LAW = ContactLaw(n=1.0, c=0.0, mu=DEFAULT_MU, smooth=False)
+SEED_LAW = LawParams(n=1.0, c=0.0, mu=DEFAULT_MU, smooth=False)
 """The seed's law: n = 1, c = 0, exact penetration, friction mu = 0.5."""
 
 
-@dataclass(frozen=True)
-class StanceData:
-    """Everything the fit needs about one stance.
-
-    side: ``"left"``/``"right"``; label: for messages; time ``(n,)`` [s];
-    positions, velocities: ``(n, 5, 3)`` unit trajectories in ``lab`` [m], [m/s];
-    measured: ``(n, 6)`` measured wrench about ``reference_point`` (``lab``, [N], [N·m]);
-    reference_point: ``(3,)`` [m]; ground_height: surface height [m]; belt_velocity ``(3,)`` [m/s].
-    """
-
-    side: str
-    label: str
-    time: np.ndarray
-    positions: np.ndarray
-    velocities: np.ndarray
-    measured: np.ndarray
-    reference_point: np.ndarray
-    ground_height: float = 0.0
-    belt_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
-
-    def __post_init__(self) -> None:
-        n = np.asarray(self.time).shape[0]
-        for name, shape in (
-            ("positions", (n, len(UNITS), 3)),
-            ("velocities", (n, len(UNITS), 3)),
-            ("measured", (n, 6)),
-            ("reference_point", (3,)),
-        ):
-            a = np.array(getattr(self, name), dtype=float, copy=True)
-            if a.shape != shape:
-                raise InputError(
-                    f"StanceData {self.label!r}: {name} must have shape {shape}, but got {a.shape}"
-                )
-            a.setflags(write=False)
-            object.__setattr__(self, name, a)
-        if self.side not in SIDES:
-            raise InputError(
-                f"StanceData {self.label!r}: side must be one of {SIDES}, but got {self.side!r}"
-            )
-
-    def with_measured(self, measured: np.ndarray) -> StanceData:
-        return StanceData(
-            self.side,
-            self.label,
-            self.time,
-            self.positions,
-            self.velocities,
-            measured,
-            self.reference_point,
-            self.ground_height,
-            self.belt_velocity,
-        )
-
-
-def stance_data(
-    foot: FootKinematics,
-    side: str,
-    label: str,
-    t_on: float,
-    t_off: float,
-    reference_point,
-    measured: np.ndarray | None = None,
-    ground_height: float = 0.0,
-    belt_velocity=(0.0, 0.0, 0.0),
-) -> StanceData:
-    """Cut ``foot`` to ``[t_on, t_off]``; ``measured`` defaults to zeros (filled in later)."""
-    w = foot.window(t_on, t_off)
-    n = w.time.shape[0]
-    if n == 0:
-        raise InputError(
-            f"Stance {label!r} [{t_on:.3f}, {t_off:.3f}] s has no kinematic frame; "
-            "check that the kinematics cover the stance"
-        )
-    meas = np.zeros((n, 6)) if measured is None else measured
-    return StanceData(
-        side,
-        label,
-        w.time,
-        w.positions,
-        w.velocities,
-        meas,
-        np.asarray(reference_point, dtype=float),
-        float(ground_height),
-        np.asarray(belt_velocity, dtype=float),
-    )
-
-
 def stances_from_trial(trial, kinematics) -> list[StanceData]:
-    """Measured stances of a :class:`~gc_ocp.trial.Trial` with its ``TrialKinematics``.
-
-    Each stance is cut from ``kinematics.feet[side]`` at the kinematic frames inside
-    ``[t_on, t_off]``; the measured wrench is ``trial.stance_wrench`` at those times, about the
-    stance reference point; the ground is the plate's surface height; the belt velocity is the
-    trial's (zeros overground). Frames with non-finite kinematics or plate data are dropped.
-    """
-    from gc_ocp.stance_window import cut_stance
-
-    out = []
-    for st in trial.stances:
-        w = cut_stance(trial, kinematics, st)
-        out.append(
-            StanceData(
-                st.side,
-                st.label,
-                w.foot.time,
-                w.foot.positions,
-                w.foot.velocities,
-                w.measured,
-                w.reference_point,
-                w.ground_height,
-                w.belt_velocity,
-            )
-        )
-    return out
+    """Measured stances of a :class:`~gc_ocp.trial.Trial` with its ``TrialKinematics``, cut at
+    the kinematic frames inside ``[t_on, t_off]`` (:func:`gc_ocp.stance.trial_stances`)."""
+    return trial_stances(trial, kinematics)
 
 
 @dataclass(frozen=True)
@@ -176,7 +67,7 @@ class LLSResult:
     condition_number: float
     body_weight: float
     bw_height: float
-    law: ContactLaw
+    law: LawParams
 
     def summary(self) -> str:
         lines = [
@@ -194,7 +85,7 @@ def build_lls_system(
     stances: Sequence[StanceData],
     body_weight: float,
     bw_height: float,
-    law: ContactLaw = SEED_LAW,
+    law: LawParams = SEED_LAW,
     sides: Sequence[str] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, tuple[tuple[str, str], ...]]:
     """Scaled system ``A (rows, 5*n_sides)``, ``b (rows,)`` and the unknowns ``(side, unit)``.
@@ -231,7 +122,7 @@ def fit_stiffness_lls(
     stances: Sequence[StanceData],
     body_weight: float,
     bw_height: float,
-    law: ContactLaw = SEED_LAW,
+    law: LawParams = SEED_LAW,
     sides: Sequence[str] | None = None,
     rank_tol: float | None = None,
 ) -> LLSResult:

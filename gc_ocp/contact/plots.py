@@ -10,7 +10,7 @@ from matplotlib.figure import Figure
 
 from gc_ocp.contact.channels import CHANNELS, WRENCH_COLUMN
 from gc_ocp.errors import InputError
-from gc_ocp.sole import UNITS
+from gc_ocp.foot import UNITS
 
 _UNIT_LABEL = {
     "anterior_force": "N",

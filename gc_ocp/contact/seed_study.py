@@ -31,7 +31,7 @@ from gc_ocp.contact.channels import (
     TABLE_KEYS,
     k_rms_pct,
 )
-from gc_ocp.contact.lls import SEED_LAW, StanceData, fit_stiffness_lls, stances_from_trial
+from gc_ocp.contact.lls import SEED_LAW, fit_stiffness_lls, stances_from_trial
 from gc_ocp.contact.synthetic import (
     DEFAULT_DEPTH,
     SYNTHETIC_CASES,
@@ -39,10 +39,11 @@ from gc_ocp.contact.synthetic import (
     draw_case,
     synthetic_stances,
 )
-from gc_ocp.contact.wrench_model import ContactLaw
+from gc_ocp.contact.wrench_model import LawParams
 from gc_ocp.errors import InputError
+from gc_ocp.foot import UNITS
 from gc_ocp.outputs import atomic_write_text  # noqa: F401  (re-exported)
-from gc_ocp.sole import UNITS
+from gc_ocp.stance import StanceData
 
 TABLE1_CASES: tuple[str, ...] = (*SYNTHETIC_CASES, "experimental")
 TABLE1_KEYS: tuple[str, ...] = ("case", "k_rms_pct", *(TABLE_KEYS[c] for c in CHANNELS))
@@ -96,7 +97,7 @@ def run_synthetic_case(
     template: list[StanceData],
     feet,
     rng: np.random.Generator,
-    law: ContactLaw = SEED_LAW,
+    law: LawParams = SEED_LAW,
 ) -> dict:
     """One draw of one synthetic case: generate, fit with nominal points, score (seed normalisers)."""
     sides = sorted({st.side for st in template})
@@ -113,7 +114,7 @@ def reproduce_seed(
     seeds: int = 20,
     out_dir: str | os.PathLike | None = None,
     progress: Progress | None = None,
-    law: ContactLaw = SEED_LAW,
+    law: LawParams = SEED_LAW,
     synthetic_depth: float = DEFAULT_DEPTH,
     rng_seed: int = 0,
 ) -> dict:

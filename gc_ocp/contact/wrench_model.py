@@ -21,14 +21,14 @@ import numpy as np
 
 from gc_ocp.contact.laws import DEFAULT_SMOOTHING, Smoothing, unit_force_function
 from gc_ocp.errors import InputError
-from gc_ocp.sole import UNITS
+from gc_ocp.foot import UNITS
 from gc_ocp.wrench import cop_from_wrench, free_moment
 
 N_UNITS = len(UNITS)
 
 
 @dataclass(frozen=True)
-class ContactLaw:
+class LawParams:
     """Parameters shared by the units of a foot, besides their stiffness.
 
     n: exponent of the penetration [-]; c: Hunt-Crossley damping [s/m]; mu: friction coefficient
@@ -96,7 +96,7 @@ def model_wrench(
     velocities: np.ndarray,
     k,
     reference_point,
-    law: ContactLaw = ContactLaw(),
+    law: LawParams = LawParams(),
     ground_height=0.0,
     belt_velocity=(0.0, 0.0, 0.0),
 ) -> np.ndarray:
@@ -141,7 +141,7 @@ def wrench_per_unit_stiffness(
     positions: np.ndarray,
     velocities: np.ndarray,
     reference_point,
-    law: ContactLaw = ContactLaw(),
+    law: LawParams = LawParams(),
     ground_height=0.0,
     belt_velocity=(0.0, 0.0, 0.0),
 ) -> np.ndarray:

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from gc_ocp.sole import UNITS
+from gc_ocp.foot import UNITS
 from gc_ocp.trial import SIDES
 
 if TYPE_CHECKING:  # pragma: no cover

@@ -23,11 +23,14 @@ from gc_ocp.estimation.components import (
     SoleCorrection,
     full_model,
 )
-from gc_ocp.estimation.data import StanceData, stance_data
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.solve import EstimationResult, IpoptOptions, solve
-from gc_ocp.sole import UNITS, TrialKinematics
+from gc_ocp.foot import UNITS, TrialKinematics
+from gc_ocp.stance import StanceData, stance_data
 from gc_ocp.trial import SIDES, Trial
+
+MARGIN = 0.03
+"""Unloaded frames kept each side of a stance [s]: the model must predict no force there."""
 
 TYPICAL_DEPTH = 0.005
 """Typical unit penetration [m] used to convert the LLS stiffness (n = 1) to the initial
@@ -264,7 +267,7 @@ def fit(
     trials = [(_with_height(t, k), k) for t, k in trials]
     for trial, kin in trials:
         for st in trial.stances:
-            data.append(stance_data(trial, kin, st))
+            data.append(stance_data(trial, kin, st, margin=MARGIN, min_frames=5))
     held = None
     if holdout is not None:
         matches = [d for d in data if d.label == holdout or holdout in d.label]

@@ -7,7 +7,7 @@ from matplotlib.figure import Figure
 
 from gc_ocp.contact.plots import plot_sole, plot_wrench_fit
 from gc_ocp.estimation.solve import EstimationResult
-from gc_ocp.sole import UNITS
+from gc_ocp.foot import UNITS
 
 
 def plot_fit(

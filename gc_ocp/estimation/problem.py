@@ -23,8 +23,8 @@ import casadi as ca
 import numpy as np
 
 from gc_ocp.errors import ModelError
-from gc_ocp.estimation.data import StanceData
-from gc_ocp.sole import UNIT_PARENT, UNITS
+from gc_ocp.foot import SEED_LAYOUT, UNITS
+from gc_ocp.stance import StanceData
 
 
 @dataclass(frozen=True)
@@ -99,7 +99,7 @@ def _contact_frame_function(depth_smoothing: float, slip_smoothing: float) -> ca
     belt = belt - ca.vertcat(y[35], 0, 0)  # the belt runs along -X: a faster belt is more negative
     P, V = [], []
     for i, u in enumerate(UNITS):
-        if UNIT_PARENT[u] == "hindfoot":
+        if SEED_LAYOUT.parent(u) == "hindfoot":
             R, o, v, w = Rhm, oh, vh, wh
         else:
             R, o, v, w = Rtm, ot, vt, wt

@@ -12,7 +12,7 @@ from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
 from gc_ocp.errors import SolveError
 from gc_ocp.estimation.components import ContactLaw, PoseCorrection, SoleCorrection
 from gc_ocp.estimation.problem import EstimationProblem
-from gc_ocp.sole import UNITS
+from gc_ocp.foot import UNITS
 from gc_ocp.trial import SIDES
 from gc_ocp.wrench import cop_from_wrench
 

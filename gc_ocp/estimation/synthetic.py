@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from gc_ocp.estimation.data import StanceData
-from gc_ocp.sole import FootKinematics
+from gc_ocp.foot import FootKinematics
+from gc_ocp.stance import StanceData
 from gc_ocp.trial import GRAVITY
 
 # nominal unit positions in the foot frame (origin at the ankle, sole 70 mm below) [m]
@@ -144,18 +144,7 @@ def synthetic_stance(
     T = foot.time.size
     ref = np.array([0.6, 0.1 if side == "left" else -0.1, -0.04])
     probe = StanceData(
-        "synthetic",
-        side,
-        "",
-        foot.time,
-        foot,
-        np.zeros((T, 6)),
-        np.ones(T, bool),
-        ref,
-        0.0,
-        np.zeros(3),
-        body_weight,
-        height,
+        side, "", foot, np.zeros((T, 6)), ref, body_weight=body_weight, height=height
     )
     D = frame_data(probe, Weights())
     y = np.concatenate(
@@ -179,7 +168,6 @@ def synthetic_stance(
         trial="synthetic",
         side=side,
         label=label or f"synthetic:{side}@{t0:.2f}s",
-        time=foot.time,
         foot=fit_foot,
         measured=meas,
         in_contact=s,

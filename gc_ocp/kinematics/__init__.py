@@ -2,8 +2,8 @@
 
 from gc_ocp.kinematics.filtering import lowpass
 from gc_ocp.kinematics.ik import IKResult, MarkerModel, solve_ik
+from gc_ocp.kinematics.pipeline import compute_kinematics, foot_kinematics
 from gc_ocp.kinematics.scaling import estimate_height, register_markers
-from gc_ocp.kinematics.sole import compute_kinematics, foot_kinematics
 
 __all__ = [
     "IKResult",

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gc_ocp.foot import UNITS, TrialKinematics
 from gc_ocp.outputs import atomic_savefig, atomic_write, atomic_write_text
-from gc_ocp.sole import UNITS, TrialKinematics
 from gc_ocp.trial import Trial
 
 

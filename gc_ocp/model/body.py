@@ -14,7 +14,7 @@ import numpy as np
 import pinocchio as pin
 
 from gc_ocp.errors import ModelError
-from gc_ocp.sole import UNITS
+from gc_ocp.foot import UNITS
 
 SIDE_SUFFIX = {"left": "l", "right": "r", "l": "l", "r": "r"}
 
@@ -145,7 +145,7 @@ class BodyModel:
         return {u: self.frame_id(f"{u}_{s}") for u in UNITS}
 
     def unit_points_local(self, side: str) -> np.ndarray:
-        """Default unit positions ``(5, 3)`` in their parent segment frame (``UNIT_PARENT``) [m]."""
+        """Default unit positions ``(5, 3)`` in their parent segment frame (``SEED_LAYOUT``) [m]."""
         s = _suffix(side)
         out = np.empty((len(UNITS), 3))
         for i, u in enumerate(UNITS):

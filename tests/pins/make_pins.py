@@ -91,13 +91,13 @@ def derivative_pins(prefix: str, sts, seed: int) -> dict:
 
 
 def bundled_stances():
-    from gc_ocp.estimation.data import stance_data
     from gc_ocp.io import load_trial
     from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.stance import stance_data
 
     t = load_trial()
     kin = compute_kinematics(t)
-    return [stance_data(t, kin, s) for s in t.stances], (t, kin)
+    return [stance_data(t, kin, s, 0.03, 5) for s in t.stances], (t, kin)
 
 
 def fit_figures(rep) -> dict:

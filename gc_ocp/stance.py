@@ -1,0 +1,165 @@
+"""The one stance type, and the one place that cuts a stance out of a trial.
+
+A :class:`StanceData` holds one foot's kinematics over a stance (its contact units placed by the
+foot's :class:`~gc_ocp.foot.SoleLayout`) and the measured plate wrench on the same frames. The
+seed's linear least squares (:mod:`gc_ocp.contact.lls`), the seed's synthetic sets and the joint
+estimator (:mod:`gc_ocp.estimation`) all take it. Numeric, time-first, SI, ``lab`` frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from gc_ocp.errors import InputError
+from gc_ocp.foot import FootKinematics, SoleLayout, TrialKinematics
+from gc_ocp.trial import SIDES, Stance, Trial
+
+
+def _ro(a, shape: tuple, name: str, label: str, dtype=float) -> np.ndarray:
+    a = np.array(a, dtype=dtype, copy=True)
+    if a.shape != shape:
+        raise InputError(f"StanceData {label!r}: {name} must have shape {shape}, but got {a.shape}")
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class StanceData:
+    """One stance of one foot.
+
+    side: ``"left"``/``"right"``; label: e.g. ``"trial:right@0.41s"`` (names the stance in
+    messages); foot: the foot's kinematics on the stance frames (``foot.time`` is the time base);
+    measured: ``(n, 6)`` measured wrench (force [N], moment [N·m] about ``reference_point``,
+    ``lab``); reference_point: ``(3,)`` [m]; ground_height: plate surface height [m];
+    belt_velocity: ``(3,)`` [m/s] (zeros overground); in_contact: ``(n,)`` frames inside the
+    detected stance window (the others are margin frames where the plate is unloaded and the model
+    must predict no force; default all); trial: the trial's name; body_weight [N], height [m]: the
+    subject's, for reporting (per stance, so that stances of several subjects can be pooled).
+    """
+
+    side: str
+    label: str
+    foot: FootKinematics
+    measured: np.ndarray
+    reference_point: np.ndarray
+    ground_height: float = 0.0
+    belt_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    in_contact: np.ndarray | None = None
+    trial: str = ""
+    body_weight: float = float("nan")
+    height: float = float("nan")
+
+    def __post_init__(self) -> None:
+        n = self.foot.time.shape[0]
+        if self.side not in SIDES:
+            raise InputError(
+                f"StanceData {self.label!r}: side must be one of {SIDES}, but got {self.side!r}"
+            )
+        if self.foot.side != self.side:
+            raise InputError(
+                f"StanceData {self.label!r}: a {self.side} stance with the {self.foot.side} foot"
+            )
+        set_ = object.__setattr__
+        set_(self, "measured", _ro(self.measured, (n, 6), "measured", self.label))
+        set_(
+            self, "reference_point", _ro(self.reference_point, (3,), "reference_point", self.label)
+        )
+        set_(self, "belt_velocity", _ro(self.belt_velocity, (3,), "belt_velocity", self.label))
+        contact = np.ones(n, bool) if self.in_contact is None else self.in_contact
+        set_(self, "in_contact", _ro(contact, (n,), "in_contact", self.label, bool))
+        set_(self, "ground_height", float(self.ground_height))
+        set_(self, "body_weight", float(self.body_weight))
+        set_(self, "height", float(self.height))
+
+    @property
+    def n(self) -> int:
+        """Number of frames."""
+        return int(self.foot.time.shape[0])
+
+    @property
+    def time(self) -> np.ndarray:
+        """``(n,)`` [s]."""
+        return self.foot.time
+
+    @property
+    def layout(self) -> SoleLayout:
+        return self.foot.layout
+
+    @property
+    def positions(self) -> np.ndarray:
+        """``(n, m, 3)`` unit positions in ``lab`` [m] (nominal sole points)."""
+        return self.foot.positions
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """``(n, m, 3)`` unit velocities in ``lab`` [m/s]."""
+        return self.foot.velocities
+
+    def with_measured(self, measured: np.ndarray) -> StanceData:
+        return replace(self, measured=measured)
+
+    def with_foot(self, foot: FootKinematics) -> StanceData:
+        """The stance with another foot kinematics on the same frames (e.g. moved sole points)."""
+        if foot.time.shape != self.time.shape or not np.array_equal(foot.time, self.time):
+            raise InputError(f"StanceData {self.label!r}: the new foot kinematics has other frames")
+        return replace(self, foot=foot)
+
+
+def stance_data(
+    trial: Trial, kin: TrialKinematics, stance: Stance, margin: float = 0.0, min_frames: int = 1
+) -> StanceData:
+    """Cut ``stance`` out of ``trial``: the frames of ``kin.feet[stance.side]`` within
+    ``[t_on - margin, t_off + margin]`` [s] and the measured wrench on them. Frames with non-finite
+    kinematics or plate data are dropped; fewer than ``min_frames`` left is an :class:`InputError`
+    naming the stance and the likely cause."""
+    if stance.side not in kin.feet:
+        raise InputError(
+            f"Stance {stance.label} is on the {stance.side} foot but the kinematics have feet {sorted(kin.feet)}"
+        )
+    foot = kin.feet[stance.side]
+    t = foot.time
+    sel = (t >= stance.t_on - margin - 1e-9) & (t <= stance.t_off + margin + 1e-9)
+    idx = np.flatnonzero(sel)
+    ok = np.zeros(0, bool)
+    if idx.size:
+        foot = foot.window(t[idx[0]], t[idx[-1]])
+        meas = trial.stance_wrench(stance, foot.time)
+        ok = (
+            np.isfinite(foot.positions).all(axis=(1, 2))
+            & np.isfinite(foot.velocities).all(axis=(1, 2))
+            & np.isfinite(meas).all(axis=1)
+        )
+    if ok.sum() < min_frames:
+        raise InputError(
+            f"{trial.source}: stance {stance.label} [{stance.t_on:.3f}, {stance.t_off:.3f}] s has "
+            f"{int(ok.sum())} usable kinematic frames (need {min_frames}); "
+            "check marker gaps, the plate channels and that the kinematics cover the stance."
+        )
+    if not ok.all():
+        foot, meas = foot.frames(ok), meas[ok]
+    height = float("nan") if trial.height is None else float(trial.height)
+    return StanceData(
+        side=stance.side,
+        label=f"{trial.name}:{stance.label}",
+        foot=foot,
+        measured=meas,
+        reference_point=np.asarray(stance.reference_point, float),
+        ground_height=float(trial.plates[stance.plate].surface_height),
+        belt_velocity=np.asarray(trial.belt_velocity, float),
+        in_contact=(foot.time >= stance.t_on - 1e-9) & (foot.time <= stance.t_off + 1e-9),
+        trial=trial.name,
+        body_weight=trial.body_weight,
+        height=height,
+    )
+
+
+def trial_stances(
+    trial: Trial, kin: TrialKinematics, margin: float = 0.0, min_frames: int = 1
+) -> list[StanceData]:
+    """Every stance of ``trial`` (see :func:`stance_data`)."""
+    return [stance_data(trial, kin, s, margin, min_frames) for s in trial.stances]
+
+
+__all__ = ["StanceData", "stance_data", "trial_stances"]
