@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from gc_ocp.estimation import compiled as cmod
-from gc_ocp.estimation.problem import N_D, N_Y, _contact_frame_function, _frame_cost_derivatives
 
 needs_cc = pytest.mark.skipif(
     shutil.which("gcc") is None and shutil.which("cc") is None,
@@ -29,18 +28,21 @@ def _small() -> list[ca.Function]:
 def test_compiled_frame_derivatives_equal_the_sx_ones():
     """Generated C evaluates the same expression graph in the same order, so the results agree to
     a few ulps of the largest entry (1e-12 relative leaves room for compiler reassociation)."""
-    _, g_c, h_c = cmod.frame_functions(5e-4, 0.05)
-    assert g_c.class_name() == "External" and h_c.class_name() == "External"
-    g, h = _frame_cost_derivatives(_contact_frame_function(5e-4, 0.05))
-    rng = np.random.default_rng(0)
-    D = rng.normal(size=(N_D, 40))
-    D[42:48] = 50.0  # inverse sigmas of a typical stance
-    Y = 0.01 * rng.normal(size=(N_Y, 40))
-    Y[27:32] = np.log(3e5)  # log k
-    Y[32], Y[33], Y[34] = 1.5, 1.0, 0.8  # n, c, mu
-    for a, b in ((g, g_c), (h, h_c)):
-        ref = np.asarray(a.map(40)(D, Y))
-        got = np.asarray(b.map(40)(D, Y))
+    from gc_ocp.estimation import build_estimation, full_model
+    from gc_ocp.estimation.frame import _derivatives
+    from gc_ocp.estimation.synthetic import default_truth, synthetic_stance
+
+    st = synthetic_stance("left", default_truth(), sink=0.01)
+    pb = build_estimation([st], full_model())
+    block = pb.blocks[0]
+    fm = block.fm
+    assert fm.grad.class_name() == "External" and fm.hess.class_name() == "External"
+    g, h, _ = _derivatives(fm.frame, fm.data.size, fm.slots.size)
+    x = pb.x0 + 0.1 * np.random.default_rng(0).normal(size=pb.x0.size)
+    D, Y = block.D, block.Y(x)
+    for a, b in ((g, fm.grad), (h, fm.hess)):
+        ref = np.asarray(a.map(block.T)(D, Y))
+        got = np.asarray(b.map(block.T)(D, Y))
         assert np.abs(got - ref).max() <= 1e-12 * np.abs(ref).max()
 
 

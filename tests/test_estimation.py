@@ -66,11 +66,7 @@ def test_seed_and_full_model_are_configurations_of_one_builder():
     seed = build_estimation(sts, seed_model())
     full = build_estimation(sts, full_model())
     assert seed.x.shape[0] == 10  # one log k per unit per foot, nothing else
-    n_pose = sum(
-        full.builder._index[k].stop - full.builder._index[k].start
-        for k in full.builder._index
-        if k[0] == "pose"
-    )
+    n_pose = sum(s.size for s in full.variables.specs if s.key[0] == "pose")
     assert full.x.shape[0] == 10 + 3 + 2 * 5 * 3 + n_pose
     # objective is evaluated without running Ipopt, and equals half the squared residuals
     x = full.x0 + 0.01
@@ -261,30 +257,32 @@ def test_structured_derivatives_match_casadi_ad():
 
 
 def test_holdout_model_fixes_contact_and_applies_the_fitted_belt_speed():
-    """Held-out protocol: only the pose correction stays free; a treadmill stance gets the belt
-    speed the fit estimated for its trial (not the nominal one)."""
+    """Held-out protocol: every component frozen at the fit's blocks leaves only the pose
+    correction free; a treadmill stance of a fitted trial gets the belt speed the fit estimated
+    for its trial (not the nominal one), through the frozen BeltSpeed component."""
     import dataclasses
-    from types import SimpleNamespace
 
-    from gc_ocp.estimation.components import BeltSpeed
-    from gc_ocp.estimation.fit import fixed_for_holdout, with_fitted_belt
+    from gc_ocp.estimation import frozen_model, result_at
 
     _, _, sts = _stances(np.random.default_rng(5))
-    st = dataclasses.replace(sts[0], belt_velocity=np.array([-1.0, 0.0, 0.0]))
-    res = SimpleNamespace(
-        params={
-            "left": {u: {"k": 1e5} for u in UNITS},
-            "right": {u: {"k": 2e5} for u in UNITS},
-            "shared": {"n": 1.4, "c": 0.9, "mu": 0.3},
-        },
-        sole_corrections_mm={s: {u: [1.0, 0.0, -1.0] for u in UNITS} for s in ("left", "right")},
-        belt_speed={st.trial: {"value": 1.2, "se": 0.01, "nominal": 1.0}},
+    sts = [dataclasses.replace(st, belt_velocity=np.array([-1.0, 0.0, 0.0])) for st in sts]
+    pb = build_estimation(sts, full_model())
+    x = pb.x0.copy()
+    x[pb.variables.spec(("belt", "synthetic")).slice] = 2.0  # 2 sigma = +0.2 m/s
+    fitted = result_at(pb, x)
+    assert fitted.belt_speed["synthetic"]["value"] == pytest.approx(1.2)
+    model = frozen_model(full_model(), fitted)
+    held = build_estimation(sts[:1], model)
+    assert all(s.key[0] == "pose" for s in held.variables.specs)  # nothing else is estimated
+    # the frozen model predicts the same wrench as the fit at the same pose correction (zero)
+    x_held = np.zeros(held.x0.size)
+    x_fit = x.copy()
+    for s in pb.variables.specs:
+        if s.key[0] == "pose":
+            x_fit[s.slice] = 0.0
+    np.testing.assert_allclose(
+        held.stance_wrenches(x_held)[0], pb.stance_wrenches(x_fit)[0], rtol=0, atol=1e-9 * 700
     )
-    model = fixed_for_holdout(full_model(), res)
-    assert not any(isinstance(m, BeltSpeed) for m in model)
-    prob = build_estimation([with_fitted_belt(st, res)], model)
-    assert all(k[0] == "pose" for k in prob.builder._index)  # nothing else is estimated
-    assert with_fitted_belt(st, res).belt_velocity[0] == pytest.approx(-1.2)
 
 
 def test_pose_prior_per_axis():
@@ -296,11 +294,11 @@ def test_pose_prior_per_axis():
     _, _, sts = _stances(np.random.default_rng(5))
     pose = PoseCorrection(sigma_mm=(1.0, 2.0, 3.0), sigma_deg=(0.5, 1.0, 1.5))
     pb = build_estimation(sts[:1], (ContactLaw(), pose))
-    b = pb.builder
+    v = pb.variables
     x = np.zeros(pb.x0.size)
     for part in ("trans", "rot"):
-        x[b._index[("pose", 0, part)]] = 1.0
-    d, th, _, _ = pose.trajectories(b, 0)
+        x[v.spec(("pose", 0, part)).slice] = 1.0
+    d, th, _, _ = pose.trajectories(v, 0, sts[0])
     dv, tv = (np.asarray(a) for a in ca.Function("p", [pb.x], [d, th])(x))
     np.testing.assert_allclose(
         dv, np.array([[1e-3], [2e-3], [3e-3]]) * np.ones((1, sts[0].n)), rtol=1e-12
@@ -308,7 +306,7 @@ def test_pose_prior_per_axis():
     np.testing.assert_allclose(
         np.rad2deg(tv), np.array([[0.5], [1.0], [1.5]]) * np.ones((1, sts[0].n)), rtol=1e-12
     )
-    sl = b._index[("pose", 0, "trans")]
+    sl = v.spec(("pose", 0, "trans")).slice
     np.testing.assert_allclose(pb.ubx[sl], pose.bound_sigmas)  # bound in units of each sigma
     # the prior-width continuation scales every axis
     assert pose.with_prior_scale(0.5).sigma_mm == (0.5, 1.0, 1.5)

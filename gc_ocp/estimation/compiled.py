@@ -1,4 +1,4 @@
-"""C-compiled per-frame functions of the estimator, cached on disk.
+"""SX functions compiled to C, cached on disk (generic: imports nothing else of gc_ocp).
 
 The estimator evaluates three small SX functions on every frame at every Ipopt iteration: the
 weighted residual, its gradient and its exact Hessian in the per-frame inputs (the Hessian has
@@ -24,7 +24,6 @@ are used, with one warning that says why and how to fix it.
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import logging
 import os
@@ -134,21 +133,4 @@ def compiled(functions: list[ca.Function], name: str, say=None) -> list[ca.Funct
     return list(functions)
 
 
-@functools.lru_cache(maxsize=8)
-def frame_functions(
-    depth_smoothing: float, slip_smoothing: float
-) -> tuple[ca.Function, ca.Function, ca.Function]:
-    """``(frame, grad, hess)`` per-frame functions of the estimator (see
-    :mod:`gc_ocp.estimation.problem`); ``grad`` and ``hess`` compiled when possible. Built once
-    per process."""
-    from gc_ocp.estimation.problem import _contact_frame_function, _frame_cost_derivatives
-
-    f = _contact_frame_function(depth_smoothing, slip_smoothing)
-    g, h = _frame_cost_derivatives(f)
-    # the residual stays an SX function (small, and CasADi differentiates it when building the
-    # NLP); its gradient and Hessian, which Ipopt evaluates through callbacks, are compiled
-    g, h = compiled([g, h], "gc_ocp_frame")
-    return f, g, h
-
-
-__all__ = ["compiled", "frame_functions", "compile_enabled", "cache_dir"]
+__all__ = ["compiled", "compile_enabled", "cache_dir"]

@@ -16,13 +16,7 @@ from collections.abc import Callable
 import numpy as np
 
 from gc_ocp.errors import InputError, RankError, SolveError
-from gc_ocp.estimation.components import (
-    BeltSpeed,
-    ContactLaw,
-    Param,
-    SoleCorrection,
-    full_model,
-)
+from gc_ocp.estimation.components import full_model
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.solve import EstimationResult, IpoptOptions, solve
 from gc_ocp.foot import UNITS, TrialKinematics
@@ -72,20 +66,19 @@ bundled example a single solve from the LLS start ends at J = 655 and the contin
 the Rajagopal trial the single solve ends at 530 and the continuation at 682."""
 
 
-def _rescaled_start(prev, prob) -> np.ndarray:
-    """Warm start for ``prob`` from ``prev = (problem, x)``, matching variables by key (prior
+def _rescaled_start(prev: EstimationResult, prob) -> np.ndarray:
+    """Warm start for ``prob`` from the result ``prev``, matching variables by key (prior
     variables are stored in units of their sigma, so they are rescaled)."""
-    p_old, x_old = prev
     x0 = prob.x0.copy()
-    old_specs = {s["key"]: s for s in p_old.builder.specs}
-    for spec in prob.builder.specs:
-        key = spec["key"]
-        if key not in old_specs:
+    old = {s.key: s for s in prev.variables}
+    for spec in prob.variables.specs:
+        o = old.get(spec.key)
+        if o is None or o.size != spec.size:
             continue
-        z = x_old[p_old.builder._index[key]]
-        if spec["kind"] == "prior":
-            z = z * old_specs[key]["scale"] / spec["scale"]
-        x0[prob.builder._index[key]] = np.clip(z, spec["lb"], spec["ub"])
+        z = prev.x[o.slice]
+        if spec.kind == "prior":
+            z = z * o.scale / spec.scale
+        x0[spec.slice] = np.clip(z, spec.lb, spec.ub)
     return x0
 
 
@@ -103,7 +96,7 @@ def estimate(
     ``iterations`` are the totals over all stages.
     """
     say = progress or (lambda s: None)
-    steps = continuation if any(hasattr(c, "with_prior_scale") for c in model) else (1.0,)
+    steps = continuation if any(c.has_prior_scale for c in model) else (1.0,)
     prev = None
     total_s, total_it = 0.0, 0
     res = None
@@ -121,7 +114,7 @@ def estimate(
         say(
             f"  prior scale {f:g}: {res.status}, {res.iterations} iterations, J = {res.objective:.1f}"
         )
-        prev = (prob, res.x)
+        prev = res
     res.seconds, res.iterations = total_s, total_it
     return res
 
@@ -195,57 +188,11 @@ def _with_height(trial: Trial, kin: TrialKinematics) -> Trial:
     return dataclasses.replace(trial, height=h, height_source="estimated from markers")
 
 
-def _with_init(model: tuple, k0: dict | None) -> tuple:
-    if k0 is None:
-        return model
-    out = []
-    for comp in model:
-        if isinstance(comp, ContactLaw) and comp.k.scope == "unit":
-            comp = dataclasses.replace(comp, k=dataclasses.replace(comp.k, value=k0))
-        out.append(comp)
-    return tuple(out)
-
-
-def fixed_for_holdout(model: tuple, result: EstimationResult) -> tuple:
-    """The model with every contact parameter and sole correction fixed at ``result``'s values.
-
-    ``BeltSpeed`` is dropped: the fitted belt speed is applied to the held-out stance's data
-    instead (:func:`with_fitted_belt`), so that only the pose correction is re-estimated."""
-    out = []
-    for comp in model:
-        if isinstance(comp, BeltSpeed):
-            continue
-        if isinstance(comp, ContactLaw):
-            p = result.params
-            kw = {}
-            for name in ("k", "n", "c", "mu"):
-                par: Param = getattr(comp, name)
-                if par.scope == "fixed":
-                    continue
-                if name == "k":
-                    val = {s: {u: p[s][u]["k"] for u in UNITS} for s in SIDES if s in p}
-                elif par.scope == "foot":
-                    val = {s: p[s][name] for s in SIDES if s in p}
-                else:
-                    val = p["shared"][name]
-                kw[name] = Param("fixed", val)
-            comp = dataclasses.replace(comp, **kw)
-        elif isinstance(comp, SoleCorrection):
-            fixed = {
-                s: np.array([result.sole_corrections_mm[s][u] for u in UNITS]) * 1e-3
-                for s in result.sole_corrections_mm
-            }
-            comp = dataclasses.replace(comp, fixed=fixed)
-        out.append(comp)
-    return tuple(out)
-
-
-def with_fitted_belt(st: StanceData, result: EstimationResult) -> StanceData:
-    """``st`` with its belt velocity set to the belt speed ``result`` estimated for its trial."""
-    if st.trial not in result.belt_speed:
-        return st
-    v = result.belt_speed[st.trial]["value"]
-    return dataclasses.replace(st, belt_velocity=np.array([-v, 0.0, 0.0]))
+def frozen_model(model: tuple, result: EstimationResult) -> tuple:
+    """The model with every component frozen at ``result``'s blocks (held-out evaluation): the
+    contact law and sole corrections fixed, the belt speed fixed for the fitted trials, the
+    pose correction (scope ``"stance"``) left free."""
+    return tuple(c.frozen(result.blocks[c.name]) if c.name in result.blocks else c for c in model)
 
 
 def fit(
@@ -282,18 +229,17 @@ def fit(
                 f"Held-out stance {held.label} leaves no other stance of the {held.side} foot to fit; "
                 "hold out a foot that has at least two stances."
             )
-    law = next(m for m in model if isinstance(m, ContactLaw))
-    n0 = law.n.value_for("left")  # initial (or fixed) exponent
-    say("initialising stiffness from the seed's linear least squares")
-    k0 = lls_initial_k(trials, float(n0))
-    model = _with_init(model, k0)
+    law = next((c for c in model if hasattr(c, "with_initial_k")), None)
+    if law is not None:  # the contact law starts from the seed's linear least squares
+        say("initialising stiffness from the seed's linear least squares")
+        k0 = lls_initial_k(trials, float(law.n.value_for(SIDES[0])))
+        model = tuple(c.with_initial_k(k0) if c is law else c for c in model)
     say(f"solving with Ipopt: {len(data)} stances, {sum(d.n for d in data)} frames")
     res = best_of(data, model, weights, options, strategies, progress=say)
     say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
     report = FitReport(res)
     if held is not None:
-        fixed = fixed_for_holdout(model, res)
-        hp = build_estimation([with_fitted_belt(held, res)], fixed, weights)
+        hp = build_estimation([held], frozen_model(model, res), weights)
         hres = solve(hp, options)
         report.heldout = hres
         report.heldout_label = held.label
@@ -306,8 +252,7 @@ def fit(
 __all__ = [
     "fit",
     "FitReport",
-    "fixed_for_holdout",
-    "with_fitted_belt",
+    "frozen_model",
     "lls_initial_k",
     "estimate",
     "best_of",

@@ -1,8 +1,14 @@
 """Build the joint kinematics-contact estimation NLP (CasADi), separately from solving it.
 
 ``build_estimation(stances, model, weights)`` returns an :class:`EstimationProblem` holding the
-CasADi NLP (objective, decision vector, bounds, initial guess) and the functions that decode a
-solution. Tests can evaluate the objective at a fixed vector without running Ipopt.
+CasADi NLP (objective, decision vector, bounds, initial guess, exact gradient and Hessian) and
+what decodes a solution. Tests can evaluate the objective at a fixed vector without running Ipopt.
+
+The builder knows no component by type: each component of ``model`` declares its variables and
+its per-frame slots (:mod:`gc_ocp.estimation.components.base`); the builder composes the per-frame
+function from them (:mod:`gc_ocp.estimation.frame`), writes every stance's slots as ``Y = A x +
+y0`` (constant ``A``: every slot is linear in x) and assembles the objective, gradient and
+arrow-structured Hessian from the per-frame derivatives.
 
 Objective (a MAP / weighted least-squares problem)::
 
@@ -22,8 +28,9 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from gc_ocp.errors import ModelError
-from gc_ocp.foot import SEED_LAYOUT, UNITS
+from gc_ocp.errors import InputError, ModelError
+from gc_ocp.estimation.frame import BASE_DATA, FrameModel, frame_model
+from gc_ocp.estimation.variables import Variables
 from gc_ocp.stance import StanceData
 
 
@@ -40,105 +47,6 @@ class Weights:
         return 1.0 / np.array(
             [sf, sf, sf, sf * self.torque_length, sf * self.torque_length, sf * self.torque_length]
         )
-
-
-N_Y = 36
-"""Per-frame model inputs that depend on the decision vector (all *linearly*):
-dp, dth, ddp, ddth (12, pose correction and its rate), unit positions in their parent frames
-(15, column-major 3 x 5), log k (5), n, c, mu, belt-speed correction (1, [m/s])."""
-N_D = 55
-"""Per-frame numeric data: Rh(9, column-major), oh, vh, wh, Rt(9), ot, vt, wt, measured wrench (6),
-inverse sigmas (6), ground height (1), belt velocity (3), reference point (3)."""
-
-
-def frame_data(st: StanceData, weights: Weights) -> np.ndarray:
-    """``(N_D, n)`` numeric per-frame inputs of one stance (time in columns)."""
-    f = st.foot
-    T = st.n
-    Rh = f.hindfoot_pose[:, :3, :3].transpose(0, 2, 1).reshape(T, 9)  # column-major R
-    Rt = f.toes_pose[:, :3, :3].transpose(0, 2, 1).reshape(T, 9)
-    const = np.concatenate(
-        [
-            weights.inverse_sigmas(st.body_weight),
-            [st.ground_height],
-            st.belt_velocity,
-            st.reference_point,
-        ]
-    )
-    return np.hstack(
-        [
-            Rh,
-            f.hindfoot_pose[:, :3, 3],
-            f.hindfoot_twist,
-            Rt,
-            f.toes_pose[:, :3, 3],
-            f.toes_twist,
-            st.measured,
-            np.tile(const, (T, 1)),
-        ]
-    ).T
-
-
-def _contact_frame_function(depth_smoothing: float, slip_smoothing: float) -> ca.Function:
-    """Per-frame weighted residual and model wrench of one foot, ``(D, y) -> (res, wrench)``.
-
-    SX, so that it can be mapped over frames and differentiated cheaply (see :data:`N_D`, :data:`N_Y`).
-    """
-    from gc_ocp.contact.laws import DEFAULT_SMOOTHING
-    from gc_ocp.contact.wrench_model import wrench_function
-
-    D = ca.SX.sym("D", N_D)
-    y = ca.SX.sym("y", N_Y)
-    Rhm, oh, vh, wh = ca.reshape(D[0:9], 3, 3), D[9:12], D[12:15], D[15:18]
-    Rtm, ot, vt, wt = ca.reshape(D[18:27], 3, 3), D[27:30], D[30:33], D[33:36]
-    meas, wts, ground, belt, ref = D[36:42], D[42:48], D[48], D[49:52], D[52:55]
-    dp, dth, ddp, ddth = y[0:3], y[3:6], y[6:9], y[9:12]
-    loc = ca.reshape(y[12:27], 3, 5)
-    k = ca.exp(y[27:32])
-    n, c, mu = y[32], y[33], y[34]
-    belt = belt - ca.vertcat(y[35], 0, 0)  # the belt runs along -X: a faster belt is more negative
-    P, V = [], []
-    for i, u in enumerate(UNITS):
-        if SEED_LAYOUT.parent(u) == "hindfoot":
-            R, o, v, w = Rhm, oh, vh, wh
-        else:
-            R, o, v, w = Rtm, ot, vt, wt
-        r_loc = R @ loc[:, i]
-        p = o + r_loc
-        vel = v + ca.cross(w, r_loc)
-        # small pose correction about the hindfoot origin (first order in the rotation)
-        r = p - oh
-        rdot = vel - vh
-        P.append(p + dp + ca.cross(dth, r))
-        V.append(vel + ddp + ca.cross(ddth, r) + ca.cross(dth, rdot))
-    # the same equivalent-wrench Function (Eqs 4-9) as the seed study, smooth variant
-    wrench = wrench_function(True, len(UNITS))(
-        ca.horzcat(*P),
-        ca.horzcat(*V),
-        k,
-        n,
-        c,
-        mu,
-        ground,
-        belt,
-        ref,
-        depth_smoothing,
-        DEFAULT_SMOOTHING.eps_damping,
-        slip_smoothing,
-    )
-    res = (wrench - meas) * wts
-    return ca.Function("foot_frame", [D, y], [res, wrench], ["D", "y"], ["res", "wrench"])
-
-
-def _frame_cost_derivatives(frame_fn: ca.Function) -> tuple[ca.Function, ca.Function]:
-    """Per-frame exact gradient and Hessian in ``y`` of ``phi = 1/2 ||res||^2`` (two SX functions,
-    so that Ipopt's gradient evaluations do not pay for the Hessian)."""
-    D = ca.SX.sym("D", N_D)
-    y = ca.SX.sym("y", N_Y)
-    res = frame_fn(D, y)[0]
-    phi = 0.5 * ca.sumsqr(res)
-    H, g = ca.hessian(phi, y)
-    return ca.Function("frame_grad", [D, y], [g]), ca.Function("frame_hess", [D, y], [H])
 
 
 def _assemble_hessian(As: list[ca.DM], BDs: list[ca.MX], nx: int) -> ca.MX:
@@ -187,128 +95,108 @@ def _assemble_hessian(As: list[ca.DM], BDs: list[ca.MX], nx: int) -> ca.MX:
     return ca.mtimes(Pm.T, ca.mtimes(Hp, Pm))
 
 
-class Builder:
-    """Collects decision variables from the model components (two passes: declare, then use)."""
+def frame_data(st: StanceData, weights: Weights, fm: FrameModel, model: tuple) -> np.ndarray:
+    """``(n_data, T)`` numeric per-frame inputs of one stance, in the order of ``fm.data``."""
+    f = st.foot
+    T = st.n
+    cols = {
+        "hindfoot_R": f.hindfoot_pose[:, :3, :3].transpose(0, 2, 1).reshape(T, 9),  # column-major R
+        "hindfoot_o": f.hindfoot_pose[:, :3, 3],
+        "hindfoot_v": f.hindfoot_twist[:, :3],
+        "hindfoot_w": f.hindfoot_twist[:, 3:],
+        "toes_R": f.toes_pose[:, :3, :3].transpose(0, 2, 1).reshape(T, 9),
+        "toes_o": f.toes_pose[:, :3, 3],
+        "toes_v": f.toes_twist[:, :3],
+        "toes_w": f.toes_twist[:, 3:],
+        "measured": st.measured,
+        "inv_sigma": weights.inverse_sigmas(st.body_weight),
+        "ground_height": st.ground_height,
+        "belt_velocity": st.belt_velocity,
+        "reference": st.reference_point,
+    }
+    for c in model:
+        cols.update(c.data(st))
+    out = np.empty((fm.data.size, T))
+    for name, (start, size) in fm.data.index.items():
+        out[start : start + size] = np.broadcast_to(
+            np.asarray(cols[name], float).reshape(-1, size), (T, size)
+        ).T
+    return out
 
-    def __init__(self, stances: list[StanceData]) -> None:
-        self.stances = stances
-        self._specs: list[dict] = []
-        self._index: dict[tuple, slice] = {}
-        self.x: ca.MX | None = None
 
-    # --- declaration pass -------------------------------------------------------------------
-    def _add(
-        self,
-        key: tuple,
-        size: int,
-        x0,
-        lb,
-        ub,
-        kind: str,
-        scale,
-        log: bool,
-        prior_weight: float = 0.0,
-        prior_mean: float = 0.0,
-    ) -> None:
-        if key in self._index:
-            raise ModelError(
-                f"Variable {key} declared twice; two components claim the same parameter."
-            )
-        start = sum(s["size"] for s in self._specs)
-        self._index[key] = slice(start, start + size)
-        self._specs.append(
-            dict(
-                key=key,
-                size=size,
-                x0=np.broadcast_to(x0, size).astype(float),
-                lb=np.broadcast_to(lb, size).astype(float),
-                ub=np.broadcast_to(ub, size).astype(float),
-                kind=kind,
-                scale=scale,
-                log=log,
-                prior_weight=np.full(size, float(prior_weight)),
-                prior_mean=np.full(size, float(prior_mean)),
-            )
-        )
+@dataclass
+class StanceBlock:
+    """One stance in the NLP: its per-frame inputs ``Y = reshape(A x + y0, n_y, T)`` and data
+    ``D`` (``n_d x T``), and the composed per-frame functions they feed."""
 
-    def parameter(
-        self,
-        key: tuple,
-        value: float,
-        lower: float,
-        upper: float,
-        log: bool = False,
-        prior_sigma: float | None = None,
-    ) -> None:
-        """A physical parameter. ``log``: optimise log(value) (value > 0). ``prior_sigma``: optional
-        Gaussian prior centred on ``value``, in the optimised units (log units when ``log``)."""
-        w = 0.0 if prior_sigma is None else 1.0 / prior_sigma
-        if log:
-            z0 = np.log(value)
-            self._add(
-                key, 1, z0, np.log(max(lower, 1e-300)), np.log(upper), "param", 1.0, True, w, z0
-            )
-        else:
-            self._add(key, 1, value, lower, upper, "param", 1.0, False, w, value)
+    A: ca.DM
+    y0: ca.DM
+    D: np.ndarray
+    T: int
+    fm: FrameModel
 
-    def prior_variable(self, key: tuple, size: int, sigma, bound) -> None:
-        """A vector with Gaussian prior N(0, sigma^2), stored in units of sigma, bounded by +-bound.
-        ``sigma`` and ``bound``: scalars, or arrays of length ``size`` (one per entry)."""
-        sig = np.broadcast_to(np.asarray(sigma, float), size)
-        b = np.broadcast_to(np.asarray(bound, float), size) / sig
-        scale = float(sig[0]) if np.all(sig == sig[0]) else sig.copy()
-        self._add(key, size, 0.0, -b, b, "prior", scale, False, 1.0, 0.0)
+    def Y(self, x: np.ndarray) -> np.ndarray:
+        """Numeric ``(n_y, T)`` per-frame inputs at ``x``."""
+        y = self.A.sparse() @ np.asarray(x, float) + np.asarray(self.y0).ravel()
+        return y.reshape(self.T, self.fm.slots.size).T
 
-    def finalize(self) -> None:
-        n = sum(s["size"] for s in self._specs)
-        self.x = ca.MX.sym("x", n)
 
-    # --- use pass ---------------------------------------------------------------------------
-    def get(self, key: tuple, raw: bool = False):
-        """Physical value of a declared variable (symbolic); ``raw``: log value for log variables."""
-        if self.x is None:
-            raise RuntimeError("Builder.get() before finalize()")
-        sl = self._index[key]
-        spec = next(s for s in self._specs if s["key"] == key)
-        z = self.x[sl]
-        if spec["log"]:
-            return z if raw else ca.exp(z)
-        return z * (spec["scale"] if np.isscalar(spec["scale"]) else ca.DM(spec["scale"]))
-
-    def has(self, key: tuple) -> bool:
-        return key in self._index
-
-    @property
-    def specs(self) -> list[dict]:
-        return self._specs
-
-    def vector(self, field_: str) -> np.ndarray:
-        return np.concatenate([s[field_] for s in self._specs]) if self._specs else np.zeros(0)
+def _stance_slots(
+    model: tuple, variables: Variables, i: int, st: StanceData, fm: FrameModel
+) -> ca.MX:
+    """The stance's slots ``(n_y, T)``: the sum of every contribution to each named slot."""
+    T = st.n
+    contrib: dict[str, list] = {
+        "points_local": [ca.MX(np.asarray(st.foot.points_local, float).ravel())]
+    }
+    for c in model:
+        for name, expr in c.slots(variables, i, st).items():
+            if name not in fm.slots:
+                raise ModelError(
+                    f'{type(c).__name__} gives slot "{name}" it did not size in slot_sizes()'
+                )
+            contrib.setdefault(name, []).append(expr)
+    rows = []
+    for name, (_, size) in fm.slots.index.items():
+        const, per_frame = ca.MX.zeros(size, 1), None
+        for e in contrib.get(name, []):
+            if e.shape == (size, 1):
+                const = const + e
+            elif e.shape == (size, T):
+                per_frame = e if per_frame is None else per_frame + e
+            else:
+                raise ModelError(
+                    f'slot "{name}" must be ({size}, 1) or ({size}, {T}), but got {e.shape}'
+                )
+        total = ca.repmat(const, 1, T)
+        rows.append(total if per_frame is None else total + per_frame)
+    return ca.vertcat(*rows)
 
 
 @dataclass
 class EstimationProblem:
-    """A built (not yet solved) estimation NLP and what is needed to decode its solution."""
+    """A built (not yet solved) estimation NLP and what is needed to decode its solution.
+
+    model: the components; variables: the registry (``variables.specs`` is plain data);
+    x: the decision vector (MX); objective, gradient, hessian: ``J(x)`` and its exact derivatives
+    (MX); residuals: every weighted residual, data then priors (MX); blocks: one
+    :class:`StanceBlock` per stance; n_data: number of data residuals.
+    """
 
     stances: list[StanceData]
     model: tuple
     weights: Weights
-    builder: Builder
+    variables: Variables
     x: ca.MX
     objective: ca.MX
-    residuals: ca.MX  # all weighted residuals incl. priors, for Gauss-Newton / covariance
+    gradient: ca.MX
+    hessian: ca.MX
+    residuals: ca.MX
     n_data: int
     x0: np.ndarray
     lbx: np.ndarray
     ubx: np.ndarray
-    stance_outputs: list[ca.MX] = field(default_factory=list)  # per stance: (6, n) model wrench
-    stance_points: list[ca.MX] = field(
-        default_factory=list
-    )  # per stance: (5*3, 1) corrected local points
-    gradient: ca.MX | None = None  # exact gradient of the objective
-    hessian: ca.MX | None = None  # exact Hessian of the objective (structured assembly)
-    frame_blocks: list = field(default_factory=list)  # per stance (A, y0, D, T): y = A x + y0
-    frame_jacobian: ca.Function | None = None  # (D, y) -> (res, d res / d y), one frame
+    blocks: list[StanceBlock] = field(default_factory=list)
     prior_weights: np.ndarray | None = None
     prior_means: np.ndarray | None = None
 
@@ -319,8 +207,25 @@ class EstimationProblem:
         """Objective at a given decision vector (no solve)."""
         return float(self.objective_function()(x))
 
-    def component(self, cls):
-        return next((m for m in self.model if isinstance(m, cls)), None)
+    def costs(self, x: np.ndarray) -> tuple[float, float]:
+        """``(data cost, prior cost)`` at ``x``: the two halves of the objective."""
+        x = np.asarray(x, float)
+        data = 0.0
+        for b in self.blocks:
+            res = np.asarray(b.fm.frame.map(b.T)(b.D, b.Y(x))[0])
+            data += 0.5 * float(np.sum(res**2))
+        prior = 0.5 * float(np.sum((self.prior_weights * (x - self.prior_means)) ** 2))
+        return data, prior
+
+    def stance_wrenches(self, x: np.ndarray) -> list[np.ndarray]:
+        """Model wrench ``(T, 6)`` of every stance at ``x`` (``lab``, about its reference point)."""
+        return [np.asarray(b.fm.frame.map(b.T)(b.D, b.Y(x))[1]).T for b in self.blocks]
+
+    def slot_values(self, x: np.ndarray, i: int, name: str) -> np.ndarray:
+        """``(T, size)`` values of slot ``name`` on stance ``i`` at ``x``."""
+        b = self.blocks[i]
+        start, size = b.fm.slots.index[name]
+        return b.Y(x)[start : start + size].T
 
     def data_jacobian(self, x: np.ndarray):
         """Weighted data residuals ``r`` (n_data,) and their Jacobian in ``x`` (scipy CSR,
@@ -329,70 +234,70 @@ class EstimationProblem:
         import scipy.sparse as sp
 
         rs, Js = [], []
-        for A, y0, D, T in self.frame_blocks:
-            A_sp = A.sparse() if hasattr(A, "sparse") else sp.csc_matrix(np.asarray(A))
-            Y = (A_sp @ x + np.asarray(y0).ravel()).reshape(T, N_Y).T
-            res, jac = (np.asarray(a) for a in self.frame_jacobian.map(T)(D, Y))
+        for b in self.blocks:
+            ny = b.fm.slots.size
+            res, jac = (np.asarray(a) for a in b.fm.jac.map(b.T)(b.D, b.Y(x)))
             rs.append(res.T.ravel())
-            blocks = jac.reshape(6, T, N_Y).transpose(1, 0, 2)  # (T, 6, N_Y)
-            Js.append(sp.block_diag(list(blocks), format="csr") @ A_sp)
+            blocks = jac.reshape(6, b.T, ny).transpose(1, 0, 2)  # (T, 6, n_y)
+            Js.append(sp.block_diag(list(blocks), format="csr") @ b.A.sparse())
         return np.concatenate(rs), sp.vstack(Js, format="csr")
+
+
+def _check_stances(stances: list[StanceData]) -> None:
+    if not stances:
+        raise InputError("No stances to fit: the trial has no usable stance (see `gc-ocp info`).")
+    for st in stances:
+        if not (np.isfinite(st.body_weight) and st.body_weight > 0):
+            raise InputError(
+                f"Stance {st.label}: body weight {st.body_weight} N is not usable; give the mass (--mass KG)."
+            )
+        if not (np.isfinite(st.height) and st.height > 0):
+            raise InputError(
+                f"Stance {st.label}: subject height unknown; pass height=... (CLI: --height M) so that "
+                "torques can be reported in % BW x height."
+            )
 
 
 def build_estimation(
     stances: list[StanceData], model: tuple, weights: Weights | None = None
 ) -> EstimationProblem:
     """Build the NLP for ``stances`` under ``model`` (a tuple of components)."""
-    from gc_ocp.estimation.components import BeltSpeed, ContactLaw, PoseCorrection, SoleCorrection
-
-    if not stances:
-        raise ModelError("No stances to fit: the trial has no usable stance (see `gc-ocp info`).")
+    _check_stances(stances)
     weights = weights or Weights()
-    law = next((m for m in model if isinstance(m, ContactLaw)), None)
-    if law is None:
-        raise ModelError("The model needs a ContactLaw component.")
-    b = Builder(stances)
+    model = tuple(model)
+    names = [c.name for c in model]
+    if len(set(names)) != len(names):
+        raise ModelError(f"Two components of the model share a name: {names}")
+    variables = Variables()
     for comp in model:
-        comp.declare(b)
-    b.finalize()
-    sole = next((m for m in model if isinstance(m, SoleCorrection)), None)
-    pose = next((m for m in model if isinstance(m, PoseCorrection)), None)
-    belt = next((m for m in model if isinstance(m, BeltSpeed)), None)
-
-    from gc_ocp.estimation.compiled import frame_functions
-
-    frame_fn, grad_fn, hess_fn = frame_functions(law.depth_smoothing, law.slip_smoothing)
-    residuals, outputs, points, blocks = [], [], [], []
-    n_data = 0
-    x = b.x
+        comp.declare(variables, stances)
+    x = variables.finalize()
+    nx = variables.size
+    models: dict = {}
+    blocks: list[StanceBlock] = []
+    residuals = []
     for i, st in enumerate(stances):
-        f = st.foot
-        T = st.n
-        par = law.values(b, st.side, log_k=True)
-        loc = ca.MX(np.asarray(f.points_local, float).T)  # 3 x 5
-        if sole is not None:
-            off = sole.offsets(b, st.side)
-            loc = loc + (ca.horzcat(*off) if not isinstance(off, np.ndarray) else ca.MX(off.T))
-        points.append(ca.vec(loc))
-        if pose is not None:
-            dp, dth, ddp, ddth = pose.trajectories(b, i)
-        else:
-            dp = dth = ddp = ddth = ca.MX.zeros(3, T)
-        dv = belt.correction(b, st.trial) if belt is not None else 0.0
-        shared = ca.vertcat(ca.vec(loc), *par["k"], par["n"], par["c"], par["mu"], dv)
-        Y = ca.vertcat(dp, dth, ddp, ddth, ca.repmat(shared, 1, T))  # N_Y x T, linear in x
+        layout = st.layout
+        if layout not in models:
+            slot_entries = [("points_local", 3 * layout.n)]
+            data_entries = list(BASE_DATA)
+            for c in model:
+                slot_entries += list(c.slot_sizes(layout).items())
+                data_entries += list(c.data_sizes(layout).items())
+            models[layout] = frame_model(layout, model, data_entries, slot_entries)
+        fm = models[layout]
+        Y = _stance_slots(model, variables, i, st, fm)
         # Y = reshape(A x + y0): A is constant because every component maps x linearly
-        A = ca.Function("A", [x], [ca.jacobian(ca.vec(Y), x)])(np.zeros(x.shape[0]))
-        y0 = ca.Function("y0", [x], [ca.vec(Y)])(np.zeros(x.shape[0]))
-        A = ca.DM(A)
-        Yl = ca.reshape(ca.mtimes(A, x) + ca.DM(y0), N_Y, T)
-        D = frame_data(st, weights)
-        res, wrench = frame_fn.map(T)(D, Yl)
-        blocks.append((A, ca.DM(y0), D, T))
+        zero = np.zeros(nx)
+        A = ca.DM(ca.Function("A", [x], [ca.jacobian(ca.vec(Y), x)])(zero))
+        y0 = ca.DM(ca.Function("y0", [x], [ca.vec(Y)])(zero))
+        block = StanceBlock(A, y0, frame_data(st, weights, fm, model), st.n, fm)
+        Yl = ca.reshape(ca.mtimes(A, x) + y0, fm.slots.size, st.n)
+        res, _ = fm.frame.map(st.n)(block.D, Yl)
         residuals.append(ca.vec(res))
-        outputs.append(wrench)
-        n_data += 6 * T
-    pw, pm = b.vector("prior_weight"), b.vector("prior_mean")
+        blocks.append(block)
+    n_data = sum(6 * b.T for b in blocks)
+    pw, pm = variables.vector("prior_weight"), variables.vector("prior_mean")
     prior_idx = np.flatnonzero(pw > 0)
     prior_res = (
         pw[prior_idx] * (x[prior_idx.tolist()] - pm[prior_idx])
@@ -404,38 +309,34 @@ def build_estimation(
     # J = sum_t phi(D_t, y_t) + 1/2 |W (x - m)|^2 = 1/2 |r_all|^2 with y = A x + y0, so
     # grad = sum A^T g_t + W^2 (x - m) and Hess = sum A^T blockdiag(H_t) A + W^2 (W: prior weights).
     J = 0.5 * ca.sumsqr(r_all)
-    grad = ca.DM(pw**2) * (x - pm) if pw.size else ca.MX.zeros(x.shape[0])
+    grad = ca.DM(pw**2) * (x - pm) if pw.size else ca.MX.zeros(nx)
     gs, hs = [], []
-    for A, y0, D, T in blocks:
-        Yl = ca.reshape(ca.mtimes(A, x) + y0, N_Y, T)
-        gs.append(ca.mtimes(A.T, ca.vec(grad_fn.map(T)(D, Yl))))
-        hs.append(ca.diagcat(*ca.horzsplit(hess_fn.map(T)(D, Yl), N_Y)))
+    for b in blocks:
+        ny = b.fm.slots.size
+        Yl = ca.reshape(ca.mtimes(b.A, x) + b.y0, ny, b.T)
+        gs.append(ca.mtimes(b.A.T, ca.vec(b.fm.grad.map(b.T)(b.D, Yl))))
+        hs.append(ca.diagcat(*ca.horzsplit(b.fm.hess.map(b.T)(b.D, Yl), ny)))
     grad = grad + ca.sum2(ca.horzcat(*gs)) if gs else grad
     # the prior term as a *sparse* diagonal (a DM built from a dense array would make H dense)
-    hess = _assemble_hessian([blk[0] for blk in blocks], hs, x.shape[0]) + ca.DM(
-        ca.Sparsity.diag(x.shape[0]), pw**2
-    )
-    Dsym, ysym = ca.SX.sym("D", N_D), ca.SX.sym("y", N_Y)
-    res_sym = frame_fn(Dsym, ysym)[0]
-    jac_fn = ca.Function("frame_jac", [Dsym, ysym], [res_sym, ca.jacobian(res_sym, ysym)])
+    hess = _assemble_hessian([b.A for b in blocks], hs, nx) + ca.DM(ca.Sparsity.diag(nx), pw**2)
     return EstimationProblem(
-        stances=stances,
+        stances=list(stances),
         model=model,
         weights=weights,
-        builder=b,
-        x=b.x,
+        variables=variables,
+        x=x,
         objective=J,
-        residuals=r_all,
-        n_data=n_data,
-        x0=b.vector("x0"),
-        lbx=b.vector("lb"),
-        ubx=b.vector("ub"),
-        stance_outputs=outputs,
-        stance_points=points,
         gradient=grad,
         hessian=hess,
-        frame_blocks=blocks,
-        frame_jacobian=jac_fn,
+        residuals=r_all,
+        n_data=n_data,
+        x0=variables.vector("x0"),
+        lbx=variables.vector("lb"),
+        ubx=variables.vector("ub"),
+        blocks=blocks,
         prior_weights=pw,
         prior_means=pm,
     )
+
+
+__all__ = ["EstimationProblem", "StanceBlock", "Weights", "build_estimation", "frame_data"]

@@ -135,28 +135,24 @@ def synthetic_stance(
     """One synthetic stance. ``truth``: ``{"k": (5,), "n", "c", "mu"}`` [SI]; ``points_local``:
     true unit positions (default nominal); ``force_noise`` [N] and ``marker_noise`` [m] standard
     deviations (marker noise perturbs the foot pose given to the fitter, through 3 virtual markers)."""
-    from gc_ocp.estimation.compiled import frame_functions
-    from gc_ocp.estimation.problem import Weights, frame_data
+    from gc_ocp.contact.laws import Smoothing
+    from gc_ocp.contact.wrench_model import LawParams, model_wrench
 
     foot = rolling_foot(side, duration, rate, t0, sink, style=style)
     true_pts = nominal_points(side) if points_local is None else np.asarray(points_local)
     true_foot = foot.with_points(true_pts)
-    T = foot.time.size
     ref = np.array([0.6, 0.1 if side == "left" else -0.1, -0.04])
-    probe = StanceData(
-        side, "", foot, np.zeros((T, 6)), ref, body_weight=body_weight, height=height
+    # the estimator's smooth law (tests/test_pins.py: equal to its per-frame model to 1e-12)
+    law = LawParams(
+        n=truth["n"],
+        c=truth["c"],
+        mu=truth["mu"],
+        smooth=True,
+        smoothing=Smoothing(5e-4, 1e-2, 0.05),
     )
-    D = frame_data(probe, Weights())
-    y = np.concatenate(
-        [
-            np.zeros(12),
-            true_pts.T.ravel(order="F"),
-            np.log(np.asarray(truth["k"], float)),
-            [truth["n"], truth["c"], truth["mu"], 0.0],
-        ]
+    meas = model_wrench(
+        true_foot.positions, true_foot.velocities, np.asarray(truth["k"], float), ref, law
     )
-    _, wrench = frame_functions(5e-4, 0.05)[0].map(T)(D, np.tile(y[:, None], (1, T)))
-    meas = np.asarray(wrench).T
     rng = rng or np.random.default_rng(0)
     if force_noise > 0:
         meas = meas + rng.normal(0, force_noise, meas.shape) * np.array([1, 1, 1, 0.05, 0.05, 0.05])

@@ -1,0 +1,54 @@
+"""Joint kinematics-contact estimation (CasADi + Ipopt) on composable models.
+
+>>> from gc_ocp.estimation import build_estimation, solve, full_model   # doctest: +SKIP
+>>> problem = build_estimation(stances, full_model())                  # doctest: +SKIP
+>>> result = solve(problem)                                            # doctest: +SKIP
+
+Layout: :mod:`.variables` (named decision-variable blocks), :mod:`.components` (one file per
+component: the physics each adds), :mod:`.frame` (the per-frame model composed from
+components), :mod:`.compiled` (SX -> C cache), :mod:`.problem` (the NLP, no component known by
+type), :mod:`.solve` (Ipopt), :mod:`.result` (plain-data result), :mod:`.fit` (starts, held-out
+evaluation), :mod:`.synthetic` (synthetic stances), :mod:`.plots`.
+"""
+
+from gc_ocp.estimation.components import (
+    REGISTRY,
+    BeltSpeed,
+    Component,
+    ContactLaw,
+    Param,
+    PoseCorrection,
+    SoleCorrection,
+    full_model,
+    model_from_names,
+    register,
+    seed_model,
+)
+from gc_ocp.estimation.fit import FitReport, fit, frozen_model
+from gc_ocp.estimation.problem import EstimationProblem, Weights, build_estimation
+from gc_ocp.estimation.result import EstimationResult
+from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
+
+__all__ = [
+    "REGISTRY",
+    "BeltSpeed",
+    "Component",
+    "ContactLaw",
+    "EstimationProblem",
+    "EstimationResult",
+    "FitReport",
+    "IpoptOptions",
+    "Param",
+    "PoseCorrection",
+    "SoleCorrection",
+    "Weights",
+    "build_estimation",
+    "fit",
+    "frozen_model",
+    "full_model",
+    "model_from_names",
+    "register",
+    "result_at",
+    "seed_model",
+    "solve",
+]

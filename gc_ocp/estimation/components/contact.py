@@ -1,0 +1,273 @@
+"""The contact law: Hunt-Crossley normal force with Coulomb friction on every unit.
+
+``F_n = k d^n (1 + c d_dot)`` with penetration ``d`` below the ground (smoothed over
+``depth_smoothing``), friction ``-mu F_n`` along the sliding velocity relative to the belt
+(regularised below ``slip_smoothing``): the law of :mod:`gc_ocp.contact.laws`, one CasADi
+definition shared with the seed study. Stiffness is estimated as ``log k`` so that ``k > 0``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import casadi as ca
+import numpy as np
+
+from gc_ocp.contact.laws import DEFAULT_SMOOTHING, unit_force_function
+from gc_ocp.errors import ModelError
+from gc_ocp.estimation.components.base import Component, DecodeContext
+from gc_ocp.trial import SIDES
+
+PARAMS = ("k", "n", "c", "mu")
+LAW_SLOTS = {"n": "law_n", "c": "law_c", "mu": "law_mu"}
+
+
+@dataclass(frozen=True)
+class Param:
+    """How one contact parameter is estimated.
+
+    scope: ``"unit"`` (one per unit per foot; only k), ``"foot"`` (one per foot), ``"shared"``
+    (one for both feet) or ``"fixed"`` (not estimated: ``value`` is used).
+    value: initial (or fixed) value in SI units; a float, or ``{side: float}`` /
+    ``{side: {unit: float}}`` for per-foot / per-unit values.
+    lower, upper: bounds in SI units.
+    prior_sigma: optional Gaussian prior centred on ``value``, in the optimised units (log units
+    for k: ``prior_sigma = 2`` means a factor e^2 = 7.4 at one standard deviation).
+    """
+
+    scope: str
+    value: float | dict
+    lower: float = -np.inf
+    upper: float = np.inf
+    prior_sigma: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.scope not in ("unit", "foot", "shared", "fixed"):
+            raise ModelError(
+                f'Param scope must be one of unit, foot, shared, fixed, but got "{self.scope}"'
+            )
+
+    def value_for(self, side: str, unit: str | None = None) -> float:
+        v = self.value
+        if isinstance(v, dict):
+            v = v[side]
+            if isinstance(v, dict):
+                v = v[unit]
+        return float(v)
+
+
+def _layouts(stances) -> dict:
+    """``{side: SoleLayout}`` of the sides present (one layout per side)."""
+    out: dict = {}
+    for st in stances:
+        if out.setdefault(st.side, st.layout) != st.layout:
+            raise ModelError(
+                f"Stances of the {st.side} foot have different sole layouts ({st.label})"
+            )
+    return {s: out[s] for s in SIDES if s in out}
+
+
+@dataclass(frozen=True)
+class ContactLaw(Component):
+    """Hunt-Crossley normal force with Coulomb friction, per unit.
+
+    k: stiffness [N/m^n] (estimated as log k); n: penetration exponent [-];
+    c: Hunt-Crossley damping [s/m]; mu: friction coefficient [-].
+    depth_smoothing: smoothing length of the penetration [m] (see ``gc_ocp.contact.laws``).
+    slip_smoothing: sliding speed below which friction is smoothed [m/s].
+    reference_depth: penetration [m] at which each unit's force ``f_ref = k d^n`` is reported
+    (the well-determined summary of its force-depth curve).
+    """
+
+    # weak log-k prior (factor 7.4 at 1 sd) around the initial value: keeps a unit whose stiffness
+    # collapsed early in the iterations (no force, no gradient) from staying switched off, and
+    # regularises units that hardly touch the ground; negligible where the data inform k
+    k: Param = field(default_factory=lambda: Param("unit", 3.0e5, 1.0e2, 1.0e9, prior_sigma=2.0))
+    n: Param = field(default_factory=lambda: Param("shared", 1.5, 1.0, 3.0))
+    c: Param = field(default_factory=lambda: Param("shared", 0.5, 0.0, 10.0))
+    mu: Param = field(default_factory=lambda: Param("shared", 0.5, 0.0, 1.5))
+    depth_smoothing: float = 5e-4
+    slip_smoothing: float = 0.05
+    reference_depth: float = 0.005
+    name: str = "contact"
+
+    @classmethod
+    def seed(cls, mu: float = 0.0) -> ContactLaw:
+        """The seed report's model: k per unit, n = 1, c = 0, fixed friction ``mu``."""
+        return cls(
+            k=Param("unit", 1.2e4, 1.0, 1.0e9),
+            n=Param("fixed", 1.0),
+            c=Param("fixed", 0.0),
+            mu=Param("fixed", mu),
+        )
+
+    def __post_init__(self) -> None:
+        for pname in ("n", "c", "mu"):
+            if getattr(self, pname).scope == "unit":
+                raise ModelError(
+                    f'Param "{pname}" cannot have scope "unit"; choose foot, shared or fixed.'
+                )
+
+    # --- variables ----------------------------------------------------------------------------
+    def _keys(self, pname: str, layouts: dict) -> list[tuple]:
+        scope = getattr(self, pname).scope
+        if scope == "unit":
+            return [(s, u) for s, lay in layouts.items() for u in lay.units]
+        if scope == "foot":
+            return [(s,) for s in layouts]
+        return [()] if scope == "shared" else []
+
+    def declare(self, variables, stances) -> None:
+        layouts = _layouts(stances)
+        # both sides are declared (in SIDES order) even when only one has stances: a model's
+        # variables then do not depend on which feet a subset of stances covers
+        layouts = {s: layouts.get(s, next(iter(layouts.values()))) for s in SIDES}
+        for pname in PARAMS:
+            p: Param = getattr(self, pname)
+            for key in self._keys(pname, layouts):
+                if p.scope == "shared" and isinstance(p.value, dict):
+                    first = next(iter(layouts.values())).units[0]
+                    v0 = p.value_for(SIDES[0], first)
+                else:
+                    v0 = p.value_for(*key) if key else float(p.value)
+                variables.parameter(
+                    (self.name, pname, *key),
+                    v0,
+                    p.lower,
+                    p.upper,
+                    log=pname == "k",
+                    prior_sigma=p.prior_sigma,
+                )
+
+    def _value(self, variables, pname: str, side: str, unit: str | None = None, raw: bool = False):
+        p: Param = getattr(self, pname)
+        if p.scope == "fixed":
+            v = p.value_for(side, unit)
+            return float(np.log(v)) if raw else v
+        key = {"unit": (side, unit), "foot": (side,), "shared": ()}[p.scope]
+        return variables.get((self.name, pname, *key), raw=raw)
+
+    # --- per-frame inputs ---------------------------------------------------------------------
+    def slot_sizes(self, layout) -> dict[str, int]:
+        return {"log_k": layout.n, **{s: 1 for s in LAW_SLOTS.values()}}
+
+    def slots(self, variables, index, stance) -> dict:
+        units = stance.layout.units
+        log_k = [self._value(variables, "k", stance.side, u, raw=True) for u in units]
+        out = {"log_k": ca.vertcat(*log_k)}
+        for pname, slot in LAW_SLOTS.items():
+            out[slot] = ca.MX(1, 1) + self._value(variables, pname, stance.side)
+        return out
+
+    def edit_contact(self, frame) -> None:
+        k = ca.exp(frame.slot("log_k"))
+        frame.law.update(k=[k[i] for i in range(frame.layout.n)])
+        frame.law.update({p: frame.slot(s) for p, s in LAW_SLOTS.items()})
+        law = unit_force_function(True)
+        eps = (self.depth_smoothing, DEFAULT_SMOOTHING.eps_damping, self.slip_smoothing)
+
+        def unit_force(f, i):
+            p = f.law
+            return law(
+                f.points[i],
+                f.velocities[i],
+                p["k"][i],
+                p["n"],
+                p["c"],
+                p["mu"],
+                f.ground_height,
+                f.belt_velocity,
+                *eps,
+            )
+
+        frame.unit_force = unit_force
+
+    def signature(self) -> tuple:
+        return (
+            "ContactLaw",
+            self.depth_smoothing,
+            self.slip_smoothing,
+            DEFAULT_SMOOTHING.eps_damping,
+        )
+
+    # --- results ------------------------------------------------------------------------------
+    def decode(self, ctx: DecodeContext) -> dict:
+        """``{side: {unit: {"k", "k_se", "f_ref", "f_ref_se"}, param: .., param_se: ..},
+        "shared": {param: .., param_se: ..}}`` (fixed parameters with zero standard error);
+        ``f_ref`` [N] is the unit's force at ``reference_depth`` without damping."""
+        layouts = _layouts(ctx.stances)
+        out: dict = {s: {} for s in layouts}
+        out["shared"] = {}
+        for pname in PARAMS:
+            p: Param = getattr(self, pname)
+            for side, lay in layouts.items():
+                units = lay.units if pname == "k" else [None]
+                for u in units:
+                    if p.scope == "fixed":
+                        val, se = p.value_for(side, u), 0.0
+                    else:
+                        key = {"unit": (side, u), "foot": (side,), "shared": ()}[p.scope]
+                        v, s = ctx.values((self.name, pname, *key))
+                        val, se = float(v[0]), float(s[0])
+                    if pname == "k":
+                        out[side].setdefault(u, {}).update(k=val, k_se=se)
+                    elif p.scope in ("foot", "fixed"):
+                        out[side].update({pname: val, pname + "_se": se})
+                    else:
+                        out["shared"].update({pname: val, pname + "_se": se})
+        self._add_reference_force(out, ctx, layouts)
+        return {k: v for k, v in out.items() if v}
+
+    def _add_reference_force(self, out: dict, ctx: DecodeContext, layouts: dict) -> None:
+        """``f_ref = k d_ref^n`` [N] per unit and its delta-method SE from the covariance of
+        (log k, n): k and n are strongly correlated (``ln f_ref = ln k + n ln d_ref``, ``ln 0.005
+        = -5.3``), so f_ref is far better determined than k."""
+        L = float(np.log(self.reference_depth))
+        index = ctx.index()
+        for side, lay in layouts.items():
+            n_val = out[side].get("n", out["shared"].get("n"))
+            n_key = {"foot": (self.name, "n", side), "shared": (self.name, "n")}.get(self.n.scope)
+            for u in lay.units:
+                e = out[side][u]
+                e["f_ref"] = float(e["k"] * self.reference_depth**n_val)
+                k_spec = index.get((self.name, "k", side, u))
+                if k_spec is None:
+                    e["f_ref_se"] = 0.0
+                    continue
+                if ctx.cov is None:
+                    e["f_ref_se"] = float("nan")
+                    continue
+                g = np.zeros(ctx.x.size)
+                g[k_spec.start] = 1.0  # d ln f_ref / d ln k
+                if n_key is not None:
+                    g[index[n_key].start] = L  # d ln f_ref / d n
+                e["f_ref_se"] = float(e["f_ref"] * np.sqrt(max(float(g @ ctx.cov @ g), 0.0)))
+
+    def frozen(self, block: dict) -> ContactLaw:
+        """Every parameter fixed at the values of ``block`` (a decoded contact block)."""
+        sides = [s for s in SIDES if s in block]
+        kw = {}
+        for pname in PARAMS:
+            par: Param = getattr(self, pname)
+            if par.scope == "fixed":
+                continue
+            if pname == "k":
+                val = {
+                    s: {u: e["k"] for u, e in block[s].items() if isinstance(e, dict)}
+                    for s in sides
+                }
+            elif par.scope == "foot":
+                val = {s: block[s][pname] for s in sides}
+            else:
+                val = block["shared"][pname]
+            kw[pname] = Param("fixed", val)
+        return replace(self, **kw)
+
+    def with_initial_k(self, k0: dict | None) -> ContactLaw:
+        """The law started from per-unit stiffnesses ``{side: {unit: k}}`` (when k is per unit)."""
+        if k0 is None or self.k.scope != "unit":
+            return self
+        return replace(self, k=replace(self.k, value=k0))
+
+
+__all__ = ["ContactLaw", "Param"]

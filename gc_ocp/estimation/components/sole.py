@@ -1,0 +1,83 @@
+"""Sole geometry: 3-D corrections of the unit positions in their parent (foot) frames."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import casadi as ca
+import numpy as np
+
+from gc_ocp.estimation.components.base import Component, DecodeContext
+from gc_ocp.estimation.components.contact import _layouts
+from gc_ocp.trial import SIDES
+
+
+@dataclass(frozen=True)
+class SoleCorrection(Component):
+    """Correction of each unit's position in its parent frame, added to ``points_local``.
+
+    A Gaussian prior N(0, sigma^2) per component (default 5 mm: the uncertainty of locating the
+    sole from skin markers over heel and metatarsals) and bounds +-bound [m].
+    ``fixed``: ``{side: (m, 3) array [m]}`` to apply known corrections without estimating them.
+    Neutral value: zero offsets (no effect).
+    """
+
+    sigma: float = 0.005
+    bound: float = 0.025
+    fixed: dict | None = None
+    name: str = "sole"
+
+    def with_prior_scale(self, factor: float) -> SoleCorrection:
+        """The same component with its prior width multiplied by ``factor`` (the bound is kept)."""
+        return replace(self, sigma=self.sigma * factor)
+
+    def declare(self, variables, stances) -> None:
+        if self.fixed is not None:
+            return
+        layouts = _layouts(stances)
+        for side in SIDES:
+            lay = layouts.get(side, next(iter(layouts.values())))
+            for u in lay.units:
+                variables.prior_variable((self.name, side, u), 3, self.sigma, self.bound)
+
+    def slot_sizes(self, layout) -> dict[str, int]:
+        return {"points_local": 3 * layout.n}
+
+    def slots(self, variables, index, stance) -> dict:
+        if self.fixed is not None:
+            off = np.asarray(self.fixed[stance.side], float)
+            return {"points_local": ca.MX(off.ravel())}  # row-major (m, 3) = column-major 3 x m
+        return {
+            "points_local": ca.vertcat(
+                *(variables.get((self.name, stance.side, u)) for u in stance.layout.units)
+            )
+        }
+
+    def signature(self) -> tuple:
+        return ("SoleCorrection",)  # its values only enter through the points_local slot
+
+    def decode(self, ctx: DecodeContext) -> dict:
+        """``{side: {unit: [dx, dy, dz]}}`` in the foot frame [mm] (``"se"``: their SEs)."""
+        out: dict = {}
+        se: dict = {}
+        for side, lay in _layouts(ctx.stances).items():
+            if self.fixed is not None:
+                off = np.asarray(self.fixed[side], float) * 1e3
+                out[side] = {u: off[i].tolist() for i, u in enumerate(lay.units)}
+                se[side] = {u: [0.0, 0.0, 0.0] for u in lay.units}
+                continue
+            out[side], se[side] = {}, {}
+            for u in lay.units:
+                v, s = ctx.values((self.name, side, u))
+                out[side][u] = (v * 1e3).tolist()
+                se[side][u] = (s * 1e3).tolist()
+        return {"offsets_mm": out, "se_mm": se}
+
+    def frozen(self, block: dict) -> SoleCorrection:
+        fixed = {
+            s: np.array(list(units.values())) * 1e-3 for s, units in block["offsets_mm"].items()
+        }
+        return replace(self, fixed=fixed)
+
+
+__all__ = ["SoleCorrection"]

@@ -1,0 +1,248 @@
+"""The result of an estimation: plain data (picklable, JSON round trip), no CasADi object.
+
+``EstimationResult.blocks`` holds each component's decoded block by the component's name
+(``"contact"``: parameters and standard errors, ``"sole"``: sole-point corrections, ``"pose"``:
+foot-pose corrections, ``"belt"``: belt speeds, ...). Fit quality is reported as the seed does:
+forces in % body weight, torques in % body weight x height, each stance normalised by its own
+subject's body weight and height before stances are pooled.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gc_ocp import __version__
+from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
+from gc_ocp.estimation.variables import VariableSpec
+from gc_ocp.trial import SIDES
+from gc_ocp.wrench import cop_from_wrench
+
+COP_MIN_FRACTION_BW = 0.10
+"""The measured COP is compared only where the measured vertical force exceeds 10 % BW (below,
+the COP of a plate is dominated by its noise)."""
+
+_ARRAY_FIT_KEYS = (
+    "time",
+    "measured",
+    "model",
+    "in_contact",
+    "points_local",
+    "nominal_points",
+    "toes_offset",
+    "reference_point",
+)
+
+
+@dataclass
+class EstimationResult:
+    """Estimated parameters, their uncertainty, corrections, fit quality and solver statistics.
+
+    x: decision vector; variables: its blocks (:class:`VariableSpec`); covariance: of ``x``
+    (Gauss-Newton, scaled by the residual variance) or None; status, success, iterations, seconds:
+    Ipopt's; objective = data_cost + prior_cost (``1/2`` squared weighted residuals); n_data:
+    number of data residuals; n_free: number of estimated scalars (``x.size``); n_param: those
+    without a prior (physical parameters); blocks: ``{component name: block}``; components:
+    ``{component name: class name}``; rms: ``{side: {channel: RMS}}`` in % BW or % BW x H over
+    in-contact frames; cop_rms_mm: ``{side: COP RMS [mm]}``; stance_fits: per stance
+    ``{"label", "side", "trial", "time", "measured", "model", "in_contact", "points_local",
+    "nominal_points", "toes_offset", "reference_point", "ground_height", "body_weight", "height",
+    "units"}`` (arrays time-first, SI).
+    """
+
+    x: np.ndarray
+    status: str
+    success: bool
+    iterations: int
+    seconds: float
+    objective: float
+    data_cost: float
+    prior_cost: float
+    n_data: int
+    n_free: int
+    n_param: int
+    blocks: dict
+    components: dict
+    rms: dict
+    cop_rms_mm: dict
+    stance_fits: list = field(default_factory=list)
+    variables: list = field(default_factory=list)
+    covariance: np.ndarray | None = None
+
+    # --- views of the usual blocks ------------------------------------------------------------
+    @property
+    def params(self) -> dict:
+        """The contact law's block: ``{side: {unit: {"k", "k_se", "f_ref", "f_ref_se"}, ...},
+        "shared": {...}}`` (see :meth:`ContactLaw.decode`)."""
+        return self.blocks.get("contact", {})
+
+    @property
+    def sole_corrections_mm(self) -> dict:
+        return self.blocks.get("sole", {}).get("offsets_mm", {})
+
+    @property
+    def pose_correction_rms(self) -> dict:
+        return self.blocks.get("pose", {}).get("rms", {})
+
+    @property
+    def belt_speed(self) -> dict:
+        return self.blocks.get("belt", {})
+
+    def spec(self, key: tuple) -> VariableSpec:
+        return next(s for s in self.variables if s.key == tuple(key))
+
+    # --- text ---------------------------------------------------------------------------------
+    def summary(self) -> str:
+        lines = [
+            f"Ipopt: {self.status} in {self.iterations} iterations, {self.seconds:.2f} s; objective "
+            f"{self.objective:.4g} (data {self.data_cost:.4g}, prior {self.prior_cost:.4g}; "
+            f"{self.n_data} residuals, {self.n_free} free variables)"
+        ]
+        for side in SIDES:
+            if side not in self.rms:
+                continue
+            p = self.params.get(side, {})
+            units = [u for u, e in p.items() if isinstance(e, dict)]
+            if units:
+                lines.append(
+                    f"{side:>5} k [N/m^n]: "
+                    + ", ".join(f"{u} {p[u]['k']:.3g}±{p[u]['k_se']:.2g}" for u in units)
+                )
+                lines.append(
+                    f"{side:>5} force at the reference depth [N]: "
+                    + ", ".join(f"{u} {p[u]['f_ref']:.0f}±{p[u]['f_ref_se']:.2g}" for u in units)
+                )
+            r = self.rms[side]
+            lines.append(
+                f"{side:>5} RMS: "
+                + ", ".join(f"{c.split('_')[0]} {r[c]:.2f}" for c in r)
+                + f"; COP {self.cop_rms_mm.get(side, float('nan')):.1f} mm"
+            )
+            if side in self.pose_correction_rms:
+                pc = self.pose_correction_rms[side]
+                lines.append(
+                    f"{side:>5} pose correction RMS: {pc['mm']:.2f} mm, {pc['deg']:.2f} deg"
+                )
+        for trial, v in self.belt_speed.items():
+            lines.append(
+                f"belt speed ({trial}): {v['value']:.3f} ± {v['se']:.3f} m/s (given {v['nominal']:.3f})"
+            )
+        shared = self.params.get("shared", {})
+        for k, v in shared.items():
+            if not k.endswith("_se"):
+                lines.append(f"shared {k} = {v:.4g} ± {shared.get(k + '_se', float('nan')):.2g}")
+        return "\n".join(lines)
+
+    # --- plain data ---------------------------------------------------------------------------
+    def to_json(self) -> dict:
+        """A JSON-ready dict (``fit.json``); :meth:`from_json` gives the result back."""
+        fits = [
+            {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in f.items()}
+            for f in self.stance_fits
+        ]
+        return {
+            "gc_ocp_version": __version__,
+            "params": self.params,
+            "sole_corrections_mm": self.sole_corrections_mm,
+            "pose_correction_rms": self.pose_correction_rms,
+            "rms": self.rms,
+            "cop_rms_mm": self.cop_rms_mm,
+            "solver": {
+                "status": self.status,
+                "success": self.success,
+                "iterations": self.iterations,
+                "seconds": self.seconds,
+            },
+            **({"belt_speed_m_s": self.belt_speed} if self.belt_speed else {}),
+            "costs": {
+                "objective": self.objective,
+                "data": self.data_cost,
+                "prior": self.prior_cost,
+            },
+            "counts": {"data": self.n_data, "free": self.n_free, "param": self.n_param},
+            "components": self.components,
+            "blocks": self.blocks,
+            "x": self.x.tolist(),
+            "variables": [s.to_json() for s in self.variables],
+            "covariance": None if self.covariance is None else self.covariance.tolist(),
+            "stance_fits": fits,
+        }
+
+    @classmethod
+    def from_json(cls, d: dict | str) -> EstimationResult:
+        """The result written by :meth:`to_json` (a dict, or a path / text of ``fit.json``)."""
+        if isinstance(d, str) or hasattr(d, "read_text"):
+            from pathlib import Path
+
+            text = (
+                str(d) if isinstance(d, str) and d.lstrip().startswith("{") else Path(d).read_text()
+            )
+            d = json.loads(text)
+        fits = []
+        for f in d["stance_fits"]:
+            f = dict(f)
+            for k in _ARRAY_FIT_KEYS:
+                if k in f:
+                    f[k] = np.asarray(f[k], bool if k == "in_contact" else float)
+            fits.append(f)
+        s = d["solver"]
+        return cls(
+            x=np.asarray(d["x"], float),
+            status=s["status"],
+            success=bool(s["success"]),
+            iterations=int(s["iterations"]),
+            seconds=float(s["seconds"]),
+            objective=float(d["costs"]["objective"]),
+            data_cost=float(d["costs"]["data"]),
+            prior_cost=float(d["costs"]["prior"]),
+            n_data=int(d["counts"]["data"]),
+            n_free=int(d["counts"]["free"]),
+            n_param=int(d["counts"]["param"]),
+            blocks=d["blocks"],
+            components=d["components"],
+            rms=d["rms"],
+            cop_rms_mm=d["cop_rms_mm"],
+            stance_fits=fits,
+            variables=[VariableSpec.from_json(v) for v in d["variables"]],
+            covariance=None if d.get("covariance") is None else np.asarray(d["covariance"], float),
+        )
+
+
+def fit_quality(fits: list) -> tuple[dict, dict]:
+    """Per-side channel RMS (% BW, % BW·H over in-contact frames, each stance normalised by its
+    own body weight and height) and COP RMS [mm] (where measured Fz > 10 % BW)."""
+    rms: dict = {}
+    cop: dict = {}
+    for side in SIDES:
+        mine = [f for f in fits if f["side"] == side]
+        if not mine:
+            continue
+        # normalise per stance, then pool: channel_rms_pct of (measured / BW, model / BW) with BW = 1
+        meas = np.vstack([_per_bw(f, f["measured"]) for f in mine])
+        mod = np.vstack([_per_bw(f, f["model"]) for f in mine])
+        pct = channel_rms_pct(meas, mod, 1.0, 1.0)
+        rms[side] = {TABLE_KEYS[c]: v for c, v in pct.items()}
+        errs = []
+        for f in mine:
+            m, w = f["measured"], f["model"]
+            ref, gh, bw = f["reference_point"], f["ground_height"], f["body_weight"]
+            c_meas = cop_from_wrench(m[:, :3], m[:, 3:], ref, gh, COP_MIN_FRACTION_BW * bw)
+            c_mod = cop_from_wrench(w[:, :3], w[:, 3:], ref, gh, 1e-6)
+            ok = np.isfinite(c_meas[:, 0]) & np.isfinite(c_mod[:, 0])
+            errs.append(np.linalg.norm((c_meas - c_mod)[ok, :2], axis=1))
+        e = np.concatenate(errs)
+        cop[side] = float(np.sqrt(np.mean(e**2)) * 1e3) if e.size else float("nan")
+    return rms, cop
+
+
+def _per_bw(fit: dict, wrench: np.ndarray) -> np.ndarray:
+    """In-contact frames of ``wrench`` in units of BW (forces) and BW x H (torques)."""
+    bw, h = fit["body_weight"], fit["height"]
+    return np.asarray(wrench)[np.asarray(fit["in_contact"])] / np.array(
+        [bw, bw, bw, bw * h, bw * h, bw * h]
+    )
+
+
+__all__ = ["EstimationResult", "fit_quality"]
