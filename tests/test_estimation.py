@@ -148,6 +148,18 @@ def test_real_trial_fit_and_holdout(bundled):
         assert r.cop_rms_mm[side] <= 25.0
         assert all(r.params[side][u]["k"] > 0 for u in UNITS)
     assert rep.heldout.rms["right"]["superior_force_pct_bw"] <= 5.0
+    # plain data: the report pickles (a worker process can return it) and fit.json round-trips
+    import pickle
+
+    from gc_ocp.estimation import EstimationResult
+
+    back = pickle.loads(pickle.dumps(rep))
+    assert back.result.params == r.params and back.heldout.rms == rep.heldout.rms
+    again = EstimationResult.from_json(json.loads(json.dumps(rep.to_json())))
+    assert again.params == r.params and again.rms == r.rms and again.cop_rms_mm == r.cop_rms_mm
+    np.testing.assert_array_equal(again.x, r.x)
+    assert again.objective == pytest.approx(r.data_cost + r.prior_cost, rel=1e-12)
+    assert again.n_data == r.n_data == 6 * sum(f["time"].size for f in r.stance_fits)
     d = rep.to_json()
     assert set(d) >= {
         "params",
@@ -176,6 +188,10 @@ def test_cli_fit(tmp_path):
     d = json.loads((tmp_path / "fit.json").read_text())
     assert d["solver"]["status"] == "Solve_Succeeded"
     assert set(d["params"]["left"]) >= set(UNITS)
+    from gc_ocp.estimation import EstimationResult
+
+    back = EstimationResult.from_json(tmp_path / "fit.json")
+    assert back.params == d["params"] and back.rms == d["rms"]
     for name in ("fit_wrench.png", "fit_sole.png", "fit_pose_corrections.png"):
         assert (tmp_path / name).stat().st_size > 10_000
 

@@ -63,6 +63,8 @@ class Component:
 
     name: str = "component"
     scope: Scope = "global"
+    neutral_at_zero: bool = False
+    """True when all its decision variables at zero leave the model as if it were absent."""
 
     # --- variables ----------------------------------------------------------------------------
     def declare(self, variables: Variables, stances: list[StanceData]) -> None:

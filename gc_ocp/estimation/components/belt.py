@@ -26,6 +26,7 @@ class BeltSpeed(Component):
     fixed: dict | None = None
     name: str = "belt"
     scope = "trial"
+    neutral_at_zero = True
 
     def _free(self, trial: str) -> bool:
         return self.fixed is None or trial not in self.fixed

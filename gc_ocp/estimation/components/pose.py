@@ -39,6 +39,7 @@ class PoseCorrection(Component):
     knot_correlation: tuple[float, ...] | None = None
     name: str = "pose"
     scope = "stance"
+    neutral_at_zero = True
 
     def with_prior_scale(self, factor: float) -> PoseCorrection:
         """The same component with its prior widths multiplied by ``factor`` (bounds follow)."""

@@ -26,6 +26,7 @@ class SoleCorrection(Component):
     bound: float = 0.025
     fixed: dict | None = None
     name: str = "sole"
+    neutral_at_zero = True
 
     def with_prior_scale(self, factor: float) -> SoleCorrection:
         """The same component with its prior width multiplied by ``factor`` (the bound is kept)."""
