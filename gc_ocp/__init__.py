@@ -1,13 +1,79 @@
-"""gc_ocp: foot-ground contact model estimation for human walking from lab data.
+"""gc_ocp: foot-ground contact models of human walking, estimated from lab data.
 
-Layers (each importable on its own):
+The public API, importable from the top level::
 
-* :mod:`gc_ocp.io` -- trial loading (C3D, OpenSim TRC + MOT) into a :class:`~gc_ocp.trial.Trial`.
-* :mod:`gc_ocp.model` -- the 14-segment / 27-DOF body model as URDF, loaded by Pinocchio.
-* :mod:`gc_ocp.kinematics` -- scaling, inverse kinematics and sole-point trajectories.
-* :mod:`gc_ocp.contact` -- Hunt-Crossley / Coulomb contact laws, equivalent plate wrench, the
-  seed's linear least squares and its study.
-* :mod:`gc_ocp.estimation` -- joint kinematics-contact estimation (CasADi + Ipopt).
+    import gc_ocp
+
+    trial = gc_ocp.load_trial()                   # or load_trial("walk.c3d"), TRC + MOT, ...
+    kin = gc_ocp.compute_kinematics(trial)        # IK and sole-point trajectories
+    report = gc_ocp.fit([(trial, kin)], model=gc_ocp.full_model(), holdout="right@0.407")
+    print(report.summary())
+
+Layers (each importable on its own): :mod:`gc_ocp.io` (trial loading), :mod:`gc_ocp.model` (the
+27-DOF body model), :mod:`gc_ocp.kinematics` (IK, sole points), :mod:`gc_ocp.stance` (the stance
+type), :mod:`gc_ocp.contact` (contact laws, equivalent wrench, the seed's study),
+:mod:`gc_ocp.estimation` (composable joint kinematics-contact estimation, CasADi + Ipopt).
+Names are imported on first use, so ``import gc_ocp`` stays light.
 """
 
-__version__ = "0.1.0"
+from __future__ import annotations
+
+import importlib
+
+from gc_ocp._version import __version__
+
+_PUBLIC = {
+    # loading and kinematics
+    "load_trial": "gc_ocp.io",
+    "load_static": "gc_ocp.io",
+    "describe_trial": "gc_ocp.io",
+    "Trial": "gc_ocp.trial",
+    "compute_kinematics": "gc_ocp.kinematics",
+    "StanceData": "gc_ocp.stance",
+    "stance_data": "gc_ocp.stance",
+    "trial_stances": "gc_ocp.stance",
+    "SoleLayout": "gc_ocp.foot",
+    "SEED_LAYOUT": "gc_ocp.foot",
+    # estimation
+    "fit": "gc_ocp.estimation",
+    "FitReport": "gc_ocp.estimation",
+    "EstimationResult": "gc_ocp.estimation",
+    "build_estimation": "gc_ocp.estimation",
+    "solve": "gc_ocp.estimation",
+    "IpoptOptions": "gc_ocp.estimation",
+    "Weights": "gc_ocp.estimation",
+    "Component": "gc_ocp.estimation",
+    "ContactLaw": "gc_ocp.estimation",
+    "Param": "gc_ocp.estimation",
+    "SoleCorrection": "gc_ocp.estimation",
+    "PoseCorrection": "gc_ocp.estimation",
+    "BeltSpeed": "gc_ocp.estimation",
+    "seed_model": "gc_ocp.estimation",
+    "full_model": "gc_ocp.estimation",
+    "model_from_names": "gc_ocp.estimation",
+    "register": "gc_ocp.estimation",
+    # plots (figures are returned, never shown)
+    "plot_fit": "gc_ocp.estimation.plots",
+    # errors
+    "GcOcpError": "gc_ocp.errors",
+    "InputError": "gc_ocp.errors",
+    "MarkerError": "gc_ocp.errors",
+    "PlateError": "gc_ocp.errors",
+    "UnitsError": "gc_ocp.errors",
+    "ModelError": "gc_ocp.errors",
+    "SolveError": "gc_ocp.errors",
+}
+
+__all__ = ["__version__", *_PUBLIC]
+
+
+def __getattr__(name: str):
+    if name in _PUBLIC:
+        value = getattr(importlib.import_module(_PUBLIC[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'gc_ocp' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_PUBLIC))

@@ -30,11 +30,12 @@ from gc_ocp.contact.seed_study import (
     table1_json,
     write_tables,
 )
-from gc_ocp.contact.synthetic import SYNTHETIC_CASES, draw_case, rolling_foot, synthetic_stances
+from gc_ocp.contact.synthetic import SYNTHETIC_CASES, draw_case, synthetic_stances
 from gc_ocp.contact.wrench_model import LawParams, model_wrench, wrench_per_unit_stiffness
 from gc_ocp.errors import InputError, RankError
 from gc_ocp.foot import UNITS, TrialKinematics
 from gc_ocp.stance import StanceData
+from gc_ocp.synthetic_foot import rolling_foot
 from gc_ocp.trial import Plate, Stance, Trial
 from gc_ocp.wrench import transport_moment
 
@@ -70,7 +71,10 @@ def random_contact_state(rng, size):
 
 @pytest.fixture(scope="module")
 def feet():
-    return {"right": rolling_foot("right", 0.0, x0=0.0), "left": rolling_foot("left", 0.55, x0=0.7)}
+    return {
+        "right": rolling_foot("right", t0=0.0, margin=0.0),
+        "left": rolling_foot("left", t0=0.55, margin=0.0),
+    }
 
 
 def _stance(foot, label, t_on, t_off, ref):

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gc_ocp import __version__
+from gc_ocp._version import __version__
 from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
 from gc_ocp.estimation.variables import VariableSpec
 from gc_ocp.trial import SIDES
