@@ -29,7 +29,6 @@ import numpy as np
 from gc_ocp.contact.channels import CHANNELS, channel_rms_pct, wrench_scale
 from gc_ocp.contact.wrench_model import LawParams, model_wrench, wrench_per_unit_stiffness
 from gc_ocp.errors import InputError, RankError
-from gc_ocp.foot import UNITS
 from gc_ocp.stance import StanceData, trial_stances
 from gc_ocp.trial import SIDES
 
@@ -38,6 +37,17 @@ DEFAULT_MU = 0.5
 
 SEED_LAW = LawParams(n=1.0, c=0.0, mu=DEFAULT_MU, smooth=False)
 """The seed's law: n = 1, c = 0, exact penetration, friction mu = 0.5."""
+
+
+def _units_by_side(stances) -> dict[str, tuple[str, ...]]:
+    """``{side: unit names}`` of the stances' sole layouts (one layout per side)."""
+    out: dict[str, tuple[str, ...]] = {}
+    for st in stances:
+        if out.setdefault(st.side, st.layout.units) != st.layout.units:
+            raise InputError(
+                f"Stances of the {st.side} foot have different sole layouts ({st.label})"
+            )
+    return out
 
 
 def stances_from_trial(trial, kinematics) -> list[StanceData]:
@@ -101,7 +111,8 @@ def build_lls_system(
         )
     if sides is None:
         sides = [s for s in SIDES if any(st.side == s for st in stances)]
-    unknowns = tuple((s, u) for s in sides for u in UNITS)
+    units = _units_by_side(stances)
+    unknowns = tuple((s, u) for s in sides for u in units.get(s, ()))
     scale = wrench_scale(body_weight, bw_height)
     blocks_a, blocks_b = [], []
     for st in stances:
@@ -111,8 +122,8 @@ def build_lls_system(
             st.positions, st.velocities, st.reference_point, law, st.ground_height, st.belt_velocity
         )  # (n, 6, 5)
         a = np.zeros((reg.shape[0], 6, len(unknowns)))
-        j0 = list(sides).index(st.side) * len(UNITS)
-        a[:, :, j0 : j0 + len(UNITS)] = reg / scale[None, :, None]
+        cols = [unknowns.index((st.side, u)) for u in st.layout.units]
+        a[:, :, cols] = reg / scale[None, :, None]
         blocks_a.append(a.reshape(-1, len(unknowns)))
         blocks_b.append((st.measured / scale).reshape(-1))
     return np.vstack(blocks_a), np.concatenate(blocks_b), unknowns
@@ -160,7 +171,7 @@ def fit_stiffness_lls(
         model_wrench(
             st.positions,
             st.velocities,
-            k[[unknowns.index((st.side, u)) for u in UNITS]],
+            k[[unknowns.index((st.side, u)) for u in st.layout.units]],
             st.reference_point,
             law,
             st.ground_height,

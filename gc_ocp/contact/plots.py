@@ -10,7 +10,7 @@ from matplotlib.figure import Figure
 
 from gc_ocp.contact.channels import CHANNELS, WRENCH_COLUMN
 from gc_ocp.errors import InputError
-from gc_ocp.foot import UNITS
+from gc_ocp.foot import SEED_LAYOUT, SoleLayout
 
 _UNIT_LABEL = {
     "anterior_force": "N",
@@ -76,30 +76,35 @@ def plot_sole(
     k: Mapping[str, Mapping[str, float]] | None = None,
     toes_offset: Mapping[str, np.ndarray] | None = None,
     title: str = "",
+    layout: SoleLayout = SEED_LAYOUT,
 ) -> Figure:
-    """Top view of each sole with its five units, labelled with their stiffness.
+    """Top view of each sole with its units, labelled with their stiffness.
 
-    points_local_by_side: ``{side: (5, 3)}`` unit positions in their parent frame [m] (x
-    anterior, y left); k: ``{side: {unit: k [N/m]}}``; toes_offset: ``{side: (3,)}`` toes-frame
-    origin in the hindfoot frame [m], added to TT (default: TT drawn as given). Negative k is
-    drawn hollow.
+    points_local_by_side: ``{side: (m, 3)}`` unit positions in their parent frame [m] (x
+    anterior, y left), one row per unit of ``layout``; k: ``{side: {unit: k [N/m]}}``;
+    toes_offset: ``{side: (3,)}`` toes-frame origin in the hindfoot frame [m], added to the units
+    on the toes (default: drawn as given). Negative k is drawn hollow. The outline joins the
+    units in angular order about their centroid.
     """
     sides = list(points_local_by_side)
     fig = Figure(figsize=(3.5 * len(sides), 5), layout="constrained")
     axes = fig.subplots(1, len(sides), squeeze=False)[0]
     for ax, side in zip(axes, sides, strict=True):
         pts = np.array(points_local_by_side[side], dtype=float)
-        if pts.shape != (len(UNITS), 3):
+        if pts.shape != (layout.n, 3):
             raise InputError(
-                f"points_local_by_side[{side!r}] must have shape (5, 3), but got {pts.shape}"
+                f"points_local_by_side[{side!r}] must have shape ({layout.n}, 3) for the units "
+                f"{layout.units}, but got {pts.shape}"
             )
         if toes_offset is not None and side in toes_offset:
-            pts[UNITS.index("TT")] += np.asarray(toes_offset[side], dtype=float)
-        order = [UNITS.index(u) for u in ("PL", "AL", "TT", "AM", "PM", "PL")]
+            pts[list(layout.on("toes"))] += np.asarray(toes_offset[side], dtype=float)
+        c = pts[:, :2].mean(axis=0)
+        order = list(np.argsort(np.arctan2(pts[:, 1] - c[1], pts[:, 0] - c[0])))
+        order.append(order[0])
         ax.plot(pts[order, 1] * 100, pts[order, 0] * 100, color="0.6", lw=1)
         kk = k.get(side, {}) if k is not None else {}
         kmax = max((abs(v) for v in kk.values()), default=1.0) or 1.0
-        for i, u in enumerate(UNITS):
+        for i, u in enumerate(layout.units):
             val = kk.get(u)
             size = 60 + 240 * (abs(val) / kmax if val is not None else 0.3)
             hollow = val is not None and val < 0

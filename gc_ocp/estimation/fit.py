@@ -19,7 +19,7 @@ from gc_ocp.errors import InputError, RankError, SolveError
 from gc_ocp.estimation.components import full_model
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.solve import EstimationResult, IpoptOptions, solve
-from gc_ocp.foot import UNITS, TrialKinematics
+from gc_ocp.foot import TrialKinematics
 from gc_ocp.stance import StanceData, stance_data
 from gc_ocp.trial import SIDES, Trial
 
@@ -48,10 +48,11 @@ def lls_initial_k(trials: list[tuple[Trial, TrialKinematics]], n0: float) -> dic
     out = {}
     k_all = np.array([v for s in res.k.values() for v in s.values()])
     floor = max(np.median(k_all[k_all > 0]) * 0.1, 1e3) if np.any(k_all > 0) else 1e4
-    for side in SIDES:
+    units = {st.side: st.layout.units for st in sts}
+    for side in SIDES:  # a foot without stances gets the floor (the model declares both feet)
         out[side] = {
             u: float(max(res.k.get(side, {}).get(u, floor), floor) * TYPICAL_DEPTH ** (1 - n0))
-            for u in UNITS
+            for u in units.get(side, next(iter(units.values())))
         }
     return out
 

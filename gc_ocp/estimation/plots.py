@@ -7,6 +7,7 @@ from matplotlib.figure import Figure
 
 from gc_ocp.contact.plots import plot_sole, plot_wrench_fit
 from gc_ocp.estimation.result import EstimationResult
+from gc_ocp.foot import SoleLayout
 
 
 def plot_fit(
@@ -35,10 +36,15 @@ def plot_sole_fit(result: EstimationResult) -> Figure:
         toes[fit["side"]] = np.asarray(fit["toes_offset"])
         units[fit["side"]] = fit["units"]
     k = {s: {u: result.params[s][u]["k"] for u in units[s]} for s in pts if s in result.params}
-    fig = plot_sole(pts, k=k, toes_offset=toes, title="sole units: nominal (x) and corrected (o)")
+    layout = SoleLayout(
+        tuple(result.stance_fits[0]["units"]), tuple(result.stance_fits[0]["parents"])
+    )
+    fig = plot_sole(
+        pts, k=k, toes_offset=toes, title="sole units: nominal (x) and corrected (o)", layout=layout
+    )
     for ax, side in zip(fig.axes, pts, strict=False):
         nom = nominal[side].copy()
-        nom[units[side].index("TT")] += toes[side]
+        nom[list(layout.on("toes"))] += toes[side]
         ax.scatter(
             nom[:, 1] * 100, nom[:, 0] * 100, marker="x", color="C3", zorder=4, label="nominal"
         )

@@ -99,6 +99,7 @@ def decode(
                 "side": st.side,
                 "trial": st.trial,
                 "units": list(st.layout.units),
+                "parents": list(st.layout.parents),
                 "time": np.asarray(st.time),
                 "measured": np.asarray(st.measured),
                 "model": w,
