@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from gc_ocp.errors import InputError, MarkerError, PlateError, UnitsError
+from gc_ocp.gaps import fill_short_gaps
 from gc_ocp.io import (
     bundled_example_path,
     describe_trial,
@@ -19,7 +20,7 @@ from gc_ocp.io import (
     stride_body_weight,
     walking_rotation,
 )
-from gc_ocp.io._common import fill_short_gaps, rotation_z
+from gc_ocp.io._common import rotation_z
 from gc_ocp.io.c3d import unloaded_baseline
 from gc_ocp.trial import GRAVITY
 from gc_ocp.wrench import cop_from_wrench
@@ -297,6 +298,21 @@ def test_short_gaps_filled_long_gaps_left():
     filled, left = fill_short_gaps(m, t)
     np.testing.assert_allclose(filled[40:45, 0, 0], np.sin(t[40:45]), atol=1e-6)  # smooth signal
     assert np.isnan(filled[10:40, 1]).all() and left == [(1, t[10], t[39])]
+
+
+@pytest.mark.parametrize("g, filled_expected", [(10, True), (11, False)])
+def test_gap_length_rule_is_missing_samples_over_rate(g, filled_expected):
+    """One rule for the loaders and the low-pass: g missing samples last g / rate seconds."""
+    from gc_ocp.kinematics.filtering import lowpass
+
+    t = np.arange(200) / 100.0
+    x = np.stack([np.sin(t), np.cos(t), t], axis=1)[:, None, :]
+    x[50 : 50 + g] = np.nan  # g missing samples at 100 Hz: 0.1 s fills, 0.11 s does not
+    filled, left = fill_short_gaps(x, t, max_gap=0.1)
+    assert np.isfinite(filled).all() == filled_expected and (left == []) == filled_expected
+    assert np.isfinite(lowpass(x, 100.0, 6.0, time=t)).all() == filled_expected
+    x = np.asfortranarray(np.repeat(x, 2, axis=1))  # a non-contiguous selection is filled too
+    assert np.isfinite(lowpass(x, 100.0, 6.0, time=t)).all() == filled_expected
 
 
 # --- bad input -------------------------------------------------------------------------------

@@ -20,15 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from gc_ocp.errors import InputError, MarkerError
-from gc_ocp.io._common import (
-    MAX_GAP_FILL,
-    fill_short_gaps,
-    foot_markers,
-    heel_toe,
-    nan_runs,
-    rotation_z,
-    warn,
-)
+from gc_ocp.gaps import MAX_GAP_FILL, fill_short_gaps, nan_runs
+from gc_ocp.io._common import foot_markers, heel_toe, rotation_z, warn
 from gc_ocp.io.stances import DEFAULT_THRESHOLD, detect_stances
 from gc_ocp.trial import GRAVITY, Plate, Trial
 
