@@ -417,3 +417,10 @@ def test_stance_exclusions_on_a_synthetic_plate(cop_x_end, left_y, reason):
     else:
         assert not stances and excluded[0].reason.startswith(reason)
         assert any(reason in str(w.message) for w in caught)
+
+
+def test_floor_height_is_the_mean_plate_surface():
+    trial = load_trial()
+    expected = np.mean([p.surface_height for p in trial.plates])
+    assert trial.floor_height == pytest.approx(expected, abs=1e-15)
+    assert dataclasses.replace(trial, plates=(), stances=(), excluded_stances=()).floor_height == 0
