@@ -178,3 +178,12 @@ def test_twists_match_finite_differences():
     fid = body.foot_frames("left")["hindfoot"]
     tw = pin.getFrameVelocity(body.model, data, fid, pin.LOCAL_WORLD_ALIGNED)
     np.testing.assert_allclose(f.hindfoot_twist[k], np.r_[tw.linear, tw.angular], atol=1e-12)
+
+
+def test_io_height_estimate_is_the_pipelines():
+    from gc_ocp.io import estimate_height_from_markers
+
+    trial, kin = _kin("rajagopal")
+    assert trial.height is None  # so the pipeline estimated it
+    height, how = estimate_height_from_markers(trial)
+    assert height == kin.info["height"] and "pelvis" in how

@@ -64,7 +64,7 @@ def load_trial(
         example. grf: OpenSim ``.mot``/``.sto`` ground reactions for a TRC.
     mass: subject mass in [kg]; overrides the file. Required when the files carry none (TRC/MOT).
     height: subject height in [m]; overrides the file. ``None`` and not in the file -> ``None``
-        (downstream scaling needs it: see :func:`estimate_height_from_markers`).
+        (the kinematics then estimate it: see :func:`estimate_height_from_markers`).
     belt_speed: treadmill belt speed in [m/s] (>= 0); sets ``belt_velocity = (-belt_speed, 0, 0)``
         in lab (the belt runs backwards under a subject walking +X). Never guessed: see
         :func:`estimate_belt_speed`.
@@ -243,36 +243,42 @@ def require_markers(trial: Trial, names) -> None:
             )
 
 
-def estimate_height_from_markers(trial: Trial, n_frames: int = 10) -> tuple[float, str]:
-    """ESTIMATE of the subject height [m] from the markers (never applied automatically).
+def estimate_height_from_markers(
+    trial: Trial,
+    markerset=None,
+    standing: bool = False,
+    floor: float | None = None,
+) -> tuple[float, str]:
+    """ESTIMATE of the subject height [m] from the pelvis markers (never applied automatically).
 
-    Highest head marker (names containing HEAD/HD/FHD/BHD) above the floor in the first frames
-    + 0.08 m (head markers sit below the vertex); else shoulder/acromion/C7 height / 0.82
-    (shoulder height ~ 0.82 x stature, Drillis & Contini anthropometric ratios). Accuracy is a few
-    cm at best: pass the measured height when you have it. Returns (height, description).
+    The kinematics pipeline's estimator, :func:`gc_ocp.kinematics.scaling.estimate_height`, on
+    the trial's markers of ``markerset`` (a :class:`~gc_ocp.model.markerset.MarkerSet`, a shipped
+    name or a TOML path; default: detected from the labels), low-passed as in
+    :func:`~gc_ocp.kinematics.compute_kinematics` for a walking trial (``standing=False``: 95th
+    percentile of the pelvis height), raw for a static one (``standing=True``: median).
+    floor: floor height [m], default :attr:`Trial.floor_height` (give the walking trial's for a
+    static trial, which has no plates). Accuracy is a few per cent: pass the measured height when
+    you have it. Returns (height, description).
     """
-    floor = float(np.median([p.surface_height for p in trial.plates])) if trial.plates else 0.0
-    first = trial.markers[: max(1, n_frames)]
+    from gc_ocp.kinematics.filtering import lowpass
+    from gc_ocp.kinematics.scaling import estimate_height
+    from gc_ocp.model.markerset import MarkerSet, detect_markerset, load_markerset
 
-    def pick(keys):
-        idx = [i for i, n in enumerate(trial.marker_names) if any(k in n.upper() for k in keys)]
-        if not idx:
-            return None, None
-        z = np.nanmedian(first[:, idx, 2], axis=0)
-        if not np.isfinite(z).any():
-            return None, None
-        j = int(np.nanargmax(z))
-        return float(z[j] - floor), trial.marker_names[idx[j]]
-
-    z, name = pick(("HEAD", "FHD", "BHD"))
-    if z is not None:
-        return z + 0.08, f"ESTIMATE from head marker {name} ({z:.3f} m above the floor) + 0.08 m"
-    z, name = pick(("SHO", "ACROM", "C7", "SHOULDER"))
-    if z is not None:
-        return z / 0.82, f"ESTIMATE from shoulder marker {name} ({z:.3f} m above the floor) / 0.82"
-    raise MarkerError(
-        f"No head or shoulder marker in {trial.source} to estimate the height from; "
-        f"pass height=... / --height M."
+    if markerset is None:
+        markerset = detect_markerset(trial.marker_names)
+    elif not isinstance(markerset, MarkerSet):
+        markerset = load_markerset(markerset)
+    names = markerset.select(trial.marker_names, trial.source)
+    markers = trial.markers[:, [trial.marker_names.index(n) for n in names]]
+    if not standing:
+        markers = lowpass(markers, trial.marker_rate, time=trial.marker_time)
+    floor = trial.floor_height if floor is None else float(floor)
+    height = estimate_height(markers, names, markerset, floor, standing)
+    pelvis = [n for n in names if markerset.markers[n].segment == "pelvis"]
+    how = "median standing" if standing else "95th-percentile walking"
+    return height, (
+        f"ESTIMATE from the {how} height of the pelvis markers {pelvis} of marker set "
+        f'"{markerset.name}" above the floor z = {floor:.3f} m'
     )
 
 
