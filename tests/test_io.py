@@ -424,3 +424,19 @@ def test_floor_height_is_the_mean_plate_surface():
     expected = np.mean([p.surface_height for p in trial.plates])
     assert trial.floor_height == pytest.approx(expected, abs=1e-15)
     assert dataclasses.replace(trial, plates=(), stances=(), excluded_stances=()).floor_height == 0
+
+
+@needs_data
+def test_non_numeric_mot_cell_names_file_line_and_column(tmp_path):
+    lines = RAJ[1].read_text().splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.strip().lower() == "endheader") + 3
+    names = lines[k - 2].split("\t")
+    cells = lines[k].split("\t")
+    cells[1] = "n/a"
+    lines[k] = "\t".join(cells)
+    mot = tmp_path / "damaged.mot"
+    mot.write_text("\n".join(lines) + "\n")
+    with pytest.raises(
+        InputError, match=rf'damaged.mot, line {k + 1}: column "{names[1]}" is "n/a"'
+    ):
+        load_trial(RAJ[0], grf=mot, mass=RAJ_MASS)
