@@ -1,18 +1,23 @@
 """Command-line interface: ``gc-ocp SUBCOMMAND ...``.
 
 Every subcommand prints a one-line error (no traceback) and exits with status 2 on bad input
-(any :class:`gc_ocp.errors.GcOcpError`), and exits 1 when a numerical solve fails.
+(any :class:`gc_ocp.errors.GcOcpError`), and exits 1 when a numerical solve fails. Any other
+exception is a bug: one line ``internal error: <type>: <message> (please report with the command
+line)`` and exit status 3. Set the environment variable ``GC_OCP_DEBUG=1`` to also print the
+traceback.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+import traceback
 import warnings
 from pathlib import Path
 
-from gc_ocp.errors import GcOcpError, SolveError
+from gc_ocp.errors import GcOcpError, InputError, SolveError
 
 
 def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> None:
@@ -53,7 +58,7 @@ def _load(args: argparse.Namespace):
 
     trials = args.trial or [None]
     if args.grf is not None and len(trials) > 1:
-        raise GcOcpError(
+        raise InputError(
             "--grf applies to one TRC trial; give one trial per command when using --grf."
         )
     return [
@@ -105,7 +110,9 @@ def cmd_reproduce_seed(args: argparse.Namespace) -> int:
 
     trials = _load(args)
     if len(trials) != 1:
-        raise GcOcpError(f"reproduce-seed takes one trial, but got {len(trials)}")
+        raise InputError(
+            f"reproduce-seed takes one trial, but got {len(trials)}; run it once per trial."
+        )
     [trial] = trials
     kin = _kinematics(trial, args)
     res = reproduce_seed(
@@ -232,17 +239,25 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except SolveError as e:
-        print(f"gc-ocp {args.command}: solve failed: {e}", file=sys.stderr)
-        return 1
+        return _fail(args, f"solve failed: {e}", 1)
     except GcOcpError as e:
-        print(f"gc-ocp {args.command}: error: {e}", file=sys.stderr)
-        return 2
+        return _fail(args, f"error: {e}", 2)
     except FileNotFoundError as e:
-        print(
-            f"gc-ocp {args.command}: error: file not found: {e.filename}; check the path.",
-            file=sys.stderr,
+        return _fail(args, f"error: file not found: {e.filename}; check the path.", 2)
+    except Exception as e:  # last resort: not bad input but a bug
+        return _fail(
+            args,
+            f"internal error: {type(e).__name__}: {e} (please report with the command line)",
+            3,
         )
-        return 2
+
+
+def _fail(args: argparse.Namespace, message: str, status: int) -> int:
+    """Print ``message`` as one line on stderr (the traceback too if ``GC_OCP_DEBUG=1``)."""
+    if os.environ.get("GC_OCP_DEBUG") == "1":
+        traceback.print_exc()
+    print(f"gc-ocp {args.command}: {' '.join(message.split())}", file=sys.stderr)
+    return status
 
 
 if __name__ == "__main__":

@@ -159,6 +159,12 @@ class Trial:
         return float(1.0 / np.median(np.diff(self.marker_time)))
 
     @property
+    def floor_height(self) -> float:
+        """Height of the floor in ``lab`` Z [m]: the mean ``surface_height`` of the plates, 0 without
+        plates. The one floor used for sole-height calibration, height estimation and plots."""
+        return float(np.mean([p.surface_height for p in self.plates])) if self.plates else 0.0
+
+    @property
     def body_weight(self) -> float:
         """Body weight [N] = mass * g."""
         return self.mass * GRAVITY

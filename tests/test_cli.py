@@ -85,3 +85,42 @@ def test_trc_without_grf_names_the_option(tmp_path, capsys):
     trc.write_text("PathFileType\t4\n")
     assert main(["info", str(trc)]) == 2
     assert "--grf" in capsys.readouterr().err
+
+
+def test_non_numeric_trc_cell_exits_2_naming_file_line_and_marker(tmp_path, capsys):
+    from conftest import RAJ
+
+    if not RAJ.is_dir():
+        pytest.skip(f"real datasets not found at {RAJ}")
+    lines = (RAJ / "motion_capture_walk.trc").read_text().splitlines()
+    cells = lines[11].split("\t")  # line 12 = the 7th data row
+    cells[9] = "1.2.3"  # the third marker's Y coordinate (cells: frame, time, x1, y1, z1, ...)
+    lines[11] = "\t".join(cells)
+    trc = tmp_path / "damaged.trc"
+    trc.write_text("\n".join(lines) + "\n")
+    marker = [n.strip() for n in lines[3].split("\t")[2:] if n.strip()][2]
+    argv = ["info", str(trc), "--grf", str(RAJ / "grf_walk.mot"), "--mass", "85.07"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert "damaged.trc, line 12" in err and '"1.2.3", not a number' in err
+    assert f'marker "{marker}" Y' in err, err
+
+
+def test_unexpected_exception_is_one_line_internal_error_exit_3(monkeypatch, capsys):
+    import gc_ocp.cli as cli
+
+    def boom(args):
+        raise ZeroDivisionError("float division by zero")
+
+    monkeypatch.setattr(cli, "cmd_info", boom)
+    monkeypatch.delenv("GC_OCP_DEBUG", raising=False)
+    assert main(["info"]) == 3
+    err = capsys.readouterr().err
+    assert err == (
+        "gc-ocp info: internal error: ZeroDivisionError: float division by zero "
+        "(please report with the command line)\n"
+    )
+    monkeypatch.setenv("GC_OCP_DEBUG", "1")
+    assert main(["info"]) == 3
+    assert "Traceback" in capsys.readouterr().err

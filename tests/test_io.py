@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from gc_ocp.errors import InputError, MarkerError, PlateError, UnitsError
+from gc_ocp.gaps import fill_short_gaps
 from gc_ocp.io import (
     bundled_example_path,
     describe_trial,
@@ -19,7 +20,7 @@ from gc_ocp.io import (
     stride_body_weight,
     walking_rotation,
 )
-from gc_ocp.io._common import fill_short_gaps, rotation_z
+from gc_ocp.io._common import rotation_z
 from gc_ocp.io.c3d import unloaded_baseline
 from gc_ocp.trial import GRAVITY
 from gc_ocp.wrench import cop_from_wrench
@@ -299,6 +300,21 @@ def test_short_gaps_filled_long_gaps_left():
     assert np.isnan(filled[10:40, 1]).all() and left == [(1, t[10], t[39])]
 
 
+@pytest.mark.parametrize("g, filled_expected", [(10, True), (11, False)])
+def test_gap_length_rule_is_missing_samples_over_rate(g, filled_expected):
+    """One rule for the loaders and the low-pass: g missing samples last g / rate seconds."""
+    from gc_ocp.kinematics.filtering import lowpass
+
+    t = np.arange(200) / 100.0
+    x = np.stack([np.sin(t), np.cos(t), t], axis=1)[:, None, :]
+    x[50 : 50 + g] = np.nan  # g missing samples at 100 Hz: 0.1 s fills, 0.11 s does not
+    filled, left = fill_short_gaps(x, t, max_gap=0.1)
+    assert np.isfinite(filled).all() == filled_expected and (left == []) == filled_expected
+    assert np.isfinite(lowpass(x, 100.0, 6.0, time=t)).all() == filled_expected
+    x = np.asfortranarray(np.repeat(x, 2, axis=1))  # a non-contiguous selection is filled too
+    assert np.isfinite(lowpass(x, 100.0, 6.0, time=t)).all() == filled_expected
+
+
 # --- bad input -------------------------------------------------------------------------------
 
 
@@ -401,3 +417,26 @@ def test_stance_exclusions_on_a_synthetic_plate(cop_x_end, left_y, reason):
     else:
         assert not stances and excluded[0].reason.startswith(reason)
         assert any(reason in str(w.message) for w in caught)
+
+
+def test_floor_height_is_the_mean_plate_surface():
+    trial = load_trial()
+    expected = np.mean([p.surface_height for p in trial.plates])
+    assert trial.floor_height == pytest.approx(expected, abs=1e-15)
+    assert dataclasses.replace(trial, plates=(), stances=(), excluded_stances=()).floor_height == 0
+
+
+@needs_data
+def test_non_numeric_mot_cell_names_file_line_and_column(tmp_path):
+    lines = RAJ[1].read_text().splitlines()
+    k = next(i for i, ln in enumerate(lines) if ln.strip().lower() == "endheader") + 3
+    names = lines[k - 2].split("\t")
+    cells = lines[k].split("\t")
+    cells[1] = "n/a"
+    lines[k] = "\t".join(cells)
+    mot = tmp_path / "damaged.mot"
+    mot.write_text("\n".join(lines) + "\n")
+    with pytest.raises(
+        InputError, match=rf'damaged.mot, line {k + 1}: column "{names[1]}" is "n/a"'
+    ):
+        load_trial(RAJ[0], grf=mot, mass=RAJ_MASS)

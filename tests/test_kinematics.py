@@ -10,6 +10,7 @@ import pytest
 from conftest import c3d_trial, gait2392_static, gait2392_trial, rajagopal_static, rajagopal_trial
 
 from gc_ocp.foot import UNITS
+from gc_ocp.geometry import kabsch
 from gc_ocp.kinematics import compute_kinematics, lowpass, solve_ik
 from gc_ocp.kinematics.scaling import build_marker_model
 from gc_ocp.model import BodyModel
@@ -32,6 +33,25 @@ def test_lowpass_zero_lag_and_gaps():
     x[150:200] = np.nan  # 0.5 s gap: too long to fill, stays NaN
     y = lowpass(x[:, None], rate, 6.0)[:, 0]
     assert np.all(np.isnan(y[150:200])) and np.all(np.isfinite(y[:150]))
+
+
+def test_kabsch_recovers_pose_batched_and_never_reflects():
+    rng = np.random.default_rng(3)
+    local = rng.normal(0, 0.1, (5, 3))
+    R_true = np.stack([pin.exp3(rng.normal(0, 1, 3)) for _ in range(4)])
+    t_true = rng.normal(0, 1, (4, 3))
+    lab = np.einsum("nij,mj->nmi", R_true, local) + t_true[:, None]
+    R, t = kabsch(local, lab)  # time-first batch
+    np.testing.assert_allclose(R, R_true, atol=1e-12)
+    np.testing.assert_allclose(t, t_true, atol=1e-12)
+    R0, t0 = kabsch(local, lab[0])  # one frame: the same numbers as the batch's first frame
+    np.testing.assert_array_equal(R0, R[0])
+    np.testing.assert_array_equal(t0, t[0])
+    # mirrored points: the best orthogonal fit is a reflection; kabsch returns a rotation
+    R, _ = kabsch(local, local * [1.0, 1.0, -1.0])
+    assert np.linalg.det(R) == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="but got"):
+        kabsch(local, lab[:, :4])
 
 
 @functools.cache
@@ -158,3 +178,12 @@ def test_twists_match_finite_differences():
     fid = body.foot_frames("left")["hindfoot"]
     tw = pin.getFrameVelocity(body.model, data, fid, pin.LOCAL_WORLD_ALIGNED)
     np.testing.assert_allclose(f.hindfoot_twist[k], np.r_[tw.linear, tw.angular], atol=1e-12)
+
+
+def test_io_height_estimate_is_the_pipelines():
+    from gc_ocp.io import estimate_height_from_markers
+
+    trial, kin = _kin("rajagopal")
+    assert trial.height is None  # so the pipeline estimated it
+    height, how = estimate_height_from_markers(trial)
+    assert height == kin.info["height"] and "pelvis" in how

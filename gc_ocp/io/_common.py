@@ -1,5 +1,6 @@
-"""Pieces shared by the C3D and OpenSim readers: the raw-trial container, units, frames,
-marker gap filling and foot-marker lookup."""
+"""Pieces shared by the C3D and OpenSim readers: the raw-trial container, units, frames and
+foot-marker lookup. Marker gap filling is
+:func:`gc_ocp.gaps.fill_short_gaps`."""
 
 from __future__ import annotations
 
@@ -9,15 +10,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from gc_ocp.errors import UnitsError
 from gc_ocp.trial import Plate
-
-MAX_GAP_FILL = 0.1
-"""Longest marker gap filled by interpolation, in [s]. Longer gaps stay NaN (see
-:func:`gc_ocp.io.require_markers`). 0.1 s is about a tenth of a gait cycle: a cubic spline
-through the neighbouring frames is then well below marker noise for foot markers."""
 
 Y_UP_TO_LAB = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 """OpenSim (X forward, Y up, Z right) -> lab (X forward, Y left, Z up): (x, y, z) -> (x, -z, y)."""
@@ -114,45 +109,6 @@ def heel_toe(names: list[str] | tuple[str, ...], side: str) -> tuple[int | None,
         if "TOE" in u and (toe is None or "TIP" in u):
             toe = i
     return heel, toe
-
-
-# --- gaps -----------------------------------------------------------------------------------
-
-
-def nan_runs(valid: np.ndarray) -> list[tuple[int, int]]:
-    """Half-open index ranges ``[a, b)`` where ``valid`` is False."""
-    bad = ~valid
-    if not bad.any():
-        return []
-    d = np.diff(np.concatenate([[0], bad.astype(int), [0]]))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True))
-
-
-def fill_short_gaps(markers: np.ndarray, time: np.ndarray, max_gap: float = MAX_GAP_FILL):
-    """Fill interior NaN gaps of at most ``max_gap`` [s] with a cubic spline through the valid
-    frames of each marker; longer gaps and gaps at the file ends stay NaN.
-
-    Returns the filled copy and the list of ``(marker_index, t_start, t_end)`` gaps left NaN.
-    """
-    out = np.array(markers, dtype=float, copy=True)
-    left: list[tuple[int, float, float]] = []
-    dt = float(np.median(np.diff(time))) if len(time) > 1 else 0.0
-    for j in range(out.shape[1]):
-        valid = np.all(np.isfinite(out[:, j]), axis=1)
-        runs = nan_runs(valid)
-        if not runs or valid.sum() < 4:
-            if runs:
-                left.append((j, float(time[0]), float(time[-1])))
-            continue
-        spline = CubicSpline(time[valid], out[valid, j], axis=0)
-        for a, b in runs:
-            interior = a > 0 and b < len(time)
-            length = (time[b] - time[a - 1] - dt) if interior else np.inf
-            if interior and length <= max_gap + 1e-9:
-                out[a:b, j] = spline(time[a:b])
-            else:
-                left.append((j, float(time[a]), float(time[b - 1])))
-    return out, left
 
 
 def warn(message: str) -> None:

@@ -48,6 +48,16 @@ def _param(params: dict, group: str, name: str):
         return None
 
 
+def _first_number(value) -> float | None:
+    """First element of a C3D parameter value as a float; ``None`` if empty or not numeric
+    (a text subject parameter is treated as absent: the user is then asked for it)."""
+    v = np.ravel(value)
+    try:
+        return float(v[0]) if v.size else None
+    except (TypeError, ValueError):
+        return None
+
+
 def _model_outputs(params: dict, labels: list[str]) -> set[str]:
     """Labels that are software model outputs, not measured markers.
 
@@ -161,7 +171,14 @@ def read_c3d(path: Path) -> RawTrial:
         if not np.isfinite(force).any() or np.ptp(corners, axis=0).max() == 0:
             notes.append(f"plate{i + 1}: no corners or no data, skipped")
             continue
-        origin_param = np.asarray(params["FORCE_PLATFORM"]["ORIGIN"]["value"], float)[:, i] * pos
+        origin = _param(params, "FORCE_PLATFORM", "ORIGIN")
+        if origin is None or np.asarray(origin).ndim != 2 or np.asarray(origin).shape[1] <= i:
+            raise PlateError(
+                f"Plate {i + 1} in {path} has no FORCE_PLATFORM:ORIGIN parameter (the electrical "
+                f"centre below the surface): export the C3D again with the force-plate "
+                f"calibration from your motion-capture software."
+            )
+        origin_param = np.asarray(origin, float)[:, i] * pos
         offset = _plate_axes(corners) @ origin_param
         if offset[2] > 0:  # electrical centre must be below the surface
             offset = -offset
@@ -207,13 +224,13 @@ def read_c3d(path: Path) -> RawTrial:
         g = params.get(group, {})
         for key in g:
             if mass is None and key.upper() in ("BODYMASS", "MASS", "WEIGHT"):
-                v = np.ravel(g[key]["value"])
-                if v.size and float(v[0]) > 0:
-                    mass, mass_source = float(v[0]), f"{group}:{key} in {path.name}"
+                v = _first_number(g[key]["value"])
+                if v is not None and v > 0:
+                    mass, mass_source = v, f"{group}:{key} in {path.name}"
             if height is None and key.upper() in ("HEIGHT", "BODYHEIGHT"):
-                v = np.ravel(g[key]["value"])
-                if v.size and float(v[0]) > 0:
-                    h = float(v[0])
+                v = _first_number(g[key]["value"])
+                if v is not None and v > 0:
+                    h = v
                     height = h / 1000.0 if h > 3.0 else h  # Vicon stores mm
                     height_source = f"{group}:{key} in {path.name}"
     return RawTrial(

@@ -45,17 +45,28 @@ def read_trc(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
         raise InputError(f"{path}: no 'Units' in the TRC header (line 3); add mm or m.")
     scale = unit_scale(unit, path, "TRC Units")
     names = [n.strip() for n in lines[3].split("\t")[2:] if n.strip()]
+    columns = ["Frame#", "Time"] + [f'marker "{n}" {a}' for n in names for a in "XYZ"]
     rows = []
-    for line in lines[5:]:
+    for lineno, line in enumerate(lines[5:], start=6):
         if not line.strip():
             continue
-        cells = line.rstrip("\n").split("\t")
-        row = [float(c) if c.strip() else np.nan for c in cells[: 2 + 3 * len(names)]]
-        row += [np.nan] * (2 + 3 * len(names) - len(row))
+        cells = line.rstrip("\n").split("\t")[: len(columns)]
+        row = [
+            _number(c, path, lineno, col, blank=np.nan)
+            for c, col in zip(cells, columns, strict=False)
+        ]
+        row += [np.nan] * (len(columns) - len(row))
         rows.append(row)
+    if not rows:
+        raise InputError(f"{path} has no data rows after its 5-line TRC header.")
     data = np.asarray(rows, dtype=float)
     time = data[:, 1]
-    rate = float(header.get("DataRate", "nan"))
+    if not np.all(np.isfinite(time)):
+        k = int(np.flatnonzero(~np.isfinite(time))[0])
+        raise InputError(
+            f"{path}: data row {k + 1} has no Time value; every TRC row needs its time in column 2."
+        )
+    rate = _number(header.get("DataRate", ""), path, 3, "DataRate", blank=np.nan)
     if np.isfinite(rate) and rate > 0:
         regular = time[0] + np.arange(len(time)) / rate
         if np.max(np.abs(regular - time)) < 0.5 / rate:
@@ -82,13 +93,40 @@ def read_mot(path: Path) -> tuple[list[str], np.ndarray, dict[str, str]]:
         if "=" in ln:
             k, v = ln.split("=", 1)
             header[k.strip()] = v.strip()
+    if len(lines) < end + 3:
+        raise InputError(
+            f"{path} has no column names or no data after 'endheader'; export the ground "
+            f"reactions again as .mot."
+        )
     names = [n.strip() for n in lines[end + 1].split("\t") if n.strip()]
     rows = []
-    for ln in lines[end + 2 :]:
+    for lineno, ln in enumerate(lines[end + 2 :], start=end + 3):
         cells = [c for c in re.split(r"[\t ]+", ln.strip()) if c]
-        if cells:
-            rows.append([float(c) for c in cells[: len(names)]])
+        if not cells:
+            continue
+        if len(cells) < len(names):
+            raise InputError(
+                f"{path}, line {lineno}: {len(cells)} values for {len(names)} columns; the row "
+                f"is truncated. Export the ground reactions again or remove the row."
+            )
+        rows.append(
+            [_number(c, path, lineno, f'column "{n}"') for c, n in zip(cells, names, strict=False)]
+        )
     return names, np.asarray(rows, dtype=float), header
+
+
+def _number(cell: str, path: Path, lineno: int, what: str, blank: float | None = None) -> float:
+    """``float(cell)``, or ``blank`` for an empty cell when given; else :class:`InputError`
+    naming the file, the line and the column."""
+    if blank is not None and not cell.strip():
+        return blank
+    try:
+        return float(cell)
+    except ValueError:
+        raise InputError(
+            f'{path}, line {lineno}: {what} is "{cell.strip()}", not a number. Fix the cell in '
+            f"the file (leave a marker coordinate empty where the marker is missing)."
+        ) from None
 
 
 _FORCE = re.compile(r"^(?P<pre>.*?)force(?P<mid>.*?)_v(?P<ax>[xyz])(?P<post>.*)$", re.IGNORECASE)

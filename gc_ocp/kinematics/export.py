@@ -24,11 +24,6 @@ from gc_ocp.outputs import atomic_savefig, atomic_write, atomic_write_text
 from gc_ocp.trial import Trial
 
 
-def floor_height(trial: Trial) -> float:
-    """Plate surface height [m] (median over plates), 0 without plates."""
-    return float(np.median([p.surface_height for p in trial.plates])) if trial.plates else 0.0
-
-
 def midstance_heights(
     trial: Trial, kin: TrialKinematics, lo: float = 0.25, hi: float = 0.5
 ) -> list[dict]:
@@ -75,7 +70,7 @@ def plot_kinematics(trial: Trial, kin: TrialKinematics):
     axes[0].plot(kin.time, np.asarray(kin.marker_rms) * 1e3, color="k")
     axes[0].set_ylabel("marker RMS [mm]")
     axes[0].set_title(f"{trial.name}: inverse kinematics and sole points")
-    floor = floor_height(trial)
+    floor = trial.floor_height
     for ax, side in zip(axes[1:], ("left", "right"), strict=True):
         foot = kin.feet[side]
         for i, u in enumerate(UNITS):

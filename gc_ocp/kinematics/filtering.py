@@ -5,35 +5,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import butter, filtfilt
 
+from gc_ocp.gaps import MAX_GAP_FILL, fill_short_gaps
+
 DEFAULT_CUTOFF_HZ = 6.0
 """Default marker low-pass cutoff [Hz]: the usual choice for walking kinematics (Winter's residual
 analysis gives 4-7 Hz for lower-limb markers in walking). Override with ``cutoff_hz``."""
-
-MAX_GAP_S = 0.1
-"""Gaps up to this duration [s] are filled by cubic interpolation before filtering; longer gaps stay NaN."""
-
-
-def fill_gaps(x: np.ndarray, time: np.ndarray, max_gap: float = MAX_GAP_S) -> np.ndarray:
-    """Fill NaN runs shorter than ``max_gap`` [s] in each column of ``x`` ``(n, ...)``; returns a copy."""
-    from scipy.interpolate import CubicSpline
-
-    x = np.array(x, dtype=float, copy=True)
-    flat = x.reshape(x.shape[0], -1)
-    for j in range(flat.shape[1]):
-        c = flat[:, j]
-        bad = np.isnan(c)
-        if not bad.any() or bad.all() or (~bad).sum() < 4:
-            continue
-        good = ~bad
-        spl = CubicSpline(time[good], c[good])
-        # runs of NaN
-        idx = np.flatnonzero(np.diff(np.r_[0, bad.astype(int), 0]))
-        for a, b in zip(idx[::2], idx[1::2], strict=True):
-            if a == 0 or b == len(c):
-                continue  # do not extrapolate at the ends
-            if time[b] - time[a - 1] <= max_gap + 1e-9:
-                c[a:b] = spl(time[a:b])
-    return flat.reshape(x.shape)
 
 
 def lowpass(
@@ -46,8 +22,9 @@ def lowpass(
     """Zero-lag Butterworth low-pass along axis 0 (``filtfilt`` of an ``order/2`` design, so the
     effective order is ``order``, 4 by default), NaN-aware.
 
-    x: ``(n, ...)`` samples at ``rate`` [Hz]; cutoff_hz [Hz]. Short gaps (``MAX_GAP_S``) are
-    interpolated first; each remaining NaN-free run is filtered separately and NaNs stay NaN.
+    x: ``(n, ...)`` samples at ``rate`` [Hz]; cutoff_hz [Hz]. Gaps of at most ``MAX_GAP_FILL`` [s]
+    (``g / rate`` for ``g`` missing samples, :mod:`gc_ocp.gaps`) are interpolated first (per
+    ``x[:, j]``: a marker of ``(n, m, 3)`` markers); each remaining NaN-free run is filtered separately and NaNs stay NaN.
     """
     if not 0 < cutoff_hz < rate / 2:
         from gc_ocp.errors import InputError
@@ -57,7 +34,7 @@ def lowpass(
         )
     if time is None:
         time = np.arange(x.shape[0]) / rate
-    x = fill_gaps(x, time)
+    x, _ = fill_short_gaps(x, time, MAX_GAP_FILL)
     b, a = butter(order // 2, cutoff_hz / (rate / 2))
     out = np.full_like(x, np.nan)
     flat, fout = x.reshape(x.shape[0], -1), out.reshape(x.shape[0], -1)

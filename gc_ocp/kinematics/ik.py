@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from gc_ocp.geometry import kabsch
 from gc_ocp.model.body import BodyModel
 from gc_ocp.model.urdf import PELVIS_JOINTS
 
@@ -95,16 +96,6 @@ class IKResult:
     seconds: float
 
 
-def _kabsch(local: np.ndarray, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """R, t minimising sum || R local_i + t - lab_i ||^2."""
-    cl, cw = local.mean(0), lab.mean(0)
-    H = (local - cl).T @ (lab - cw)
-    U, _, Vt = np.linalg.svd(H)
-    d = np.sign(np.linalg.det(Vt.T @ U.T))
-    R = Vt.T @ np.diag([1, 1, d]) @ U.T
-    return R, cw - R @ cl
-
-
 def pelvis_q_from_pose(R: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Pelvis coordinates (tx, ty, tz, rz, rx, ry) of the pose ``R = Rz(rz) Rx(rx) Ry(ry)``, ``t``."""
     rx = np.arcsin(np.clip(R[2, 1], -1, 1))
@@ -121,7 +112,7 @@ def initial_q(mm: MarkerModel, frame_markers: np.ndarray) -> np.ndarray:
     ok = ~np.isnan(frame_markers).any(1)
     pel = np.array([s == "pelvis" for s in mm.segments]) & ok
     if pel.sum() >= 3:
-        R, t = _kabsch(mm.local[pel], frame_markers[pel])
+        R, t = kabsch(mm.local[pel], frame_markers[pel])
         q[idx] = pelvis_q_from_pose(R, t)
     elif ok.any():
         q[idx[:3]] = frame_markers[ok].mean(0)

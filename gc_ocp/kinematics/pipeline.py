@@ -12,9 +12,10 @@ Sole points (``PL, PM, AL, AM`` on the hindfoot, ``TT`` on the toes) in their se
   ``POSTERIOR_HALF_WIDTH`` foot widths around the heel marker. ``TT`` on the anterior mid-line.
 * Z (height): the known floor plane. With a static trial (feet flat on the floor), each unit's
   local Z is chosen so that its mean lab height over the static frames equals the floor height
-  (mean plate ``surface_height``, 0 without plates). Without a static trial the same is done over the
-  foot-flat part of the walking stances, ``FOOT_FLAT`` = 20-45 % of each stance of ``trial.stances``
-  (after heel-strike loading response, before heel-off), on the stance's plate surface.
+  (:attr:`~gc_ocp.trial.Trial.floor_height`: mean plate ``surface_height``, 0 without plates).
+  Without a static trial the same is done over the foot-flat part of the walking stances,
+  ``FOOT_FLAT`` = 20-45 % of each stance of ``trial.stances`` (after heel-strike loading
+  response, before heel-off), on the stance's plate surface.
 """
 
 from __future__ import annotations
@@ -45,10 +46,6 @@ STATIC_PRIOR_FRAMES = 2.0
 static-trial marker positions when they are refined on the walking trial."""
 
 
-def _floor(trial: Trial) -> float:
-    return float(np.mean([p.surface_height for p in trial.plates])) if trial.plates else 0.0
-
-
 def _stance_frames(
     trial: Trial, time: np.ndarray, side: str, window
 ) -> list[tuple[np.ndarray, float]]:
@@ -63,7 +60,7 @@ def _stance_frames(
             h = (
                 trial.plates[st.plate].surface_height
                 if st.plate < len(trial.plates)
-                else _floor(trial)
+                else trial.floor_height
             )
             out.append((idx, h))
     return out
@@ -199,7 +196,7 @@ def compute_kinematics(
     names = markerset.select(trial.marker_names, trial.source)
     idx = [trial.marker_names.index(n) for n in names]
     markers = lowpass(trial.markers[:, idx], trial.marker_rate, cutoff_hz, time=trial.marker_time)
-    floor = _floor(trial)
+    floor = trial.floor_height
 
     st_markers = None
     if static is not None:
@@ -225,7 +222,11 @@ def compute_kinematics(
     if height is None:
         if st_markers is not None:
             height = estimate_height(
-                st_markers, st_names, markerset, _floor(static) if static.plates else floor, True
+                st_markers,
+                st_names,
+                markerset,
+                static.floor_height if static.plates else floor,
+                True,
             )
         else:
             height = estimate_height(markers, names, markerset, floor, False)
@@ -281,7 +282,7 @@ def compute_kinematics(
         pts = sole_points_xy(mm, markerset, body, side, height)
         if static is not None:
             qs = reg_res.q
-            floors = np.full(len(qs), _floor(static) if static.plates else floor)
+            floors = np.full(len(qs), static.floor_height if static.plates else floor)
             src = "static"
         else:
             frames = _stance_frames(trial, t, side, FOOT_FLAT)

@@ -1,0 +1,78 @@
+"""Gaps (NaN runs) in sampled signals: where they are, how long they last, and filling the short
+ones. Pure numerics (NumPy/SciPy), shared by the loaders (:mod:`gc_ocp.io`) and the marker
+low-pass (:mod:`gc_ocp.kinematics.filtering`).
+
+Gap length rule (the one used everywhere in gc_ocp): a gap of ``g`` consecutive missing samples
+at ``rate`` [Hz] lasts ``g / rate`` seconds, the time the ``g`` missing samples stand for. The
+interval between the two valid samples that bracket it is one sample longer, ``(g + 1) / rate``.
+With 100 Hz markers and ``MAX_GAP_FILL = 0.1`` s, gaps of up to 10 missing frames are filled.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+MAX_GAP_FILL = 0.1
+"""Longest marker gap filled by interpolation, in [s] (``g / rate``, see the module docstring).
+Longer gaps stay NaN (see :func:`gc_ocp.io.require_markers`). 0.1 s is about a tenth of a gait
+cycle: a cubic spline through the neighbouring frames is then well below marker noise for foot
+markers."""
+
+
+def nan_runs(valid: np.ndarray) -> list[tuple[int, int]]:
+    """Half-open index ranges ``[a, b)`` where ``valid`` ``(n,)`` is False; ``b - a`` is the
+    number of missing samples ``g`` of the gap."""
+    bad = ~np.asarray(valid, dtype=bool)
+    if not bad.any():
+        return []
+    d = np.diff(np.concatenate([[0], bad.astype(int), [0]]))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True))
+
+
+def gap_duration(time: np.ndarray, a: int, b: int, dt: float | None = None) -> float:
+    """Duration [s] of the interior gap ``[a, b)`` of samples at times ``time`` ``(n,)`` [s]:
+    ``g / rate`` with ``g = b - a`` missing samples, computed as the time between the bracketing
+    valid samples ``time[b] - time[a - 1]`` minus one sample period ``dt`` [s] (default: the
+    median step of ``time``)."""
+    if dt is None:
+        dt = float(np.median(np.diff(time)))
+    return float(time[b] - time[a - 1] - dt)
+
+
+def fill_short_gaps(
+    x: np.ndarray, time: np.ndarray, max_gap: float = MAX_GAP_FILL
+) -> tuple[np.ndarray, list[tuple[int, float, float]]]:
+    """Fill the interior NaN gaps of at most ``max_gap`` [s] (``g / rate``, see the module
+    docstring) with a cubic spline through the valid samples of each channel.
+
+    x: ``(n, ...)`` samples at times ``time`` ``(n,)`` [s], time first. Channel ``j`` is
+        ``x[:, j]`` (e.g. one marker of an ``(n, m, 3)`` marker array, one column of ``(n, k)``);
+        a sample of a channel is valid when all its components are finite. ``(n,)`` is one
+        channel.
+    Gaps at the ends (no valid sample on one side: no extrapolation), longer gaps and every gap
+    of a channel with fewer than 4 valid samples stay NaN.
+
+    Returns the filled copy and the gaps left NaN as ``(channel, t_first, t_last)`` [s] (times of
+    the first and last missing sample; a channel without 4 valid samples is reported once over
+    the whole time range).
+    """
+    out = np.array(x, dtype=float, copy=True, order="C")  # C order: ``flat`` is a view of it
+    flat = out.reshape(out.shape[0], 1, -1) if out.ndim == 1 else out.reshape(*out.shape[:2], -1)
+    left: list[tuple[int, float, float]] = []
+    dt = float(np.median(np.diff(time))) if len(time) > 1 else 0.0
+    for j in range(flat.shape[1]):
+        valid = np.all(np.isfinite(flat[:, j]), axis=1)
+        runs = nan_runs(valid)
+        if not runs or valid.sum() < 4:
+            if runs:
+                left.append((j, float(time[0]), float(time[-1])))
+            continue
+        spline = CubicSpline(time[valid], flat[valid, j], axis=0)
+        for a, b in runs:
+            interior = a > 0 and b < len(time)
+            if interior and gap_duration(time, a, b, dt) <= max_gap + 1e-9:
+                flat[a:b, j] = spline(time[a:b])
+            else:
+                left.append((j, float(time[a]), float(time[b - 1])))
+    return out, left

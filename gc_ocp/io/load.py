@@ -1,0 +1,190 @@
+"""Loading a walking trial (C3D, or TRC + MOT/STO) or a static trial into a
+:class:`~gc_ocp.trial.Trial` in the ``lab`` frame (see :mod:`gc_ocp.io`)."""
+
+from __future__ import annotations
+
+import dataclasses
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from gc_ocp.errors import InputError
+from gc_ocp.gaps import fill_short_gaps
+from gc_ocp.io._common import Y_UP_TO_LAB, warn
+from gc_ocp.io.c3d import read_c3d
+from gc_ocp.io.opensim import read_opensim, read_trc
+from gc_ocp.io.orientation import walking_rotation
+from gc_ocp.io.stances import DEFAULT_THRESHOLD, detect_stances
+from gc_ocp.trial import GRAVITY, Plate, Trial
+
+
+def bundled_example_path() -> Path:
+    """Path of the bundled example C3D (Plug-in Gait, Vicon; MIT licence, see
+    ``gc_ocp/data/LICENSE_test_small.txt``)."""
+    return Path(str(resources.files("gc_ocp") / "data" / "test_small.c3d"))
+
+
+def load_trial(
+    path: str | Path | None = None,
+    grf: str | Path | None = None,
+    *,
+    mass: float | None = None,
+    height: float | None = None,
+    belt_speed: float | None = None,
+    stance_threshold: float | None = None,
+) -> Trial:
+    """Load a walking trial into a :class:`~gc_ocp.trial.Trial`.
+
+    path: ``.c3d`` file, or ``.trc`` marker file (then ``grf`` is required); ``None`` = bundled
+        example. grf: OpenSim ``.mot``/``.sto`` ground reactions for a TRC.
+    mass: subject mass in [kg]; overrides the file. Required when the files carry none (TRC/MOT).
+    height: subject height in [m]; overrides the file. ``None`` and not in the file -> ``None``
+        (the kinematics then estimate it: see :func:`estimate_height_from_markers`).
+    belt_speed: treadmill belt speed in [m/s] (>= 0); sets ``belt_velocity = (-belt_speed, 0, 0)``
+        in lab (the belt runs backwards under a subject walking +X). Never guessed: see
+        :func:`estimate_belt_speed`.
+    stance_threshold: vertical-force contact threshold in [N] (default 20 N).
+    """
+    path = bundled_example_path() if path is None else Path(path)
+    if not path.is_file():
+        raise InputError(f"Trial file {path} does not exist; check the path (a .c3d or .trc file).")
+    suffix = path.suffix.lower()
+    threshold = DEFAULT_THRESHOLD if stance_threshold is None else float(stance_threshold)
+    if suffix == ".c3d":
+        if grf is not None:
+            warn(f"{path} is a C3D file: its own plates are used and --grf {grf} is ignored.")
+        raw = read_c3d(path)
+    elif suffix == ".trc":
+        if grf is None:
+            raise InputError(
+                f"{path} is a TRC marker file without ground reactions: give --grf FILE "
+                f"(grf=FILE.mot/.sto with the OpenSim ground_force_* columns)."
+            )
+        grf = Path(grf)
+        if not grf.is_file():
+            raise InputError(f"Ground-reaction file {grf} does not exist; check the --grf path.")
+        if grf.suffix.lower() not in (".mot", ".sto"):
+            raise InputError(f"{grf}: expected an OpenSim .mot or .sto file for --grf.")
+        raw = read_opensim(path, grf, threshold)
+    else:
+        raise InputError(
+            f'{path}: unsupported file type "{suffix}"; give a .c3d file, or a .trc with '
+            f"--grf FILE.mot."
+        )
+    if mass is not None:
+        raw.mass, raw.mass_source = float(mass), "given (mass=)"
+    if raw.mass is None:
+        raise InputError(
+            f"No subject mass in {path}{' or ' + str(raw.grf_source) if raw.grf_source else ''}; "
+            f"pass mass=... / --mass KG."
+        )
+    if not (10.0 < raw.mass < 400.0):
+        raise InputError(
+            f"Subject mass {raw.mass} kg ({raw.mass_source}) is not plausible; "
+            f"pass the mass in kilograms with mass=... / --mass KG."
+        )
+    if height is not None:
+        raw.height, raw.height_source = float(height), "given (height=)"
+    if raw.height is not None and not (0.5 < raw.height < 2.6):
+        raise InputError(
+            f"Subject height {raw.height} m ({raw.height_source}) is not plausible; "
+            f"pass it in metres (height=... / --height M)."
+        )
+
+    rot, rot_note = walking_rotation(raw.marker_names, raw.markers, raw.marker_time)
+    raw.notes.append(rot_note)
+    markers = raw.markers @ rot.T
+    plates = [_rotate_plate(p, rot) for p in raw.plates]
+    markers, _gaps = fill_short_gaps(markers, raw.marker_time)
+
+    stances, excluded, side_notes = detect_stances(
+        plates,
+        raw.marker_names,
+        markers,
+        raw.marker_time,
+        raw.mass * GRAVITY,
+        threshold,
+        source=str(path),
+    )
+    raw.notes.extend(side_notes)
+    if belt_speed is not None and belt_speed < 0:
+        raise InputError(
+            f"belt_speed={belt_speed}: give the belt speed as a positive number in m/s."
+        )
+    belt = np.array([-(belt_speed or 0.0), 0.0, 0.0])
+    trial = Trial(
+        source=path,
+        marker_names=tuple(raw.marker_names),
+        markers=markers,
+        marker_time=raw.marker_time,
+        plates=tuple(plates),
+        mass=raw.mass,
+        height=raw.height,
+        stances=tuple(stances),
+        excluded_stances=tuple(excluded),
+        belt_velocity=belt,
+        lab_rotation=rot @ raw.file_rotation,
+        grf_source=raw.grf_source,
+        mass_source=raw.mass_source,
+        height_source=raw.height_source,
+        load_notes=tuple(raw.notes),
+    )
+    return trial
+
+
+def _rotate_plate(p: Plate, rot: np.ndarray) -> Plate:
+    if np.array_equal(rot, np.eye(3)):
+        return p
+    return Plate(
+        name=p.name,
+        time=p.time,
+        force=p.force @ rot.T,
+        moment=p.moment @ rot.T,
+        reference_point=rot @ p.reference_point,
+        reference_kind=p.reference_kind,
+        corners=None if p.corners is None else p.corners @ rot.T,
+        surface_height=p.surface_height,
+    )
+
+
+def load_static(path: str | Path, walking: Trial) -> Trial:
+    """Load a static standing trial (markers only) into the ``lab`` frame of ``walking``.
+
+    A static trial has no walking direction, so the walking trial's rotation is reused: the
+    static file must come from the same lab set-up (same axes). Plates are not read: the floor
+    height is the walking trial's plate surface.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"Static trial {path} does not exist; check the --static path.")
+    suffix = path.suffix.lower()
+    if suffix == ".trc":
+        names, markers, time = read_trc(path)  # already Z-up
+        file_rot = Y_UP_TO_LAB
+    elif suffix == ".c3d":
+        raw = read_c3d(path)
+        names, time, markers, file_rot = (
+            raw.marker_names,
+            raw.marker_time,
+            raw.markers,
+            raw.file_rotation,
+        )
+    else:
+        raise InputError(
+            f'{path}: unsupported static-trial type "{suffix}"; give a .trc or .c3d file.'
+        )
+    rot = walking.lab_rotation @ np.linalg.inv(file_rot)
+    markers, _ = fill_short_gaps(markers @ rot.T, time)
+    return dataclasses.replace(
+        walking,
+        source=path,
+        marker_names=tuple(names),
+        markers=markers,
+        marker_time=time,
+        plates=(),
+        stances=(),
+        excluded_stances=(),
+        grf_source=None,
+        load_notes=(f"static trial in the lab frame of {walking.source.name}",),
+    )
