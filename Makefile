@@ -21,11 +21,12 @@ demo: $(VENV)/.installed
 	$(BIN)/gc-ocp reproduce-seed --seeds 5 --out $(OUT)/seed
 	@echo "Demo output written to $(abspath $(OUT))"
 
-test: $(VENV)/.installed
+test: lint
 	$(BIN)/python -m pytest -q -W error::RuntimeWarning
 
 lint: $(VENV)/.installed
-	$(BIN)/ruff check gc_ocp tests benchmarks
+	$(BIN)/ruff format --check .
+	$(BIN)/ruff check .
 
 bench: $(VENV)/.installed
 	$(BIN)/python benchmarks/fit_speed.py

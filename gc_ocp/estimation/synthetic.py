@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from gc_ocp.foot import FootKinematics
+from gc_ocp.geometry import kabsch
 from gc_ocp.stance import StanceData
 from gc_ocp.synthetic_foot import NOMINAL_POINTS, nominal_points, rolling_foot
 from gc_ocp.trial import GRAVITY
@@ -90,17 +91,7 @@ def _noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) ->
         + P[:, None, :3, 3]
         + rng.normal(0, sigma, (T, len(mk), 3))
     )
-    Rs = np.empty((T, 3, 3))
-    os_ = np.empty((T, 3))
-    mc = mk.mean(0)
-    for i in range(T):
-        oc = obs[i].mean(0)
-        H = (mk - mc).T @ (obs[i] - oc)
-        U, _, Vt = np.linalg.svd(H)
-        d = np.sign(np.linalg.det(Vt.T @ U.T))
-        R = Vt.T @ np.diag([1, 1, d]) @ U.T
-        Rs[i] = R
-        os_[i] = oc - R @ mc
+    Rs, os_ = kabsch(mk, obs)
     rate = 1.0 / np.median(np.diff(foot.time))
     b, a = butter(2, 6.0 / (rate / 2))
     dR = Rotation.from_matrix(np.einsum("nji,njk->nik", P[:, :3, :3], Rs)).as_rotvec()

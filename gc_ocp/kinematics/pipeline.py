@@ -26,7 +26,7 @@ import numpy as np
 import pinocchio as pin
 
 from gc_ocp.errors import InputError
-from gc_ocp.foot import UNITS, FootKinematics, TrialKinematics
+from gc_ocp.foot import SEED_LAYOUT, UNITS, FootKinematics, TrialKinematics
 from gc_ocp.kinematics.filtering import DEFAULT_CUTOFF_HZ, lowpass
 from gc_ocp.kinematics.ik import MarkerModel, solve_ik
 from gc_ocp.kinematics.scaling import build_marker_model, estimate_height, register_markers
@@ -132,7 +132,7 @@ def calibrate_sole_height(
     for qk, fl in zip(q, floors, strict=True):
         pin.framesForwardKinematics(body.model, data, qk)
         for i, u in enumerate(UNITS):
-            M = data.oMf[ids["toes" if u == "TT" else "hindfoot"]]
+            M = data.oMf[ids[SEED_LAYOUT.parent(u)]]
             R, p = M.rotation, M.translation
             # lab z = p_z + R[2,0] x + R[2,1] y + R[2,2] z = floor  ->  z
             num[i] += (fl - p[2] - R[2, 0] * pts[i, 0] - R[2, 1] * pts[i, 1]) / R[2, 2]

@@ -14,7 +14,7 @@ import numpy as np
 import pinocchio as pin
 
 from gc_ocp.errors import ModelError
-from gc_ocp.foot import UNITS
+from gc_ocp.foot import SEED_LAYOUT, UNITS
 
 SIDE_SUFFIX = {"left": "l", "right": "r", "l": "l", "r": "r"}
 
@@ -149,7 +149,7 @@ class BodyModel:
         s = _suffix(side)
         out = np.empty((len(UNITS), 3))
         for i, u in enumerate(UNITS):
-            parent = "toes" if u == "TT" else "hindfoot"
+            parent = SEED_LAYOUT.parent(u)
             Mp = self.model.frames[self.frame_id(f"{parent}_{s}")].placement
             Mu = self.model.frames[self.frame_id(f"{u}_{s}")].placement
             out[i] = (Mp.inverse() * Mu).translation

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gc_ocp.foot import SEED_LAYOUT
 from gc_ocp.model.anthropometry import Anthropometry, Segment, anthropometry
 
 SEED_SUBJECT = {"height": 1.70, "mass": 689.0 / 9.81}
@@ -194,7 +195,7 @@ def generate_urdf(
         )
         parts.append(_link(f"toes_{s}", S[f"toes_{s}"]))
         for u, p in sole_points_default(a, s).items():
-            parent = f"toes_{s}" if u == "TT" else f"hindfoot_{s}"
+            parent = f"{SEED_LAYOUT.parent(u)}_{s}"
             parts.append(_joint(f"{u}_{s}_joint", "fixed", parent, f"{u}_{s}", p))
             parts.append(_link(f"{u}_{s}"))
         _chain(
