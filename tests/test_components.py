@@ -131,8 +131,8 @@ def test_throwaway_component_is_fitted():
     """The ground under both feet is 4 mm higher than the plates say: the throw-away
     GroundShift component, unknown to the estimator, recovers it (noiseless data; the exponent,
     damping and friction fixed at their true values, k free per unit)."""
+    from gc_ocp.contact.equivalent_wrench import LawParams, model_wrench
     from gc_ocp.contact.laws import Smoothing
-    from gc_ocp.contact.wrench_model import LawParams, model_wrench
 
     truth = default_truth()
     law = LawParams(

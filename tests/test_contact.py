@@ -13,6 +13,7 @@ from matplotlib.figure import Figure
 
 from gc_ocp.contact import laws
 from gc_ocp.contact.channels import CHANNELS, SEED_BW, SEED_BWH, channel_rms_pct, k_rms_pct
+from gc_ocp.contact.equivalent_wrench import LawParams, model_wrench, wrench_per_unit_stiffness
 from gc_ocp.contact.laws import (
     DEFAULT_SMOOTHING,
     Smoothing,
@@ -31,7 +32,6 @@ from gc_ocp.contact.seed_study import (
     write_tables,
 )
 from gc_ocp.contact.synthetic import SYNTHETIC_CASES, draw_case, synthetic_stances
-from gc_ocp.contact.wrench_model import LawParams, model_wrench, wrench_per_unit_stiffness
 from gc_ocp.errors import InputError, RankError
 from gc_ocp.foot import UNITS, TrialKinematics
 from gc_ocp.stance import StanceData

@@ -345,3 +345,31 @@ def test_pose_prior_knot_correlation():
         PoseCorrection(knot_correlation=(0.5, 0.2)).correlation_factor(10)
     # the continuation keeps the correlation
     assert pose.with_prior_scale(0.5).knot_correlation == (1.0, 0.7, 0.25)
+
+
+def test_rms_is_normalised_per_stance():
+    """Two stances of subjects of different weight, each with a model error of 1 % of its own BW
+    on the superior force: the pooled RMS is 1 % BW (the first stance's weight would give 1.5 %
+    and 0.75 % for the two)."""
+    from gc_ocp.estimation.result import fit_quality
+
+    fits = []
+    for bw in (700.0, 1400.0):
+        meas = np.zeros((20, 6))
+        meas[:, 2] = bw
+        model = meas.copy()
+        model[:, 2] += 0.01 * bw
+        fits.append(
+            {
+                "side": "left",
+                "measured": meas,
+                "model": model,
+                "in_contact": np.ones(20, bool),
+                "reference_point": np.zeros(3),
+                "ground_height": 0.0,
+                "body_weight": bw,
+                "height": 1.7,
+            }
+        )
+    rms, _ = fit_quality(fits)
+    assert rms["left"]["superior_force_pct_bw"] == pytest.approx(1.0, rel=1e-12)

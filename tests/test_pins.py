@@ -6,7 +6,7 @@
   1e-12 relative: the same expression graph evaluated in another order differs by a few ulps of
   the largest term, and sums here have ~1e3 terms of magnitude <= the largest;
 * the estimator's per-frame model wrench against the NumPy evaluation of the equivalent wrench
-  (:func:`gc_ocp.contact.wrench_model.model_wrench` on unit trajectories from
+  (:func:`gc_ocp.contact.equivalent_wrench.model_wrench` on unit trajectories from
   :meth:`FootKinematics.with_points`), at the same 1e-12;
 * the fitted objective and RMS of the shared trials (``fit_pins.json``), to the solver's tolerance.
 """
@@ -109,8 +109,8 @@ def test_objective_gradient_hessian_are_pinned(pins, prefix):
 def test_per_frame_model_equals_the_numpy_wrench(pins):
     """Sole offsets on, pose correction zero: the estimator's model wrench of every stance equals
     the NumPy evaluation of the equivalent wrench on the corrected unit trajectories."""
+    from gc_ocp.contact.equivalent_wrench import LawParams, model_wrench
     from gc_ocp.contact.laws import Smoothing
-    from gc_ocp.contact.wrench_model import LawParams, model_wrench
     from gc_ocp.foot import UNITS
 
     stances = _stances(pins, "bundled")

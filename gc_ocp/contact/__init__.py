@@ -2,12 +2,20 @@
 
 Modules: :mod:`~gc_ocp.contact.laws` (one CasADi definition of each law),
 :mod:`~gc_ocp.contact.channels` (channel names, order, normalisation),
-:mod:`~gc_ocp.contact.wrench_model` (Eqs 4-9), :mod:`~gc_ocp.contact.lls` (the seed's linear
+:mod:`~gc_ocp.contact.equivalent_wrench` (Eqs 4-9), :mod:`~gc_ocp.contact.lls` (the seed's linear
 least squares), :mod:`~gc_ocp.contact.synthetic` (the seed's synthetic sets),
 :mod:`~gc_ocp.contact.seed_study` (Tables 1-2), :mod:`~gc_ocp.contact.plots`.
 """
 
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_rms_pct, k_rms_pct
+from gc_ocp.contact.equivalent_wrench import (
+    LawParams,
+    model_cop,
+    model_free_moment,
+    model_wrench,
+    wrench_function,
+    wrench_per_unit_stiffness,
+)
 from gc_ocp.contact.laws import (
     DEFAULT_SMOOTHING,
     Smoothing,
@@ -21,14 +29,6 @@ from gc_ocp.contact.lls import (
     LLSResult,
     fit_stiffness_lls,
     stances_from_trial,
-)
-from gc_ocp.contact.wrench_model import (
-    LawParams,
-    model_cop,
-    model_free_moment,
-    model_wrench,
-    wrench_function,
-    wrench_per_unit_stiffness,
 )
 
 __all__ = [

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gc_ocp.contact.channels import CHANNELS, channel_rms_pct, wrench_scale
-from gc_ocp.contact.wrench_model import LawParams, model_wrench, wrench_per_unit_stiffness
+from gc_ocp.contact.equivalent_wrench import LawParams, model_wrench, wrench_per_unit_stiffness
 from gc_ocp.errors import InputError, RankError
 from gc_ocp.stance import StanceData, trial_stances
 from gc_ocp.trial import SIDES

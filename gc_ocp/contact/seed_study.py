@@ -31,6 +31,7 @@ from gc_ocp.contact.channels import (
     TABLE_KEYS,
     k_rms_pct,
 )
+from gc_ocp.contact.equivalent_wrench import LawParams
 from gc_ocp.contact.lls import SEED_LAW, fit_stiffness_lls, stances_from_trial
 from gc_ocp.contact.synthetic import (
     DEFAULT_DEPTH,
@@ -39,7 +40,6 @@ from gc_ocp.contact.synthetic import (
     draw_case,
     synthetic_stances,
 )
-from gc_ocp.contact.wrench_model import LawParams
 from gc_ocp.errors import InputError
 from gc_ocp.foot import UNITS
 from gc_ocp.outputs import atomic_write_text  # noqa: F401  (re-exported)

@@ -29,8 +29,8 @@ from dataclasses import replace
 import numpy as np
 
 from gc_ocp.contact.channels import SEED_K_UNIFORM
+from gc_ocp.contact.equivalent_wrench import LawParams, model_wrench
 from gc_ocp.contact.lls import SEED_LAW
-from gc_ocp.contact.wrench_model import LawParams, model_wrench
 from gc_ocp.errors import InputError
 from gc_ocp.foot import UNITS, FootKinematics
 from gc_ocp.stance import StanceData

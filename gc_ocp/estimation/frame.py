@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import casadi as ca
 
+from gc_ocp.errors import ModelError
 from gc_ocp.estimation.compiled import compiled
 from gc_ocp.foot import SEGMENTS, SoleLayout
 
@@ -72,7 +73,7 @@ class Layout:
         for name, size in entries:
             if name in self.index:
                 if self.index[name][1] != size:
-                    raise ValueError(
+                    raise ModelError(
                         f'slot "{name}" declared with sizes {self.index[name][1]} and {size}'
                     )
                 continue
@@ -141,7 +142,7 @@ class Frame:
     def wrench(self) -> ca.SX:
         """Equivalent wrench ``(6,)`` of the unit forces about the reference point (seed Eqs 4-9)."""
         if self.unit_force is None:
-            raise ValueError("no component set the unit force law (the model needs a contact law)")
+            raise ModelError("no component set the unit force law (the model needs a contact law)")
         force = ca.SX.zeros(3)
         moment = ca.SX.zeros(3)
         for i in range(self.layout.n):

@@ -36,8 +36,8 @@ def synthetic_stance(
     """One synthetic stance. ``truth``: ``{"k": (5,), "n", "c", "mu"}`` [SI]; ``points_local``:
     true unit positions (default nominal); ``force_noise`` [N] and ``marker_noise`` [m] standard
     deviations (marker noise perturbs the foot pose given to the fitter, through 3 virtual markers)."""
+    from gc_ocp.contact.equivalent_wrench import LawParams, model_wrench
     from gc_ocp.contact.laws import Smoothing
-    from gc_ocp.contact.wrench_model import LawParams, model_wrench
 
     foot = rolling_foot(side, duration, rate, t0, sink, style=style)
     true_pts = nominal_points(side) if points_local is None else np.asarray(points_local)
