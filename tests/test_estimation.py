@@ -158,6 +158,9 @@ def test_real_trial_fit_and_holdout(bundled):
     again = EstimationResult.from_json(json.loads(json.dumps(rep.to_json())))
     assert again.params == r.params and again.rms == r.rms and again.cop_rms_mm == r.cop_rms_mm
     np.testing.assert_array_equal(again.x, r.x)
+    assert again.covariance is None  # not written by default (n_free^2 numbers)
+    with_cov = EstimationResult.from_json(json.loads(json.dumps(r.to_json(covariance=True))))
+    np.testing.assert_array_equal(with_cov.covariance, r.covariance)
     assert again.objective == pytest.approx(r.data_cost + r.prior_cost, rel=1e-12)
     assert again.n_data == r.n_data == 6 * sum(f["time"].size for f in r.stance_fits)
     d = rep.to_json()

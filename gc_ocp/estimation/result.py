@@ -136,8 +136,12 @@ class EstimationResult:
         return "\n".join(lines)
 
     # --- plain data ---------------------------------------------------------------------------
-    def to_json(self) -> dict:
-        """A JSON-ready dict (``fit.json``); :meth:`from_json` gives the result back."""
+    def to_json(self, covariance: bool = False) -> dict:
+        """A JSON-ready dict (``fit.json``); :meth:`from_json` gives the result back.
+
+        covariance: include the full covariance of ``x`` (``n_free``^2 numbers: 1 MB of text for
+        the bundled trial's 235 variables, so off by default; the standard errors are always in
+        the blocks)."""
         fits = [
             {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in f.items()}
             for f in self.stance_fits
@@ -166,7 +170,9 @@ class EstimationResult:
             "blocks": self.blocks,
             "x": self.x.tolist(),
             "variables": [s.to_json() for s in self.variables],
-            "covariance": None if self.covariance is None else self.covariance.tolist(),
+            "covariance": self.covariance.tolist()
+            if covariance and self.covariance is not None
+            else None,
             "stance_fits": fits,
         }
 
