@@ -82,23 +82,24 @@ def build(
         for j in range(stances)
     ]
     prob = build_estimation(sts, model, weights)
-    b = prob.builder
+    v = prob.variables
     x = np.zeros(prob.x.shape[0])
     for s in SIDES:
         for iu, u in enumerate(UNITS):
-            x[b._index[("contact", "k", s, u)]] = np.log(TRUTH["k"][iu])
-            if b.has(("sole", s, u)):
-                x[b._index[("sole", s, u)]] = DISP[s][iu] / sole.sigma
+            x[v.spec(("contact", "k", s, u)).slice] = np.log(TRUTH["k"][iu])
+            if v.has(("sole", s, u)):
+                x[v.spec(("sole", s, u)).slice] = DISP[s][iu] / sole.sigma
     for p in ("n", "c", "mu"):
-        x[b._index[("contact", p)]] = TRUTH[p]
+        x[v.spec(("contact", p)).slice] = TRUTH[p]
     return prob, x
 
 
-def names_of(b):
-    names = [None] * sum(sl.stop - sl.start for sl in b._index.values())
-    for key, sl in b._index.items():
-        for j in range(sl.stop - sl.start):
-            names[sl.start + j] = (key, j)
+def names_of(specs):
+    """``(key, j)`` of every entry of the decision vector, from the variable specs."""
+    names = [None] * sum(s.size for s in specs)
+    for s in specs:
+        for j in range(s.size):
+            names[s.start + j] = (s.key, j)
     return names
 
 
@@ -114,8 +115,7 @@ def sparse_jacobian(prob, x):
 def analyse(prob, x, fix=(), dense=False):
     """Return dict: name -> sd of shared params (k as log k, sole in mm). ``fix``: predicate on a
     (key, j) name; those columns are deleted (parameter known exactly)."""
-    b = prob.builder
-    names = names_of(b)
+    names = names_of(prob.variables.specs)
     J = sparse_jacobian(prob, x)
     keep = np.array([not any(f(nm) for f in fix) for nm in names])
     kidx = np.flatnonzero(keep)

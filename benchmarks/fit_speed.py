@@ -96,7 +96,7 @@ def baseline(prob, budget_s: float):
 
 
 def real_trial(repeats: int, budget: float):
-    from gc_ocp.estimation.fit import _with_init, lls_initial_k
+    from gc_ocp.estimation.fit import lls_initial_k
     from gc_ocp.io import load_trial
     from gc_ocp.kinematics import compute_kinematics
     from gc_ocp.stance import stance_data
@@ -106,8 +106,9 @@ def real_trial(repeats: int, budget: float):
     data = [stance_data(trial, kin, s, 0.03, 5) for s in trial.stances]
     model = full_model()
     law = next(m for m in model if isinstance(m, ContactLaw))
-    model = _with_init(
-        model, lls_initial_k([(trial, kin)], float(law.n.value_for("left")))
+    k0 = lls_initial_k([(trial, kin)], float(law.n.value_for("left")))
+    model = tuple(
+        c.with_initial_k(k0) if hasattr(c, "with_initial_k") else c for c in model
     )  # as fit()
     frames = sum(d.n for d in data)
     print(

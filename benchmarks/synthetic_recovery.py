@@ -271,15 +271,18 @@ def main() -> None:
         ):  # the product's path: direct + prior continuation, lower objective kept
             from gc_ocp.estimation.fit import best_of
 
+            # its result is a start's last stage (prior scale 1): the variables of ``prob``
             res = best_of(sts, model, weights)
-            prob = res.problem
+            assert [(s.key, s.start) for s in res.variables] == [
+                (s.key, s.start) for s in prob.variables.specs
+            ]
         else:
             res = solve(prob, raise_on_failure=False)
-        b = prob.builder
+        v = prob.variables
         idx = (
-            [b._index[("contact", "k", s, u)].start for s in SIDES for u in UNITS]
-            + [b._index[("contact", p)].start for p in ("n", "c", "mu")]
-            + [b._index[("sole", s, u)].start + a for s in SIDES for u in UNITS for a in range(3)]
+            [v.spec(("contact", "k", s, u)).start for s in SIDES for u in UNITS]
+            + [v.spec(("contact", p)).start for p in ("n", "c", "mu")]
+            + [v.spec(("sole", s, u)).start + a for s in SIDES for u in UNITS for a in range(3)]
         )
         scale = np.array([1.0] * 13 + [SoleCorrection().sigma * 1e3] * 30)  # sole in mm
         # log k at the reference depth: log k_ref = log k + n ln(x_ref) (the force-depth level)
