@@ -81,17 +81,17 @@ def _pipeline_coefficients(
     marker_noise: float, knot_spacing: float, samples: int = 40
 ) -> list[np.ndarray]:
     """B-spline coefficients ``(K, 6)`` (translation [m], rotation [rad], lab axes) that best fit the
-    foot-pose error of the simulated marker pipeline (``_noisy_pose``: 4 markers, Kabsch, 6 Hz
+    foot-pose error of the simulated marker pipeline (``noisy_pose``: 4 markers, Kabsch, 6 Hz
     low-pass), one array per simulated stance. Seeds 10000+ (not the draws')."""
     from scipy.spatial.transform import Rotation
 
-    from gc_ocp.estimation.synthetic import _noisy_pose, rolling_foot
+    from gc_ocp.estimation.synthetic import noisy_pose, rolling_foot
 
     pc = PoseCorrection(knot_spacing=knot_spacing)
     out = []
     for i in range(samples):
         f = rolling_foot("left", sink=0.010)
-        g = _noisy_pose(f, marker_noise, np.random.default_rng(10_000 + i))
+        g = noisy_pose(f, marker_noise, np.random.default_rng(10_000 + i))
         d = g.hindfoot_pose[:, :3, 3] - f.hindfoot_pose[:, :3, 3]
         th = Rotation.from_matrix(
             np.einsum("nij,nkj->nik", g.hindfoot_pose[:, :3, :3], f.hindfoot_pose[:, :3, :3])

@@ -36,7 +36,10 @@ class StanceData:
     belt_velocity: ``(3,)`` [m/s] (zeros overground); in_contact: ``(n,)`` frames inside the
     detected stance window (the others are margin frames where the plate is unloaded and the model
     must predict no force; default all); trial: the trial's name; body_weight [N], height [m]: the
-    subject's, for reporting (per stance, so that stances of several subjects can be pooled).
+    subject's, for reporting (per stance, so that stances of several subjects can be pooled);
+    plate_time ``(m,)`` [s], plate_wrench ``(m, 6)``: the measured wrench at the plate's own
+    samples over the stance window and :data:`PLATE_SIGNAL_MARGIN` around it (same reference
+    point), or None: what a clock-offset model resamples.
     """
 
     side: str
@@ -50,6 +53,8 @@ class StanceData:
     trial: str = ""
     body_weight: float = float("nan")
     height: float = float("nan")
+    plate_time: np.ndarray | None = None
+    plate_wrench: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = self.foot.time.shape[0]
@@ -72,6 +77,14 @@ class StanceData:
         set_(self, "ground_height", float(self.ground_height))
         set_(self, "body_weight", float(self.body_weight))
         set_(self, "height", float(self.height))
+        if (self.plate_time is None) != (self.plate_wrench is None):
+            raise InputError(
+                f"StanceData {self.label!r}: give both plate_time and plate_wrench, or neither"
+            )
+        if self.plate_time is not None:
+            m = np.shape(self.plate_time)[0]
+            set_(self, "plate_time", _ro(self.plate_time, (m,), "plate_time", self.label))
+            set_(self, "plate_wrench", _ro(self.plate_wrench, (m, 6), "plate_wrench", self.label))
 
     @property
     def n(self) -> int:
@@ -107,6 +120,11 @@ class StanceData:
         return replace(self, foot=foot)
 
 
+PLATE_SIGNAL_MARGIN = 0.1
+"""Plate samples kept beyond the stance window on each side [s]: room for a +-50 ms clock offset
+plus an interpolation kernel."""
+
+
 def stance_data(
     trial: Trial, kin: TrialKinematics, stance: Stance, margin: float = 0.0, min_frames: int = 1
 ) -> StanceData:
@@ -140,6 +158,11 @@ def stance_data(
     if not ok.all():
         foot, meas = foot.frames(ok), meas[ok]
     height = float("nan") if trial.height is None else float(trial.height)
+    plate = trial.plates[stance.plate]
+    t0, t1 = foot.time[0] - PLATE_SIGNAL_MARGIN, foot.time[-1] + PLATE_SIGNAL_MARGIN
+    pt = plate.time[(plate.time >= t0) & (plate.time <= t1)]
+    pw = trial.stance_wrench(stance, pt)
+    finite = np.isfinite(pw).all(axis=1)
     return StanceData(
         side=stance.side,
         label=f"{trial.name}:{stance.label}",
@@ -152,6 +175,8 @@ def stance_data(
         trial=trial.name,
         body_weight=trial.body_weight,
         height=height,
+        plate_time=pt[finite],
+        plate_wrench=pw[finite],
     )
 
 

@@ -12,6 +12,7 @@ evaluation), :mod:`.synthetic` (synthetic stances), :mod:`.plots`.
 """
 
 from gc_ocp.estimation.components import (
+    EFFECTS,
     REGISTRY,
     BeltSpeed,
     Component,
@@ -19,6 +20,8 @@ from gc_ocp.estimation.components import (
     Param,
     PoseCorrection,
     SoleCorrection,
+    bare_seed_model,
+    base_model,
     full_model,
     model_from_names,
     register,
@@ -30,7 +33,10 @@ from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
 
 __all__ = [
+    "EFFECTS",
     "REGISTRY",
+    "bare_seed_model",
+    "base_model",
     "BeltSpeed",
     "Component",
     "ContactLaw",

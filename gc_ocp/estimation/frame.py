@@ -100,6 +100,10 @@ class Frame:
     parent frames [m]; points, velocities: lists of ``m`` lab 3-vectors (after placement);
     law: law parameters by name (``"k"`` a list of m, ``"n"``, ``"c"``, ``"mu"``, ...);
     unit_force: ``(frame, i) -> F_i`` lab force on unit ``i`` [N] (set by the contact law);
+    unit_ground: ``{i: height}`` ground height under unit ``i`` where it differs from
+    ``ground_height`` (a tilted or offset plate), read through :meth:`ground`;
+    tangential: ``(frame, i, F_n) -> F_t`` (3,) tangential force law replacing the contact law's
+    Coulomb friction, or None;
     ground_height, belt_velocity, reference, measured, inv_sigma: as in :data:`BASE_DATA`.
     """
 
@@ -117,6 +121,8 @@ class Frame:
         self.velocities: list[ca.SX] = []
         self.law: dict = {}
         self.unit_force: Callable[[Frame, int], ca.SX] | None = None
+        self.unit_ground: dict[int, ca.SX] = {}
+        self.tangential: Callable[[Frame, int, ca.SX], ca.SX] | None = None
         self.ground_height = self.data("ground_height")
         self.belt_velocity = self.data("belt_velocity")
         self.reference = self.data("reference")
@@ -130,6 +136,10 @@ class Frame:
     def data(self, name: str) -> ca.SX:
         """The per-frame numeric column ``name`` (SX column)."""
         return self._data.get(self._D, name)
+
+    def ground(self, i: int) -> ca.SX:
+        """Ground height under unit ``i`` [m]."""
+        return self.unit_ground.get(i, self.ground_height)
 
     def place_units(self) -> None:
         """Unit positions and velocities in lab from their parent segments (rigid points)."""

@@ -227,6 +227,15 @@ class EstimationProblem:
         start, size = b.fm.slots.index[name]
         return b.Y(x)[start : start + size].T
 
+    def slot_rows(self, i: int, name: str) -> np.ndarray:
+        """``(size, nx)`` derivative of slot ``name`` in x on the first frame of stance ``i``."""
+        b = self.blocks[i]
+        start, size = b.fm.slots.index[name]
+        ny = b.fm.slots.size
+        rows = [start + j for j in range(size)]  # frame 0: rows 0..ny-1 of A (frame-major)
+        assert max(rows) < ny
+        return b.A.sparse()[rows, :].toarray()
+
     def data_jacobian(self, x: np.ndarray):
         """Weighted data residuals ``r`` (n_data,) and their Jacobian in ``x`` (scipy CSR,
         n_data x nx) at ``x``, from the per-frame Jacobians (``J_t A_t``): no symbolic Jacobian
@@ -265,6 +274,11 @@ def build_estimation(
     _check_stances(stances)
     weights = weights or Weights()
     model = tuple(model)
+    for comp in tuple(model):  # each component may adjust the others (e.g. fix what it replaces)
+        model = tuple(comp.configure(model))
+    stances = list(stances)
+    for comp in model:
+        stances = list(comp.prepare(stances))
     names = [c.name for c in model]
     if len(set(names)) != len(names):
         raise ModelError(f"Two components of the model share a name: {names}")

@@ -88,6 +88,7 @@ def decode(
         cov=cov,
         stances=problem.stances,
         slot_values=lambda i, name: problem.slot_values(x, i, name),
+        slot_rows=problem.slot_rows,
     )
     blocks = {c.name: c.decode(ctx) for c in problem.model}
     fits = []

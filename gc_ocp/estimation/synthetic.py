@@ -59,7 +59,7 @@ def synthetic_stance(
         meas = meas + rng.normal(0, force_noise, meas.shape) * np.array([1, 1, 1, 0.05, 0.05, 0.05])
     fit_foot = true_foot.with_points(nominal_points(side))
     if marker_noise > 0:
-        fit_foot = _noisy_pose(fit_foot, marker_noise, rng)
+        fit_foot = noisy_pose(fit_foot, marker_noise, rng)
     s = (foot.time >= t0) & (foot.time <= t0 + duration)
     return StanceData(
         trial="synthetic",
@@ -76,7 +76,7 @@ def synthetic_stance(
     )
 
 
-def _noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) -> FootKinematics:
+def noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) -> FootKinematics:
     """Foot pose re-estimated (Kabsch) from 3 virtual markers with iid noise, then low-passed at 6 Hz."""
     from scipy.signal import butter, filtfilt
     from scipy.spatial.transform import Rotation

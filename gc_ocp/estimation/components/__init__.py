@@ -6,7 +6,7 @@ A model is a tuple of components (see :mod:`.base` for the protocol). Presets:
 >>> full = full_model()        # contact law with n, c, mu free; sole, pose and belt corrections
 
 :data:`REGISTRY` maps a component's name to its class: the vocabulary of model names
-(``model_from_names(["contact", "sole", "pose"])``). A new component is one file in this folder
+(``model_from_names(["damping"], base=base_model())``). A new component is one file in this folder
 plus one line here.
 """
 
@@ -21,11 +21,26 @@ from gc_ocp.estimation.components.sole import SoleCorrection
 
 REGISTRY: dict[str, type[Component]] = {
     "contact": ContactLaw,
-    "sole": SoleCorrection,
-    "pose": PoseCorrection,
-    "belt": BeltSpeed,
+    "sole_geometry": SoleCorrection,
+    "kinematic_correction": PoseCorrection,
+    "belt_speed": BeltSpeed,
 }
-"""Component classes by name (the default ``name`` of each)."""
+"""Component classes by name: the vocabulary of model configurations and of the diagnosis
+(``docs/effects.md``). A component instance's ``name`` keys its variables and its result block
+(``"sole"``, ``"pose"``, ``"belt"`` for the three corrections that predate the vocabulary)."""
+
+EFFECTS: tuple[str, ...] = (
+    "damping",
+    "stiffness_exponent",
+    "sole_geometry",
+    "kinematic_correction",
+    "contact_density",
+    "toe_joint",
+    "ground_offset",
+    "time_offset",
+    "friction",
+)
+"""The candidate model extensions of the diagnosis, by registry name."""
 
 
 def register(name: str, cls: type[Component]) -> None:
@@ -37,12 +52,28 @@ def register(name: str, cls: type[Component]) -> None:
     REGISTRY[name] = cls
 
 
-def model_from_names(names) -> tuple[Component, ...]:
-    """A model of the registered components ``names``, each with its default settings."""
+def model_from_names(names, base: tuple = ()) -> tuple[Component, ...]:
+    """``base`` plus the registered components ``names`` (default settings), skipping those whose
+    class is already in ``base``."""
     unknown = [n for n in names if n not in REGISTRY]
     if unknown:
         raise ModelError(f"Unknown component(s) {unknown}; choose from {sorted(REGISTRY)}")
-    return tuple(REGISTRY[n]() for n in names)
+    have = {type(c) for c in base}
+    return tuple(base) + tuple(REGISTRY[n]() for n in names if REGISTRY[n] not in have)
+
+
+def base_model() -> tuple[Component, ...]:
+    """The diagnosis's base: the seed's contact law with a fitted shared mu (``ContactLaw.base``),
+    plus the skin-marker registration every held-out evaluation needs (sole and pose
+    corrections) and the belt speed on a treadmill. Today's full model is this base plus
+    ``damping`` and ``stiffness_exponent`` (``full_model`` parametrises them in the law)."""
+    return (ContactLaw.base(), SoleCorrection(), PoseCorrection(), BeltSpeed())
+
+
+def bare_seed_model() -> tuple[Component, ...]:
+    """The seed's law (``ContactLaw.base``) without any correction: the model against which
+    ``sole_geometry`` and ``kinematic_correction`` are scored."""
+    return (ContactLaw.base(),)
 
 
 def seed_model(mu: float = 0.0) -> tuple[Component, ...]:
@@ -57,8 +88,11 @@ def full_model() -> tuple[Component, ...]:
 
 
 __all__ = [
+    "EFFECTS",
     "REGISTRY",
     "BeltSpeed",
+    "bare_seed_model",
+    "base_model",
     "Component",
     "ContactLaw",
     "DecodeContext",

@@ -39,7 +39,9 @@ class DecodeContext:
     """What :meth:`Component.decode` may read (all plain NumPy).
 
     specs: the variable blocks; x: the decision vector; cov: its covariance (or None); stances;
-    slot_values: ``slot_values(i, name) -> (T_i, size)`` per-frame value of a slot on stance i.
+    slot_values: ``slot_values(i, name) -> (T_i, size)`` per-frame value of a slot on stance i;
+    slot_rows: ``slot_rows(i, name) -> (size, nx)`` its derivative in x on the first frame
+    (slots are linear in x: the rows of ``A``), for standard errors by the delta method.
     """
 
     specs: list
@@ -47,6 +49,16 @@ class DecodeContext:
     cov: np.ndarray | None
     stances: list
     slot_values: object
+    slot_rows: object = None
+
+    def slot_value_se(self, i: int, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """Value (first frame) and standard error of every entry of slot ``name`` on stance i."""
+        val = np.asarray(self.slot_values(i, name))[0]
+        if self.cov is None or self.slot_rows is None:
+            return val, np.full(val.shape, np.nan)
+        rows = np.asarray(self.slot_rows(i, name))
+        var = np.einsum("ij,jk,ik->i", rows, self.cov, rows)
+        return val, np.sqrt(np.maximum(var, 0.0))
 
     def index(self):
         return {s.key: s for s in self.specs}
@@ -65,6 +77,23 @@ class Component:
     scope: Scope = "global"
     neutral_at_zero: bool = False
     """True when all its decision variables at zero leave the model as if it were absent."""
+
+    # --- configuration ------------------------------------------------------------------------
+    def configure(self, model: tuple) -> tuple:
+        """The model this component needs around it (e.g. a damping effect fixes the contact
+        law's own damping at zero, so that it is not estimated twice). Default: unchanged."""
+        return model
+
+    def prepare(self, stances: list[StanceData]) -> list[StanceData]:
+        """The stances this component's model is fitted on (e.g. a denser sole layout).
+        Default: unchanged."""
+        return stances
+
+    def observe(self, stance: StanceData, wrench: np.ndarray) -> StanceData:
+        """Synthetic data: ``stance`` as the plate would record the model ``wrench`` ``(T, 6)``
+        if this component were the truth (e.g. a clock offset delays it). Default: measured =
+        wrench. Used by :func:`gc_ocp.estimation.recovery.simulate`."""
+        return stance
 
     # --- variables ----------------------------------------------------------------------------
     def declare(self, variables: Variables, stances: list[StanceData]) -> None:

@@ -13,7 +13,12 @@ from dataclasses import dataclass, field, replace
 import casadi as ca
 import numpy as np
 
-from gc_ocp.contact.laws import DEFAULT_SMOOTHING, unit_force_function
+from gc_ocp.contact.laws import (
+    DEFAULT_SMOOTHING,
+    friction_force_function,
+    normal_force_function,
+    penetration_function,
+)
 from gc_ocp.errors import ModelError
 from gc_ocp.estimation.components.base import Component, DecodeContext
 from gc_ocp.trial import SIDES
@@ -101,6 +106,17 @@ class ContactLaw(Component):
             mu=Param("fixed", mu),
         )
 
+    @classmethod
+    def base(cls) -> ContactLaw:
+        """The diagnosis's base law: the seed's (k per unit, n = 1, c = 0) with velocity-based
+        Coulomb friction and one shared fitted mu."""
+        return cls(
+            k=Param("unit", 3.0e4, 1.0e2, 1.0e9, prior_sigma=2.0),
+            n=Param("fixed", 1.0),
+            c=Param("fixed", 0.0),
+            mu=Param("shared", 0.5, 0.0, 1.5),
+        )
+
     def __post_init__(self) -> None:
         for pname in ("n", "c", "mu"):
             if getattr(self, pname).scope == "unit":
@@ -163,22 +179,23 @@ class ContactLaw(Component):
         k = ca.exp(frame.slot("log_k"))
         frame.law.update(k=[k[i] for i in range(frame.layout.n)])
         frame.law.update({p: frame.slot(s) for p, s in LAW_SLOTS.items()})
-        law = unit_force_function(True)
-        eps = (self.depth_smoothing, DEFAULT_SMOOTHING.eps_damping, self.slip_smoothing)
+        frame.law.update(v_eps=self.slip_smoothing)
+        penetration = penetration_function()
+        normal = normal_force_function(True)
+        coulomb = friction_force_function()
+        eps_x, eps_d = self.depth_smoothing, DEFAULT_SMOOTHING.eps_damping
 
         def unit_force(f, i):
+            # the composition of laws.unit_force_function, with the ground and the tangential
+            # law as the frame has them (another component may tilt the ground or swap friction)
             p = f.law
-            return law(
-                f.points[i],
-                f.velocities[i],
-                p["k"][i],
-                p["n"],
-                p["c"],
-                p["mu"],
-                f.ground_height,
-                f.belt_velocity,
-                *eps,
-            )
+            x, xdot = penetration(f.points[i], f.velocities[i], f.ground(i))
+            fn = normal(x, xdot, p["k"][i], p["n"], p["c"], eps_x, eps_d)
+            if f.tangential is None:
+                ft = coulomb(fn, f.velocities[i], f.belt_velocity, p["mu"], self.slip_smoothing)
+            else:
+                ft = f.tangential(f, i, fn)
+            return ft + ca.vertcat(0, 0, fn)
 
         frame.unit_force = unit_force
 
@@ -193,55 +210,47 @@ class ContactLaw(Component):
     # --- results ------------------------------------------------------------------------------
     def decode(self, ctx: DecodeContext) -> dict:
         """``{side: {unit: {"k", "k_se", "f_ref", "f_ref_se"}, param: .., param_se: ..},
-        "shared": {param: .., param_se: ..}}`` (fixed parameters with zero standard error);
-        ``f_ref`` [N] is the unit's force at ``reference_depth`` without damping."""
+        "shared": {param: .., param_se: ..}}``; ``f_ref`` [N] is the unit's force at
+        ``reference_depth`` without damping.
+
+        Values are read from the per-frame slots the law uses, so that whatever contributes to
+        them (this law's variables, or an effect such as a stiffness exponent or a stiffness field
+        over a denser sole) is reported; standard errors by the delta method from the covariance
+        of x (fixed values: 0). ``f_ref = k d_ref^n`` is far better determined than k: k and n are
+        strongly correlated (``ln f_ref = ln k + n ln d_ref``, ``ln 0.005 = -5.3``)."""
         layouts = _layouts(ctx.stances)
+        first: dict = {}
+        for i, st in enumerate(ctx.stances):
+            first.setdefault(st.side, i)
+        L = float(np.log(self.reference_depth))
         out: dict = {s: {} for s in layouts}
         out["shared"] = {}
-        for pname in PARAMS:
-            p: Param = getattr(self, pname)
-            for side, lay in layouts.items():
-                units = lay.units if pname == "k" else [None]
-                for u in units:
-                    if p.scope == "fixed":
-                        val, se = p.value_for(side, u), 0.0
-                    else:
-                        key = {"unit": (side, u), "foot": (side,), "shared": ()}[p.scope]
-                        v, s = ctx.values((self.name, pname, *key))
-                        val, se = float(v[0]), float(s[0])
-                    if pname == "k":
-                        out[side].setdefault(u, {}).update(k=val, k_se=se)
-                    elif p.scope in ("foot", "fixed"):
-                        out[side].update({pname: val, pname + "_se": se})
-                    else:
-                        out["shared"].update({pname: val, pname + "_se": se})
-        self._add_reference_force(out, ctx, layouts)
-        return {k: v for k, v in out.items() if v}
-
-    def _add_reference_force(self, out: dict, ctx: DecodeContext, layouts: dict) -> None:
-        """``f_ref = k d_ref^n`` [N] per unit and its delta-method SE from the covariance of
-        (log k, n): k and n are strongly correlated (``ln f_ref = ln k + n ln d_ref``, ``ln 0.005
-        = -5.3``), so f_ref is far better determined than k."""
-        L = float(np.log(self.reference_depth))
-        index = ctx.index()
+        cov = ctx.cov
         for side, lay in layouts.items():
-            n_val = out[side].get("n", out["shared"].get("n"))
-            n_key = {"foot": (self.name, "n", side), "shared": (self.name, "n")}.get(self.n.scope)
-            for u in lay.units:
-                e = out[side][u]
-                e["f_ref"] = float(e["k"] * self.reference_depth**n_val)
-                k_spec = index.get((self.name, "k", side, u))
-                if k_spec is None:
-                    e["f_ref_se"] = 0.0
-                    continue
-                if ctx.cov is None:
-                    e["f_ref_se"] = float("nan")
-                    continue
-                g = np.zeros(ctx.x.size)
-                g[k_spec.start] = 1.0  # d ln f_ref / d ln k
-                if n_key is not None:
-                    g[index[n_key].start] = L  # d ln f_ref / d n
-                e["f_ref_se"] = float(e["f_ref"] * np.sqrt(max(float(g @ ctx.cov @ g), 0.0)))
+            i = first[side]
+            log_k, log_k_se = ctx.slot_value_se(i, "log_k")
+            n_val = float(ctx.slot_values(i, "law_n")[0, 0])
+            rows_k = ctx.slot_rows(i, "log_k") if ctx.slot_rows else None
+            row_n = ctx.slot_rows(i, "law_n")[0] if ctx.slot_rows else None
+            for j, u in enumerate(lay.units):
+                k = float(np.exp(log_k[j]))
+                f_ref = float(np.exp(log_k[j] + n_val * L))
+                if cov is None or rows_k is None:
+                    f_se = float("nan")
+                else:
+                    g = rows_k[j] + L * row_n  # d ln f_ref / d x
+                    f_se = f_ref * float(np.sqrt(max(g @ cov @ g, 0.0)))
+                out[side][u] = {
+                    "k": k,
+                    "k_se": k * float(log_k_se[j]),
+                    "f_ref": f_ref,
+                    "f_ref_se": f_se,
+                }
+            for pname, slot in LAW_SLOTS.items():
+                v, se = ctx.slot_value_se(i, slot)
+                where = out["shared"] if getattr(self, pname).scope == "shared" else out[side]
+                where.update({pname: float(v[0]), pname + "_se": float(se[0])})
+        return {k: v for k, v in out.items() if v}
 
     def frozen(self, block: dict) -> ContactLaw:
         """Every parameter fixed at the values of ``block`` (a decoded contact block)."""
