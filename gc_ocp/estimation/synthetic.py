@@ -8,6 +8,8 @@ the same per-frame model function the estimator uses, with known ("true") parame
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from gc_ocp.foot import FootKinematics
@@ -77,7 +79,9 @@ def synthetic_stance(
 
 
 def noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) -> FootKinematics:
-    """Foot pose re-estimated (Kabsch) from 3 virtual markers with iid noise, then low-passed at 6 Hz."""
+    """``foot`` as a marker pipeline would see it: the hindfoot pose re-estimated (Kabsch) from 4
+    virtual markers with iid noise ``sigma`` [m], low-passed at 6 Hz; the same rigid error moves
+    the toes (the toes are not tracked separately)."""
     from scipy.signal import butter, filtfilt
     from scipy.spatial.transform import Rotation
 
@@ -98,18 +102,46 @@ def noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) -> 
     dR = filtfilt(b, a, dR, axis=0)
     do = filtfilt(b, a, os_ - P[:, :3, 3], axis=0)
     Rn = np.einsum("nij,njk->nik", P[:, :3, :3], Rotation.from_rotvec(dR).as_matrix())
-    pose = P.copy()
-    pose[:, :3, :3] = Rn
-    pose[:, :3, 3] = P[:, :3, 3] + do
-    v = np.gradient(pose[:, :3, 3], foot.time, axis=0)
-    # angular velocity from the rotation sequence: skew(omega) = dR/dt R^T (central differences,
-    # the same scheme as the true motion, so that zero noise reproduces it)
-    dRn = np.gradient(Rn, foot.time, axis=0)
-    W = np.einsum("nij,nkj->nik", dRn, Rn)
-    w = np.stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]], axis=1)
-    twist = np.hstack([v, w])
-    return FootKinematics(
-        foot.side, foot.time, pose, pose.copy(), twist, twist.copy(), foot.points_local
+    on = P[:, :3, 3] + do
+    # the same rigid error moves both segments: a lab transform D = (R_d, t_d) with
+    # R_d = Rn R^T, t_d = on - R_d o, applied to hindfoot and toes poses and their twists
+    # (v' = R_d v + dR_d/dt p + dt_d/dt at the moved origin, w' = R_d w + w_d): zero noise
+    # gives back the input exactly
+    Rd = np.einsum("nij,nkj->nik", Rn, P[:, :3, :3])
+    td = on - np.einsum("nij,nj->ni", Rd, P[:, :3, 3])
+    dRd = np.gradient(Rd, foot.time, axis=0)
+    dtd = np.gradient(td, foot.time, axis=0)
+    Wd = np.einsum("nij,nkj->nik", dRd, Rd)
+    wd = (
+        np.stack(
+            [Wd[:, 2, 1] - Wd[:, 1, 2], Wd[:, 0, 2] - Wd[:, 2, 0], Wd[:, 1, 0] - Wd[:, 0, 1]],
+            axis=1,
+        )
+        / 2
+    )
+
+    def moved(pose, twist):
+        out = pose.copy()
+        out[:, :3, :3] = np.einsum("nij,njk->nik", Rd, pose[:, :3, :3])
+        out[:, :3, 3] = np.einsum("nij,nj->ni", Rd, pose[:, :3, 3]) + td
+        v = (
+            np.einsum("nij,nj->ni", Rd, twist[:, :3])
+            + np.einsum("nij,nj->ni", dRd, pose[:, :3, 3])
+            + dtd
+        )
+        w = np.einsum("nij,nj->ni", Rd, twist[:, 3:]) + wd
+        return out, np.hstack([v, w])
+
+    hp, ht = moved(foot.hindfoot_pose, foot.hindfoot_twist)
+    tp, tt = moved(foot.toes_pose, foot.toes_twist)
+    return replace(
+        foot,
+        hindfoot_pose=hp,
+        toes_pose=tp,
+        hindfoot_twist=ht,
+        toes_twist=tt,
+        positions=None,
+        velocities=None,
     )
 
 
