@@ -130,38 +130,122 @@ def cmd_reproduce_seed(args: argparse.Namespace) -> int:
     return 0
 
 
+FIT_OUTPUTS = (
+    "fit.json",
+    "fit_failed.json",
+    "fit_wrench.png",
+    "fit_sole.png",
+    "fit_pose_corrections.png",
+    "heldout_wrench.png",
+)
+"""Every file ``gc-ocp fit`` may write: a run replaces the whole set (stale ones are removed)."""
+
+
+def _sha256(path) -> str:
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def provenance(args: argparse.Namespace, pairs) -> dict:
+    """What a ``fit.json`` was computed from: inputs with content hashes, options, subject values
+    and their sources, stances used and excluded (with the reason), package version, date."""
+    import datetime
+    import platform
+
+    from gc_ocp import __version__
+
+    trials = []
+    for t, kin in pairs:
+        files = [p for p in (t.source, t.grf_source) if p is not None]
+        trials.append(
+            {
+                "name": t.name,
+                "files": [{"path": str(Path(p).resolve()), "sha256": _sha256(p)} for p in files],
+                "mass_kg": t.mass,
+                "mass_source": t.mass_source,
+                "height_m": t.height if t.height is not None else kin.info.get("height"),
+                "height_source": t.height_source
+                or ("estimated from markers" if t.height is None else ""),
+                "belt_velocity_m_s": list(map(float, t.belt_velocity)),
+                "stances_used": [s.label for s in t.stances],
+                "stances_excluded": [
+                    {
+                        "side": e.side,
+                        "plate": e.plate,
+                        "t_on": e.t_on,
+                        "t_off": e.t_off,
+                        "reason": e.reason,
+                    }
+                    for e in t.excluded_stances
+                ],
+                "load_notes": list(t.load_notes),
+                "marker_cutoff_hz": kin.cutoff_hz,
+            }
+        )
+    options = {
+        k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items() if k != "func"
+    }
+    options["trial"] = [str(p) for p in args.trial]
+    return {
+        "gc_ocp_version": __version__,
+        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "python": platform.python_version(),
+        "command": "gc-ocp fit",
+        "options": options,
+        "trials": trials,
+    }
+
+
 def cmd_fit(args: argparse.Namespace) -> int:
     from gc_ocp.estimation.fit import fit
     from gc_ocp.estimation.plots import plot_fit, plot_pose_corrections, plot_sole_fit
-    from gc_ocp.outputs import atomic_savefig, atomic_write_text
+    from gc_ocp.outputs import OutputSet, check_writable
 
+    check_writable(args.out)  # before any computation
     trials = _load(args)
     pairs = [(t, _kinematics(t, args)) for t in trials]
+    prov = provenance(args, pairs)
+    out = OutputSet(args.out, FIT_OUTPUTS)
     try:
-        report = fit(pairs, holdout=args.holdout, progress=_progress)
-    except SolveError as e:
-        if e.result is not None:
-            atomic_write_text(
-                args.out / "fit_failed.json", json.dumps(e.result.to_json(), indent=2)
+        try:
+            report = fit(pairs, holdout=args.holdout, progress=_progress)
+        except SolveError as e:
+            if e.result is not None:
+                out.text(
+                    "fit_failed.json",
+                    json.dumps({**e.result.to_json(), "provenance": prov}, indent=2),
+                )
+                out.commit()
+                print(
+                    f"wrote the non-converged result to {args.out / 'fit_failed.json'}",
+                    file=sys.stderr,
+                )
+            raise
+        print(report.summary())
+        figs = {
+            "fit_wrench.png": plot_fit(report.result),
+            "fit_sole.png": plot_sole_fit(report.result),
+            "fit_pose_corrections.png": plot_pose_corrections(report.result),
+        }
+        if report.heldout is not None:
+            figs["heldout_wrench.png"] = plot_fit(
+                report.heldout, title=f"held-out {report.heldout_label}"
             )
-            print(
-                f"wrote the non-converged result to {args.out / 'fit_failed.json'}", file=sys.stderr
-            )
-        raise
-    print(report.summary())
-    figs = {
-        "fit_wrench.png": plot_fit(report.result),
-        "fit_sole.png": plot_sole_fit(report.result),
-        "fit_pose_corrections.png": plot_pose_corrections(report.result),
-    }
-    if report.heldout is not None:
-        figs["heldout_wrench.png"] = plot_fit(
-            report.heldout, title=f"held-out {report.heldout_label}"
-        )
-    for name, fig in figs.items():
-        atomic_savefig(fig, args.out / name, dpi=100)
-    atomic_write_text(args.out / "fit.json", json.dumps(report.to_json(), indent=2))
-    print(f"wrote {args.out / 'fit.json'} and {len(figs)} figures")
+        out.text("fit.json", json.dumps({**report.to_json(), "provenance": prov}, indent=2))
+        for name, fig in figs.items():
+            out.figure(name, fig, dpi=100)
+        written = out.commit()
+    finally:
+        out.discard()
+    n_flags = len(report.result.flags) + (len(report.heldout.flags) if report.heldout else 0)
+    print(
+        f"wrote {len(written)} files to {args.out} (fit.json and {len(figs)} figures); {n_flags} flags"
+    )
     return 0
 
 
@@ -171,6 +255,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Estimate foot-ground contact models of human walking from motion capture and "
         "force plates, and diagnose where the model still disagrees with the plates.",
     )
+    from gc_ocp import __version__
+
+    parser.add_argument("--version", action="version", version=f"gc-ocp {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     p = sub.add_parser(

@@ -124,3 +124,60 @@ def test_unexpected_exception_is_one_line_internal_error_exit_3(monkeypatch, cap
     monkeypatch.setenv("GC_OCP_DEBUG", "1")
     assert main(["info"]) == 3
     assert "Traceback" in capsys.readouterr().err
+
+
+def test_fit_outputs_are_one_consistent_set(tmp_path):
+    """A rerun replaces the command's whole set (a stale held-out figure and fit_failed.json go;
+    the user's own files stay); files follow the umask; fit.json carries provenance and flags."""
+    import json
+    import os
+    import stat
+
+    from gc_ocp.cli import main
+
+    out = tmp_path / "fit"
+    assert main(["fit", "--holdout", "right@0.407", "--out", str(out)]) == 0
+    assert (out / "heldout_wrench.png").exists()
+    (out / "fit_failed.json").write_text("{}")  # stale, from an imagined earlier failed run
+    (out / "notes.txt").write_text("mine")
+    old = os.umask(0o022)
+    try:
+        assert main(["fit", "--out", str(out)]) == 0
+    finally:
+        os.umask(old)
+    names = sorted(p.name for p in out.iterdir())
+    assert names == [
+        "fit.json",
+        "fit_pose_corrections.png",
+        "fit_sole.png",
+        "fit_wrench.png",
+        "notes.txt",
+    ]
+    assert stat.S_IMODE((out / "fit.json").stat().st_mode) == 0o644
+    d = json.loads((out / "fit.json").read_text())
+    trial = d["provenance"]["trials"][0]
+    assert len(trial["files"][0]["sha256"]) == 64 and trial["mass_source"]
+    assert d["provenance"]["gc_ocp_version"] and isinstance(d["flags"], list)
+    assert not list(tmp_path.glob(".fit.*"))  # no staging folder left
+
+
+def test_unusable_out_fails_before_any_computation(tmp_path, capsys):
+    from gc_ocp.cli import main
+
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    assert main(["fit", "--out", str(blocker)]) == 2
+    err = capsys.readouterr().err
+    assert "--out" in err and "not a folder" in err and "Traceback" not in err
+    assert "solving" not in err  # nothing was computed
+
+
+def test_version(capsys):
+    import pytest
+
+    from gc_ocp import __version__
+    from gc_ocp.cli import main
+
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0 and capsys.readouterr().out.strip() == f"gc-ocp {__version__}"

@@ -85,3 +85,18 @@ def test_notebook_runs(path: Path, tmp_path, monkeypatch):
         if o.get("output_type") == "error"
     ]
     assert not errors, f"{path.name}: error outputs {errors}"
+    # every cell that calls a plotting function shows its figure (an image output), so that a
+    # notebook without inline plotting (figures printed as "<Figure ...>") fails here
+    import re
+
+    for i, c in enumerate(nb.cells):
+        if c.cell_type != "code":
+            continue
+        plots = [
+            ln
+            for ln in c.source.splitlines()
+            if re.search(r"\bplot_\w+\(", ln) and "import" not in ln
+        ]
+        if plots:
+            images = [o for o in c.get("outputs", []) if "image/png" in o.get("data", {})]
+            assert images, f"{path.name} cell {i} calls {plots[0].strip()!r} but shows no figure"

@@ -167,6 +167,7 @@ class FitReport:
             d["heldout_cop_rms_mm"] = self.heldout.cop_rms_mm
             d["heldout_stance"] = self.heldout_label
             d["heldout_pose_correction_rms"] = self.heldout.pose_correction_rms
+            d["heldout_flags"] = self.heldout.flags
         return d
 
     def summary(self) -> str:

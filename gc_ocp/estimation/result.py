@@ -49,7 +49,8 @@ class EstimationResult:
     in-contact frames; cop_rms_mm: ``{side: COP RMS [mm]}``; stance_fits: per stance
     ``{"label", "side", "trial", "time", "measured", "model", "in_contact", "points_local",
     "nominal_points", "toes_offset", "reference_point", "ground_height", "body_weight", "height",
-    "units"}`` (arrays time-first, SI).
+    "units"}`` (arrays time-first, SI); flags: plausibility flags ``{"code", "what", "message"}``
+    (:mod:`gc_ocp.estimation.flags`): what should not be taken at face value.
     """
 
     x: np.ndarray
@@ -70,6 +71,7 @@ class EstimationResult:
     stance_fits: list = field(default_factory=list)
     variables: list = field(default_factory=list)
     covariance: np.ndarray | None = None
+    flags: list = field(default_factory=list)
 
     # --- views of the usual blocks ------------------------------------------------------------
     @property
@@ -107,12 +109,11 @@ class EstimationResult:
             units = [u for u, e in p.items() if isinstance(e, dict)]
             if units:
                 lines.append(
-                    f"{side:>5} k [N/m^n]: "
-                    + ", ".join(f"{u} {p[u]['k']:.3g}±{p[u]['k_se']:.2g}" for u in units)
+                    f"{side:>5} k [N/m^n]: " + ", ".join(_shown(p, u, "k", ".3g") for u in units)
                 )
                 lines.append(
                     f"{side:>5} force at the reference depth [N]: "
-                    + ", ".join(f"{u} {p[u]['f_ref']:.0f}±{p[u]['f_ref_se']:.2g}" for u in units)
+                    + ", ".join(_shown(p, u, "f_ref", ".0f") for u in units)
                 )
             r = self.rms[side]
             lines.append(
@@ -133,6 +134,13 @@ class EstimationResult:
         for k, v in shared.items():
             if not k.endswith("_se"):
                 lines.append(f"shared {k} = {v:.4g} ± {shared.get(k + '_se', float('nan')):.2g}")
+        if self.flags:
+            lines.append(f"FLAGS ({len(self.flags)}): what not to take at face value")
+            lines += [f"  ! {f['message']}" for f in self.flags]
+        else:
+            lines.append(
+                "flags: none (no parameter at a bound, no correction beyond 3 sigma, every unit identified)"
+            )
         return "\n".join(lines)
 
     # --- plain data ---------------------------------------------------------------------------
@@ -174,6 +182,7 @@ class EstimationResult:
             if covariance and self.covariance is not None
             else None,
             "stance_fits": fits,
+            "flags": self.flags,
         }
 
     @classmethod
@@ -213,7 +222,15 @@ class EstimationResult:
             stance_fits=fits,
             variables=[VariableSpec.from_json(v) for v in d["variables"]],
             covariance=None if d.get("covariance") is None else np.asarray(d["covariance"], float),
+            flags=list(d.get("flags", [])),
         )
+
+
+def _shown(p: dict, unit: str, key: str, fmt: str) -> str:
+    e = p[unit]
+    if not e.get("identified", True):
+        return f"{unit} not identified"
+    return f"{unit} {e[key]:{fmt}}±{e[key + '_se']:.2g}"
 
 
 def fit_quality(fits: list) -> tuple[dict, dict]:

@@ -10,6 +10,7 @@ import numpy as np
 
 from gc_ocp.errors import ModelError, SolveError
 from gc_ocp.estimation.components.base import DecodeContext
+from gc_ocp.estimation.flags import fit_flags, variable_flags
 from gc_ocp.estimation.problem import EstimationProblem
 from gc_ocp.estimation.result import EstimationResult, fit_quality
 
@@ -199,6 +200,10 @@ def result_at(
     blocks, fits = decode(problem, x, cov)
     rms, cop = fit_quality(fits)
     data_cost, prior_cost = problem.costs(x)
+    flags = variable_flags(problem.variables.specs, x)
+    for c in problem.model:
+        flags += c.flags(blocks[c.name], problem.stances)
+    flags += fit_flags(rms, cop)
     specs = problem.variables.specs
     return EstimationResult(
         x=x,
@@ -219,6 +224,7 @@ def result_at(
         stance_fits=fits,
         variables=specs,
         covariance=cov,
+        flags=flags,
     )
 
 

@@ -134,6 +134,10 @@ class Component:
         """This component's block of the result (plain data: dicts, lists, floats)."""
         return {}
 
+    def flags(self, block: dict, stances: list) -> list[dict]:
+        """Plausibility flags of this component's block (``gc_ocp.estimation.flags.flag``)."""
+        return []
+
     def frozen(self, block: dict) -> Component:
         """The component with its values fixed at ``block`` (held-out evaluation)."""
         return self

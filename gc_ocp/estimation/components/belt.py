@@ -68,6 +68,22 @@ class BeltSpeed(Component):
             out[st.trial] = {"value": nominal + dv, "se": se, "nominal": nominal, "correction": dv}
         return out
 
+    def flags(self, block: dict, stances: list) -> list[dict]:
+        """The belt speed is *not informed* when its SE is at least 90 % of its prior sigma: the
+        posterior is the prior (e.g. a belt speed given for an overground trial)."""
+        from gc_ocp.estimation.flags import flag
+
+        return [
+            flag(
+                "belt_not_informed",
+                trial,
+                f"belt speed of {trial}: SE {v['se']:.3f} m/s ~ its prior {self.sigma:g} m/s: the data do not "
+                "inform it (is this really a treadmill trial?)",
+            )
+            for trial, v in block.items()
+            if np.isfinite(v["se"]) and v["se"] >= 0.9 * self.sigma and v["se"] > 0
+        ]
+
     def frozen(self, block: dict) -> BeltSpeed:
         return replace(self, fixed={t: v["correction"] for t, v in block.items()})
 

@@ -252,6 +252,42 @@ class ContactLaw(Component):
                 where.update({pname: float(v[0]), pname + "_se": float(se[0])})
         return {k: v for k, v in out.items() if v}
 
+    def flags(self, block: dict, stances: list) -> list[dict]:
+        """A unit is *not identified* when its force at the reference depth has an SE above its
+        value (the data do not fix it) or exceeds 2 body weights (no unit of a walking foot
+        carries that at 5 mm: a stiffness driven to absurd values by a unit that barely touches
+        the ground). Its entry gets ``"identified": False``; the summary prints "not identified"
+        instead of the number. The weak log-k prior is kept as it is: tightening it would bias
+        the identified units; the flag is the honest answer."""
+        from gc_ocp.estimation.flags import flag
+
+        bw = {st.side: st.body_weight for st in stances}
+        out = []
+        for side, units in block.items():
+            if side == "shared":
+                continue
+            for u, e in units.items():
+                if not isinstance(e, dict):
+                    continue
+                f, se = e["f_ref"], e["f_ref_se"]
+                bad = []
+                if np.isfinite(se) and se > f:
+                    bad.append(f"SE {se:.3g} N above its value")
+                if f > 2 * bw[side]:
+                    bad.append(f"{f / bw[side]:.0f} BW at {self.reference_depth * 1e3:g} mm")
+                e["identified"] = not bad
+                if bad:
+                    out.append(
+                        flag(
+                            "unit_not_identified",
+                            f"{side}/{u}",
+                            f"{side} unit {u} not identified: force at the reference depth {f:.3g} N ("
+                            + "; ".join(bad)
+                            + ")",
+                        )
+                    )
+        return out
+
     def frozen(self, block: dict) -> ContactLaw:
         """Every parameter fixed at the values of ``block`` (a decoded contact block)."""
         sides = [s for s in SIDES if s in block]

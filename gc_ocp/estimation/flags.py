@@ -1,0 +1,89 @@
+"""Plausibility of a fit: what in a result should not be taken at face value.
+
+Every result carries ``flags``: a list of ``{"code", "what", "message"}`` (plain data; in
+``.summary()``, in ``fit.json`` and on the command line). The checks and their thresholds:
+
+* ``at_bound`` — a physical parameter (a variable without prior) within 0.1 % of its range of a
+  bound: the optimum lies beyond what the bounds allow, so the value and its standard error are
+  not estimates (a Gaussian SE assumes an interior optimum).
+* ``prior_exceeded`` — a correction (a variable with a Gaussian prior) beyond 3 sigma of its prior
+  (probability 0.3 % under the prior): the data pull the correction much further than the
+  marker-registration uncertainty it stands for, e.g. a foot placed centimetres off its markers.
+  One flag per variable block, with its largest |z|.
+* component checks (:meth:`Component.flags`), e.g. a contact unit that is not identified (SE
+  above its value, or a force at the reference depth above 2 BW), a belt speed the data do not
+  inform;
+* ``poor_fit`` — superior-force RMS above 10 % BW or COP RMS above 50 mm: converged fits of real
+  walking with today's model give 1-3 % BW and 5-20 mm (``docs/estimation.md``); beyond those a
+  fit describes something else (wrong plate, wrong trial, wrong units).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+BOUND_FRACTION = 1e-3
+PRIOR_Z = 3.0
+POOR_SUPERIOR_PCT_BW = 10.0
+POOR_COP_MM = 50.0
+
+
+def flag(code: str, what: str, message: str) -> dict:
+    return {"code": code, "what": what, "message": message}
+
+
+def variable_flags(specs, x: np.ndarray) -> list[dict]:
+    """``at_bound`` and ``prior_exceeded`` flags from the variable blocks at ``x``."""
+    out = []
+    for s in specs:
+        z = np.asarray(x[s.slice], float)
+        key = "/".join(map(str, s.key))
+        if s.kind == "param":
+            span = np.where(np.isfinite(s.ub - s.lb), s.ub - s.lb, np.maximum(np.abs(z), 1.0))
+            lo = np.isfinite(s.lb) & (z - s.lb <= BOUND_FRACTION * span)
+            hi = np.isfinite(s.ub) & (s.ub - z <= BOUND_FRACTION * span)
+            for j in np.flatnonzero(lo | hi):
+                which, b = ("lower", s.lb[j]) if lo[j] else ("upper", s.ub[j])
+                val = s.physical(z)[j]
+                bval = float(np.exp(b)) if s.log else float(b * s.scale[j])
+                out.append(
+                    flag(
+                        "at_bound",
+                        key,
+                        f"{key} = {val:.4g} is at its {which} bound {bval:.4g}: not identified "
+                        "(the data push it beyond the allowed range; its SE is not meaningful)",
+                    )
+                )
+        elif s.kind == "prior" and z.size:
+            zmax = float(np.max(np.abs(z)))
+            if zmax > PRIOR_Z:
+                out.append(
+                    flag(
+                        "prior_exceeded",
+                        key,
+                        f"{key}: correction at {zmax:.1f} sigma of its prior (> {PRIOR_Z:g}): the data "
+                        "pull it far beyond the registration uncertainty it models",
+                    )
+                )
+    return out
+
+
+def fit_flags(rms: dict, cop_rms_mm: dict) -> list[dict]:
+    out = []
+    for side, r in rms.items():
+        sup = r.get("superior_force_pct_bw", 0.0)
+        if sup > POOR_SUPERIOR_PCT_BW:
+            out.append(
+                flag(
+                    "poor_fit",
+                    side,
+                    f"{side} superior-force RMS {sup:.1f} % BW > {POOR_SUPERIOR_PCT_BW:g} % BW",
+                )
+            )
+        cop = cop_rms_mm.get(side, 0.0)
+        if np.isfinite(cop) and cop > POOR_COP_MM:
+            out.append(flag("poor_fit", side, f"{side} COP RMS {cop:.0f} mm > {POOR_COP_MM:g} mm"))
+    return out
+
+
+__all__ = ["flag", "fit_flags", "variable_flags"]

@@ -1,0 +1,59 @@
+"""Plausibility flags: each check fires where it should and stays quiet where it should not."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gc_ocp.estimation import BeltSpeed, ContactLaw
+from gc_ocp.estimation.flags import fit_flags, variable_flags
+from gc_ocp.estimation.variables import Variables
+
+
+def _specs():
+    v = Variables()
+    v.parameter(("contact", "n"), 1.5, 1.0, 3.0)
+    v.parameter(("contact", "k", "left", "PL"), 1e5, 1e2, 1e9, log=True)
+    v.prior_variable(("sole", "left", "PL"), 3, 0.005, 0.025)
+    v.finalize()
+    return v.specs
+
+
+def test_parameter_at_a_bound_and_correction_beyond_three_sigma():
+    specs = _specs()
+    x = np.array([1.0, np.log(1e5), 0.5, -3.5, 1.0])  # n at its lower bound; a 3.5-sigma offset
+    codes = {(f["code"], f["what"]) for f in variable_flags(specs, x)}
+    assert codes == {("at_bound", "contact/n"), ("prior_exceeded", "sole/left/PL")}
+    x_ok = np.array([1.4, np.log(1e5), 0.5, -2.9, 1.0])
+    assert variable_flags(specs, x_ok) == []
+    x_kmax = np.array([1.4, np.log(1e9), 0.0, 0.0, 0.0])  # log variable at its upper bound
+    assert [f["what"] for f in variable_flags(specs, x_kmax)] == ["contact/k/left/PL"]
+
+
+def test_unit_not_identified_and_reported_so():
+    from types import SimpleNamespace
+
+    block = {
+        "left": {
+            "PL": {"k": 1e5, "k_se": 1e4, "f_ref": 300.0, "f_ref_se": 20.0},
+            "AM": {"k": 8e8, "k_se": 8e8, "f_ref": 2.3e5, "f_ref_se": 1.7e5},  # 360 BW at 5 mm
+            "PM": {"k": 1e5, "k_se": 2e5, "f_ref": 29.0, "f_ref_se": 53.0},  # SE above its value
+        },
+        "shared": {"n": 1.5, "n_se": 0.1},
+    }
+    stances = [SimpleNamespace(side="left", body_weight=624.0)]
+    flags = ContactLaw().flags(block, stances)
+    assert sorted(f["what"] for f in flags) == ["left/AM", "left/PM"]
+    assert block["left"]["PL"]["identified"] and not block["left"]["AM"]["identified"]
+    from gc_ocp.estimation.result import _shown
+
+    assert _shown(block["left"], "AM", "k", ".3g") == "AM not identified"
+
+
+def test_belt_speed_not_informed_and_poor_fit():
+    belt = BeltSpeed()
+    informed = {"t1": {"value": 1.18, "se": 0.003, "nominal": 1.1, "correction": 0.08}}
+    prior_only = {"t2": {"value": 1.1, "se": 0.0999, "nominal": 1.1, "correction": 0.0}}
+    assert belt.flags(informed, []) == []
+    assert [f["code"] for f in belt.flags(prior_only, [])] == ["belt_not_informed"]
+    rms = {"left": {"superior_force_pct_bw": 61.0}, "right": {"superior_force_pct_bw": 1.8}}
+    assert [f["what"] for f in fit_flags(rms, {"left": 600.0, "right": 9.0})] == ["left", "left"]
