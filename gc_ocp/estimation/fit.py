@@ -159,6 +159,7 @@ class FitReport:
     result: EstimationResult
     heldout: EstimationResult | None = None
     heldout_label: str | None = None
+    checks: list = dataclasses.field(default_factory=list)
 
     def to_json(self) -> dict:
         d = self.result.to_json()
@@ -168,10 +169,13 @@ class FitReport:
             d["heldout_stance"] = self.heldout_label
             d["heldout_pose_correction_rms"] = self.heldout.pose_correction_rms
             d["heldout_flags"] = self.heldout.flags
+        d["checks"] = list(self.checks)
         return d
 
     def summary(self) -> str:
         s = self.result.summary()
+        if self.checks:
+            s = "input checks:\n" + "\n".join(f"  - {c}" for c in self.checks) + "\n" + s
         if self.heldout is not None:
             s += f"\nheld-out stance {self.heldout_label}:\n" + self.heldout.summary()
         return s
@@ -213,7 +217,12 @@ def fit(
     say = progress or (lambda s: None)
     model = model or full_model()
     data: list[StanceData] = []
-    trials = [(_with_height(t, k), k) for t, k in trials]
+    from gc_ocp.io.consistency import check_for_fit
+
+    trials, notes = check_for_fit([(_with_height(t, k), k) for t, k in trials])
+    for note in notes:
+        warnings.warn(note, stacklevel=2)
+        say(f"check: {note}")
     for trial, kin in trials:
         for st in trial.stances:
             data.append(stance_data(trial, kin, st, margin=MARGIN, min_frames=5))
@@ -239,7 +248,7 @@ def fit(
     say(f"solving with Ipopt: {len(data)} stances, {sum(d.n for d in data)} frames")
     res = best_of(data, model, weights, options, strategies, progress=say)
     say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
-    report = FitReport(res)
+    report = FitReport(res, checks=notes)
     if held is not None:
         hp = build_estimation([held], frozen_model(model, res), weights)
         hres = solve(hp, options)

@@ -1,0 +1,213 @@
+"""Consistency of a trial's forces with its motion and subject, checked before fitting.
+
+Each check either raises an :class:`~gc_ocp.errors.InputError` naming the problem and the fix,
+or excludes a stance / corrects a setting with a warning that is recorded in the outputs
+(``fit.json``'s provenance). Thresholds come from the physics of walking:
+
+* **Body weight vs plates** (:data:`MASS_TOLERANCE`): over a full stride the plates carry the
+  body weight on average (vertical momentum returns to its value); plate calibration and the
+  stride window leave a few per cent. Beyond 20 % the mass (or the plates) is wrong: error.
+* **Treadmill vs overground**: on a treadmill the stance foot moves backward with the belt
+  (``estimate_belt_speed``; ~0 overground). A belt speed of at least :data:`TREADMILL_SPEED`
+  with none given: the estimate is used, with a warning. A belt speed given while the feet stand
+  still in stance (below :data:`OVERGROUND_SPEED`): error.
+* **Force-motion**: while a plate is loaded (Fz > 20 % BW, middle half of the stance) its centre
+  of pressure lies under the foot: within :data:`COP_MARGIN` of the convex hull of the foot's
+  contact units (sole location from skin markers ~1-2 cm, COP noise ~1 cm). A stance whose COP
+  is mostly outside is excluded; if no stance of the trial passes, markers and forces do not
+  belong together: error.
+* **Partly off the plate**: the lowest unit of the foot (the one bearing load) must lie on the
+  plate's surface (corners known, :data:`PLATE_MARGIN`); a stance whose loaded unit is off the
+  plate for more than 20 % of its loaded frames is excluded (part of its force is not measured).
+* **Unloaded plates**: outside every stance a plate should read ~0; a median unloaded |Fz| above
+  :data:`DRIFT_N` means an unzeroed or drifting plate: warning (its stances are kept; the fit's
+  flags will show the consequence).
+* **Duplicates**: the same trial given twice (same file content or identical markers): error.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+
+import numpy as np
+
+from gc_ocp.errors import InputError, PlateError
+from gc_ocp.trial import ExcludedStance, Trial
+
+MASS_TOLERANCE = 0.20
+MASS_WARNING = 0.10
+TREADMILL_SPEED = 0.3  # [m/s]
+OVERGROUND_SPEED = 0.15  # [m/s]
+COP_MARGIN = 0.04  # [m]
+PLATE_MARGIN = 0.02  # [m]
+DRIFT_N = 20.0  # [N]
+LOADED_FRACTION_BW = 0.2
+
+
+def _hull_distance(points_xy: np.ndarray, p: np.ndarray) -> float:
+    """Signed distance [m] of ``p`` outside the convex hull of ``points_xy`` (negative inside;
+    outside: the largest edge-normal distance, a lower bound of the Euclidean one)."""
+    from scipy.spatial import ConvexHull
+
+    try:
+        hull = ConvexHull(points_xy)
+    except Exception:  # degenerate (collinear) units: distance to the nearest unit
+        return float(np.min(np.linalg.norm(points_xy - p, axis=1)))
+    eq = hull.equations  # rows (nx, ny, offset): n . x + offset <= 0 inside
+    return float(np.max(eq[:, :2] @ p + eq[:, 2]))
+
+
+def _inside_polygon(corners_xy: np.ndarray, p: np.ndarray, margin: float) -> bool:
+    return _hull_distance(corners_xy, p) <= margin
+
+
+def duplicates(trials: list[Trial]) -> None:
+    seen: dict[str, str] = {}
+    for t in trials:
+        h = hashlib.sha256(np.ascontiguousarray(np.nan_to_num(t.markers)).tobytes()).hexdigest()
+        if h in seen:
+            raise InputError(
+                f"{t.source} and {seen[h]} hold the same motion (identical markers): the same trial "
+                "given twice would count its stances twice; give each trial once."
+            )
+        seen[h] = str(t.source)
+
+
+def body_weight(trial: Trial) -> list[str]:
+    from gc_ocp.io.checks import stride_body_weight
+
+    check = stride_body_weight(trial)
+    if check is None:
+        return []
+    plates, t0, t1 = check
+    rel = trial.body_weight / plates - 1.0
+    msg = (
+        f"{trial.source}: mass {trial.mass:.1f} kg ({trial.mass_source or 'given'}) gives a body weight of "
+        f"{trial.body_weight:.0f} N but the plates carry {plates:.0f} N on average over the stride "
+        f"{t0:.2f}-{t1:.2f} s ({rel:+.0%})"
+    )
+    if abs(rel) > MASS_TOLERANCE:
+        raise InputError(
+            msg
+            + f"; check --mass (the plates suggest {plates / 9.81:.1f} kg) or the plate calibration."
+        )
+    return [msg + "; check the mass"] if abs(rel) > MASS_WARNING else []
+
+
+def belt(trial: Trial) -> tuple[Trial, list[str]]:
+    from gc_ocp.errors import MarkerError
+    from gc_ocp.io.estimates import estimate_belt_speed
+
+    try:
+        speed, _ = estimate_belt_speed(trial)
+    except MarkerError:
+        return trial, []
+    given = float(-trial.belt_velocity[0])
+    if given == 0.0 and speed >= TREADMILL_SPEED:
+        msg = (
+            f"{trial.source}: the stance feet move backward at {speed:.3f} m/s (a treadmill) but no belt speed "
+            f"was given: using {speed:.3f} m/s (refined by the fit; pass --belt-speed to set it)"
+        )
+        return dataclasses.replace(trial, belt_velocity=np.array([-speed, 0.0, 0.0])), [msg]
+    if given != 0.0 and abs(speed) < OVERGROUND_SPEED:
+        raise InputError(
+            f"{trial.source}: a belt speed of {given:.3f} m/s was given but the stance feet stand still "
+            f"({speed:+.3f} m/s along -X): this is overground walking; drop --belt-speed."
+        )
+    return trial, []
+
+
+def plate_drift(trial: Trial) -> list[str]:
+    out = []
+    for i, p in enumerate(trial.plates):
+        free = np.ones(p.time.size, bool)
+        for s in list(trial.stances) + list(trial.excluded_stances):
+            if s.plate == i:
+                free &= ~((p.time >= s.t_on - 0.05) & (p.time <= s.t_off + 0.05))
+        if free.sum() < 10:
+            continue
+        level = float(np.median(np.abs(p.force[free, 2])))
+        if level > DRIFT_N:
+            out.append(
+                f"{trial.source}: plate {p.name} reads {level:.0f} N (median) while unloaded: unzeroed or "
+                "drifting; its stances are kept but their forces are offset (re-zero the plate)"
+            )
+    return out
+
+
+def force_motion(trial: Trial, kin) -> tuple[Trial, list[str]]:
+    """Exclude stances whose COP is not under the foot, or whose loaded unit is off the plate."""
+    keep, excluded, notes = [], list(trial.excluded_stances), []
+    for s in trial.stances:
+        foot = kin.feet.get(s.side)
+        reason = None if foot is None else _stance_problem(trial, foot, s)
+        if reason is None:
+            keep.append(s)
+        else:
+            excluded.append(ExcludedStance(s.side, s.plate, s.t_on, s.t_off, reason))
+            notes.append(f"{trial.source}: stance {s.label} excluded: {reason}")
+    if trial.stances and not keep:
+        raise PlateError(
+            f"{trial.source}: no stance's centre of pressure lies under the foot that should load it "
+            f"({'; '.join(n.split(': ', 2)[-1] for n in notes[:2])}): the force data do not belong to this "
+            "motion (another trial's plates, shifted timing, or a plate origin in other units); check the files."
+        )
+    return dataclasses.replace(trial, stances=tuple(keep), excluded_stances=tuple(excluded)), notes
+
+
+def _stance_problem(trial: Trial, foot, s) -> str | None:
+    t = foot.time
+    mid = (t >= s.t_on + 0.25 * s.duration) & (t <= s.t_off - 0.25 * s.duration)
+    if mid.sum() < 3:
+        return None
+    w = trial.stance_wrench(s, t[mid])
+    plate = trial.plates[s.plate]
+    loaded = w[:, 2] > LOADED_FRACTION_BW * trial.body_weight
+    if loaded.mean() < 0.5:
+        return f"plate {plate.name} carries less than {LOADED_FRACTION_BW:.0%} BW in most of mid-stance"
+    from gc_ocp.wrench import cop_from_wrench
+
+    cop = cop_from_wrench(w[:, :3], w[:, 3:], s.reference_point, plate.surface_height, 1.0)
+    pos = foot.positions[mid]
+    dist = np.array(
+        [
+            _hull_distance(pos[i, :, :2], cop[i, :2])
+            for i in np.flatnonzero(loaded)
+            if np.isfinite(cop[i, 0])
+        ]
+    )
+    if dist.size and np.mean(dist > COP_MARGIN) > 0.5:
+        return (
+            f"its centre of pressure is {np.median(dist) * 1e3:.0f} mm (median) outside the {s.side} foot "
+            "while the plate is loaded: the force is not under this foot"
+        )
+    if plate.corners is not None:
+        corners = np.asarray(plate.corners)[:, :2]
+        low = np.argmin(pos[:, :, 2], axis=1)
+        off = [
+            not _inside_polygon(corners, pos[i, low[i], :2], PLATE_MARGIN)
+            for i in np.flatnonzero(loaded)
+        ]
+        if np.mean(off) > 0.2:
+            return f"the loaded part of the {s.side} foot is off plate {plate.name} in {np.mean(off):.0%} of the loaded frames"
+    return None
+
+
+def check_for_fit(pairs: list) -> tuple[list, list[str]]:
+    """Check ``[(trial, kinematics)]`` before fitting: errors raise, the rest returns as
+    ``(checked pairs, notes)`` (stances excluded, belt speed set)."""
+    duplicates([t for t, _ in pairs])
+    out, notes = [], []
+    for t, kin in pairs:
+        notes += body_weight(t)
+        t, n = belt(t)
+        notes += n
+        notes += plate_drift(t)
+        t, n = force_motion(t, kin)
+        notes += n
+        out.append((t, kin))
+    return out, notes
+
+
+__all__ = ["check_for_fit"]

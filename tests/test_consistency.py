@@ -1,0 +1,91 @@
+"""Checks before fitting: damaged copies of real trials end in a clear error or an excluded
+stance with its reason, never in a silent fit (issue "no silent wrong answer")."""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+from conftest import c3d_trial, gait2392_trial, rajagopal_trial
+
+from gc_ocp.errors import InputError, PlateError
+from gc_ocp.io.consistency import check_for_fit
+from gc_ocp.trial import Plate
+
+
+@pytest.fixture(scope="module")
+def walk():
+    from gc_ocp.kinematics import compute_kinematics
+
+    t = c3d_trial()
+    return t, compute_kinematics(t)
+
+
+def test_clean_trials_pass_unchanged():
+    from gc_ocp.kinematics import compute_kinematics
+
+    for f in (c3d_trial, rajagopal_trial):
+        t = f()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            k = compute_kinematics(t)
+        (t2, _), notes = check_for_fit([(t, k)])[0][0], check_for_fit([(t, k)])[1]
+        assert t2.stances == t.stances and notes == []
+
+
+def _motion_of_another_moment(kin, dt):
+    feet = {s: dataclasses.replace(f, time=f.time - dt) for s, f in kin.feet.items()}
+    return dataclasses.replace(kin, feet=feet)
+
+
+def test_forces_of_another_motion_are_refused(walk):
+    """The motion taken 0.4 s later than the forces (markers that do not belong to these plate
+    data): in no stance is the centre of pressure under the foot."""
+    t, k = walk
+    with pytest.raises(PlateError, match="do not belong"):
+        check_for_fit([(t, _motion_of_another_moment(k, 0.4))])
+
+
+@pytest.mark.parametrize("mass", [45.0, 90.0])
+def test_wrong_mass_is_refused(walk, mass):
+    t, k = walk
+    with pytest.raises(InputError, match=r"check --mass \(the plates suggest 6\d\.\d kg\)"):
+        check_for_fit([(dataclasses.replace(t, mass=mass), k)])
+
+
+def test_belt_speed_on_overground_is_refused(walk):
+    t, k = walk
+    with pytest.raises(InputError, match="overground walking; drop --belt-speed"):
+        check_for_fit([(dataclasses.replace(t, belt_velocity=np.array([-1.1, 0.0, 0.0])), k)])
+
+
+def test_treadmill_without_belt_speed_uses_the_estimate():
+    from gc_ocp.kinematics import compute_kinematics
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = gait2392_trial()
+        k = compute_kinematics(t)
+    (t2, _), notes = check_for_fit([(t, k)])[0][0], check_for_fit([(t, k)])[1]
+    assert -t2.belt_velocity[0] == pytest.approx(1.056, abs=0.01)
+    assert any("treadmill" in n for n in notes)
+
+
+def test_same_trial_twice_is_refused(walk):
+    with pytest.raises(InputError, match="given twice"):
+        check_for_fit([walk, walk])
+
+
+def test_unzeroed_plate_is_reported(walk):
+    t, k = walk
+    p0 = t.plates[0]
+    drift = np.linspace(0.0, 60.0, p0.time.size)  # 0 -> 60 N over the trial
+    plates = (
+        dataclasses.replace(p0, force=p0.force + np.c_[0 * drift, 0 * drift, drift]),
+        *t.plates[1:],
+    )
+    assert isinstance(plates[0], Plate)
+    _, notes = check_for_fit([(dataclasses.replace(t, plates=plates), k)])
+    assert any("while unloaded" in n and p0.name in n for n in notes)
