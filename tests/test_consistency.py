@@ -89,3 +89,23 @@ def test_unzeroed_plate_is_reported(walk):
     assert isinstance(plates[0], Plate)
     _, notes = check_for_fit([(dataclasses.replace(t, plates=plates), k)])
     assert any("while unloaded" in n and p0.name in n for n in notes)
+
+
+def test_stance_partly_off_its_plate_is_excluded(walk):
+    """The plate of the first stance moved forward (its corners, not its forces) so that its rear
+    edge lies 135 mm in front of the heel at loading response: the heel stands off the plate;
+    the stance is excluded with the reason, the others are kept."""
+    t, k = walk
+    s0 = t.stances[0]
+    p = t.plates[s0.plate]
+    foot = k.feet[s0.side]
+    i = np.searchsorted(foot.time, s0.t_on + 0.1 * s0.duration)
+    heel_x = foot.positions[i, :, 0].min()
+    shift = heel_x - np.asarray(p.corners)[:, 0].min() + 0.135
+    moved = dataclasses.replace(p, corners=np.asarray(p.corners) + np.array([shift, 0.0, 0.0]))
+    plates = tuple(moved if i == s0.plate else q for i, q in enumerate(t.plates))
+    [(t2, _)], notes = check_for_fit([(dataclasses.replace(t, plates=plates), k)])
+    assert any("off plate" in n for n in notes)
+    kept = {s.label for s in t2.stances}
+    assert s0.label not in kept and len(kept) == len(t.stances) - 1
+    assert any("off plate" in e.reason for e in t2.excluded_stances)

@@ -16,9 +16,10 @@ or excludes a stance / corrects a setting with a warning that is recorded in the
   contact units (sole location from skin markers ~1-2 cm, COP noise ~1 cm). A stance whose COP
   is mostly outside is excluded; if no stance of the trial passes, markers and forces do not
   belong together: error.
-* **Partly off the plate**: the lowest unit of the foot (the one bearing load) must lie on the
-  plate's surface (corners known, :data:`PLATE_MARGIN`); a stance whose loaded unit is off the
-  plate for more than 20 % of its loaded frames is excluded (part of its force is not measured).
+* **Partly off the plate**: every unit touching the ground (within :data:`CONTACT_BAND` of the
+  lowest) must lie on the plate's surface (corners known, :data:`PLATE_MARGIN`) while the plate
+  is loaded; a stance with a touching unit off the plate in more than 20 % of its loaded frames
+  is excluded (part of its force is not measured).
 * **Unloaded plates**: outside every stance a plate should read ~0; a median unloaded |Fz| above
   :data:`DRIFT_N` means an unzeroed or drifting plate: warning (its stances are kept; the fit's
   flags will show the consequence).
@@ -41,6 +42,7 @@ TREADMILL_SPEED = 0.3  # [m/s]
 OVERGROUND_SPEED = 0.15  # [m/s]
 COP_MARGIN = 0.04  # [m]
 PLATE_MARGIN = 0.02  # [m]
+CONTACT_BAND = 0.01  # [m] units within this of the lowest one count as touching
 DRIFT_N = 20.0  # [N]
 LOADED_FRACTION_BW = 0.2
 
@@ -183,14 +185,24 @@ def _stance_problem(trial: Trial, foot, s) -> str | None:
             "while the plate is loaded: the force is not under this foot"
         )
     if plate.corners is not None:
+        # every unit touching the ground (within CONTACT_BAND of the lowest one) must stand on the
+        # plate over the whole loaded stance, else part of the force is not measured
+        whole = (t >= s.t_on) & (t <= s.t_off)
+        ww = trial.stance_wrench(s, t[whole])
+        on = ww[:, 2] > LOADED_FRACTION_BW * trial.body_weight
+        pw = foot.positions[whole][on]
         corners = np.asarray(plate.corners)[:, :2]
-        low = np.argmin(pos[:, :, 2], axis=1)
-        off = [
-            not _inside_polygon(corners, pos[i, low[i], :2], PLATE_MARGIN)
-            for i in np.flatnonzero(loaded)
-        ]
-        if np.mean(off) > 0.2:
-            return f"the loaded part of the {s.side} foot is off plate {plate.name} in {np.mean(off):.0%} of the loaded frames"
+        off = []
+        for frame in pw:
+            touching = frame[:, 2] - frame[:, 2].min() < CONTACT_BAND
+            off.append(
+                any(not _inside_polygon(corners, q[:2], PLATE_MARGIN) for q in frame[touching])
+            )
+        if off and np.mean(off) > 0.2:
+            return (
+                f"the {s.side} foot stands partly off plate {plate.name} in {np.mean(off):.0%} of the loaded "
+                "frames (part of its force is not measured)"
+            )
     return None
 
 
