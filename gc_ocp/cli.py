@@ -137,6 +137,8 @@ FIT_OUTPUTS = (
     "fit_sole.png",
     "fit_pose_corrections.png",
     "heldout_wrench.png",
+    "sensitivity.json",
+    "sensitivity.md",
 )
 """Every file ``gc-ocp fit`` may write: a run replaces the whole set (stale ones are removed)."""
 
@@ -237,6 +239,24 @@ def cmd_fit(args: argparse.Namespace) -> int:
                 report.heldout, title=f"held-out {report.heldout_label}"
             )
         out.text("fit.json", json.dumps({**report.to_json(), "provenance": prov}, indent=2))
+        if args.sensitivity:
+            from gc_ocp.estimation.sensitivity import sensitivity
+
+            from gc_ocp.io import load_static
+            from gc_ocp.kinematics import compute_kinematics
+
+            def kin(t, cutoff_hz):
+                static = load_static(args.static, t) if args.static is not None else None
+                return compute_kinematics(
+                    t, markerset=args.markerset, static=static, cutoff_hz=cutoff_hz
+                )
+
+            sens = sensitivity([t for t, _ in pairs], compute_kinematics=kin, progress=_progress)
+            print(
+                "sensitivity of the headline parameters to processing choices:\n" + sens.summary()
+            )
+            out.text("sensitivity.json", json.dumps(sens.to_json(), indent=2))
+            out.text("sensitivity.md", sens.summary() + "\n")
         for name, fig in figs.items():
             out.figure(name, fig, dpi=100)
         written = out.commit()
@@ -312,6 +332,12 @@ def build_parser() -> argparse.ArgumentParser:
         "not converge (the result is written to fit_failed.json), 2 on bad input.",
     )
     _add_trial_args(p)
+    p.add_argument(
+        "--sensitivity",
+        action="store_true",
+        help="Also refit with other marker cutoffs (4, 8 Hz) and stance margins (60 ms) and report how "
+        "far the headline parameters move, in units of their SE (sensitivity.json/.md).",
+    )
     p.add_argument("--holdout", help='Stance to hold out, e.g. "right@0.407s" (see `gc-ocp info`).')
     p.add_argument("--out", type=Path, required=True, help="Output folder.")
     p.set_defaults(func=cmd_fit)

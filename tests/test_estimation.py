@@ -376,3 +376,17 @@ def test_rms_is_normalised_per_stance():
         )
     rms, _ = fit_quality(fits)
     assert rms["left"]["superior_force_pct_bw"] == pytest.approx(1.0, rel=1e-12)
+
+
+def test_sensitivity_to_processing_choices(bundled):
+    """Refits with another cutoff and margin: values per choice, the reference's SE, and a
+    spread/SE ratio; the reference choice reproduces the default fit."""
+    from gc_ocp.estimation import fit
+    from gc_ocp.estimation.sensitivity import sensitivity
+
+    rep = sensitivity([bundled[0]], cutoffs=(6.0, 8.0), margins=(0.03,))
+    assert rep.choices == ["6 Hz, 30 ms", "8 Hz, 30 ms"] and rep.reference == "6 Hz, 30 ms"
+    default = fit([bundled]).result.params["shared"]["n"]
+    assert rep.values["n"][0] == pytest.approx(default, rel=1e-9)
+    assert rep.spread("n") > 0 and rep.se["n"] > 0
+    assert "spread / SE" in rep.summary()

@@ -209,10 +209,12 @@ def fit(
     options: IpoptOptions | None = None,
     progress: Callable[[str], None] | None = None,
     strategies: tuple[tuple[float, ...], ...] = STRATEGIES,
+    margin: float = MARGIN,
 ) -> FitReport:
     """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
 
     holdout: label (or unique prefix/substring) of a stance to hold out, see the module doc.
+    margin: unloaded frames kept each side of a stance [s] (:data:`MARGIN`).
     """
     say = progress or (lambda s: None)
     model = model or full_model()
@@ -225,7 +227,7 @@ def fit(
         say(f"check: {note}")
     for trial, kin in trials:
         for st in trial.stances:
-            data.append(stance_data(trial, kin, st, margin=MARGIN, min_frames=5))
+            data.append(stance_data(trial, kin, st, margin=margin, min_frames=5))
     held = None
     if holdout is not None:
         matches = [d for d in data if d.label == holdout or holdout in d.label]
