@@ -241,7 +241,6 @@ def cmd_fit(args: argparse.Namespace) -> int:
         out.text("fit.json", json.dumps({**report.to_json(), "provenance": prov}, indent=2))
         if args.sensitivity:
             from gc_ocp.estimation.sensitivity import sensitivity
-
             from gc_ocp.io import load_static
             from gc_ocp.kinematics import compute_kinematics
 
