@@ -166,7 +166,8 @@ class Frame:
 class FrameModel:
     """The composed per-frame functions of one model and the layouts of their inputs.
 
-    frame: ``(D, y) -> (res, wrench)`` (SX); grad, hess: gradient and Hessian in ``y`` of
+    frame: ``(D, y) -> (res, wrench, measured)`` (SX; ``measured``: what the wrench is compared
+    with, after every ``edit_measured``); grad, hess: gradient and Hessian in ``y`` of
     ``1/2 |res|^2`` (compiled to C when possible); jac: ``(D, y) -> (res, d res / d y)`` (SX);
     data, slots: the named layouts of ``D`` and ``y``.
     """
@@ -195,7 +196,9 @@ def _compose(layout: SoleLayout, components: tuple, data_entries, slot_entries) 
     for c in components:
         c.edit_measured(f)
     res = (wrench - f.measured) * f.inv_sigma
-    return ca.Function("foot_frame", [D, y], [res, wrench], ["D", "y"], ["res", "wrench"])
+    return ca.Function(
+        "foot_frame", [D, y], [res, wrench, f.measured], ["D", "y"], ["res", "wrench", "measured"]
+    )
 
 
 def _derivatives(

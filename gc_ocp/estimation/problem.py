@@ -221,6 +221,11 @@ class EstimationProblem:
         """Model wrench ``(T, 6)`` of every stance at ``x`` (``lab``, about its reference point)."""
         return [np.asarray(b.fm.frame.map(b.T)(b.D, b.Y(x))[1]).T for b in self.blocks]
 
+    def stance_measured(self, x: np.ndarray) -> list[np.ndarray]:
+        """Measured wrench ``(T, 6)`` each stance's model is compared with at ``x`` (the stance's
+        ``measured`` unless a component edits it, e.g. a clock offset resamples the plate)."""
+        return [np.asarray(b.fm.frame.map(b.T)(b.D, b.Y(x))[2]).T for b in self.blocks]
+
     def slot_values(self, x: np.ndarray, i: int, name: str) -> np.ndarray:
         """``(T, size)`` values of slot ``name`` on stance ``i`` at ``x``."""
         b = self.blocks[i]
@@ -307,7 +312,7 @@ def build_estimation(
         y0 = ca.DM(ca.Function("y0", [x], [ca.vec(Y)])(zero))
         block = StanceBlock(A, y0, frame_data(st, weights, fm, model), st.n, fm)
         Yl = ca.reshape(ca.mtimes(A, x) + y0, fm.slots.size, st.n)
-        res, _ = fm.frame.map(st.n)(block.D, Yl)
+        res = fm.frame.map(st.n)(block.D, Yl)[0]
         residuals.append(ca.vec(res))
         blocks.append(block)
     n_data = sum(6 * b.T for b in blocks)

@@ -104,7 +104,7 @@ def simulate(
     ``marker_noise`` [m] > 0 the foot kinematics the fitter sees are re-estimated from noisy
     virtual markers. Each truth component may change how the plate records the wrench
     (:meth:`Component.observe`, e.g. a clock offset)."""
-    from gc_ocp.estimation.synthetic import noisy_pose
+    from gc_ocp.estimation.synthetic import noisy_pose, plate_signal
 
     stances = list(stances)
     pb = build_estimation(stances, truth)
@@ -116,7 +116,7 @@ def simulate(
             [sd, sd, sd, *(3 * [sd * TORQUE_NOISE_LENGTH])]
         )
         obs = st.with_measured(w)
-        obs = _with_plate_signal(obs, st.time, w)
+        obs = _with_plate_signal(obs, *plate_signal(st.time, w))
         for c in truth:
             obs = c.observe(obs, w)
         obs = obs.with_measured(obs.measured + noise)

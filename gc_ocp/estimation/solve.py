@@ -135,6 +135,7 @@ def decode(
     )
     blocks = {c.name: c.decode(ctx) for c in problem.model}
     fits = []
+    measured = problem.stance_measured(x)
     for i, (st, w) in enumerate(zip(problem.stances, problem.stance_wrenches(x), strict=True)):
         f = st.foot
         fits.append(
@@ -145,7 +146,7 @@ def decode(
                 "units": list(st.layout.units),
                 "parents": list(st.layout.parents),
                 "time": np.asarray(st.time),
-                "measured": np.asarray(st.measured),
+                "measured": measured[i],
                 "model": w,
                 "in_contact": np.asarray(st.in_contact),
                 "points_local": problem.slot_values(x, i, "points_local")[0].reshape(-1, 3),

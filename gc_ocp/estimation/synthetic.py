@@ -14,7 +14,7 @@ import numpy as np
 
 from gc_ocp.foot import FootKinematics
 from gc_ocp.geometry import kabsch
-from gc_ocp.stance import StanceData
+from gc_ocp.stance import PLATE_SIGNAL_MARGIN, StanceData
 from gc_ocp.synthetic_foot import NOMINAL_POINTS, nominal_points, rolling_foot
 from gc_ocp.trial import GRAVITY
 
@@ -63,6 +63,7 @@ def synthetic_stance(
     if marker_noise > 0:
         fit_foot = noisy_pose(fit_foot, marker_noise, rng)
     s = (foot.time >= t0) & (foot.time <= t0 + duration)
+    plate_t, plate_w = plate_signal(foot.time, meas)
     return StanceData(
         trial="synthetic",
         side=side,
@@ -75,7 +76,20 @@ def synthetic_stance(
         belt_velocity=np.zeros(3),
         body_weight=body_weight,
         height=height,
+        plate_time=plate_t,
+        plate_wrench=plate_w,
     )
+
+
+def plate_signal(time: np.ndarray, wrench: np.ndarray, rate: float = 1000.0):
+    """A plate signal for a wrench known on frames ``time``: ``(plate_time, plate_wrench)`` at
+    ``rate`` [Hz] over the frames +- ``PLATE_SIGNAL_MARGIN``, linear between frames, edge values
+    held outside them (equal to ``wrench`` on the frames). What a clock-offset model resamples."""
+    t = np.asarray(time, float)
+    n_margin = round(PLATE_SIGNAL_MARGIN * rate)
+    k = np.arange(-n_margin, round((t[-1] - t[0]) * rate) + n_margin + 1)
+    pt = t[0] + k / rate
+    return pt, np.column_stack([np.interp(pt, t, np.asarray(wrench)[:, c]) for c in range(6)])
 
 
 def noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) -> FootKinematics:

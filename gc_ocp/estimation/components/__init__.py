@@ -18,12 +18,14 @@ from gc_ocp.estimation.components.belt import BeltSpeed
 from gc_ocp.estimation.components.contact import ContactLaw, Param
 from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.components.sole import SoleCorrection
+from gc_ocp.estimation.components.time_offset import TimeOffset
 
 REGISTRY: dict[str, type[Component]] = {
     "contact": ContactLaw,
     "sole_geometry": SoleCorrection,
     "kinematic_correction": PoseCorrection,
     "belt_speed": BeltSpeed,
+    "time_offset": TimeOffset,
 }
 """Component classes by name: the vocabulary of model configurations and of the diagnosis
 (``docs/effects.md``). A component instance's ``name`` keys its variables and its result block
