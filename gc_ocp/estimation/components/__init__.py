@@ -19,6 +19,7 @@ from gc_ocp.estimation.components.contact import ContactLaw, Param
 from gc_ocp.estimation.components.damping import Damping
 from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.components.sole import SoleCorrection
+from gc_ocp.estimation.components.stiffness_exponent import StiffnessExponent
 
 REGISTRY: dict[str, type[Component]] = {
     "contact": ContactLaw,
@@ -26,6 +27,7 @@ REGISTRY: dict[str, type[Component]] = {
     "kinematic_correction": PoseCorrection,
     "belt_speed": BeltSpeed,
     "damping": Damping,
+    "stiffness_exponent": StiffnessExponent,
 }
 """Component classes by name: the vocabulary of model configurations and of the diagnosis
 (``docs/effects.md``). A component instance's ``name`` keys its variables and its result block
