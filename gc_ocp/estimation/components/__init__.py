@@ -16,8 +16,10 @@ from gc_ocp.errors import ModelError
 from gc_ocp.estimation.components.base import Component, DecodeContext, Scope
 from gc_ocp.estimation.components.belt import BeltSpeed
 from gc_ocp.estimation.components.contact import ContactLaw, Param
+from gc_ocp.estimation.components.damping import Damping
 from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.components.sole import SoleCorrection
+from gc_ocp.estimation.components.stiffness_exponent import StiffnessExponent
 from gc_ocp.estimation.components.time_offset import TimeOffset
 
 REGISTRY: dict[str, type[Component]] = {
@@ -26,6 +28,8 @@ REGISTRY: dict[str, type[Component]] = {
     "kinematic_correction": PoseCorrection,
     "belt_speed": BeltSpeed,
     "time_offset": TimeOffset,
+    "damping": Damping,
+    "stiffness_exponent": StiffnessExponent,
 }
 """Component classes by name: the vocabulary of model configurations and of the diagnosis
 (``docs/effects.md``). A component instance's ``name`` keys its variables and its result block

@@ -301,10 +301,10 @@ class ContactLaw(Component):
                     s: {u: e["k"] for u, e in block[s].items() if isinstance(e, dict)}
                     for s in sides
                 }
-            elif par.scope == "foot":
-                val = {s: block[s][pname] for s in sides}
-            else:
+            elif pname in block.get("shared", {}):
                 val = block["shared"][pname]
+            else:  # per foot; or fixed when decoded (an effect such as damping owned it)
+                val = {s: block[s][pname] for s in sides}
             kw[pname] = Param("fixed", val)
         return replace(self, **kw)
 
