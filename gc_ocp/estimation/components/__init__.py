@@ -17,6 +17,8 @@ from gc_ocp.estimation.components.base import Component, DecodeContext, Scope
 from gc_ocp.estimation.components.belt import BeltSpeed
 from gc_ocp.estimation.components.contact import ContactLaw, Param
 from gc_ocp.estimation.components.damping import Damping
+from gc_ocp.estimation.components.friction import StribeckFriction
+from gc_ocp.estimation.components.ground_offset import GroundOffset
 from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.components.sole import SoleCorrection
 from gc_ocp.estimation.components.stiffness_exponent import StiffnessExponent
@@ -30,6 +32,8 @@ REGISTRY: dict[str, type[Component]] = {
     "time_offset": TimeOffset,
     "damping": Damping,
     "stiffness_exponent": StiffnessExponent,
+    "ground_offset": GroundOffset,
+    "friction": StribeckFriction,
 }
 """Component classes by name: the vocabulary of model configurations and of the diagnosis
 (``docs/effects.md``). A component instance's ``name`` keys its variables and its result block
