@@ -16,14 +16,18 @@ from gc_ocp.errors import ModelError
 from gc_ocp.estimation.components.base import Component, DecodeContext, Scope
 from gc_ocp.estimation.components.belt import BeltSpeed
 from gc_ocp.estimation.components.contact import ContactLaw, Param
+from gc_ocp.estimation.components.contact_density import ContactDensity
 from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.components.sole import SoleCorrection
+from gc_ocp.estimation.components.toe_joint import ToeJoint
 
 REGISTRY: dict[str, type[Component]] = {
     "contact": ContactLaw,
     "sole_geometry": SoleCorrection,
     "kinematic_correction": PoseCorrection,
     "belt_speed": BeltSpeed,
+    "toe_joint": ToeJoint,
+    "contact_density": ContactDensity,
 }
 """Component classes by name: the vocabulary of model configurations and of the diagnosis
 (``docs/effects.md``). A component instance's ``name`` keys its variables and its result block
