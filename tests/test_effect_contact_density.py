@@ -19,7 +19,15 @@ import time
 import numpy as np
 
 from gc_ocp.estimation import Weights, build_estimation, recovery, result_at
-from gc_ocp.estimation.components import ContactLaw, Param, base_model, model_from_names
+from gc_ocp.estimation.components import (
+    BeltSpeed,
+    ContactLaw,
+    Param,
+    PoseCorrection,
+    SoleCorrection,
+    base_model,
+    model_from_names,
+)
 from gc_ocp.estimation.components.contact_density import (
     BASIS,
     ContactDensity,
@@ -84,8 +92,8 @@ def test_dense_units_interpolate_the_nominal_outline():
 def test_constant_field_is_a_uniform_sole():
     """theta = (log k0, 0, 0, 0): every dense unit's k is k0 (exp(log k0), round-off 1e-12)."""
     k0 = 2.5e4
-    model = (ContactLaw.base(), ContactDensity(fixed={s: [np.log(k0), 0, 0, 0] for s in SIDES}))
-    pb = build_estimation(_stances(), model)
+    fixed = ContactDensity(fixed={s: [np.log(k0), 0, 0, 0] for s in SIDES})
+    pb = build_estimation(_stances(), (*base_model(), fixed))  # the recovery's per-frame function
     res = result_at(pb, pb.x0)
     for i, st in enumerate(pb.stances):
         np.testing.assert_array_equal(pb.slot_values(pb.x0, i, "log_k"), np.log(k0))
@@ -114,9 +122,20 @@ def test_uniform_dense_sole_on_a_flat_foot_carries_m_over_5_times_the_force():
     law = ContactLaw(
         k=Param("fixed", k0), n=Param("fixed", 1.0), c=Param("fixed", 0.0), mu=Param("fixed", 0.5)
     )
-    five = build_estimation([flat], (law,)).stance_wrenches(np.zeros(0))[0]
-    dense_model = (law, ContactDensity(fixed={s: [np.log(k0), 0, 0, 0] for s in SIDES}))
-    dense = build_estimation([flat], dense_model).stance_wrenches(np.zeros(0))[0]
+    # the base model's structure with zero corrections (pose variables at 0): the per-frame
+    # functions of the recovery test, no extra C compilation
+    zero = (
+        SoleCorrection(fixed={s: np.zeros((5, 3)) for s in SIDES}),
+        PoseCorrection(),
+        BeltSpeed(),
+    )
+
+    def fz(model):
+        pb = build_estimation([flat], model)
+        return pb.stance_wrenches(np.zeros(pb.x0.size))[0]
+
+    five = fz((law, *zero))
+    dense = fz((law, *zero, ContactDensity(fixed={s: [np.log(k0), 0, 0, 0] for s in SIDES})))
     assert five[0, 2] > 0.9 * 5 * k0 * 0.004  # the units are in contact
     np.testing.assert_allclose(dense[:, 2], 16 / 5 * five[:, 2], rtol=1e-12)
 
@@ -147,7 +166,10 @@ def test_stiffness_field_is_recovered_on_real_motion():
     stances = _stances()
     base_truth = _base_truth()
     theta = _true_field(base_truth[0])
-    truth = (*base_truth, ContactDensity(fixed=theta))
+    law, sole, belt = base_truth
+    # a pose correction at zero (simulate evaluates at x = 0) gives the truth the fit's per-frame
+    # function: one C compilation of the 16-unit model instead of two on a cold cache
+    truth = (law, sole, PoseCorrection(), belt, ContactDensity(fixed=theta))
     data = recovery.simulate(stances, truth, np.random.default_rng(11))
     r1 = recovery.fit_model(data, model_from_names(["contact_density"], base=base_model()), WEIGHTS)
     r0 = recovery.fit_model(data, base_model(), WEIGHTS)
