@@ -16,6 +16,7 @@ from gc_ocp.errors import ModelError
 from gc_ocp.estimation.components.base import Component, DecodeContext, Scope
 from gc_ocp.estimation.components.belt import BeltSpeed
 from gc_ocp.estimation.components.contact import ContactLaw, Param
+from gc_ocp.estimation.components.contact_density import ContactDensity
 from gc_ocp.estimation.components.damping import Damping
 from gc_ocp.estimation.components.friction import StribeckFriction
 from gc_ocp.estimation.components.ground_offset import GroundOffset
@@ -23,6 +24,7 @@ from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.components.sole import SoleCorrection
 from gc_ocp.estimation.components.stiffness_exponent import StiffnessExponent
 from gc_ocp.estimation.components.time_offset import TimeOffset
+from gc_ocp.estimation.components.toe_joint import ToeJoint
 
 REGISTRY: dict[str, type[Component]] = {
     "contact": ContactLaw,
@@ -34,6 +36,8 @@ REGISTRY: dict[str, type[Component]] = {
     "stiffness_exponent": StiffnessExponent,
     "ground_offset": GroundOffset,
     "friction": StribeckFriction,
+    "toe_joint": ToeJoint,
+    "contact_density": ContactDensity,
 }
 """Component classes by name: the vocabulary of model configurations and of the diagnosis
 (``docs/effects.md``). A component instance's ``name`` keys its variables and its result block
