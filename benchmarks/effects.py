@@ -66,9 +66,13 @@ def trials(quick: bool):
     return [(n, _real(n)) for n in names]
 
 
-def holdout_label(trial) -> str:
+def holdout_label(trial) -> str | None:
+    """The last stance of the foot with most stances, or None when no foot has two (then only
+    in-sample figures: a held-out stance needs another stance of its foot to fit on)."""
     sides = [s.side for s in trial.stances]
     side = max(set(sides), key=sides.count)
+    if sides.count(side) < 2:
+        return None
     last = [s for s in trial.stances if s.side == side][-1]
     return f"{trial.name}:{last.label}"
 
@@ -101,7 +105,7 @@ def run_all(name, tk, configs, out_rows, say):
                 name,
                 cname,
                 mean_rms(r.rms),
-                mean_rms(rep.heldout.rms),
+                mean_rms(rep.heldout.rms) if rep.heldout is not None else None,
                 r.objective,
                 r.n_free,
                 f"{dt:.1f} s",
@@ -120,6 +124,7 @@ def clear_memory_caches():
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="bundled trial only")
+    ap.add_argument("--trials", nargs="*", help="subset of plugingait, rajagopal, gait2392")
     args = ap.parse_args()
 
     def say(s):
@@ -128,6 +133,8 @@ def main() -> None:
     configs = configurations()
     rows: list = []
     tr = trials(args.quick)
+    if args.trials:
+        tr = [t for t in tr if t[0] in args.trials]
     cold_dir = tempfile.mkdtemp(prefix="gc_ocp_cold_")
     old = os.environ.get("GC_OCP_CACHE_DIR")
     os.environ["GC_OCP_CACHE_DIR"] = cold_dir
@@ -160,7 +167,11 @@ def main() -> None:
             print(f"| {name} | {cname} | failed: {t} |" + " |" * (2 * len(CHANNELS) + 2))
             continue
         a = " | ".join(f"{v:.2f}" for v in ins)
-        b = " | ".join(f"{v:.2f}" for v in held)
+        b = (
+            " | ".join(f"{v:.2f}" for v in held)
+            if held is not None
+            else " | ".join(["n/a"] * len(CHANNELS))
+        )
         print(f"| {name} | {cname} | {a} | {b} | {J:.1f} | {nf} | {t} |")
     print("\nRMS: mean of the two feet; forces in % BW, torques in % BW x height.")
 
