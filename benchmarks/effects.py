@@ -86,12 +86,16 @@ def run_all(name, tk, configs, out_rows, say):
 
     label = holdout_label(tk[0])
     total = 0.0
+    base_result = None
     for cname, model in configs:
         t0 = time.perf_counter()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                rep = fit([tk], model=model, holdout=label)
+                # a base + effect fit also starts from the base's solution (the effect at its
+                # neutral value), so that it cannot end above the model it extends
+                start = base_result if cname.startswith("base +") else None
+                rep = fit([tk], model=model, holdout=label, start=start)
             except Exception as e:  # a failed configuration is reported, not hidden
                 out_rows.append(
                     (name, cname, None, None, None, None, f"{type(e).__name__}: {e}"[:80])
@@ -100,6 +104,8 @@ def run_all(name, tk, configs, out_rows, say):
         dt = time.perf_counter() - t0
         total += dt
         r = rep.result
+        if cname == "base":
+            base_result = r
         out_rows.append(
             (
                 name,

@@ -127,12 +127,28 @@ def best_of(
     options: IpoptOptions | None = None,
     strategies: tuple[tuple[float, ...], ...] = STRATEGIES,
     progress: Callable[[str], None] | None = None,
+    start: EstimationResult | None = None,
 ) -> EstimationResult:
     """Run :func:`estimate` once per continuation schedule in ``strategies`` and keep the result
     with the lowest objective (``seconds``/``iterations`` are totals over every start). A start
-    that fails is skipped; if all fail, the last error is raised."""
+    that fails is skipped; if all fail, the last error is raised.
+
+    start: a result of a model this one extends (e.g. the base, for base + an effect): one more
+    start from its solution (variables matched by key, the new ones at their initial values,
+    which for an effect is its neutral value), so that the extended model ends at least as low
+    as the model it extends whenever that start converges."""
     say = progress or (lambda s: None)
     best, total_s, total_it, err = None, 0.0, 0, None
+    if start is not None:
+        say("start: from the given result")
+        try:
+            prob = build_estimation(data, model, weights)
+            r = solve(prob, options, x0=_rescaled_start(start, prob))
+            total_s += r.seconds
+            total_it += r.iterations
+            best = r
+        except SolveError as e:
+            err = e
     for steps in strategies:
         say(f"start: prior scales {steps}")
         try:
@@ -210,11 +226,13 @@ def fit(
     progress: Callable[[str], None] | None = None,
     strategies: tuple[tuple[float, ...], ...] = STRATEGIES,
     margin: float = MARGIN,
+    start: EstimationResult | None = None,
 ) -> FitReport:
     """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
 
     holdout: label (or unique prefix/substring) of a stance to hold out, see the module doc.
     margin: unloaded frames kept each side of a stance [s] (:data:`MARGIN`).
+    start: a fit of a model this one extends, tried as one more start (:func:`best_of`).
     """
     say = progress or (lambda s: None)
     model = model or full_model()
@@ -248,7 +266,7 @@ def fit(
         k0 = lls_initial_k(trials, float(law.n.value_for(SIDES[0])))
         model = tuple(c.with_initial_k(k0) if c is law else c for c in model)
     say(f"solving with Ipopt: {len(data)} stances, {sum(d.n for d in data)} frames")
-    res = best_of(data, model, weights, options, strategies, progress=say)
+    res = best_of(data, model, weights, options, strategies, progress=say, start=start)
     say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
     report = FitReport(res, checks=notes)
     if held is not None:
