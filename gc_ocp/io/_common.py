@@ -66,6 +66,61 @@ def check_metres(values: np.ndarray, path: Path, what: str, declared: str) -> No
         )
 
 
+MIN_BODY_SPAN = 0.25
+"""Smallest plausible extent [m] of a walking subject's marker cloud in one frame (largest of the
+three axis extents, median over frames). Pelvis and foot markers are at least a leg length apart
+(>= 0.4 m even for a child); metres declared as mm give ~2 mm, centimetres declared as mm ~0.17 m
+for an adult."""
+MAX_BODY_SPAN = 10.0
+"""Largest plausible extent [m] of the marker cloud in one frame: a subject with arms raised is
+< 2.6 m, and a gait lab's capture volume is a few metres; millimetres read as centimetres or
+metres give 17-1700 m."""
+
+
+def check_body_span(xyz: np.ndarray, path: Path, declared: str, field: str) -> None:
+    """Raise :class:`UnitsError` if the marker cloud ``(n, m, 3)`` [m] (after applying the
+    declared unit) is not the size of a person (:data:`MIN_BODY_SPAN`, :data:`MAX_BODY_SPAN`)."""
+    spans = []
+    for frame in xyz:
+        f = frame[np.all(np.isfinite(frame), axis=1)]
+        if len(f) >= 3:
+            spans.append(float(np.max(np.ptp(f, axis=0))))
+    if not spans:
+        return
+    span = float(np.median(spans))
+    if MIN_BODY_SPAN <= span <= MAX_BODY_SPAN:
+        return
+    if span < MIN_BODY_SPAN:
+        guess = "metres" if span < 0.01 else "centimetres"
+        hint = f"a subject {span * 1e3:.1f} mm across is not a walking subject"
+    else:
+        guess = "millimetres"
+        hint = f"a subject {span:.0f} m across is not a walking subject"
+    raise UnitsError(
+        f"Marker coordinates in {path} are declared in {declared!r} ({field}) but then the markers "
+        f"span only {span:.4g} m in a frame (median; a person spans "
+        f"{MIN_BODY_SPAN}-{MAX_BODY_SPAN:.0f} m): {hint}. The values are probably in {guess}: "
+        f"correct {field} in the file."
+    )
+
+
+_UP_TO_LAB = {
+    (2, 1): np.eye(3),
+    (2, -1): np.diag([1.0, -1.0, -1.0]),
+    (1, 1): Y_UP_TO_LAB,
+    (1, -1): np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]),
+    (0, 1): np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
+    (0, -1): np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]]),
+}
+AXIS_NAMES = "XYZ"
+
+
+def up_to_lab(axis: int, sign: int) -> np.ndarray:
+    """Proper rotation taking the file's vertical axis ``sign * e_axis`` to lab +Z (the
+    OpenSim Y-up map :data:`Y_UP_TO_LAB` for +Y)."""
+    return _UP_TO_LAB[(int(axis), 1 if sign > 0 else -1)].copy()
+
+
 def rotation_z(quarter_turns: int) -> np.ndarray:
     """Rotation about Z by ``quarter_turns`` * 90 degrees (exact integers)."""
     c, s = [(1, 0), (0, 1), (-1, 0), (0, -1)][quarter_turns % 4]
@@ -75,6 +130,9 @@ def rotation_z(quarter_turns: int) -> np.ndarray:
 # --- foot markers ---------------------------------------------------------------------------
 
 _FOOT_PATTERNS = ("HEE", "HEEL", "ANK", "ANKLE", "TOE", "MT5", "MT1", "MIDFOOT", "MAL", "FOOT")
+_FOOT_LANDMARKS = ("CA", "LM", "MM", "FM", "SM", "VM", "FMH", "SMH", "VMH", "IMH", "IIMH", "IIT")
+"""Anatomical foot landmarks of the CAST / IOR convention (BTS and others), matched exactly:
+calcaneus, lateral/medial malleolus, 1st/2nd/5th metatarsal heads, 2nd toe."""
 
 
 def marker_side(name: str) -> str | None:
@@ -94,7 +152,7 @@ def foot_markers(names: list[str] | tuple[str, ...], side: str) -> list[int]:
             continue
         rest = re.sub(r"^(left|right|l|r)[._\s-]?", "", n, flags=re.IGNORECASE).upper()
         rest = rest.replace(".", "").replace("_", "")
-        if rest.startswith(_FOOT_PATTERNS):  # prefix match: "Shank" is not an ankle marker
+        if rest.startswith(_FOOT_PATTERNS) or rest in _FOOT_LANDMARKS:  # "Shank" is no ankle
             out.append(i)
     return out
 

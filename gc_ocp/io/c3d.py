@@ -28,7 +28,15 @@ from pathlib import Path
 import numpy as np
 
 from gc_ocp.errors import InputError, PlateError
-from gc_ocp.io._common import RawTrial, check_metres, unit_scale, warn
+from gc_ocp.io._common import (
+    AXIS_NAMES,
+    RawTrial,
+    check_body_span,
+    check_metres,
+    unit_scale,
+    up_to_lab,
+    warn,
+)
 from gc_ocp.trial import Plate
 from gc_ocp.wrench import transport_moment
 
@@ -104,6 +112,65 @@ def unloaded_baseline(wrench: np.ndarray, rate: float) -> tuple[np.ndarray, floa
     return np.median(samples, axis=0), samples.shape[0] / rate
 
 
+def _byte_order(path: Path, head: bytes) -> str:
+    """NumPy byte order of a C3D file from the processor type of its parameter section
+    (84 = Intel, 85 = DEC: little-endian; 86 = MIPS: big-endian)."""
+    with open(path, "rb") as fh:
+        fh.seek((head[0] - 1) * 512 + 3)
+        proc = fh.read(1)
+    return ">" if proc and proc[0] == 86 else "<"
+
+
+def header_frames(path: Path) -> int | None:
+    """Number of marker frames the C3D header announces (last - first + 1), read from the raw
+    header bytes (ezc3d rewrites its own copy to what it could read). ``None`` when unknown
+    (16-bit frame counter saturated, or an unreadable header)."""
+    with open(path, "rb") as fh:
+        head = fh.read(512)
+    if len(head) < 12 or head[1] != 0x50:
+        return None
+    order = _byte_order(path, head)
+    first, last = np.frombuffer(head[6:10], dtype=f"{order}u2")
+    if last >= 65535 or last < first:
+        return None
+    return int(last) - int(first) + 1
+
+
+def vertical_axis(
+    forces: list[np.ndarray], corners: list[np.ndarray], markers: np.ndarray
+) -> tuple[int, int, str]:
+    """The file's vertical axis ``(axis, sign, how)`` from gravity and geometry.
+
+    Axis: while a plate is loaded (|F| above half its peak), the vertical component of the ground
+    reaction is about 1 body weight and the shear components below ~0.25 BW in walking, so the
+    axis with the largest median |F| summed over the plates is vertical. Without a loaded plate,
+    the normal of the plate surface (the corner axis with the smallest extent). Sign: the subject
+    stands on the plates, so the markers (median) lie above the plate surfaces.
+    """
+    score = np.zeros(3)
+    for f in forces:
+        mag = np.linalg.norm(f, axis=1)
+        ok = np.isfinite(mag)
+        if not ok.any() or np.nanmax(mag) <= 0:
+            continue
+        loaded = ok & (mag > 0.5 * np.nanmax(mag))
+        score += np.median(np.abs(f[loaded]), axis=0)
+    if score.any():
+        axis = int(np.argmax(score))
+        how = "plate forces, median |F| while loaded summed over the plates: " + ", ".join(
+            f"{a} {v:.0f} N" for a, v in zip(AXIS_NAMES, score, strict=True)
+        )
+    elif corners:
+        axis = int(np.argmin(np.ptp(np.concatenate(corners), axis=0)))
+        how = "the plate surface normal"
+    else:
+        return 2, 1, "no plates: Z kept"
+    surface = float(np.mean([c[:, axis].mean() for c in corners])) if corners else 0.0
+    finite = markers[..., axis][np.isfinite(markers[..., axis])]
+    sign = 1 if not finite.size or float(np.median(finite)) >= surface else -1
+    return axis, sign, how
+
+
 def _plate_axes(corners: np.ndarray) -> np.ndarray:
     """Columns = plate x, y, z axes in lab, from the C3D corner order (see module doc)."""
     x = corners[0] - corners[1]
@@ -117,6 +184,16 @@ def read_c3d(path: Path) -> RawTrial:
     """Read markers, plates and subject data of a C3D file (SI, C3D global frame, Z up)."""
     import ezc3d
 
+    head = path.read_bytes()[:512]
+    if len(head) == 512 and head[1] == 0x50:
+        order = _byte_order(path, head)  # data-start word: a file cut before it stalls ezc3d
+        start = int(np.frombuffer(head[16:18], dtype=f"{order}u2")[0])
+        if start > 1 and path.stat().st_size < (start - 1) * 512 and start < 4096:
+            raise InputError(
+                f"{path}: the file ends ({path.stat().st_size} bytes) before its data section "
+                f"(block {start}): the file is truncated or damaged. Copy or export it again "
+                f"from your motion-capture software."
+            )
     try:
         c = ezc3d.c3d(str(path), extract_forceplat_data=True)
         platforms = c["data"].get("platform", [])
@@ -130,6 +207,14 @@ def read_c3d(path: Path) -> RawTrial:
             ) from exc
         platforms = []
     params = c["parameters"]
+    announced = header_frames(path)
+    n_read = int(np.asarray(c["data"]["points"]).shape[2])
+    if announced is not None and n_read < announced:
+        raise InputError(
+            f"{path}: the header announces {announced} marker frames but only {n_read} could be "
+            f"read: the file is truncated or damaged. Copy or export it again from your "
+            f"motion-capture software."
+        )
 
     # Markers ---------------------------------------------------------------------------
     labels = [str(s).strip() for s in (_param(params, "POINT", "LABELS") or [])]
@@ -149,6 +234,7 @@ def read_c3d(path: Path) -> RawTrial:
     if scale == 1.0:
         check_metres(xyz, path, "Marker coordinates", unit)
     xyz *= scale
+    check_body_span(xyz, path, unit, "POINT:UNITS")
     point_rate = float(c["header"]["points"]["frame_rate"])
     marker_time = np.arange(xyz.shape[0]) / point_rate
     names = [labels[i] for i in keep]
@@ -157,6 +243,27 @@ def read_c3d(path: Path) -> RawTrial:
     plates: list[Plate] = []
     notes: list[str] = []
     analog_rate = float(c["header"]["analogs"]["frame_rate"])
+    axis, sign, how = vertical_axis(
+        [np.asarray(pf["force"], dtype=float).T for pf in platforms],
+        [
+            np.asarray(pf["corners"], dtype=float).T
+            * unit_scale(pf["unit_position"], path, "plate position unit")
+            for pf in platforms
+            if np.ptp(np.asarray(pf["corners"], dtype=float)) > 0
+        ],
+        xyz,
+    )
+    rot = up_to_lab(axis, sign)
+
+    def to_lab(a: np.ndarray) -> np.ndarray:
+        return a if (axis, sign) == (2, 1) else a @ rot.T
+
+    if (axis, sign) != (2, 1):
+        xyz = to_lab(xyz)
+        notes.append(
+            f"the vertical axis of {path.name} is {'+' if sign > 0 else '-'}{AXIS_NAMES[axis]}, "
+            f"not +Z (from {how}; markers above the plates): rotated to Z up"
+        )
     for i, pf in enumerate(platforms):
         pos = unit_scale(pf["unit_position"], path, f"plate {i + 1} position unit")
         mom = {"nmm": 1e-3, "nm": 1.0}.get(pf["unit_moment"].lower().replace(".", ""), None)
@@ -164,9 +271,9 @@ def read_c3d(path: Path) -> RawTrial:
             raise PlateError(
                 f'Unknown moment unit "{pf["unit_moment"]}" of plate {i + 1} in {path}.'
             )
-        force = np.asarray(pf["force"], dtype=float).T
-        moment_c = np.asarray(pf["moment"], dtype=float).T * mom
-        corners = np.asarray(pf["corners"], dtype=float).T * pos
+        force = to_lab(np.asarray(pf["force"], dtype=float).T)
+        moment_c = to_lab(np.asarray(pf["moment"], dtype=float).T * mom)
+        corners = to_lab(np.asarray(pf["corners"], dtype=float).T * pos)
         centre = corners.mean(axis=0)
         if not np.isfinite(force).any() or np.ptp(corners, axis=0).max() == 0:
             notes.append(f"plate{i + 1}: no corners or no data, skipped")
@@ -243,5 +350,6 @@ def read_c3d(path: Path) -> RawTrial:
         height=height,
         mass_source=mass_source,
         height_source=height_source,
+        file_rotation=rot,
         notes=notes,
     )

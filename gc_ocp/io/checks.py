@@ -9,6 +9,11 @@ from gc_ocp.errors import MarkerError
 from gc_ocp.gaps import MAX_GAP_FILL, nan_runs
 from gc_ocp.trial import Trial
 
+FOOT_FIX_LEVER = 0.03
+"""Smallest distance [m] of a visible foot marker from the line through the two farthest-apart
+visible ones for the visible markers to fix the foot's orientation: skin and marker noise of
+~2 mm over a 30 mm lever arm leaves ~4 deg about that line; collinear markers leave it free."""
+
 
 def require_markers(trial: Trial, names) -> None:
     """Raise :class:`MarkerError` unless every marker in ``names`` is present without gaps.
@@ -33,6 +38,92 @@ def require_markers(trial: Trial, names) -> None:
                 f"{MAX_GAP_FILL} s filled automatically: fill the gap in your mocap software or "
                 f"remove the marker from the marker set."
             )
+
+
+def _fixes_foot(points: np.ndarray) -> bool:
+    """True if ``points`` ``(k, 3)`` are >= 3 markers, not collinear within FOOT_FIX_LEVER."""
+    if len(points) < 3:
+        return False
+    d = np.linalg.norm(points[:, None] - points[None], axis=2)
+    i, j = np.unravel_index(np.argmax(d), d.shape)
+    axis = (points[j] - points[i]) / max(d[i, j], 1e-12)
+    rel = points - points[i]
+    off = np.linalg.norm(rel - np.outer(rel @ axis, axis), axis=1)
+    return bool(off.max() >= FOOT_FIX_LEVER)
+
+
+def stance_gap_report(
+    trial: Trial, foot_names: dict[str, list[str]] | None = None
+) -> tuple[dict[str, str], dict[str, str]]:
+    """Foot-marker gaps inside the stances of ``trial``: ``(excluded, bridged)``, each
+    ``{stance label: reason}``.
+
+    Gaps of at most :data:`MAX_GAP_FILL` were filled on load; a foot marker of the stance foot
+    still missing inside ``[t_on, t_off]`` leaves the foot pose to the other foot markers. If in
+    every such frame >= 3 visible foot markers fix the foot (:func:`_fixes_foot`), the gap is
+    bridged by them (``bridged``, a note); otherwise the stance is to be excluded (``excluded``):
+    the IK would pose the foot from too few markers and the fit would degrade silently.
+    foot_names: ``{side: [marker names]}`` (default: the foot markers found by name,
+    :func:`gc_ocp.io._common.foot_markers`). Markers never visible in the trial are not foot
+    markers of this trial (absent, not a gap).
+    """
+    from gc_ocp.io._common import foot_markers
+
+    names = list(trial.marker_names)
+    t = np.asarray(trial.marker_time)
+    rate = trial.marker_rate
+    excluded: dict[str, str] = {}
+    bridged: dict[str, str] = {}
+    for s in trial.stances:
+        if foot_names is not None:
+            idx = [names.index(n) for n in foot_names.get(s.side, []) if n in names]
+        else:
+            idx = foot_markers(names, s.side)
+        idx = [i for i in idx if np.isfinite(trial.markers[:, i]).all(axis=1).any()]
+        win = np.flatnonzero((t >= s.t_on) & (t <= s.t_off))
+        if not idx or not win.size:
+            continue
+        m = np.asarray(trial.markers)[:, idx]
+        ok = np.all(np.isfinite(m), axis=2)  # (n_frames, k)
+        gaps = []
+        for k, i in enumerate(idx):
+            for a, b in nan_runs(ok[:, k]):
+                if b > win[0] and a <= win[-1]:
+                    gaps.append(
+                        f'"{names[i]}" missing for {(b - a) / rate:.3f} s '
+                        f"({t[a]:.3f}-{t[b - 1]:.3f} s)"
+                    )
+        if not gaps:
+            continue
+        holes = win[~ok[win].all(axis=1)]
+        fixed = all(_fixes_foot(m[f][ok[f]]) for f in holes)
+        what = (
+            f"{s.side} foot marker {'; '.join(gaps)} inside the stance {s.t_on:.3f}-{s.t_off:.3f} s"
+        )
+        if fixed:
+            seen = sorted(
+                {names[idx[k]] for f in holes for k in np.flatnonzero(ok[f])},
+                key=names.index,
+            )
+            bridged[s.label] = (
+                f"{what}, longer than the {MAX_GAP_FILL} s filled automatically: bridged by the "
+                f"other {s.side} foot markers {seen} (>= 3 non-collinear visible in every frame)"
+            )
+        else:
+            excluded[s.label] = (
+                f"{what}, longer than the {MAX_GAP_FILL} s filled automatically, and the other "
+                f"{s.side} foot markers do not fix the foot then (need >= 3 non-collinear, "
+                f">= {FOOT_FIX_LEVER * 1e3:.0f} mm off a line): fill the gap in your mocap "
+                f"software to use this stance"
+            )
+    return excluded, bridged
+
+
+def stance_gaps(trial: Trial, foot_names: dict[str, list[str]] | None = None) -> dict[str, str]:
+    """Stances of ``trial`` to exclude for foot-marker gaps, ``{stance label: reason}`` (see
+    :func:`stance_gap_report`; gaps bridged by the other foot markers are not listed).
+    :func:`gc_ocp.io.load_trial` already applies it with the foot markers found by name."""
+    return stance_gap_report(trial, foot_names)[0]
 
 
 def _total_vertical(trial: Trial) -> tuple[np.ndarray, np.ndarray]:

@@ -11,12 +11,19 @@ import numpy as np
 
 from gc_ocp.errors import InputError
 from gc_ocp.gaps import fill_short_gaps
-from gc_ocp.io._common import Y_UP_TO_LAB, warn
+from gc_ocp.io._common import Y_UP_TO_LAB, foot_markers, warn
 from gc_ocp.io.c3d import read_c3d
+from gc_ocp.io.checks import stance_gap_report
 from gc_ocp.io.opensim import read_opensim, read_trc
 from gc_ocp.io.orientation import walking_rotation
 from gc_ocp.io.stances import DEFAULT_THRESHOLD, detect_stances
-from gc_ocp.trial import GRAVITY, Plate, Trial
+from gc_ocp.trial import GRAVITY, ExcludedStance, Plate, Trial
+
+STATIC_MAX_STD = 0.02
+"""Largest marker movement [m] of a static (standing) trial: standard deviation over the trial of
+a marker's position, median over the markers (and over the foot markers). Quiet standing sways
+the body by ~1 cm and the feet stay put (~1 mm); walking moves the markers by decimetres, even on
+a treadmill (the feet swing +-0.3 m)."""
 
 
 def bundled_example_path() -> Path:
@@ -130,7 +137,57 @@ def load_trial(
         height_source=raw.height_source,
         load_notes=tuple(raw.notes),
     )
-    return trial
+    return apply_stance_gaps(trial)
+
+
+def apply_stance_gaps(trial: Trial) -> Trial:
+    """Move the stances with an unbridged foot-marker gap to ``excluded_stances`` (warning) and
+    note the bridged ones (see :func:`gc_ocp.io.checks.stance_gap_report`)."""
+    excluded, bridged = stance_gap_report(trial)
+    if not excluded and not bridged:
+        return trial
+    keep, out = [], list(trial.excluded_stances)
+    for s in trial.stances:
+        if s.label in excluded:
+            warn(f"{trial.source}: stance {s.label} excluded: {excluded[s.label]}")
+            out.append(ExcludedStance(s.side, s.plate, s.t_on, s.t_off, excluded[s.label]))
+        else:
+            keep.append(s)
+    out.sort(key=lambda e: e.t_on)
+    notes = [f"stance {k}: {v}" for k, v in bridged.items()]
+    return dataclasses.replace(
+        trial,
+        stances=tuple(keep),
+        excluded_stances=tuple(out),
+        load_notes=tuple(trial.load_notes) + tuple(notes),
+    )
+
+
+def check_static(path: Path, names, markers: np.ndarray) -> None:
+    """Raise :class:`InputError` unless the markers ``(n, m, 3)`` [m] stand still
+    (:data:`STATIC_MAX_STD`): a walking trial given as the static trial."""
+    if markers.shape[0] < 2:
+        return
+    ok = np.isfinite(markers).all(axis=2)
+    std = np.full(markers.shape[1], np.nan)
+    for j in range(markers.shape[1]):
+        if ok[:, j].sum() >= 2:
+            std[j] = float(np.linalg.norm(markers[ok[:, j], j].std(axis=0)))
+    feet = [i for side in ("left", "right") for i in foot_markers(names, side)]
+    body = std[np.isfinite(std)]
+    foot = std[feet][np.isfinite(std[feet])] if feet else np.zeros(0)
+    moved = {
+        "markers": float(np.median(body)) if body.size else 0.0,
+        "foot markers": float(np.median(foot)) if foot.size else 0.0,
+    }
+    if max(moved.values()) > STATIC_MAX_STD:
+        what = ", ".join(f"{k} {v * 1e3:.0f} mm" for k, v in moved.items() if v)
+        raise InputError(
+            f"Static trial {path} is not static: its markers move over the trial (standard "
+            f"deviation, median: {what}; a standing subject moves less than "
+            f"{STATIC_MAX_STD * 1e3:.0f} mm): it is a walking trial. Give a standing (static) "
+            f"trial with --static, or none."
+        )
 
 
 def _rotate_plate(p: Plate, rot: np.ndarray) -> Plate:
@@ -174,6 +231,7 @@ def load_static(path: str | Path, walking: Trial) -> Trial:
         raise InputError(
             f'{path}: unsupported static-trial type "{suffix}"; give a .trc or .c3d file.'
         )
+    check_static(path, names, markers)
     rot = walking.lab_rotation @ np.linalg.inv(file_rot)
     markers, _ = fill_short_gaps(markers @ rot.T, time)
     return dataclasses.replace(

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from gc_ocp.errors import InputError, PlateError
-from gc_ocp.io._common import Y_UP_TO_LAB, RawTrial, check_metres, unit_scale
+from gc_ocp.io._common import Y_UP_TO_LAB, RawTrial, check_body_span, check_metres, unit_scale
 from gc_ocp.trial import Plate
 
 COP_MIN_FORCE = 20.0
@@ -75,6 +75,7 @@ def read_trc(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
     if scale == 1.0:
         check_metres(xyz, path, "Marker coordinates", unit)
     xyz = xyz * scale
+    check_body_span(xyz, path, unit, "TRC Units")
     return names, xyz @ Y_UP_TO_LAB.T, time
 
 
