@@ -23,7 +23,7 @@ import pytest
 
 from gc_ocp.contact.laws import DEFAULT_SMOOTHING, normal_force_function
 from gc_ocp.estimation import recovery
-from gc_ocp.estimation.components import ContactLaw, base_model
+from gc_ocp.estimation.components import base_model
 from gc_ocp.estimation.components.friction import StribeckFriction
 from gc_ocp.estimation.problem import build_estimation
 
@@ -87,19 +87,6 @@ def test_law_matches_numpy():
     np.testing.assert_allclose(w_model, w, rtol=0, atol=1e-9 * np.abs(w).max())
 
 
-def _rms_line(res) -> str:
-    return "; ".join(
-        f"{side}: " + ", ".join(f"{ch} {v:.2f}" for ch, v in ch_rms.items())
-        for side, ch_rms in res.rms.items()
-    )
-
-
-def _start(model, truth):
-    """The fitted model, started from the truth's stiffnesses (a warm start from a base fit)."""
-    k0 = truth[0].k.value
-    return tuple(c.with_initial_k(k0) if isinstance(c, ContactLaw) else c for c in model)
-
-
 @pytest.mark.slow
 def test_recovery_on_real_motion():
     t0 = time.perf_counter()
@@ -109,8 +96,10 @@ def test_recovery_on_real_motion():
     # no marker noise: recovery.simulate's marker path changes the kinematics by itself (see
     # tests/test_effect_ground_offset.py), the true model fitted back then leaves ~1.8 % BW
     data = recovery.simulate(sts, (*truth, true), rng, plate_noise_pct_bw=0.5, marker_noise=0.0)
-    with_effect = recovery.fit_model(data, _start((*base_model(), StribeckFriction()), truth))
-    base_only = recovery.fit_model(data, _start(base_model(), truth))
+    with_effect = recovery.fit_model(
+        data, recovery.started_from_truth((*base_model(), StribeckFriction()), truth)
+    )
+    base_only = recovery.fit_model(data, recovery.started_from_truth(base_model(), truth))
     assert with_effect.success and base_only.success
     blk = with_effect.blocks["friction"]
     mu = with_effect.blocks["contact"]["shared"]
@@ -124,8 +113,8 @@ def test_recovery_on_real_motion():
     z_mu = (mu["mu"] - mu_true) / mu["mu_se"]
     print(f"  mu_d: true {mu_true:.3f} est {mu['mu']:.3f} SE {mu['mu_se']:.3f}  z = {z_mu:+.2f}")
     print(f"  base only: mu {base_only.blocks['contact']['shared']['mu']:.3f}")
-    print(f"  RMS base + friction (% BW): {_rms_line(with_effect)}")
-    print(f"  RMS base only       (% BW): {_rms_line(base_only)}")
+    print(f"  RMS base + friction (% BW): {recovery.rms_line(with_effect)}")
+    print(f"  RMS base only       (% BW): {recovery.rms_line(base_only)}")
     print("  plate noise 0.5 % BW (forces)")
     assert np.all(np.abs([*zs, z_mu]) < 3.0), (zs, z_mu)
     for side in with_effect.rms:

@@ -24,7 +24,7 @@ import pytest
 
 from gc_ocp.contact.laws import DEFAULT_SMOOTHING, unit_force_function
 from gc_ocp.estimation import recovery
-from gc_ocp.estimation.components import ContactLaw, base_model
+from gc_ocp.estimation.components import base_model
 from gc_ocp.estimation.components.ground_offset import GroundOffset
 from gc_ocp.estimation.problem import build_estimation
 
@@ -110,19 +110,6 @@ def test_tilt_matches_numpy_unit_law():
     assert np.abs(w_flat - w).max() > 1e-3 * np.abs(w).max()
 
 
-def _rms_line(res) -> str:
-    return "; ".join(
-        f"{side}: " + ", ".join(f"{ch} {v:.2f}" for ch, v in ch_rms.items())
-        for side, ch_rms in res.rms.items()
-    )
-
-
-def _start(model, truth):
-    """The fitted model, started from the truth's stiffnesses (a warm start from a base fit)."""
-    k0 = truth[0].k.value
-    return tuple(c.with_initial_k(k0) if isinstance(c, ContactLaw) else c for c in model)
-
-
 @pytest.mark.slow
 def test_recovery_on_real_motion():
     t0 = time.perf_counter()
@@ -134,8 +121,10 @@ def test_recovery_on_real_motion():
     # model fitted back leaves 1.8 % BW vertical RMS on the left foot and ~+7 mm of spurious
     # offset under every stance; that is the marker pipeline, not this effect
     data = recovery.simulate(sts, (*truth, true), rng, plate_noise_pct_bw=0.5, marker_noise=0.0)
-    with_effect = recovery.fit_model(data, _start((*base_model(), GroundOffset()), truth))
-    base_only = recovery.fit_model(data, _start(base_model(), truth))
+    with_effect = recovery.fit_model(
+        data, recovery.started_from_truth((*base_model(), GroundOffset()), truth)
+    )
+    base_only = recovery.fit_model(data, recovery.started_from_truth(base_model(), truth))
     assert with_effect.success and base_only.success
     blk = with_effect.blocks["ground_offset"]
     print(f"\nground_offset recovery ({time.perf_counter() - t0:.1f} s)")
@@ -150,8 +139,8 @@ def test_recovery_on_real_motion():
                 f"  {label} {key}: true {e_true[j] * f:+.3f} est {e[key] * f:+.3f} "
                 f"SE {e[key + '_se'] * f:.3f} {unit}  z = {z:+.2f}"
             )
-    print(f"  RMS base + ground_offset (% BW): {_rms_line(with_effect)}")
-    print(f"  RMS base only            (% BW): {_rms_line(base_only)}")
+    print(f"  RMS base + ground_offset (% BW): {recovery.rms_line(with_effect)}")
+    print(f"  RMS base only            (% BW): {recovery.rms_line(base_only)}")
     print("  plate noise 0.5 % BW (forces), 0.5 % BW x 20 mm (moments)")
     assert np.all(np.abs(zs) < 3.0), zs
     # what base alone leaves depends on whether its per-stance pose correction absorbs the

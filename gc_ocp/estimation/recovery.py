@@ -137,9 +137,28 @@ def _with_plate_signal(st: StanceData, time: np.ndarray, wrench: np.ndarray) -> 
     return replace(st, plate_time=np.asarray(time, float), plate_wrench=np.asarray(wrench, float))
 
 
-def rms_by_channel(result: EstimationResult) -> dict:
-    """``{side: {channel: RMS}}`` (% BW, % BW x H) of a result, for reports."""
-    return result.rms
+def rms_line(result: EstimationResult) -> str:
+    """One line of ``{side: {channel: RMS}}`` (% BW, % BW x H) of a result, for reports."""
+    return "; ".join(
+        f"{side}: " + ", ".join(f"{ch} {v:.2f}" for ch, v in ch_rms.items())
+        for side, ch_rms in result.rms.items()
+    )
 
 
-__all__ = ["fit_model", "real_motion", "rms_by_channel", "simulate", "truth_from_fit"]
+def started_from_truth(model: tuple, truth: tuple) -> tuple:
+    """``model`` with its contact law started at the truth law's per-unit stiffnesses (a warm
+    start such as a base fit gives; the law is the component with ``with_initial_k``)."""
+    law = next(c for c in truth if hasattr(c, "with_initial_k"))
+    return tuple(
+        c.with_initial_k(law.k.value) if hasattr(c, "with_initial_k") else c for c in model
+    )
+
+
+__all__ = [
+    "fit_model",
+    "real_motion",
+    "rms_line",
+    "simulate",
+    "started_from_truth",
+    "truth_from_fit",
+]
