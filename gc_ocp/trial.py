@@ -40,9 +40,14 @@ class Plate:
     force: ground reaction on the subject in ``lab`` [N], shape ``(n, 3)``.
     moment: moment about ``reference_point`` in ``lab`` [N·m], shape ``(n, 3)``.
     reference_point: point about which ``moment`` is expressed, ``lab`` [m], shape ``(3,)``.
-    reference_kind: ``"electrical_center"`` (C3D plate origin) or ``"lab_origin"`` (MOT).
+    reference_kind: ``"electrical_center"`` (C3D types 2/4: the transducer origin below the
+        surface), ``"surface_center"`` (C3D types 1/3: the centre of the surface) or
+        ``"lab_origin"`` (MOT).
     corners: plate surface corners in ``lab`` [m], shape ``(4, 3)``, or ``None`` when unknown.
     surface_height: height of the plate surface (lab Z) [m].
+    plate_type: how the wrench was stored (``"C3D type 2"``, ``"MOT ground_force_1_*"``...).
+    zero_offset: the unloaded offset removed on load, ``(6,)`` force [N] and moment [N·m] in
+        ``lab`` (``None``: none removed).
     """
 
     name: str
@@ -53,12 +58,15 @@ class Plate:
     reference_kind: str
     corners: np.ndarray | None = None
     surface_height: float = 0.0
+    plate_type: str = ""
+    zero_offset: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         for attr in ("time", "force", "moment", "reference_point"):
             object.__setattr__(self, attr, _readonly(getattr(self, attr)))
-        if self.corners is not None:
-            object.__setattr__(self, "corners", _readonly(self.corners))
+        for attr in ("corners", "zero_offset"):
+            if getattr(self, attr) is not None:
+                object.__setattr__(self, attr, _readonly(getattr(self, attr)))
 
     @property
     def rate(self) -> float:

@@ -37,6 +37,7 @@ from gc_ocp.io._common import (
     up_to_lab,
     warn,
 )
+from gc_ocp.io.plates import N_CHANNELS, SUPPORTED_TYPES, plate_axes, plate_wrench
 from gc_ocp.trial import Plate
 from gc_ocp.wrench import transport_moment
 
@@ -171,13 +172,131 @@ def vertical_axis(
     return axis, sign, how
 
 
-def _plate_axes(corners: np.ndarray) -> np.ndarray:
-    """Columns = plate x, y, z axes in lab, from the C3D corner order (see module doc)."""
-    x = corners[0] - corners[1]
-    y = corners[0] - corners[3]
-    z = np.cross(x, y)
-    y = np.cross(z, x)
-    return np.column_stack([v / np.linalg.norm(v) for v in (x, y, z)])
+_plate_axes = plate_axes  # former name
+
+
+def _screen_up(params: dict) -> str:
+    """The axis POINT:Y_SCREEN declares as up on screen (e.g. ``"+Z"``), ``""`` if absent."""
+    v = _param(params, "POINT", "Y_SCREEN")
+    text = str(np.ravel(v)[0]).strip().upper() if v is not None and np.size(v) else ""
+    return text if re.fullmatch(r"[+-][XYZ]", text) else ""
+
+
+def _moment_scale(unit: str, pos: float) -> float:
+    """[N·m] per unit of a moment channel: ``Nmm`` / ``Nm``; anything else (``V`` with a
+    scale of 1, as some writers store) is taken as N x the point unit."""
+    key = unit.strip().lower().replace(".", "").replace(" ", "")
+    return {"nmm": 1e-3, "nm": 1.0}.get(key, pos)
+
+
+def _plate_readings(c, params: dict, platforms: list, path: Path, notes: list[str]) -> list[dict]:
+    """Each plate's force [N] and moment about its surface centre [N·m] in the file frame,
+    corners [m], ORIGIN [m] (``None`` for types 1 and 3, whose wrench is about the centre).
+
+    Types 2 and 4 come from ezc3d (checked against :mod:`gc_ocp.io.plates` in the tests);
+    types 1 and 3 are computed from the analog channels by :func:`gc_ocp.io.plates.plate_wrench`
+    (ezc3d's type-1 moment has the opposite sign to its force: its COP is right, the wrench
+    is not)."""
+    t = _param(params, "FORCE_PLATFORM", "TYPE")
+    kinds = [int(v) for v in np.ravel(t if t is not None else [])]
+    used = _first_number(_param(params, "FORCE_PLATFORM", "USED"))
+    n = min(int(used or 0), len(kinds)) if used is not None else len(kinds)
+    point_unit = (_param(params, "POINT", "UNITS") or ["mm"])[0]
+    pos = unit_scale(point_unit, path, "POINT:UNITS")
+    out = []
+    for i in range(n):
+        kind = kinds[i]
+        if kind not in SUPPORTED_TYPES:
+            raise PlateError(
+                f"Plate {i + 1} in {path} is of C3D force-plate type {kind}; gc_ocp reads types "
+                f"{list(SUPPORTED_TYPES)}. Export the C3D again with type-2 or type-4 plates from "
+                f"your motion-capture software (or give a TRC with --grf FILE.mot)."
+            )
+        if kind in (2, 4) and i < len(platforms):
+            pf = platforms[i]
+            ppos = unit_scale(pf["unit_position"], path, f"plate {i + 1} position unit")
+            mom = {"nmm": 1e-3, "nm": 1.0}.get(pf["unit_moment"].lower().replace(".", ""))
+            if mom is None:
+                raise PlateError(
+                    f'Unknown moment unit "{pf["unit_moment"]}" of plate {i + 1} in {path}: '
+                    f"set ANALOG:UNITS of its moment channels to Nmm or Nm."
+                )
+            origin = _param(params, "FORCE_PLATFORM", "ORIGIN")
+            if origin is None or np.asarray(origin).ndim != 2 or np.asarray(origin).shape[1] <= i:
+                raise PlateError(
+                    f"Plate {i + 1} in {path} has no FORCE_PLATFORM:ORIGIN parameter (the "
+                    f"electrical centre below the surface): export the C3D again with the "
+                    f"force-plate calibration from your motion-capture software."
+                )
+            out.append(
+                {
+                    "number": i + 1,
+                    "type": kind,
+                    "force": np.asarray(pf["force"], dtype=float).T,
+                    "moment": np.asarray(pf["moment"], dtype=float).T * mom,
+                    "corners": np.asarray(pf["corners"], dtype=float).T * ppos,
+                    "origin": np.asarray(origin, float)[:, i] * ppos,
+                }
+            )
+        else:
+            out.append(_analog_reading(c, params, i, kind, pos, path))
+    return out
+
+
+def _analog_reading(c, params: dict, i: int, kind: int, pos: float, path: Path) -> dict:
+    """One plate's reading computed from its analog channels (see :func:`_plate_readings`)."""
+    fp = params.get("FORCE_PLATFORM", {})
+    try:
+        channel = np.asarray(fp["CHANNEL"]["value"], dtype=int)[:, i] - 1
+        corners = np.asarray(fp["CORNERS"]["value"], dtype=float)[:, :, i].T * pos
+        origin = np.asarray(fp["ORIGIN"]["value"], dtype=float)[:, i] * pos
+    except (KeyError, IndexError, ValueError) as exc:
+        raise PlateError(
+            f"Plate {i + 1} (type {kind}) in {path} lacks FORCE_PLATFORM:CHANNEL, CORNERS or "
+            f"ORIGIN ({exc}): export the C3D again with the force-plate set-up from your "
+            f"motion-capture software."
+        ) from None
+    k = N_CHANNELS[kind]
+    analogs = np.asarray(c["data"]["analogs"], dtype=float)[0]
+    if channel.size < k or channel[:k].max() >= analogs.shape[0] or channel[:k].min() < 0:
+        raise PlateError(
+            f"Plate {i + 1} (type {kind}) in {path}: FORCE_PLATFORM:CHANNEL {channel + 1} does not "
+            f"name {k} of the {analogs.shape[0]} analog channels: fix the plate set-up in the file."
+        )
+    ch = analogs[channel[:k]].T.copy()  # (n, k), ezc3d applies ANALOG:SCALE/OFFSET/GEN_SCALE
+    u = _param(params, "ANALOG", "UNITS")
+    units = [str(x) for x in np.ravel(u if u is not None else [])]
+
+    def mom_scale(j: int) -> float:
+        return _moment_scale(units[channel[j]] if channel[j] < len(units) else "", pos)
+
+    cal = None
+    if kind == 4:
+        cal_all = np.asarray(fp.get("CAL_MATRIX", {}).get("value", []), dtype=float)
+        if cal_all.ndim != 3 or cal_all.shape[:2] != (6, 6) or cal_all.shape[2] <= i:
+            raise PlateError(
+                f"Plate {i + 1} in {path} is of type 4 but FORCE_PLATFORM:CAL_MATRIX is not a "
+                f"6 x 6 matrix per plate (shape {cal_all.shape}): export the C3D again."
+            )
+        ch = ch @ cal_all[:, :, i].T  # rows Fx Fy Fz Mx My Mz
+        kind_eff = 2
+    else:
+        kind_eff = kind
+    if kind_eff == 1:
+        ch[:, 3:5] *= pos  # COP [m]
+        ch[:, 5] *= mom_scale(5)
+    elif kind_eff == 2:
+        ch[:, 3:6] *= mom_scale(3)
+    force, moment = plate_wrench(kind_eff, ch, origin, cal)
+    axes = plate_axes(corners)
+    return {
+        "number": i + 1,
+        "type": kind,
+        "force": force @ axes.T,
+        "moment": moment @ axes.T,
+        "corners": corners,
+        "origin": origin if kind in (2, 4) else None,
+    }
 
 
 def read_c3d(path: Path) -> RawTrial:
@@ -243,14 +362,10 @@ def read_c3d(path: Path) -> RawTrial:
     plates: list[Plate] = []
     notes: list[str] = []
     analog_rate = float(c["header"]["analogs"]["frame_rate"])
+    readings = _plate_readings(c, params, platforms, path, notes)
     axis, sign, how = vertical_axis(
-        [np.asarray(pf["force"], dtype=float).T for pf in platforms],
-        [
-            np.asarray(pf["corners"], dtype=float).T
-            * unit_scale(pf["unit_position"], path, "plate position unit")
-            for pf in platforms
-            if np.ptp(np.asarray(pf["corners"], dtype=float)) > 0
-        ],
+        [r["force"] for r in readings],
+        [r["corners"] for r in readings if np.ptp(r["corners"]) > 0],
         xyz,
     )
     rot = up_to_lab(axis, sign)
@@ -258,45 +373,41 @@ def read_c3d(path: Path) -> RawTrial:
     def to_lab(a: np.ndarray) -> np.ndarray:
         return a if (axis, sign) == (2, 1) else a @ rot.T
 
+    screen = _screen_up(params)
     if (axis, sign) != (2, 1):
         xyz = to_lab(xyz)
         notes.append(
             f"the vertical axis of {path.name} is {'+' if sign > 0 else '-'}{AXIS_NAMES[axis]}, "
             f"not +Z (from {how}; markers above the plates): rotated to Z up"
         )
-    for i, pf in enumerate(platforms):
-        pos = unit_scale(pf["unit_position"], path, f"plate {i + 1} position unit")
-        mom = {"nmm": 1e-3, "nm": 1.0}.get(pf["unit_moment"].lower().replace(".", ""), None)
-        if mom is None:
-            raise PlateError(
-                f'Unknown moment unit "{pf["unit_moment"]}" of plate {i + 1} in {path}.'
-            )
-        force = to_lab(np.asarray(pf["force"], dtype=float).T)
-        moment_c = to_lab(np.asarray(pf["moment"], dtype=float).T * mom)
-        corners = to_lab(np.asarray(pf["corners"], dtype=float).T * pos)
+    if screen and screen != f"{'+' if sign > 0 else '-'}{AXIS_NAMES[axis]}":
+        notes.append(
+            f"POINT:Y_SCREEN of {path.name} says {screen} is up on screen, but the data say "
+            f"{'+' if sign > 0 else '-'}{AXIS_NAMES[axis]} (gravity and the plates): the data win"
+        )
+    for i, r in enumerate(readings):
+        name = f"plate{r['number']}"
+        force = to_lab(r["force"])
+        moment_c = to_lab(r["moment"])
+        corners = to_lab(r["corners"])
         centre = corners.mean(axis=0)
         if not np.isfinite(force).any() or np.ptp(corners, axis=0).max() == 0:
-            notes.append(f"plate{i + 1}: no corners or no data, skipped")
+            notes.append(f"{name}: no corners or no data, skipped")
             continue
-        origin = _param(params, "FORCE_PLATFORM", "ORIGIN")
-        if origin is None or np.asarray(origin).ndim != 2 or np.asarray(origin).shape[1] <= i:
-            raise PlateError(
-                f"Plate {i + 1} in {path} has no FORCE_PLATFORM:ORIGIN parameter (the electrical "
-                f"centre below the surface): export the C3D again with the force-plate "
-                f"calibration from your motion-capture software."
-            )
-        origin_param = np.asarray(origin, float)[:, i] * pos
-        offset = _plate_axes(corners) @ origin_param
-        if offset[2] > 0:  # electrical centre must be below the surface
-            offset = -offset
-        electrical = centre + offset
+        if r["origin"] is None:  # types 1 and 3: the wrench is given about the surface centre
+            reference, kind = centre, "surface_center"
+        else:
+            offset = plate_axes(corners) @ r["origin"]
+            if offset[2] > 0:  # electrical centre must be below the surface
+                offset = -offset
+            reference, kind = centre + offset, "electrical_center"
         base, t_unloaded = unloaded_baseline(np.hstack([force, moment_c]), analog_rate)
         if t_unloaded < 0.1:
-            warn(f"plate{i + 1} of {path}: no unloaded stretch >= 0.1 s; offset not removed.")
+            warn(f"{name} of {path}: no unloaded stretch >= 0.1 s; offset not removed.")
             base = np.zeros(6)
         else:
             notes.append(
-                f"plate{i + 1}: removed unloaded offset F={np.round(base[:3], 1).tolist()} N "
+                f"{name}: removed unloaded offset F={np.round(base[:3], 1).tolist()} N "
                 f"(median over {t_unloaded:.2f} s unloaded)"
             )
         force = force - base[:3]
@@ -304,17 +415,20 @@ def read_c3d(path: Path) -> RawTrial:
         loaded = force[:, 2] > 50.0
         if loaded.any() and np.median(force[loaded, 2]) < 0:
             force, moment_c = -force, -moment_c  # stored as action on the plate
-        moment_e = transport_moment(force, moment_c, centre, electrical)
+            base = -base
+        moment_e = transport_moment(force, moment_c, centre, reference)
         plates.append(
             Plate(
-                name=f"plate{i + 1}",
+                name=name,
                 time=np.arange(force.shape[0]) / analog_rate,
                 force=force,
                 moment=moment_e,
-                reference_point=electrical,
-                reference_kind="electrical_center",
+                reference_point=reference,
+                reference_kind=kind,
                 corners=corners,
                 surface_height=float(centre[2]),
+                plate_type=f"C3D type {r['type']}",
+                zero_offset=base,
             )
         )
     if not plates:

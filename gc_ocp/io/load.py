@@ -193,15 +193,14 @@ def check_static(path: Path, names, markers: np.ndarray) -> None:
 def _rotate_plate(p: Plate, rot: np.ndarray) -> Plate:
     if np.array_equal(rot, np.eye(3)):
         return p
-    return Plate(
-        name=p.name,
-        time=p.time,
+    off = p.zero_offset
+    return dataclasses.replace(
+        p,
         force=p.force @ rot.T,
         moment=p.moment @ rot.T,
         reference_point=rot @ p.reference_point,
-        reference_kind=p.reference_kind,
         corners=None if p.corners is None else p.corners @ rot.T,
-        surface_height=p.surface_height,
+        zero_offset=None if off is None else np.concatenate([rot @ off[:3], rot @ off[3:]]),
     )
 
 

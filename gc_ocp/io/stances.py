@@ -157,8 +157,8 @@ def detect_stances(
                 )
                 excluded.append(ExcludedStance(side, ip, t_on, t_off, reason))
                 continue
-            if plate.reference_kind == "electrical_center":
-                ref, kind = plate.reference_point, "electrical_center"
+            if plate.reference_kind in ("electrical_center", "surface_center"):
+                ref, kind = plate.reference_point, plate.reference_kind
             else:
                 loaded = window[np.all(np.isfinite(cop[window]), axis=1)]
                 w = plate.force[loaded, 2]
