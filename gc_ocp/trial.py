@@ -89,7 +89,9 @@ class Stance:
     ``t_on``/``t_off`` in [s] are where the vertical force crosses the detection threshold.
     ``reference_point`` (``lab``, [m]) is where the measured and modelled wrenches of this stance
     are compared: the plate's electrical centre for C3D, the floor point under the stance's mean
-    COP for MOT files (stated in ``reference_kind``).
+    COP for MOT files (stated in ``reference_kind``). ``heading`` [rad]: the walking direction
+    during the stance in ``lab``, counter-clockwise from +X (NaN when unknown); a path with turns
+    has stances with other headings than 0.
     """
 
     side: str
@@ -99,6 +101,7 @@ class Stance:
     reference_point: np.ndarray
     reference_kind: str
     label: str = ""
+    heading: float = float("nan")
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "reference_point", _readonly(self.reference_point))

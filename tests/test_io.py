@@ -391,17 +391,20 @@ def _synthetic_plate_case(cop_x_end: float, left_y: float):
     m = transport_moment(f, np.zeros_like(f), cop, e)
     corners = np.array([[0.5, 0.5, 0], [0, 0.5, 0], [0, 0, 0], [0.5, 0, 0]], float)
     plate = Plate("plate1", t, f, m, e, "electrical_center", corners, 0.0)
-    names = ["RHEE", "RTOE", "LHEE", "LTOE"]
+    names = ["RHEE", "RTOE", "LHEE", "LTOE", "C7", "T10", "SACR", "LASI", "RASI"]
     mt = np.arange(0, 1.0, 0.01)
     pos = np.array(
         [[0.15, 0.25, 0.03], [0.35, 0.25, 0.03], [0.1, left_y, 0.03], [0.3, left_y, 0.03]]
+        + [[0.0, 0.0, 1.4], [0.0, 0.0, 1.2], [0.0, 0.0, 1.0], [0.0, 0.1, 1.0], [0.0, -0.1, 1.0]]
     )
-    return [plate], names, np.broadcast_to(pos, (len(mt), 4, 3)).copy(), mt
+    markers = np.broadcast_to(pos, (len(mt), 9, 3)).copy()
+    markers[:, 4:, 0] += 1.2 * mt[:, None]  # the body walks at 1.2 m/s over the planted feet
+    return [plate], names, markers, mt
 
 
 @pytest.mark.parametrize(
     "cop_x_end, left_y, reason",
-    [(0.3, -0.5, ""), (0.7, -0.5, "COP leaves plate1"), (0.3, 0.4, "two feet on plate1")],
+    [(0.3, -0.5, ""), (0.7, -0.5, "COP outside plate1"), (0.3, 0.4, "two feet on plate1")],
 )
 def test_stance_exclusions_on_a_synthetic_plate(cop_x_end, left_y, reason):
     from gc_ocp.io.stances import detect_stances

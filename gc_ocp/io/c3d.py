@@ -385,7 +385,7 @@ def read_c3d(path: Path) -> RawTrial:
             f"POINT:Y_SCREEN of {path.name} says {screen} is up on screen, but the data say "
             f"{'+' if sign > 0 else '-'}{AXIS_NAMES[axis]} (gravity and the plates): the data win"
         )
-    for i, r in enumerate(readings):
+    for r in readings:
         name = f"plate{r['number']}"
         force = to_lab(r["force"])
         moment_c = to_lab(r["moment"])

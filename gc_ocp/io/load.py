@@ -99,7 +99,10 @@ def load_trial(
             f"pass it in metres (height=... / --height M)."
         )
 
-    rot, rot_note = walking_rotation(raw.marker_names, raw.markers, raw.marker_time)
+    loaded = np.zeros(len(raw.marker_time), bool)
+    for p in raw.plates:
+        loaded |= np.interp(raw.marker_time, p.time, p.force[:, 2], left=0, right=0) > threshold
+    rot, rot_note = walking_rotation(raw.marker_names, raw.markers, raw.marker_time, loaded)
     raw.notes.append(rot_note)
     markers = raw.markers @ rot.T
     plates = [_rotate_plate(p, rot) for p in raw.plates]

@@ -8,8 +8,10 @@ a point ``<p>force_p{x,y,z}`` and a torque ``<p>torque_{x,y,z}`` sharing the pre
 (Rajagopal: ``ground_force_r_vx`` / ``ground_torque_r_x``; Gait2392: ``ground_force_vx`` and
 ``1_ground_force_vx`` / ``ground_torque_x`` and ``1_ground_torque_x``). The side of a set is read
 from an ``r``/``l`` token in its names; without a token the first set is the right foot and the
-second the left (Gait2392 convention). :func:`gc_ocp.io.load_trial` then checks the side
-against the feet markers (which heel is nearest the COP) and warns on a contradiction.
+second the left (Gait2392 convention) when there are exactly two sets; more sets without a
+token are plates (``ground_force_1..6_*``), named ``plate<N>``, and each of their stances
+belongs to the foot whose markers are nearest its COP. :func:`gc_ocp.io.load_trial` checks
+the side of a per-foot set against the foot markers and warns on a contradiction.
 
 The torque of an OpenSim set is applied at the point ``p`` (the free moment at the COP).
 Each set becomes one :class:`~gc_ocp.trial.Plate` whose reference point is the lab origin,
@@ -171,10 +173,18 @@ def grf_sets(names: list[str]) -> list[dict]:
         )
     out.sort(key=lambda s: s["force"][0])  # file order
     unnamed = [s for s in out if s["side"] is None]
-    taken = {s["side"] for s in out if s["side"]}
-    for s, side in zip(unnamed, [x for x in ("right", "left") if x not in taken], strict=False):
-        s["side"] = side  # no token: first set = right, second = left (Gait2392)
-        s["side_from"] = "column order (first set = right, second = left)"
+    if len(out) == 2 and len(unnamed) == 2:
+        for s, side in zip(unnamed, ("right", "left"), strict=True):
+            s["side"] = side  # two sets, no token: first = right, second = left (Gait2392)
+            s["side_from"] = "column order (first set = right, second = left)"
+            s["name"] = f"grf_{side}"
+    else:  # plates, not feet: each stance's foot is the one nearest its COP
+        for k, s in enumerate(unnamed):
+            num = re.search(r"\d+", s["label"])
+            s["name"] = f"plate{num.group(0) if num else k + 1}"
+            s["side_from"] = "none: a plate; the foot of each stance is the one nearest its COP"
+    for s in out:
+        s.setdefault("name", f"grf_{s['side']}")
     return out
 
 
@@ -217,7 +227,7 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
         moment = np.cross(p, f) + tq
         plates.append(
             Plate(
-                name=f"grf_{s['side']}",
+                name=s["name"],
                 time=t,
                 force=f,
                 moment=moment,
@@ -225,10 +235,11 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
                 reference_kind="lab_origin",
                 corners=None,
                 surface_height=surface,
+                plate_type=f"MOT columns {s['label']}_*",
             )
         )
         notes.append(
-            f"grf_{s['side']}: columns {s['label']}_* (side from "
+            f"{s['name']}: columns {s['label']}_* (side from "
             f"{s.get('side_from', 'the r/l token in the names')})"
         )
     return RawTrial(

@@ -8,19 +8,31 @@
   interpolated between samples.
 * Side: the foot (left/right) whose heel/ankle/toe markers are horizontally nearest the COP at
   mid-stance.
+* Heading: the direction of the body's horizontal velocity over the stance
+  (:func:`gc_ocp.io.orientation.body_velocity`), or on a treadmill the stance foot's heel -> toe
+  direction (``Stance.heading``).
 * Exclusions (warning + :class:`~gc_ocp.trial.ExcludedStance`): clipped by the file ends
-  (force above threshold at the first/last sample, or markers not covering the stance); the foot
-  leaving the plate (COP, while Fz > 20 % BW, or the stance foot's markers that are low enough to
-  touch the floor, outside the plate outline by more than :data:`EDGE_TOL`; only when corners
-  are known); two feet on one plate (the other foot's markers on the plate, low and still, for more than
-  50 ms while loaded; only when corners are known, i.e. not for per-foot MOT channels).
+  (force above threshold at the first/last sample, or markers not covering the stance); not a
+  walking stance (longer than :data:`MAX_STANCE`, or the body moving slower than
+  :data:`~gc_ocp.io.orientation.MIN_OVERGROUND_SPEED` while the stance foot stands still:
+  standing or stepping in place; on a treadmill the foot moves with the belt); a COP outside the
+  plate outline by more than :data:`EDGE_TOL` for more than :data:`COP_OFF_TIME` while Fz >
+  20 % BW (a plate cannot measure a load where it has no surface: the corners, origin or channels
+  are wrong; a briefer excursion, e.g. an impact transient at heel strike, is noted and ignored);
+  the foot partly off the plate (a stance-foot marker low enough to touch the floor outside the
+  outline by more than :data:`EDGE_TOL`); two feet on one plate (the other foot's markers on the
+  plate, low and still, for more than 50 ms while loaded). The last three need the plate corners
+  (C3D), not available for MOT channels.
 """
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
-from gc_ocp.io._common import foot_markers, warn
+from gc_ocp.io._common import foot_markers, heel_toe, warn
+from gc_ocp.io.orientation import MIN_OVERGROUND_SPEED, body_velocity
 from gc_ocp.trial import ExcludedStance, Plate, Stance
 
 DEFAULT_THRESHOLD = 20.0
@@ -35,6 +47,15 @@ LOW_MARKER = 0.08
 """A foot marker below surface + this [m] is taken as able to touch the plate."""
 PLANTED_SPEED = 0.3
 """Horizontal speed [m/s] below which a low foot marker is taken as planted."""
+MAX_STANCE = 2.0
+"""Longest walking stance [s]: ~0.6 s at a normal pace, ~1.2 s at the slowest walking speeds;
+a longer contact is standing."""
+STILL_FOOT = 0.15
+"""Mean horizontal speed [m/s] of a stance foot below which it stands still (overground); on a
+treadmill it moves backward with the belt (~1 m/s)."""
+COP_OFF_TIME = 0.02
+"""Longest time [s] the COP may lie outside the plate outline while loaded before the stance is
+excluded (impact transients at heel strike last a few ms)."""
 
 
 def contact_windows(plate: Plate, threshold: float) -> list[tuple[int, int, float, float]]:
@@ -135,6 +156,9 @@ def detect_stances(
                     f"nearest the COP ({dist}), contradicting the column names"
                 )
                 warn(f"{source}: {notes[-1]}; check the GRF column sides.")
+            heading, motion = _stance_motion(
+                marker_names, markers, marker_time, feet.get(side, []), side, t_on, t_off
+            )
             reason = _exclusion(
                 plate,
                 a,
@@ -149,7 +173,10 @@ def detect_stances(
                 marker_time,
                 body_weight,
                 threshold,
+                notes,
             )
+            if not reason.startswith("clipped"):
+                reason = _not_walking(t_on, t_off, motion) or reason
             if reason:
                 warn(
                     f"{source}: stance {side} on {plate.name} {t_on:.3f}-{t_off:.3f} s "
@@ -165,13 +192,60 @@ def detect_stances(
                 ref = np.average(cop[loaded], axis=0, weights=w)
                 ref[2] = plate.surface_height
                 kind = "floor_under_mean_cop"
-            stances.append(Stance(side, ip, t_on, t_off, ref, kind))
+            stances.append(Stance(side, ip, t_on, t_off, ref, kind, heading=heading))
     stances.sort(key=lambda s: s.t_on)
     excluded.sort(key=lambda s: s.t_on)
     return stances, excluded, notes
 
 
-def _exclusion(plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime, bw, thr):
+def _stance_motion(names, markers, mtime, foot, side, t_on, t_off):
+    """``(heading [rad], {"body": speed, "foot": speed})`` over ``[t_on, t_off]``: body velocity
+    (median marker velocity, :func:`~gc_ocp.io.orientation.body_velocity`) and the stance
+    foot's mean horizontal velocity (median over its markers); speeds in [m/s]."""
+    sel = (mtime >= t_on) & (mtime <= t_off)
+    if sel.sum() < 3:
+        return float("nan"), {}
+    v = body_velocity(markers[sel], mtime[sel])
+    v = v[np.isfinite(v).all(axis=1)]
+    body = v.mean(axis=0) if len(v) else np.full(2, np.nan)
+    motion = {"body": float(np.linalg.norm(body))}
+    if foot:
+        fv = np.gradient(markers[sel][:, foot, :2], mtime[sel], axis=0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            fm = np.nanmedian(np.nanmean(fv, axis=0), axis=0)
+        if np.isfinite(fm).all():
+            motion["foot"] = float(np.linalg.norm(fm))
+    if motion["body"] > MIN_OVERGROUND_SPEED:
+        return float(np.arctan2(body[1], body[0])), motion
+    h, t = heel_toe(names, side)
+    if h is not None and t is not None:
+        d = markers[sel][:, t, :2] - markers[sel][:, h, :2]
+        d = d[np.isfinite(d).all(axis=1)]
+        if len(d):
+            d = d.mean(axis=0)
+            return float(np.arctan2(d[1], d[0])), motion
+    return float("nan"), motion
+
+
+def _not_walking(t_on, t_off, motion) -> str:
+    """Reason a contact is not a walking stance (standing, stepping in place), else ``""``."""
+    if t_off - t_on > MAX_STANCE:
+        return (
+            f"not a walking stance: {t_off - t_on:.2f} s on the plate (a walking stance lasts "
+            f"< {MAX_STANCE:.0f} s): standing"
+        )
+    body, foot = motion.get("body", np.nan), motion.get("foot", np.nan)
+    if body < MIN_OVERGROUND_SPEED and foot < STILL_FOOT:
+        return (
+            f"not a walking stance: the body moves at {body:.2f} m/s (walking: > "
+            f"{MIN_OVERGROUND_SPEED} m/s) and the foot stands still ({foot:.2f} m/s; on a "
+            f"treadmill it moves with the belt): standing or stepping in place"
+        )
+    return ""
+
+
+def _exclusion(plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime, bw, thr, notes):
     n = len(plate.time)
     if a == 0:
         return "clipped: force already above threshold at the first sample of the file"
@@ -189,13 +263,34 @@ def _exclusion(plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime,
     heavy = plate.force[a:b, 2] > (0.2 * bw if bw else 100.0)
     c = cop[a:b][heavy]
     c = c[np.all(np.isfinite(c), axis=1)]
-    if c.size and not _inside(c[:, :2], plate.corners, EDGE_TOL).all():
-        return f"COP leaves {plate.name} (outside its corners by > {EDGE_TOL * 100:.0f} cm)"
+    if c.size:
+        out = ~_inside(c[:, :2], plate.corners, EDGE_TOL)
+        dt = float(np.median(np.diff(plate.time)))
+        if out.sum() * dt > COP_OFF_TIME:
+            return (
+                f"COP outside {plate.name} for {out.sum() * dt * 1e3:.0f} ms while loaded "
+                f"(> {EDGE_TOL * 100:.0f} cm beyond its corners; a plate cannot measure a load "
+                f"where it has no surface): its corners, origin or channels are wrong in the "
+                f"file; fix the force-plate set-up and export again"
+            )
+        if out.any():
+            notes.append(
+                f"{side} stance on {plate.name} {t_on:.3f}-{t_off:.3f} s: COP outside the plate "
+                f"for {out.sum() * dt * 1e3:.0f} ms (<= {COP_OFF_TIME * 1e3:.0f} ms: a transient, "
+                f"ignored)"
+            )
     if side in feet and feet[side]:
-        m = _markers_at(markers, mtime, feet[side], times).reshape(-1, 3)
-        low = np.isfinite(m[:, 2]) & (m[:, 2] < plate.surface_height + LOW_MARKER)
-        if low.any() and not _inside(m[low, :2], plate.corners, EDGE_TOL).all():
-            return f"foot off {plate.name}: a low {side} foot marker is outside its corners"
+        m = _markers_at(markers, mtime, feet[side], times)
+        low = np.isfinite(m[..., 2]) & (m[..., 2] < plate.surface_height + LOW_MARKER)
+        off = np.zeros(m.shape[:2], dtype=bool)
+        off[low] = ~_inside(m[low][:, :2], plate.corners, EDGE_TOL)
+        if off.any():
+            bad = [names[feet[side][k]] for k in np.flatnonzero(off.any(axis=0))]
+            return (
+                f"foot partly off {plate.name}: the {side} foot marker(s) {bad} touch the floor "
+                f"outside its corners (by > {EDGE_TOL * 100:.0f} cm) during the stance, so part "
+                f"of the foot's force is not measured"
+            )
     other = "left" if side == "right" else "right"
     if other in feet and feet[other]:
         m = _markers_at(markers, mtime, feet[other], times)
@@ -207,5 +302,9 @@ def _exclusion(plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime,
         on[low] = _inside(m[low][:, :2], plate.corners, -EDGE_TOL)
         dt = float(np.median(np.diff(plate.time)))
         if on.any(axis=1).sum() * dt > 0.05:
-            return f"two feet on {plate.name}: the {other} foot is also on it while loaded"
+            return (
+                f"two feet on {plate.name}: the {other} foot is also on it for "
+                f"{on.any(axis=1).sum() * dt:.2f} s while loaded (the plate measures the sum of "
+                f"both feet)"
+            )
     return ""
