@@ -330,9 +330,27 @@ def test_trc_without_grf_says_give_grf():
 
 
 @needs_data
-def test_missing_mass_names_file_and_option():
-    with pytest.raises(InputError, match=r"grf_walk\.mot.*--mass KG"):
-        load_trial(*RAJ)
+def test_missing_mass_is_estimated_with_a_warning_naming_file_basis_and_option():
+    with pytest.warns(UserWarning, match=r"grf_walk\.mot: ESTIMATED 8\d\.\d kg.*stride.*--mass KG"):
+        trial = load_trial(*RAJ)
+    assert trial.mass == pytest.approx(RAJ_MASS, rel=0.02)  # OpenSim scale set-up: 85.07 kg
+    assert trial.mass_source.startswith("ESTIMATE") and "stride" in trial.mass_source
+
+
+@needs_data
+def test_missing_mass_without_a_basis_names_file_and_option(tmp_path):
+    """One stance only: neither a stride nor quiet standing to estimate the mass from."""
+    lines = RAJ[1].read_text().splitlines()
+    end = next(i for i, ln in enumerate(lines) if ln.strip().lower() == "endheader")
+    cols = lines[end + 1].split("\t")
+    data = np.loadtxt(RAJ[1], skiprows=end + 2)
+    data = data[data[:, 0] < 1.2]  # the first right stance and the left one, cut: no step pair
+    data[data[:, 0] > 0.7, 1:] = 0.0
+    mot = tmp_path / "one_stance.mot"
+    body = "\n".join("\t".join(f"{v:.6f}" for v in row) for row in data)
+    mot.write_text("\n".join(lines[: end + 1] + ["\t".join(cols)]) + "\n" + body + "\n")
+    with pytest.raises(InputError, match=r"one_stance\.mot.*neither quiet standing.*--mass KG"):
+        load_trial(RAJ[0], mot)
 
 
 @needs_data

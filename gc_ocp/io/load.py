@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from importlib import resources
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from gc_ocp.io.checks import stance_gap_report
 from gc_ocp.io.opensim import read_opensim, read_trc
 from gc_ocp.io.orientation import walking_rotation
 from gc_ocp.io.stances import DEFAULT_THRESHOLD, detect_stances
+from gc_ocp.io.subject import estimate_body_weight, read_subject_metadata
 from gc_ocp.trial import GRAVITY, ExcludedStance, Plate, Trial
 
 STATIC_MAX_STD = 0.02
@@ -45,7 +47,9 @@ def load_trial(
 
     path: ``.c3d`` file, or ``.trc`` marker file (then ``grf`` is required); ``None`` = bundled
         example. grf: OpenSim ``.mot``/``.sto`` ground reactions for a TRC.
-    mass: subject mass in [kg]; overrides the file. Required when the files carry none (TRC/MOT).
+    mass: subject mass in [kg]; overrides the file. Otherwise: the file (C3D PROCESSING:Bodymass
+        ...), subject metadata beside the trial (:func:`gc_ocp.io.subject.read_subject_metadata`),
+        else an ESTIMATE from the force data with a warning (``Trial.mass_source`` says which).
     height: subject height in [m]; overrides the file. ``None`` and not in the file -> ``None``
         (the kinematics then estimate it: see :func:`estimate_height_from_markers`).
     belt_speed: treadmill belt speed in [m/s] (>= 0); sets ``belt_velocity = (-belt_speed, 0, 0)``
@@ -81,16 +85,13 @@ def load_trial(
         )
     if mass is not None:
         raw.mass, raw.mass_source = float(mass), "given (mass=)"
-    if raw.mass is None:
-        raise InputError(
-            f"No subject mass in {path}{' or ' + str(raw.grf_source) if raw.grf_source else ''}; "
-            f"pass mass=... / --mass KG."
-        )
-    if not (10.0 < raw.mass < 400.0):
-        raise InputError(
-            f"Subject mass {raw.mass} kg ({raw.mass_source}) is not plausible; "
-            f"pass the mass in kilograms with mass=... / --mass KG."
-        )
+    meta = read_subject_metadata([p for p in (path, raw.grf_source) if p is not None])
+    if raw.mass is None and "mass" in meta:
+        raw.mass, raw.mass_source = meta["mass"]
+    if raw.height is None and height is None and "height" in meta:
+        raw.height, raw.height_source = meta["height"]
+    if raw.mass is not None:
+        _check_mass(raw.mass, raw.mass_source)
     if height is not None:
         raw.height, raw.height_source = float(height), "given (height=)"
     if raw.height is not None and not (0.5 < raw.height < 2.6):
@@ -108,6 +109,9 @@ def load_trial(
     plates = [_rotate_plate(p, rot) for p in raw.plates]
     markers, _gaps = fill_short_gaps(markers, raw.marker_time)
 
+    if raw.mass is None:
+        raw.mass, raw.mass_source = _estimate_mass(raw, plates, markers, threshold, path)
+        _check_mass(raw.mass, raw.mass_source)
     stances, excluded, side_notes = detect_stances(
         plates,
         raw.marker_names,
@@ -141,6 +145,39 @@ def load_trial(
         load_notes=tuple(raw.notes),
     )
     return apply_stance_gaps(trial)
+
+
+def _check_mass(mass: float, source: str) -> None:
+    if not (10.0 < mass < 400.0):
+        raise InputError(
+            f"Subject mass {mass} kg ({source}) is not plausible; "
+            f"pass the mass in kilograms with mass=... / --mass KG."
+        )
+
+
+def _estimate_mass(raw, plates, markers, threshold: float, path: Path) -> tuple[float, str]:
+    """ESTIMATE of the mass from the force data when no mass is given or stored
+    (:func:`gc_ocp.io.subject.estimate_body_weight`), with a warning; error without a basis."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # the stances are detected again below
+        stances, _, _ = detect_stances(
+            plates, raw.marker_names, markers, raw.marker_time, None, threshold, str(path)
+        )
+    est = estimate_body_weight(plates, stances)
+    files = f"{path}{' or ' + str(raw.grf_source) if raw.grf_source else ''}"
+    if est is None:
+        raise InputError(
+            f"No subject mass in {files} or beside it (subject JSON, OpenSim scale set-up), and "
+            f"the force data hold neither quiet standing nor two consecutive walking stances to "
+            f"estimate it from; pass mass=... / --mass KG."
+        )
+    bw, basis = est
+    mass = bw / GRAVITY
+    warn(
+        f"No subject mass in {files}: ESTIMATED {mass:.1f} kg from the force data ({basis}). "
+        f"Pass --mass KG (mass=...) to set it."
+    )
+    return mass, f"ESTIMATE {mass:.1f} kg from the force data ({basis})"
 
 
 def apply_stance_gaps(trial: Trial) -> Trial:
