@@ -402,7 +402,8 @@ def read_c3d(path: Path) -> RawTrial:
                 offset = -offset
             reference, kind = centre + offset, "electrical_center"
         base, t_unloaded = unloaded_baseline(np.hstack([force, moment_c]), analog_rate)
-        if t_unloaded < 0.1:
+        removed = t_unloaded >= 0.1
+        if not removed:
             warn(f"{name} of {path}: no unloaded stretch >= 0.1 s; offset not removed.")
             base = np.zeros(6)
         else:
@@ -428,7 +429,7 @@ def read_c3d(path: Path) -> RawTrial:
                 corners=corners,
                 surface_height=float(centre[2]),
                 plate_type=f"C3D type {r['type']}",
-                zero_offset=base,
+                zero_offset=base if removed else None,
             )
         )
     if not plates:

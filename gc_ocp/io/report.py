@@ -10,14 +10,46 @@ from gc_ocp.io.checks import stride_body_weight
 from gc_ocp.trial import GRAVITY, Trial
 
 
+def _markerset_line(trial: Trial) -> str:
+    """The recognised marker set (``gc_ocp.model.markerset.detect_markerset``), or why not."""
+    from gc_ocp.errors import GcOcpError
+    from gc_ocp.model.markerset import detect_markerset
+
+    try:
+        ms = detect_markerset(trial.marker_names)
+    except GcOcpError as e:
+        return f"  marker set: not recognised ({str(e).split(';')[0]}); give --markerset"
+    found = [n for n in ms.markers if n in trial.marker_names]
+    return f'  marker set: "{ms.name}" ({len(found)} of its {len(ms.markers)} markers found)'
+
+
+def vertical_axis_of(trial: Trial) -> str:
+    """The file axis that became lab +Z, e.g. ``"+Y"`` (from ``Trial.lab_rotation``)."""
+    row = np.asarray(trial.lab_rotation)[2]
+    k = int(np.argmax(np.abs(row)))
+    return f"{'+' if row[k] > 0 else '-'}{'XYZ'[k]}"
+
+
+def _heading(rad: float) -> str:
+    return "unknown" if not np.isfinite(rad) else f"{np.degrees(rad):+.0f} deg"
+
+
 def describe_trial(trial: Trial) -> str:
-    """Readable summary: rates, markers, plates, stances (times, peak force in N and % BW),
-    exclusions with reasons, body weight and its source, and the stride body-weight check."""
+    """Readable summary: rates, markers and the recognised marker set, vertical axis and walking
+    direction, plates (type, reference, removed offset), stances (foot, plate, times, heading,
+    peak force in N and % BW), exclusions with reasons, mass and its source, and the stride
+    body-weight check."""
     bw = trial.body_weight
     lines = [f"Trial {trial.source}" + (f" + {trial.grf_source}" if trial.grf_source else "")]
     lines.append(
         f"  markers: {len(trial.marker_names)} at {trial.marker_rate:.0f} Hz, "
         f"{trial.marker_time[0]:.3f}-{trial.marker_time[-1]:.3f} s"
+    )
+    lines.append(_markerset_line(trial))
+    walk = next((n for n in trial.load_notes if n.startswith("walking direction")), "")
+    lines.append(
+        f"  vertical axis: {vertical_axis_of(trial)} of the file is up (lab +Z); "
+        + (walk or "walking direction: file X kept")
     )
     for side in ("left", "right"):
         idx = foot_markers(trial.marker_names, side)
@@ -27,14 +59,22 @@ def describe_trial(trial: Trial) -> str:
     if gappy:
         lines.append(f"  markers with gaps > {MAX_GAP_FILL} s left NaN: {gappy}")
     for p in trial.plates:
+        off = p.zero_offset
+        if off is None:
+            zero = "no unloaded offset removed"
+        elif not np.any(off):
+            zero = "zeroed (reads 0 N unloaded)"
+        else:
+            zero = f"removed unloaded offset F={np.round(off[:3], 1).tolist()} N"
         lines.append(
-            f"  {p.name}: {p.rate:.0f} Hz, reference {p.reference_kind} "
-            f"{np.round(p.reference_point, 4).tolist()} m, surface z {p.surface_height:.4f} m"
+            f"  {p.name}: {p.plate_type or 'plate'}, {p.rate:.0f} Hz, reference "
+            f"{p.reference_kind} {np.round(p.reference_point, 4).tolist()} m, surface z "
+            f"{p.surface_height:.4f} m"
             + ("" if p.corners is not None else ", no corners")
+            + f", {zero}"
         )
-    lines.append(
-        f"  body weight {bw:.1f} N = {trial.mass:.2f} kg x {GRAVITY} ({trial.mass_source})"
-    )
+    lines.append(f"  mass {trial.mass:.2f} kg ({trial.mass_source})")
+    lines.append(f"  body weight {bw:.1f} N = {trial.mass:.2f} kg x {GRAVITY}")
     h = f"{trial.height:.3f} m ({trial.height_source})" if trial.height else "unknown"
     lines.append(f"  height {h}")
     if np.any(trial.belt_velocity):
@@ -44,8 +84,9 @@ def describe_trial(trial: Trial) -> str:
         sel = (p.time >= s.t_on) & (p.time <= s.t_off)
         peak = float(p.force[sel, 2].max())
         lines.append(
-            f"  stance {s.side:5s} {p.name}: {s.t_on:.3f}-{s.t_off:.3f} s, peak Fz {peak:.0f} N "
-            f"({100 * peak / bw:.0f} % BW), reference {s.reference_kind}"
+            f"  stance {s.side:5s} {p.name}: {s.t_on:.3f}-{s.t_off:.3f} s, used, heading "
+            f"{_heading(s.heading)}, peak Fz {peak:.0f} N ({100 * peak / bw:.0f} % BW), "
+            f"reference {s.reference_kind}"
         )
     for s in trial.excluded_stances:
         lines.append(

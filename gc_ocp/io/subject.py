@@ -220,5 +220,5 @@ def estimate_body_weight(plates: list[Plate], stances: list[Stance]) -> tuple[fl
         return None
     bw, basis = stand if stand is not None else walk
     if stand is not None and walk is not None:
-        basis += f"; walking gives {walk[0] / GRAVITY:.1f} kg ({walk[1].split(': ', 1)[0]})"
+        basis += f"; for comparison, walking gives {walk[0] / GRAVITY:.1f} kg ({walk[1]})"
     return bw, basis
