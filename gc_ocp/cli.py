@@ -206,10 +206,13 @@ def provenance(args: argparse.Namespace, pairs) -> dict:
 def cmd_fit(args: argparse.Namespace) -> int:
     from gc_ocp.estimation.fit import fit
     from gc_ocp.estimation.plots import plot_fit, plot_pose_corrections, plot_sole_fit
+    from gc_ocp.io.checks import require_stances
     from gc_ocp.outputs import OutputSet, check_writable
 
     check_writable(args.out)  # before any computation
     trials = _load(args)
+    for t in trials:
+        require_stances(t)
     pairs = [(t, _kinematics(t, args)) for t in trials]
     prov = provenance(args, pairs)
     out = OutputSet(args.out, FIT_OUTPUTS)

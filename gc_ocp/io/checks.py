@@ -40,6 +40,25 @@ def require_markers(trial: Trial, names) -> None:
             )
 
 
+def require_stances(trial: Trial) -> None:
+    """Raise :class:`PlateError` when ``trial`` has no usable stance, naming the file, why each
+    contact was excluded and the fix (before any output is written)."""
+    if trial.stances:
+        return
+    from gc_ocp.errors import PlateError
+
+    why = "; ".join(
+        f"{e.side} on {trial.plates[e.plate].name} {e.t_on:.3f}-{e.t_off:.3f} s: {e.reason}"
+        for e in trial.excluded_stances
+    )
+    raise PlateError(
+        f"{trial.source}: no usable stance ("
+        + (why or "no plate is loaded above the contact threshold")
+        + "). A stance needs one foot, fully and alone on one plate, in a walking step: give a "
+        "trial where each foot lands cleanly on its own plate, or fix the plate set-up."
+    )
+
+
 def _fixes_foot(points: np.ndarray) -> bool:
     """True if ``points`` ``(k, 3)`` are >= 3 markers, not collinear within FOOT_FIX_LEVER."""
     if len(points) < 3:
