@@ -247,7 +247,13 @@ def _readings(path):
 
 @needs_data
 @pytest.mark.parametrize(
-    "rel", ["c3dorg_helenhayes_types/type-2a.c3d", "c3dorg_helenhayes_types/type-4a.c3d"]
+    "rel",
+    [
+        "c3dorg_helenhayes_types/type-2a.c3d",  # ORIGIN z < 0 (C3D convention)
+        "c3dorg_helenhayes_types/type-4a.c3d",
+        "plugingait_overground/test_small.c3d",  # ORIGIN z > 0 (Vicon)
+        "motionanalysis_helenhayes/Gait.c3d",
+    ],
 )
 def test_type_2_and_4_from_the_analogs_equal_ezc3d(rel):
     """Independent reference: ezc3d's type 2/4 wrench = ours from the channels (io/plates.py)."""
@@ -592,3 +598,40 @@ def test_fit_without_a_usable_stance_is_one_line_and_writes_nothing(tmp_path, ca
     assert status == 2 and len(err) == 1, err
     assert "two_feet.c3d" in err[0] and "no usable stance" in err[0] and "two feet on" in err[0]
     assert not out.exists()
+
+
+@needs_data
+def test_type1_file_reads_the_same_wrench_as_its_type2_original(tmp_path):
+    """End to end through a C3D: plate 1 of the bundled Vicon file rewritten as type 1 (force,
+    COP from the surface centre in mm, free moment in N mm, as a Bertec stores it) gives the same
+    wrench as the type-2 original wherever the COP is defined."""
+    import ezc3d
+
+    from gc_ocp.io.c3d import read_c3d
+    from gc_ocp.io.plates import plate_axes
+
+    src = DATA / "plugingait_overground/test_small.c3d"
+    c = ezc3d.c3d(str(src), extract_forceplat_data=True)
+    pf = c["data"]["platform"][0]
+    axes = plate_axes(pf["corners"].T)
+    f = pf["force"].T @ axes  # lab -> plate axes
+    m = pf["moment"].T @ axes  # about the surface centre [N mm]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dx, dy = -m[:, 1] / f[:, 2], m[:, 0] / f[:, 2]
+    loaded = np.abs(f[:, 2]) > 20.0
+    dx, dy = np.where(loaded, dx, 0.0), np.where(loaded, dy, 0.0)
+    tz = m[:, 2] - dx * f[:, 1] + dy * f[:, 0]
+    new = ezc3d.c3d(str(src))
+    new["data"]["analogs"][0, :6] = np.column_stack([f, dx, dy, tz]).T
+    new["parameters"]["FORCE_PLATFORM"]["TYPE"]["value"] = np.array([1, 2, 2, 2])
+    out = tmp_path / "type1.c3d"
+    new.write(str(out))
+    a, b = read_c3d(src).plates[0], read_c3d(out).plates[0]
+    assert b.plate_type == "C3D type 1" and b.reference_kind == "surface_center"
+    centre = np.asarray(b.corners).mean(axis=0)
+    ma = transport_moment(a.force, a.moment, a.reference_point, centre)
+    mb = transport_moment(b.force, b.moment, b.reference_point, centre)
+    sel = a.force[:, 2] > 20.0
+    np.testing.assert_allclose(b.force, a.force, atol=1e-3)  # float32 storage
+    np.testing.assert_allclose(mb[sel], ma[sel], atol=2e-3)
+    np.testing.assert_allclose(b.cop(100.0), a.cop(100.0), atol=1e-4, equal_nan=True)

@@ -12,7 +12,8 @@ C3D FORCE_PLATFORM:TYPE (C3D User Guide, "Force platforms"):
   measured from the centre of the surface, and the free moment Tz about the vertical through it.
 * **2**: six channels ``Fx Fy Fz Mx My Mz``: force and moment about the plate origin O (the
   transducer origin, below the surface). ``ORIGIN`` = the vector from O to the surface centre,
-  in plate axes (its z is negative: the surface is above O and z points down).
+  in plate axes (its z is negative: the surface is above O and z points down; Vicon stores
+  the opposite sign, which is undone).
 * **3**: eight Kistler channels ``fx12 fx34 fy14 fy23 fz1 fz2 fz3 fz4``; ``ORIGIN`` =
   ``(a, b, az0)``: the sensors' offsets from the centre along x and y, and the height of the
   sensor plane relative to the surface (negative: the surface is above it, z down).
@@ -51,10 +52,15 @@ def type2_wrench(channels: np.ndarray, origin: np.ndarray) -> tuple[np.ndarray, 
     """Type 2: ``channels (n, 6)`` = force and moment about the plate origin O; ``origin`` (3,)
     = ORIGIN, the vector from O to the surface centre C (plate axes, the moment's length unit).
 
-    Returns force and moment about C: ``M_C = M_O + (O - C) x F = M_O - ORIGIN x F``."""
+    Returns force and moment about C: ``M_C = M_O + (O - C) x F = M_O - ORIGIN x F``. A positive
+    ORIGIN z (some writers store the vector C -> O) is negated: O lies below the surface, as
+    ezc3d and BTK also assume."""
     ch = np.asarray(channels, dtype=float)
     force = ch[:, :3]
-    r = np.broadcast_to(-np.asarray(origin, dtype=float), force.shape)
+    origin = np.asarray(origin, dtype=float)
+    if origin[2] > 0:  # stored with the opposite sign (Vicon): O is below the surface
+        origin = -origin
+    r = np.broadcast_to(-origin, force.shape)
     return force, ch[:, 3:6] + np.cross(r, force)
 
 
@@ -79,6 +85,7 @@ def type3_wrench(channels: np.ndarray, origin: np.ndarray) -> tuple[np.ndarray, 
     ``Mx' = Mx + az0 Fy``, ``My' = My - az0 Fx``."""
     ch = np.asarray(channels, dtype=float)
     a, b, az0 = (float(v) for v in np.asarray(origin, dtype=float)[:3])
+    az0 = -abs(az0)  # the surface is above the sensor plane (z down), whatever the sign stored
     fx12, fx34, fy14, fy23, fz1, fz2, fz3, fz4 = ch.T
     force = np.column_stack([fx12 + fx34, fy14 + fy23, fz1 + fz2 + fz3 + fz4])
     m_s = np.column_stack(
