@@ -240,7 +240,7 @@ def _readings(path):
 
     c = ezc3d.c3d(str(path), extract_forceplat_data=True)
     params = c["parameters"]
-    ez = _plate_readings(c, params, c["data"]["platform"], path, [])
+    ez = _plate_readings(c, params, c["data"]["platform"], path)
     own = [_analog_reading(c, params, i, r["type"], 1e-3, path) for i, r in enumerate(ez)]
     return ez, own, c
 
@@ -635,3 +635,16 @@ def test_type1_file_reads_the_same_wrench_as_its_type2_original(tmp_path):
     np.testing.assert_allclose(b.force, a.force, atol=1e-3)  # float32 storage
     np.testing.assert_allclose(mb[sel], ma[sel], atol=2e-3)
     np.testing.assert_allclose(b.cop(100.0), a.cop(100.0), atol=1e-4, equal_nan=True)
+
+
+@needs_data
+def test_screen_axis_that_disagrees_with_gravity_is_noted_and_the_data_win(tmp_path):
+    import ezc3d
+
+    c = ezc3d.c3d(str(DATA / "plugingait_overground/test_small.c3d"))
+    c["parameters"]["POINT"]["Y_SCREEN"]["value"] = ["+Y"]
+    bad = tmp_path / "screen.c3d"
+    c.write(str(bad))
+    trial = load_trial(bad)
+    assert vertical_axis_of(trial) == "+Z"
+    assert any("POINT:Y_SCREEN of screen.c3d says +Y" in n for n in trial.load_notes)

@@ -172,9 +172,6 @@ def vertical_axis(
     return axis, sign, how
 
 
-_plate_axes = plate_axes  # former name
-
-
 def _screen_up(params: dict) -> str:
     """The axis POINT:Y_SCREEN declares as up on screen (e.g. ``"+Z"``), ``""`` if absent."""
     v = _param(params, "POINT", "Y_SCREEN")
@@ -189,7 +186,7 @@ def _moment_scale(unit: str, pos: float) -> float:
     return {"nmm": 1e-3, "nm": 1.0}.get(key, pos)
 
 
-def _plate_readings(c, params: dict, platforms: list, path: Path, notes: list[str]) -> list[dict]:
+def _plate_readings(c, params: dict, platforms: list, path: Path) -> list[dict]:
     """Each plate's force [N] and moment about its surface centre [N·m] in the file frame,
     corners [m], ORIGIN [m] (``None`` for types 1 and 3, whose wrench is about the centre).
 
@@ -362,7 +359,7 @@ def read_c3d(path: Path) -> RawTrial:
     plates: list[Plate] = []
     notes: list[str] = []
     analog_rate = float(c["header"]["analogs"]["frame_rate"])
-    readings = _plate_readings(c, params, platforms, path, notes)
+    readings = _plate_readings(c, params, platforms, path)
     axis, sign, how = vertical_axis(
         [r["force"] for r in readings],
         [r["corners"] for r in readings if np.ptp(r["corners"]) > 0],

@@ -165,7 +165,7 @@ def stride_body_weight(trial: Trial) -> tuple[float, float, float] | None:
     """
     ons: dict[str, list[float]] = {}
     for s in list(trial.stances) + list(trial.excluded_stances):
-        if getattr(s, "reason", "").startswith("clipped: force already"):
+        if getattr(s, "reason", "").startswith(("clipped: force already", "not a walking")):
             continue
         ons.setdefault(s.side, []).append(s.t_on)
     periods = [
