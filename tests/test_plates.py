@@ -648,3 +648,55 @@ def test_screen_axis_that_disagrees_with_gravity_is_noted_and_the_data_win(tmp_p
     trial = load_trial(bad)
     assert vertical_axis_of(trial) == "+Z"
     assert any("POINT:Y_SCREEN of screen.c3d says +Y" in n for n in trial.load_notes)
+
+
+@needs_data
+def test_type3_file_reads_the_same_wrench_as_its_type2_original(tmp_path):
+    """End to end through a C3D: plate 1 of the bundled file rewritten as a Kistler type 3
+    (eight sensor channels, ORIGIN = a, b, az0 in mm) gives the original wrench."""
+    import ezc3d
+
+    from gc_ocp.io.c3d import read_c3d
+    from gc_ocp.io.plates import plate_axes
+
+    src = DATA / "plugingait_overground/test_small.c3d"
+    c = ezc3d.c3d(str(src), extract_forceplat_data=True)
+    pf = c["data"]["platform"][0]
+    axes = plate_axes(pf["corners"].T)
+    f = pf["force"].T @ axes
+    m = pf["moment"].T @ axes  # about the surface centre [N mm]
+    a, b, az0 = 120.0, 200.0, -45.0
+    ms = m + np.cross(np.broadcast_to([0.0, 0.0, az0], f.shape), f)  # about the sensor plane
+    # fz1..fz4 from Fz, Mx, My and a zero "warp" (the fourth, unmeasured combination)
+    eqs = np.array([[1, 1, 1, 1], [b, b, -b, -b], [-a, a, a, -a], [1, -1, 1, -1]], float)
+    rhs = np.column_stack([f[:, 2], ms[:, 0], ms[:, 1], np.zeros(len(f))])
+    fz = np.linalg.solve(eqs, rhs.T).T
+    fx34 = (f[:, 0] + ms[:, 2] / b) / 2
+    ch = np.column_stack([f[:, 0] - fx34, fx34, f[:, 1] / 2, f[:, 1] / 2, fz])
+    new = ezc3d.c3d(str(src))
+    analogs = new["data"]["analogs"]
+    analogs[0, :6] = ch[:, :6].T
+    analogs[0, 12:14] = ch[:, 6:].T  # channels of plate 3, dropped below (USED = 2)
+    new["data"]["analogs"] = analogs
+    fp = new["parameters"]["FORCE_PLATFORM"]
+    chan = np.asarray(fp["CHANNEL"]["value"])
+    chan8 = np.vstack([chan, chan[:2]])
+    chan8[:, 0] = [1, 2, 3, 4, 5, 6, 13, 14]
+    fp["CHANNEL"]["value"] = chan8
+    fp["TYPE"]["value"] = np.array([3, 2, 2, 2])
+    fp["USED"]["value"] = np.array([2])
+    origin = np.asarray(fp["ORIGIN"]["value"], float).copy()
+    origin[:, 0] = [a, b, az0]
+    fp["ORIGIN"]["value"] = origin
+    out = tmp_path / "type3.c3d"
+    new.write(str(out))
+    raw = read_c3d(out)
+    assert len(raw.plates) == 2 and raw.plates[0].plate_type == "C3D type 3"
+    p, q = read_c3d(src).plates[0], raw.plates[0]
+    centre = np.asarray(q.corners).mean(axis=0)
+    np.testing.assert_allclose(q.force, p.force, atol=1e-3)  # float32 storage
+    np.testing.assert_allclose(
+        transport_moment(q.force, q.moment, q.reference_point, centre),
+        transport_moment(p.force, p.moment, p.reference_point, centre),
+        atol=1e-3,
+    )
