@@ -25,6 +25,8 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
+from gc_ocp.errors import ModelError
+
 if TYPE_CHECKING:  # pragma: no cover
     from gc_ocp.estimation.frame import Frame
     from gc_ocp.estimation.variables import Variables
@@ -68,6 +70,14 @@ class DecodeContext:
         from gc_ocp.estimation.variables import block_values
 
         return block_values(self.specs, self.x, self.cov, key)
+
+
+def unique_labels(name: str, stances) -> None:
+    """Stance-scope variables are keyed by stance label (so that a result can warm-start a fit
+    on a subset of its stances, e.g. a cross-validation fold): the labels must be unique."""
+    labels = [st.label for st in stances]
+    if len(set(labels)) != len(labels):
+        raise ModelError(f"{name}: stance labels must be unique, but got {labels}")
 
 
 class Component:
