@@ -89,6 +89,12 @@ class Component:
     """True when all its decision variables at zero leave the model as if it were absent."""
 
     # --- configuration ------------------------------------------------------------------------
+    @classmethod
+    def present_in(cls, model: tuple) -> bool:
+        """True when ``model`` already has this component's physics, so that the diagnosis does
+        not offer it as a candidate. Default: a component of this class is in ``model``."""
+        return any(isinstance(c, cls) for c in model)
+
     def configure(self, model: tuple) -> tuple:
         """The model this component needs around it (e.g. a damping effect fixes the contact
         law's own damping at zero, so that it is not estimated twice). Default: unchanged."""
