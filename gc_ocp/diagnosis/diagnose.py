@@ -311,7 +311,8 @@ def diagnose_stances(
     progress: Callable[[str], None] | None = None,
 ) -> Diagnosis:
     """The diagnosis of ``stances`` (one subject; see the module doc). ``max_effects``: stop the
-    forward selection after that many effects (``0``: rank only)."""
+    forward selection after that many effects (``0``: rank only; ``1``: rank and add the best
+    passing effect, as the withheld-effect benchmark does)."""
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
     base_label, base_model_ = resolve_base(base)
@@ -358,6 +359,8 @@ def diagnose_stances(
         current = evs[best["effect"]]
         waterfall.append(_step(f"+{best['effect']}", current))
         waterfall[-1]["label"] = current.label
+        if len(selected) >= limit:
+            break
     ranking = [dict(r) for r in rounds[0]] if rounds else []
     # non-additivity: a passing effect that stops passing once another is in the model
     for k in range(1, len(rounds)):
