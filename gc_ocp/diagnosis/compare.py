@@ -23,9 +23,14 @@ combined held-out score is ``S = sqrt(2 sum E / n)`` over all held-out residuals
 residuals in units of the error scale of :class:`~gc_ocp.estimation.problem.Weights`, all six
 channels) and a reduction is ``1 - S_child / S_parent`` (in %).
 
-**Uncertainty.** A paired two-stage bootstrap: held-out stances resampled with replacement, then
-blocks of :data:`BLOCK_SECONDS` within each (residuals are autocorrelated over ~0.1 s), the same
-draw for both models; the per-stance prior and Occam terms are spread evenly over its frames.
+**Uncertainty.** A paired bootstrap, the same draw for both models: blocks of
+:data:`BLOCK_SECONDS` resampled within each held-out stance (residuals are autocorrelated over
+~0.1 s), and, with at least :data:`MIN_CLUSTERS` held-out stances, the stances themselves
+resampled first (two-stage), so that the interval also covers stance-to-stance variability.
+With fewer held-out stances a resampling of stances is meaningless (two stances give three
+distinct draws), so the interval reflects the within-stance variability only; the per-stance
+reductions are reported beside it. The per-stance prior and Occam terms are spread evenly over
+its frames.
 """
 
 from __future__ import annotations
@@ -45,6 +50,10 @@ from gc_ocp.stance import StanceData
 BLOCK_SECONDS = 0.1
 """Bootstrap block length [s]: the residuals' autocorrelation time after the 6 Hz filtering of
 the kinematics (the HAC bandwidth of ``solve._bandwidth`` is 5-12 frames at 100 Hz)."""
+
+
+MIN_CLUSTERS = 5
+"""Held-out stances needed before the bootstrap also resamples the stances."""
 
 
 def fold_plan(stances: list[StanceData]) -> list[int]:
@@ -166,11 +175,11 @@ def evaluate(
             )
         )
     ev = Evaluation(label, names, model, full, folds, time.perf_counter() - t0)
-    say(f"  {label}: {_describe(ev)} ({ev.seconds:.1f} s)")
+    say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
     return ev
 
 
-def _describe(ev: Evaluation) -> str:
+def describe(ev: Evaluation) -> str:
     if not ev.folds:
         return f"in-sample J = {ev.full.objective:.1f}"
     return f"held-out score {score(ev):.3f}, in-sample J = {ev.full.objective:.1f}"
@@ -217,7 +226,7 @@ def reduction(
     S = len(a)
     for k in range(n_boot):
         ea = eb = 0.0
-        for s in rng.integers(0, S, S):
+        for s in rng.integers(0, S, S) if S >= MIN_CLUSTERS else range(S):
             n = a[s].size
             Ls = min(L, n)
             starts = rng.integers(0, n - Ls + 1, int(np.ceil(n / Ls)))
@@ -290,9 +299,11 @@ def superior_rms(ev: Evaluation) -> float:
 
 __all__ = [
     "BLOCK_SECONDS",
+    "MIN_CLUSTERS",
     "Evaluation",
     "Fold",
     "evaluate",
+    "describe",
     "fold_plan",
     "heldout_quality",
     "occam_term",

@@ -30,6 +30,7 @@ import numpy as np
 
 from gc_ocp.diagnosis.compare import (
     Evaluation,
+    describe,
     evaluate,
     fold_plan,
     heldout_quality,
@@ -298,6 +299,48 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
     return rows
 
 
+def _evaluate_one(args) -> Evaluation:
+    stances, model, label, names, plan, parent, weights, options = args
+    return evaluate(stances, model, label, names, plan, parent, weights, options)
+
+
+def _evaluate_all(stances, jobs, plan, parent, weights, options, workers, say) -> dict:
+    """``{name: Evaluation}`` of every job ``{name: (label, model, names)}``, on ``workers``
+    processes (forked: the compiled per-frame functions are loaded from the disk cache)."""
+    args = {
+        n: (stances, model, label, names, plan, parent, weights, options)
+        for n, (label, model, names) in jobs.items()
+    }
+    if workers <= 1 or len(jobs) <= 1:
+        return {
+            n: evaluate(*a[:6], weights=weights, options=options, progress=say)
+            for n, a in args.items()
+        }
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    out = {}
+    with ProcessPoolExecutor(workers, mp_context=mp.get_context("fork")) as pool:
+        futures = {pool.submit(_evaluate_one, a): n for n, a in args.items()}
+        for fut in as_completed(futures):
+            ev = fut.result()
+            out[futures[fut]] = ev
+            say(f"  {ev.label}: {describe(ev)} ({ev.seconds:.1f} s)")
+    return {n: out[n] for n in jobs}
+
+
+def default_workers() -> int:
+    """Processes for the candidates of a round: the CPU cores this process may use, at most
+    :data:`MAX_WORKERS` (each worker holds its own compiled functions and fits)."""
+    import os
+
+    n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(MAX_WORKERS, n or 1))
+
+
+MAX_WORKERS = 4
+
+
 def diagnose_stances(
     stances: list[StanceData],
     base: str | tuple = "registered",
@@ -309,11 +352,14 @@ def diagnose_stances(
     n_boot: int = 2000,
     seed: int = 0,
     progress: Callable[[str], None] | None = None,
+    workers: int | None = None,
 ) -> Diagnosis:
     """The diagnosis of ``stances`` (one subject; see the module doc). ``max_effects``: stop the
     forward selection after that many effects (``0``: rank only; ``1``: rank and add the best
-    passing effect, as the withheld-effect benchmark does)."""
+    passing effect, as the withheld-effect benchmark does). ``workers``: processes that evaluate
+    a round's candidates in parallel (default :func:`default_workers`; 1: in this process)."""
     say = progress or (lambda s: None)
+    workers = default_workers() if workers is None else int(workers)
     t0 = time.perf_counter()
     base_label, base_model_ = resolve_base(base)
     names = candidate_names(base_model_, candidates)
@@ -343,12 +389,16 @@ def diagnose_stances(
     limit = len(names) if max_effects is None else max_effects
     while remaining:
         say(f"round {len(rounds) + 1}: {len(remaining)} candidate(s) on top of {current.label}")
-        evs = {}
-        for n in remaining:
-            label = "+".join(["base", *selected, n]) if selected else f"base+{n}"
-            model = model_from_names([*selected, n], base=base_model_)
-            evs[n] = evaluate(stances, model, label, (*selected, n), plan, parent=current, **kw)
-            evaluations[label] = evs[n]
+        jobs = {
+            n: (
+                "+".join(["base", *selected, n]),
+                model_from_names([*selected, n], base=base_model_),
+                (*selected, n),
+            )
+            for n in remaining
+        }
+        evs = _evaluate_all(stances, jobs, plan, current, weights, options, workers, say)
+        evaluations.update({ev.label: ev for ev in evs.values()})
         rows = _rank(current, evs, threshold_pct, n_boot, seed, rate)
         rounds.append(rows)
         best = next((r for r in rows if r["passes"]), None)  # rows are sorted, best first
