@@ -7,7 +7,7 @@ A marker set is a TOML file (format in ``docs/markersets.md``); the shipped ones
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -51,12 +51,20 @@ class MarkerDef:
 
 @dataclass(frozen=True)
 class MarkerSet:
-    """A loaded marker set; ``markers`` keyed by label, positions for ``reference_height`` [m]."""
+    """A loaded marker set; ``markers`` keyed by label, positions for ``reference_height`` [m].
+
+    columns: for a set built from a trial's labels (:mod:`gc_ocp.model.landmarks`), the trial
+    column of each marker key (keys ``label#k`` address the k-th column of a duplicated label);
+    ``None``: markers are found by label. recognition: the label -> landmark -> segment mapping
+    as plain data (:meth:`gc_ocp.model.landmarks.Recognition.to_json`), or ``None``.
+    """
 
     name: str
     source: Path
     reference_height: float
     markers: dict[str, MarkerDef]
+    columns: dict[str, int] | None = None
+    recognition: dict | None = field(default=None, compare=False)
 
     def positions(self, height: float | None = None) -> dict[str, np.ndarray]:
         """Nominal positions [m] scaled to a subject of ``height`` [m] (unscaled if ``None``)."""
@@ -76,9 +84,13 @@ class MarkerSet:
         """Markers of the set present in ``marker_names`` (others of the trial are ignored).
 
         Raises :class:`MarkerError` if a foot marker of the set is missing from the trial or if a
-        foot has fewer than 3 non-collinear hindfoot markers.
+        foot cannot be tracked: it needs >= 3 non-collinear hindfoot markers, or 2 foot markers
+        plus a malleolus on the shank (role ``ankle_*``; the tracked shank then fixes the 2-DOF
+        ankle of the model).
         """
         present = set(marker_names)
+        if self.columns is not None:
+            present |= set(self.columns)
         for side in ("left", "right"):
             feet = self.foot_markers(side)
             missing = [m.name for m in feet if m.name not in present]
@@ -87,16 +99,38 @@ class MarkerSet:
                     f'Foot marker "{missing[0]}" of marker set "{self.name}" ({self.source}) is missing '
                     f"from {source} (missing: {missing}). Foot markers define the sole kinematics: "
                     f"label it in the file, or pass a marker set without it (copy {self.source} and "
-                    "remove the line), keeping >= 3 non-collinear hindfoot markers per foot."
+                    "remove the line), keeping >= 3 non-collinear hindfoot markers per foot (or 2 "
+                    "and a malleolus on the shank)."
                 )
             hf = np.array([m.position for m in feet if m.segment.startswith("hindfoot")])
+            ankle = [
+                m
+                for m in self.markers.values()
+                if m.side == side and m.role.startswith("ankle") and not m.is_foot
+            ]
+            if len(feet) >= 2 and ankle:
+                continue
             if len(hf) < 3 or np.linalg.matrix_rank(hf[1:] - hf[0], tol=1e-3) < 2:
                 raise MarkerError(
                     f'Marker set "{self.name}" ({self.source}) has fewer than 3 non-collinear markers on '
                     f"the {side} hindfoot: {[m.name for m in feet]}; add one (e.g. the lateral malleolus "
-                    "attached to the hindfoot)."
+                    "attached to the hindfoot), or a malleolus on the shank with 2 foot markers."
                 )
-        return [n for n in self.markers if n in present]
+        return [n for n in self.markers if n in set(marker_names)]
+
+    def select_columns(
+        self, marker_names, source: str | Path = "the trial"
+    ) -> tuple[list[str], list[int]]:
+        """Marker keys of the set in the trial and their columns in ``marker_names`` (the
+        ``columns`` of a recognised set; else the first column with the label). Checks the feet
+        as :meth:`select`."""
+        names = list(marker_names)
+        self.select(names, source)
+        if self.columns is None:
+            keys = [n for n in self.markers if n in set(names)]
+            return keys, [names.index(n) for n in keys]
+        keys = [n for n in self.markers if n in self.columns]
+        return keys, [self.columns[n] for n in keys]
 
 
 def available_markersets() -> list[str]:
@@ -146,22 +180,14 @@ def load_markerset(name_or_path: str | Path) -> MarkerSet:
     )
 
 
-def detect_markerset(marker_names) -> MarkerSet:
-    """The shipped marker set sharing the most labels with ``marker_names`` (ties: the smaller set).
+def detect_markerset(marker_names, markers=None, source="the trial") -> MarkerSet:
+    """The marker set of a trial from its labels (``markers`` ``(n, m, 3)``: optional data).
 
-    Raises :class:`MarkerError` when no set shares at least 3 foot markers with the trial.
+    A shipped set matching the trial exactly takes precedence; otherwise the set is built from
+    the anatomical landmarks recognised in the labels (:func:`gc_ocp.model.landmarks.
+    choose_markerset`). Raises :class:`MarkerError` (naming ``source``, the markers found and
+    what is missing) when a foot cannot be tracked.
     """
-    names = set(marker_names)
-    best, best_score = None, (-1, 0.0)
-    for n in available_markersets():
-        ms = load_markerset(n)
-        overlap = len(names & set(ms.markers))
-        score = (overlap, overlap / max(len(ms.markers), 1))
-        if score > best_score:
-            best, best_score = ms, score
-    if best is None or best_score[0] < 6:
-        raise MarkerError(
-            f"No shipped marker set matches the trial's markers {sorted(names)[:20]}...; available: "
-            f"{available_markersets()}. Write a marker-set TOML (docs/markersets.md) and pass its path."
-        )
-    return best
+    from gc_ocp.model.landmarks import choose_markerset
+
+    return choose_markerset(marker_names, markers, source)
