@@ -15,7 +15,12 @@ Sole points (``PL, PM, AL, AM`` on the hindfoot, ``TT`` on the toes) in their se
   (:attr:`~gc_ocp.trial.Trial.floor_height`: mean plate ``surface_height``, 0 without plates).
   Without a static trial the same is done over the foot-flat part of the walking stances,
   ``FOOT_FLAT`` = 20-45 % of each stance of ``trial.stances`` (after heel-strike loading
-  response, before heel-off), on the stance's plate surface.
+  response, before heel-off), on the stance's plate surface. A foot without a usable stance
+  on a plate uses its excluded stances, else the periods in which it stands still (hindfoot
+  slower than ``STILL_SPEED`` relative to the belt) on ``floor_height``.
+
+Foot-marker gaps longer than the load-time spline fill are bridged by rigid-body fill from the
+other markers of the same foot (:func:`fill_foot_gaps`).
 """
 
 from __future__ import annotations
@@ -256,7 +261,9 @@ def compute_kinematics(
 
     trial: the walking trial; model: body model (default: de Leva model of the trial's height and
     mass, the height estimated from the pelvis markers when unknown); markerset: a
-    :class:`MarkerSet`, a shipped name or a TOML path (default: detected from the labels);
+    :class:`MarkerSet`, a shipped name or a TOML path (default: a shipped set matching the
+    labels exactly, else one built from the recognised anatomical landmarks, see
+    :func:`gc_ocp.model.landmarks.choose_markerset`; the mapping is in ``info["landmarks"]``);
     static: a static standing trial for registration and sole height (optional);
     cutoff_hz: marker low-pass cutoff [Hz]; progress: called with status strings.
     """
