@@ -30,7 +30,7 @@ from __future__ import annotations
 import functools
 import re
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -197,7 +197,17 @@ def split_side(label: str) -> list[tuple[str | None, str]]:
 def classify(label: str, vocab: Vocabulary | None = None) -> tuple[str, str, str | None]:
     """``(kind, key, side)`` of one label: kind ``"landmark"`` (key = landmark), ``"cluster"``
     (key = ``cluster:<segment>``), ``"virtual"`` or ``"unknown"`` (key ``""``)."""
-    v = vocab or vocabulary()
+    if vocab is None:
+        return _classify_default(label)
+    return _classify(label, vocab)
+
+
+@functools.lru_cache(maxsize=8192)
+def _classify_default(label: str) -> tuple[str, str, str | None]:
+    return _classify(label, vocabulary())
+
+
+def _classify(label: str, v: Vocabulary) -> tuple[str, str, str | None]:
     cands = split_side(label)
     for side, core in cands:
         n = normalise(core)
@@ -263,7 +273,6 @@ class Recognition:
     notes: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     markerset_name: str = "landmarks"
-    extra: dict = field(default_factory=dict)
 
     def foot(self, side: str) -> list[LandmarkMatch]:
         v = vocabulary()
