@@ -450,3 +450,92 @@ def test_cli_kinematics_writes_and_prints_landmarks(tmp_path, capsys):
     lm = json.loads((tmp_path / "landmarks.json").read_text())
     assert lm["markerset"] == "gait2392"
     assert {m["label"]: m["segment"] for m in lm["markers"]}["R.Heel"] == "hindfoot_r"
+
+
+WALKING_FILES = {
+    # file (in ../shared/data), grf, mass given (not recorded in most files), expected set, the
+    # right foot's landmarks
+    "plugingait_overground/test_small.c3d": (None, None, "plugingait", None),
+    "opensim_rajagopal_overground/motion_capture_walk.trc": (
+        "opensim_rajagopal_overground/grf_walk.mot",
+        85.07,
+        "rajagopal",
+        None,
+    ),
+    "opensim_gait2392_treadmill/subject01_walk1.trc": (
+        "opensim_gait2392_treadmill/subject01_walk1_grf.mot",
+        72.6,
+        "gait2392",
+        None,
+    ),
+    "vicon_plugingait_btk/PiG_Motion3_FF.c3d": (None, None, "plugingait", None),
+    "vicon_plugingait_clusters/FunctionalWalk.c3d": (
+        None,
+        None,
+        "landmarks",
+        ["heel", "metatarsal_2"],
+    ),
+    "motionanalysis_helenhayes/Gait.c3d": (None, 80.0, "landmarks", ["heel", "metatarsal_2"]),
+    "c3dorg_helenhayes_types/type-2a.c3d": (None, 55.0, "landmarks", ["heel", "metatarsal_2"]),
+    "c3dorg_helenhayes_types/type-4a.c3d": (None, 55.0, "landmarks", ["heel", "metatarsal_2"]),
+    **{
+        f"bts_unipd_5trials/Walking{i}.c3d": (
+            None,
+            95.0,
+            "landmarks",
+            ["heel", "metatarsal_5", "metatarsal_1", "toe_tip"],
+        )
+        for i in range(1, 6)
+    },
+    "camargo_opensim_circuit/levelground_ccw_fast_01_01.trc": (
+        "camargo_opensim_circuit/levelground_ccw_fast_01_01_grf.mot",
+        70.0,
+        "landmarks",
+        ["heel", "metatarsal_5", "metatarsal_1", "toe_tip"],
+    ),
+}
+
+
+@functools.cache
+def _walking(name: str):
+    from gc_ocp.io import load_trial
+
+    _need_data()
+    grf, mass, _, _ = WALKING_FILES[name]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_trial(DATA / name, grf=DATA / grf if grf else None, mass=mass)
+
+
+@pytest.mark.parametrize("name", sorted(WALKING_FILES))
+def test_every_walking_file_gets_its_landmarks(name):
+    trial = _walking(name)
+    _, _, expected, right_foot = WALKING_FILES[name]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no ambiguity in any of these files
+        ms = choose_markerset(trial.marker_names, trial.markers, trial.source)
+    assert ms.name == expected
+    if right_foot is not None:
+        rec = ms.recognition
+        got = [m["landmark"] for m in rec["markers"] if m["segment"] in ("hindfoot_r", "toes_r")]
+        assert sorted(got) == sorted(right_foot)
+        shank = {m["landmark"] for m in rec["markers"] if m["segment"] == "shank_r"}
+        assert "ankle_lateral" in shank
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "vicon_plugingait_clusters/FunctionalWalk.c3d",  # clusters, empty medial markers
+        "c3dorg_helenhayes_types/type-2a.c3d",  # no usable left stance: excluded-stance sole
+        "camargo_opensim_circuit/levelground_ccw_fast_01_01.trc",  # gaps in stance, metres
+    ],
+)
+def test_kinematics_without_a_markerset_file(name):
+    from gc_ocp.kinematics import compute_kinematics
+
+    kin = compute_kinematics(_walking(name))
+    assert kin.info["markerset"] == "landmarks"
+    assert np.nanmedian(kin.marker_rms) < 0.012
+    for side in ("left", "right"):
+        assert np.isfinite(kin.feet[side].positions).all()
