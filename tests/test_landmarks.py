@@ -15,12 +15,12 @@ from conftest import DATA, G23, _need_data, c3d_trial, gait2392_trial
 from gc_ocp.errors import MarkerError
 from gc_ocp.gaps import fill_rigid_gaps
 from gc_ocp.model.landmarks import (
-    choose_markerset,
     classify,
     markerset_from_recognition,
     recognise_landmarks,
     split_side,
 )
+from gc_ocp.model.markerset import detect_markerset
 
 CONVENTIONS = {
     "plug-in gait": {
@@ -304,14 +304,14 @@ def test_two_foot_landmarks_need_a_malleolus():
 
 def test_shipped_sets_take_precedence_on_an_exact_match():
     trial = c3d_trial()
-    ms = choose_markerset(trial.marker_names, trial.markers, trial.source)
+    ms = detect_markerset(trial.marker_names, trial.markers, trial.source)
     assert ms.name == "plugingait" and ms.columns is None
     assert ms.recognition["markerset"] == "plugingait"
     assert {m["label"]: m["landmark"] for m in ms.recognition["markers"]}["LHEE"] == "heel"
     # one recognised label outside the set -> the set is built from the landmarks
     names = [*trial.marker_names, "RKNEin"]
     m = np.concatenate([trial.markers, trial.markers[:, :1]], axis=1)
-    assert choose_markerset(names, m, "x").name == "landmarks"
+    assert detect_markerset(names, m, "x").name == "landmarks"
 
 
 def test_rigid_fill_is_exact_for_a_rigid_body():
@@ -513,7 +513,7 @@ def test_every_walking_file_gets_its_landmarks(name):
     _, _, expected, right_foot = WALKING_FILES[name]
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # no ambiguity in any of these files
-        ms = choose_markerset(trial.marker_names, trial.markers, trial.source)
+        ms = detect_markerset(trial.marker_names, trial.markers, trial.source)
     assert ms.name == expected
     if right_foot is not None:
         rec = ms.recognition

@@ -263,7 +263,7 @@ def compute_kinematics(
     mass, the height estimated from the pelvis markers when unknown); markerset: a
     :class:`MarkerSet`, a shipped name or a TOML path (default: a shipped set matching the
     labels exactly, else one built from the recognised anatomical landmarks, see
-    :func:`gc_ocp.model.landmarks.choose_markerset`; the mapping is in ``info["landmarks"]``);
+    :func:`gc_ocp.model.markerset.detect_markerset`; the mapping is in ``info["landmarks"]``);
     static: a static standing trial for registration and sole height (optional);
     cutoff_hz: marker low-pass cutoff [Hz]; progress: called with status strings.
     """

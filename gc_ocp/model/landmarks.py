@@ -41,7 +41,7 @@ except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
 from gc_ocp.errors import MarkerError
-from gc_ocp.model.markerset import MarkerDef, MarkerSet
+from gc_ocp.model.markerdefs import MarkerDef, MarkerSet
 
 VOCABULARY_PATH = Path(__file__).resolve().parent.parent / "data" / "landmarks.toml"
 FOOT_SEGMENTS = ("hindfoot", "toes")
@@ -569,38 +569,3 @@ def shipped_mapping(ms: MarkerSet, labels, markers: np.ndarray | None, source) -
         )
     rec = Recognition(str(source), tuple(out), tuple(ignored), markerset_name=ms.name)
     return rec.to_json()
-
-
-def choose_markerset(labels, markers: np.ndarray | None = None, source="the trial") -> MarkerSet:
-    """The marker set for a trial when none is given.
-
-    A shipped TOML set is used when it matches the trial exactly: all its foot markers are in the
-    trial (not empty), no label is duplicated, and every label the vocabulary recognises (landmark
-    or cluster) is in the set (recognition would add nothing; this keeps the shipped sets' tuned
-    positions, e.g. Plug-in Gait's LANK on the hindfoot). Among several, the one sharing the most
-    labels. Otherwise the set is built from the recognised landmarks
-    (:func:`recognise_landmarks`, :func:`markerset_from_recognition`).
-    """
-    from gc_ocp.model.markerset import available_markersets, load_markerset
-
-    labels = [str(x) for x in labels]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        rec = recognise_landmarks(labels, markers, source, require_feet=False)
-    present = {m.label for m in rec.matches}
-    nonempty = {lab for i, lab in enumerate(labels) if markers is None or _present(markers, i) > 0}
-    unique = len(set(labels)) == len(labels)
-    best, best_n = None, 0
-    for name in available_markersets():
-        ms = load_markerset(name)
-        feet = [m.name for s in ("left", "right") for m in ms.foot_markers(s)]
-        if not unique or not all(f in nonempty for f in feet) or not present <= set(ms.markers):
-            continue
-        n = len(nonempty & set(ms.markers))
-        if n > best_n:
-            best, best_n = ms, n
-    if best is not None:
-        import dataclasses
-
-        return dataclasses.replace(best, recognition=shipped_mapping(best, labels, markers, source))
-    return markerset_from_recognition(recognise_landmarks(labels, markers, source))
