@@ -539,3 +539,14 @@ def test_kinematics_without_a_markerset_file(name):
     assert np.nanmedian(kin.marker_rms) < 0.012
     for side in ("left", "right"):
         assert np.isfinite(kin.feet[side].positions).all()
+
+
+def test_a_markerset_given_overrides_recognition():
+    from gc_ocp.kinematics import compute_kinematics
+
+    trial = _walking("vicon_plugingait_clusters/FunctionalWalk.c3d")
+    kin = compute_kinematics(trial, markerset="plugingait")
+    assert kin.info["markerset"] == "plugingait" and "LF01" not in kin.marker_names
+    lm = kin.info["landmarks"]
+    assert lm["markerset"] == "plugingait"
+    assert {m["label"]: m["segment"] for m in lm["markers"]}["LANK"] == "hindfoot_l"

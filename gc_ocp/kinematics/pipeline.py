@@ -287,8 +287,8 @@ def compute_kinematics(
             m.name
             for s in ("left", "right")
             for m in markerset.foot_markers(s)
-            if m.name not in static.marker_names
-        ]
+            if m.name not in static.marker_names and m.name in trial.marker_names
+        ]  # (a second column of a duplicated label, "RANK#2", has no name in the static)
         if missing:
             raise InputError(
                 f"Static trial {static.source} lacks foot markers {missing}; "
