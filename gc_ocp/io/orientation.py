@@ -4,6 +4,7 @@ walking direction of a trial to lab +X."""
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
@@ -21,7 +22,9 @@ def walking_rotation(names, markers: np.ndarray, time: np.ndarray) -> tuple[np.n
     faster than :data:`MIN_OVERGROUND_SPEED`; otherwise (treadmill: the body stays put) the mean
     heel -> toe vector of both feet. Returns the 3x3 rotation and a one-line description.
     """
-    centroid = np.nanmean(markers, axis=1)[:, :2] if markers.size else np.zeros((0, 2))
+    with warnings.catch_warnings():  # frames without any marker give NaN, not a warning
+        warnings.simplefilter("ignore", RuntimeWarning)
+        centroid = np.nanmean(markers, axis=1)[:, :2] if markers.size else np.zeros((0, 2))
     ok = np.all(np.isfinite(centroid), axis=1)
     direction = None
     how = ""
@@ -33,8 +36,9 @@ def walking_rotation(names, markers: np.ndarray, time: np.ndarray) -> tuple[np.n
         vecs = []
         for side in ("left", "right"):
             h, t = heel_toe(names, side)
-            if h is not None and t is not None:
-                vecs.append(np.nanmean(markers[:, t, :2] - markers[:, h, :2], axis=0))
+            d = markers[:, t, :2] - markers[:, h, :2] if h is not None and t is not None else None
+            if d is not None and np.isfinite(d).all(axis=1).any():
+                vecs.append(np.nanmean(d, axis=0))
         if vecs and np.linalg.norm(np.mean(vecs, axis=0)) > 0.03:
             direction, how = np.mean(vecs, axis=0), "heel->toe direction (treadmill-like trial)"
     if direction is None:
