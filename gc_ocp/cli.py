@@ -43,7 +43,8 @@ def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> Non
         p.add_argument(
             "--markerset",
             help="Marker set name (plugingait, rajagopal, gait2392) or TOML file. "
-            "Default: detected from the marker labels.",
+            "Default: a shipped set matching the labels exactly, else one built from the "
+            "anatomical landmarks recognised in the labels (docs/data_formats.md).",
         )
         p.add_argument(
             "--cutoff",
@@ -84,6 +85,14 @@ def _kinematics(trial, args):
     )
 
 
+def _print_landmarks(kin) -> None:
+    """Print the marker mapping (label -> landmark -> segment) the kinematics used."""
+    from gc_ocp.model.landmarks import format_mapping
+
+    if "landmarks" in kin.info:
+        print(format_mapping(kin.info["landmarks"]))
+
+
 def cmd_info(args: argparse.Namespace) -> int:
     from gc_ocp.io import describe_trial
 
@@ -98,6 +107,7 @@ def cmd_kinematics(args: argparse.Namespace) -> int:
 
     for trial in _load(args):
         kin = _kinematics(trial, args)
+        _print_landmarks(kin)
         out = args.out if len(args.trial) <= 1 else args.out / trial.name
         paths = write_kinematics(trial, kin, out, fmt=args.format)
         for p in paths:
@@ -132,6 +142,7 @@ def cmd_reproduce_seed(args: argparse.Namespace) -> int:
 
 FIT_OUTPUTS = (
     "fit.json",
+    "landmarks.json",
     "fit_failed.json",
     "fit_wrench.png",
     "fit_sole.png",
@@ -214,8 +225,11 @@ def cmd_fit(args: argparse.Namespace) -> int:
     for t in trials:
         require_stances(t)
     pairs = [(t, _kinematics(t, args)) for t in trials]
+    for _, kin in pairs:
+        _print_landmarks(kin)
     prov = provenance(args, pairs)
     out = OutputSet(args.out, FIT_OUTPUTS)
+    landmarks = {"trials": [kin.info.get("landmarks") for _, kin in pairs]}
     try:
         try:
             report = fit(pairs, holdout=args.holdout, progress=_progress)
@@ -242,6 +256,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
                 report.heldout, title=f"held-out {report.heldout_label}"
             )
         out.text("fit.json", json.dumps({**report.to_json(), "provenance": prov}, indent=2))
+        out.text("landmarks.json", json.dumps(landmarks, indent=2))
         if args.sensitivity:
             from gc_ocp.estimation.sensitivity import sensitivity
             from gc_ocp.io import load_static

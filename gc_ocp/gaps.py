@@ -76,3 +76,81 @@ def fill_short_gaps(
             else:
                 left.append((j, float(time[a]), float(time[b - 1])))
     return out, left
+
+
+RIGID_MIN_LEVER = 0.03
+"""Smallest distance [m] of a donor marker from the line through the two farthest-apart donors
+for a rigid-body fill: 3 donors within ~2 mm of a line leave the rotation about it free (as
+:data:`gc_ocp.io.checks.FOOT_FIX_LEVER`)."""
+
+
+def _off_line(points: np.ndarray) -> float:
+    """Largest distance [m] of ``points`` ``(k, 3)`` from the line through the two farthest."""
+    if len(points) < 3:
+        return 0.0
+    d = np.linalg.norm(points[:, None] - points[None], axis=2)
+    i, j = np.unravel_index(np.argmax(d), d.shape)
+    axis = (points[j] - points[i]) / max(d[i, j], 1e-12)
+    rel = points - points[i]
+    return float(np.linalg.norm(rel - np.outer(rel @ axis, axis), axis=1).max())
+
+
+def fill_rigid_gaps(
+    x: np.ndarray, groups, min_lever: float = RIGID_MIN_LEVER
+) -> tuple[np.ndarray, list[tuple[int, int, int, list[int]]]]:
+    """Fill marker gaps by rigid-body fill from the other markers of the same rigid body.
+
+    x: ``(n, m, 3)`` marker positions [m], time first, NaN = missing. groups: lists of marker
+    indices that move as one rigid body (e.g. the markers of one foot). For each missing frame
+    ``f`` of marker ``j``, the donors are the markers of its group visible in ``f`` (at least 3,
+    at least ``min_lever`` off a line). The reference frames are the last frame before the gap
+    and the first after it in which ``j`` and those donors are all visible; the donors' rigid
+    motion from a reference frame to ``f`` (:func:`gc_ocp.geometry.kabsch`) carries ``j`` along.
+    With both references the two estimates are blended linearly in time (the nearer weighs
+    more), so a slowly drifting skin marker is matched at both gap ends. No length limit: the
+    fill does not interpolate, it moves the marker with the visible ones. Frames without enough
+    donors or without a reference stay NaN.
+
+    Returns the filled copy and the filled runs ``(marker, first frame, end frame (exclusive),
+    donors)``.
+    """
+    from gc_ocp.geometry import kabsch
+
+    x = np.asarray(x, dtype=float)
+    out = x.copy()
+    done: list[tuple[int, int, int, list[int]]] = []
+    for group in groups:
+        group = list(group)
+        ok = np.isfinite(x[:, group]).all(axis=2)  # (n, k): visible in the input
+        for k, j in enumerate(group):
+            for a, b in nan_runs(ok[:, k]):
+                run_start, run_donors = None, None
+                for f in range(a, b + 1):
+                    filled = False
+                    if f < b:
+                        don = [q for q in range(len(group)) if q != k and ok[f, q]]
+                        pts = x[f, [group[q] for q in don]]
+                        if len(don) >= 3 and _off_line(pts) >= min_lever:
+                            ref = ok[:, k] & ok[:, don].all(axis=1)
+                            before = np.flatnonzero(ref[:a])
+                            after = np.flatnonzero(ref[b:]) + b
+                            est, w = [], []
+                            if before.size:
+                                est.append(before[-1])
+                            if after.size:
+                                est.append(after[0])
+                            dcols = [group[q] for q in don]
+                            vals = []
+                            for r in est:
+                                R, t = kabsch(x[r, dcols], x[f, dcols])
+                                vals.append(R @ x[r, j] + t)
+                                w.append(1.0 / max(abs(f - r), 1))
+                            if vals:
+                                out[f, j] = np.average(vals, axis=0, weights=w)
+                                filled = True
+                                if run_start is None:
+                                    run_start, run_donors = f, dcols
+                    if not filled and run_start is not None:
+                        done.append((j, run_start, f, run_donors))
+                        run_start = None
+    return out, done

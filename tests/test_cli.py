@@ -151,8 +151,12 @@ def test_fit_outputs_are_one_consistent_set(tmp_path):
         "fit_pose_corrections.png",
         "fit_sole.png",
         "fit_wrench.png",
+        "landmarks.json",
         "notes.txt",
     ]
+    assert json.loads((out / "landmarks.json").read_text())["trials"][0]["markerset"] == (
+        "plugingait"
+    )
     assert stat.S_IMODE((out / "fit.json").stat().st_mode) == 0o644
     d = json.loads((out / "fit.json").read_text())
     trial = d["provenance"]["trials"][0]

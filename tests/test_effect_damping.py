@@ -25,10 +25,10 @@ from gc_ocp.estimation import (
     model_from_names,
 )
 from gc_ocp.estimation.components.damping import Damping
+from gc_ocp.estimation.fit import lls_k0
 from gc_ocp.estimation.recovery import (
     PLATE_NOISE_PCT_BW,
     TORQUE_NOISE_LENGTH,
-    _lls_k0,
     fit_model,
     real_motion,
     simulate,
@@ -113,7 +113,7 @@ def test_damping_is_recovered_on_real_motion():
     stances, truth = _motion(), _truth()
     rng = np.random.default_rng(2024)
     data = simulate(stances, (*truth, Damping(fixed=TRUE_C)), rng, marker_noise=MARKER_NOISE)
-    k0 = _lls_k0(data, 1.0)  # as fit() starts: the seed's LLS stiffness (also the k prior centre)
+    k0 = lls_k0(data, 1.0)  # as fit() starts: the seed's LLS stiffness (also the k prior centre)
     law, _, pose, belt = base_model()
     law = law.with_initial_k(k0)
     sole_true = truth[1]

@@ -31,10 +31,10 @@ from gc_ocp.estimation import (
     result_at,
 )
 from gc_ocp.estimation.components.stiffness_exponent import StiffnessExponent
+from gc_ocp.estimation.fit import lls_k0
 from gc_ocp.estimation.recovery import (
     PLATE_NOISE_PCT_BW,
     TORQUE_NOISE_LENGTH,
-    _lls_k0,
     fit_model,
     real_motion,
     simulate,
@@ -163,7 +163,7 @@ def test_exponent_is_recovered_on_real_motion():
     truth, f_ref = _truth()
     rng = np.random.default_rng(2025)
     data = simulate(stances, truth, rng, marker_noise=MARKER_NOISE)
-    k0 = _lls_k0(data, 1.0)  # as fit() starts: the seed's LLS stiffness (also the k prior centre)
+    k0 = lls_k0(data, 1.0)  # as fit() starts: the seed's LLS stiffness (also the k prior centre)
     law, _, pose, belt = base_model()
     law = law.with_initial_k(k0)
     sole_true = truth[1]

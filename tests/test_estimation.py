@@ -316,7 +316,7 @@ def test_pose_prior_per_axis():
     v = pb.variables
     x = np.zeros(pb.x0.size)
     for part in ("trans", "rot"):
-        x[v.spec(("pose", 0, part)).slice] = 1.0
+        x[v.spec(("pose", sts[0].label, part)).slice] = 1.0
     d, th, _, _ = pose.trajectories(v, 0, sts[0])
     dv, tv = (np.asarray(a) for a in ca.Function("p", [pb.x], [d, th])(x))
     np.testing.assert_allclose(
@@ -325,7 +325,7 @@ def test_pose_prior_per_axis():
     np.testing.assert_allclose(
         np.rad2deg(tv), np.array([[0.5], [1.0], [1.5]]) * np.ones((1, sts[0].n)), rtol=1e-12
     )
-    sl = v.spec(("pose", 0, "trans")).slice
+    sl = v.spec(("pose", sts[0].label, "trans")).slice
     np.testing.assert_allclose(pb.ubx[sl], pose.bound_sigmas)  # bound in units of each sigma
     # the prior-width continuation scales every axis
     assert pose.with_prior_scale(0.5).sigma_mm == (0.5, 1.0, 1.5)

@@ -32,13 +32,26 @@ stiffness of an exponent-n law: k_n = k_1 * TYPICAL_DEPTH**(1 - n) (equal force 
 
 
 def lls_initial_k(trials: list[tuple[Trial, TrialKinematics]], n0: float) -> dict | None:
-    """Initial per-unit stiffness from the seed's linear least squares (negative -> floor)."""
-    from gc_ocp.contact.lls import fit_stiffness_lls, stances_from_trial
+    """Initial per-unit stiffness from the seed's linear least squares on every stance of
+    ``trials`` (see :func:`lls_k0`)."""
+    from gc_ocp.contact.lls import stances_from_trial
 
-    sts = [s for t, k in trials for s in stances_from_trial(t, k)]
-    t0 = trials[0][0]
+    return lls_k0([s for t, k in trials for s in stances_from_trial(t, k)], n0)
+
+
+def lls_k0(stances: list, n0: float) -> dict | None:
+    """Initial per-unit stiffness of an exponent-``n0`` law from the seed's linear least squares
+    on ``stances``: negative or tiny LLS stiffnesses are raised to a floor (10 % of the median
+    positive one, at least 1e3 N/m), then converted with :data:`TYPICAL_DEPTH`. ``None`` (with a
+    warning) when the LLS is rank deficient. A foot without stances gets the floor (the model
+    declares both feet)."""
+    from gc_ocp.contact.lls import fit_stiffness_lls
+
+    st0 = stances[0]
     try:
-        res = fit_stiffness_lls(sts, t0.body_weight, t0.body_weight * (t0.height or 1.7))
+        res = fit_stiffness_lls(
+            list(stances), st0.body_weight, st0.body_weight * (st0.height or 1.7)
+        )
     except RankError as e:
         warnings.warn(
             f"LLS initialisation not possible ({e}); starting from a uniform stiffness.",
@@ -48,13 +61,23 @@ def lls_initial_k(trials: list[tuple[Trial, TrialKinematics]], n0: float) -> dic
     out = {}
     k_all = np.array([v for s in res.k.values() for v in s.values()])
     floor = max(np.median(k_all[k_all > 0]) * 0.1, 1e3) if np.any(k_all > 0) else 1e4
-    units = {st.side: st.layout.units for st in sts}
-    for side in SIDES:  # a foot without stances gets the floor (the model declares both feet)
+    units = {st.side: st.layout.units for st in stances}
+    for side in SIDES:
         out[side] = {
             u: float(max(res.k.get(side, {}).get(u, floor), floor) * TYPICAL_DEPTH ** (1 - n0))
             for u in units.get(side, next(iter(units.values())))
         }
     return out
+
+
+def with_lls_start(model: tuple, stances: list) -> tuple:
+    """``model`` with its contact law (the component with ``with_initial_k``) started at the
+    seed's linear least squares on ``stances`` (:func:`lls_k0`)."""
+    law = next((c for c in model if hasattr(c, "with_initial_k")), None)
+    if law is None:
+        return model
+    k0 = lls_k0(stances, float(law.n.value_for(SIDES[0])))
+    return tuple(c.with_initial_k(k0) if c is law else c for c in model)
 
 
 CONTINUATION = (0.2, 0.5, 1.0)
@@ -217,6 +240,29 @@ def frozen_model(model: tuple, result: EstimationResult) -> tuple:
     return tuple(c.frozen(result.blocks[c.name]) if c.name in result.blocks else c for c in model)
 
 
+def fit_data(
+    trials: list[tuple[Trial, TrialKinematics]],
+    margin: float = MARGIN,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[list, list[StanceData], list[str]]:
+    """The checked trials (:func:`gc_ocp.io.consistency.check_for_fit`; a height estimated
+    from the markers when the files gave none), every stance of them with ``margin`` unloaded
+    seconds each side, and the checks' notes (each also warned and reported to ``progress``)."""
+    from gc_ocp.io.consistency import check_for_fit
+
+    say = progress or (lambda s: None)
+    trials, notes = check_for_fit([(_with_height(t, k), k) for t, k in trials])
+    for note in notes:
+        warnings.warn(note, stacklevel=3)
+        say(f"check: {note}")
+    data = [
+        stance_data(trial, kin, st, margin=margin, min_frames=5)
+        for trial, kin in trials
+        for st in trial.stances
+    ]
+    return trials, data, notes
+
+
 def fit(
     trials: list[tuple[Trial, TrialKinematics]],
     model: tuple | None = None,
@@ -236,16 +282,7 @@ def fit(
     """
     say = progress or (lambda s: None)
     model = model or full_model()
-    data: list[StanceData] = []
-    from gc_ocp.io.consistency import check_for_fit
-
-    trials, notes = check_for_fit([(_with_height(t, k), k) for t, k in trials])
-    for note in notes:
-        warnings.warn(note, stacklevel=2)
-        say(f"check: {note}")
-    for trial, kin in trials:
-        for st in trial.stances:
-            data.append(stance_data(trial, kin, st, margin=margin, min_frames=5))
+    trials, data, notes = fit_data(trials, margin, say)
     held = None
     if holdout is not None:
         matches = [d for d in data if d.label == holdout or holdout in d.label]
@@ -282,9 +319,12 @@ def fit(
 
 __all__ = [
     "fit",
+    "fit_data",
     "FitReport",
     "frozen_model",
     "lls_initial_k",
+    "lls_k0",
+    "with_lls_start",
     "estimate",
     "best_of",
 ]

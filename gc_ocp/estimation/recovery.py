@@ -63,33 +63,11 @@ def truth_from_fit(stances: Sequence[StanceData], base: tuple) -> tuple:
     """The base model fitted to ``stances`` (initialised from the seed's LLS as ``fit`` does),
     every component frozen at its fitted block except the stance-scope ones (pose correction),
     which the truth leaves at zero: the recorded kinematics are the truth's motion."""
-    from gc_ocp.estimation.fit import estimate, frozen_model
+    from gc_ocp.estimation.fit import estimate, frozen_model, with_lls_start
 
-    law = next((c for c in base if hasattr(c, "with_initial_k")), None)
-    model = base
-    if law is not None:
-        k0 = _lls_k0(stances, float(law.n.value_for("left")))
-        model = tuple(c.with_initial_k(k0) if c is law else c for c in base)
+    model = with_lls_start(base, list(stances))
     res = estimate(list(stances), model)
     return tuple(c for c in frozen_model(model, res) if c.scope != "stance")
-
-
-def _lls_k0(stances, n0: float) -> dict | None:
-    from gc_ocp.contact.lls import fit_stiffness_lls
-    from gc_ocp.errors import RankError
-    from gc_ocp.estimation.fit import TYPICAL_DEPTH
-
-    st0 = stances[0]
-    try:
-        res = fit_stiffness_lls(list(stances), st0.body_weight, st0.body_weight * st0.height)
-    except RankError:
-        return None
-    k_all = np.array([v for s in res.k.values() for v in s.values()])
-    floor = max(np.median(k_all[k_all > 0]) * 0.1, 1e3) if np.any(k_all > 0) else 1e4
-    return {
-        s: {u: float(max(v, floor) * TYPICAL_DEPTH ** (1 - n0)) for u, v in ks.items()}
-        for s, ks in res.k.items()
-    }
 
 
 def simulate(

@@ -144,10 +144,33 @@ def marker_side(name: str) -> str | None:
     return "left" if m.group(1).lower().startswith("l") else "right"
 
 
+def _landmark(name: str) -> tuple[str, str | None]:
+    """``(landmark, side)`` of a label by the landmark vocabulary (``("", None)`` if none)."""
+    from gc_ocp.model.landmarks import classify
+
+    kind, key, side = classify(name)
+    return (key, side) if kind == "landmark" else ("", None)
+
+
+_FOOT_VOCABULARY_SEGMENTS = ("hindfoot", "toes")
+_TOE_ORDER = ("toe_tip", "metatarsal_2", "metatarsal_1", "metatarsal_5")
+
+
 def foot_markers(names: list[str] | tuple[str, ...], side: str) -> list[int]:
-    """Indices of the foot markers (heel, ankle, toe, metatarsal, midfoot) of ``side``."""
+    """Indices of the foot markers (heel, ankle, toe, metatarsal, midfoot) of ``side``: by the
+    name patterns below, or recognised as a foot landmark or malleolus by the landmark
+    vocabulary (:mod:`gc_ocp.model.landmarks`; e.g. CAST ``RFCC``, ``RFM1``)."""
+    from gc_ocp.model.landmarks import vocabulary
+
+    voc = vocabulary()
     out = []
     for i, n in enumerate(names):
+        key, lm_side = _landmark(n)
+        if key and lm_side == side:
+            lm = voc.landmarks[key]
+            if lm.segment in _FOOT_VOCABULARY_SEGMENTS or lm.role.startswith("ankle"):
+                out.append(i)
+                continue
         if marker_side(n) != side:
             continue
         rest = re.sub(r"^(left|right|l|r)[._\s-]?", "", n, flags=re.IGNORECASE).upper()
@@ -158,14 +181,26 @@ def foot_markers(names: list[str] | tuple[str, ...], side: str) -> list[int]:
 
 
 def heel_toe(names: list[str] | tuple[str, ...], side: str) -> tuple[int | None, int | None]:
-    """Index of the heel and of the most distal toe marker of ``side`` (``None`` if absent)."""
+    """Index of the heel and of the most distal toe marker of ``side`` (``None`` if absent).
+
+    By name (``HEE``, ``TOE``, ``TIP``); when that finds none, by the landmark vocabulary
+    (calcaneus; toe tip, else 2nd, 1st, 5th metatarsal head)."""
     heel = toe = None
-    for i in foot_markers(names, side):
+    feet = foot_markers(names, side)
+    for i in feet:
         u = names[i].upper()
         if "HEE" in u and heel is None:
             heel = i
         if "TOE" in u and (toe is None or "TIP" in u):
             toe = i
+    lms = {i: _landmark(names[i])[0] for i in feet}
+    if heel is None:
+        heel = next((i for i in feet if lms[i] == "heel"), None)
+    if toe is None:
+        for key in _TOE_ORDER:
+            toe = next((i for i in feet if lms[i] == key), None)
+            if toe is not None:
+                break
     return heel, toe
 
 

@@ -8,6 +8,8 @@ Files written into ``out_dir`` (each atomically: complete or absent):
   ``{side}_velocities`` (n, 5, 3), ``{side}_points_local`` (5, 3) in the foot frames, ``units``,
   ``q`` (n, 27), ``marker_rms`` (n,).
 * ``kinematics_summary.json``: marker RMS (median, 95th percentile) and mid-stance sole heights.
+* ``landmarks.json``: the marker mapping used (label -> landmark -> segment, ignored labels and
+  why, decisions on duplicates and ambiguities; :mod:`gc_ocp.model.landmarks`).
 * ``kinematics.png``: the figure of :func:`plot_kinematics`.
 """
 
@@ -132,6 +134,12 @@ def write_kinematics(
             json.dumps(kinematics_summary(trial, kin), indent=2),
         )
     )
+    if "landmarks" in kin.info:
+        paths.append(
+            atomic_write_text(
+                out_dir / "landmarks.json", json.dumps(kin.info["landmarks"], indent=2)
+            )
+        )
     fig = plot_kinematics(trial, kin)
     paths.append(atomic_savefig(fig, out_dir / "kinematics.png", dpi=110))
     plt.close(fig)

@@ -212,5 +212,7 @@ def solve_ik(
             progress(k + 1, n)
     model_pos = mm.positions(Q, s.data)
     d = np.linalg.norm(model_pos - markers, axis=2)
-    rms = np.sqrt(np.nanmean(d**2, axis=1))
+    seen = np.isfinite(d).sum(axis=1)
+    rms = np.full(n, np.nan)  # NaN in frames without any marker (e.g. outside the capture volume)
+    rms[seen > 0] = np.sqrt(np.nansum(d[seen > 0] ** 2, axis=1) / seen[seen > 0])
     return IKResult(Q, rms, d, its, _time.perf_counter() - t0)

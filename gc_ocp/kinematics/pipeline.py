@@ -15,7 +15,12 @@ Sole points (``PL, PM, AL, AM`` on the hindfoot, ``TT`` on the toes) in their se
   (:attr:`~gc_ocp.trial.Trial.floor_height`: mean plate ``surface_height``, 0 without plates).
   Without a static trial the same is done over the foot-flat part of the walking stances,
   ``FOOT_FLAT`` = 20-45 % of each stance of ``trial.stances`` (after heel-strike loading
-  response, before heel-off), on the stance's plate surface.
+  response, before heel-off), on the stance's plate surface. A foot without a usable stance
+  on a plate uses its excluded stances, else the periods in which it stands still (hindfoot
+  slower than ``STILL_SPEED`` relative to the belt) on ``floor_height``.
+
+Foot-marker gaps longer than the load-time spline fill are bridged by rigid-body fill from the
+other markers of the same foot (:func:`fill_foot_gaps`).
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ import pinocchio as pin
 
 from gc_ocp.errors import InputError
 from gc_ocp.foot import SEED_LAYOUT, UNITS, FootKinematics, TrialKinematics
+from gc_ocp.gaps import fill_rigid_gaps
 from gc_ocp.kinematics.filtering import DEFAULT_CUTOFF_HZ, lowpass
 from gc_ocp.kinematics.ik import MarkerModel, solve_ik
 from gc_ocp.kinematics.scaling import build_marker_model, estimate_height, register_markers
@@ -47,14 +53,18 @@ static-trial marker positions when they are refined on the walking trial."""
 
 
 def _stance_frames(
-    trial: Trial, time: np.ndarray, side: str, window
+    trial: Trial, time: np.ndarray, side: str, window, excluded: bool = False
 ) -> list[tuple[np.ndarray, float]]:
+    """Frames of ``window`` (fractions of stance) of each ``side`` stance and the floor height
+    under it; ``excluded``: of the excluded stances instead (a stance excluded for its plate
+    data still has the foot flat on the floor)."""
     out = []
-    for st in trial.stances:
+    for st in trial.excluded_stances if excluded else trial.stances:
         if st.side != side:
             continue
-        a = st.t_on + window[0] * st.duration
-        b = st.t_on + window[1] * st.duration
+        dur = st.t_off - st.t_on
+        a = st.t_on + window[0] * dur
+        b = st.t_on + window[1] * dur
         idx = np.flatnonzero((time >= a) & (time <= b))
         if len(idx):
             h = (
@@ -63,6 +73,35 @@ def _stance_frames(
                 else trial.floor_height
             )
             out.append((idx, h))
+    return out
+
+
+STILL_SPEED = 0.15
+"""Hindfoot speed [m/s] (relative to the belt) below which a foot is taken as still on the floor
+when it has no stance on a plate: foot-flat moves < 0.05 m/s, swing 1-5 m/s."""
+
+
+def _still_frames(
+    body: BodyModel, q: np.ndarray, time: np.ndarray, side: str, belt, floor: float
+) -> list[tuple[np.ndarray, float]]:
+    """Foot-flat frames of ``side`` found from the kinematics alone: runs of >= 5 frames in
+    which the hindfoot origin moves slower than :data:`STILL_SPEED` relative to the belt, each
+    cut to its ``FOOT_FLAT`` fraction; the floor under them is ``floor`` [m]."""
+    data = body.create_data()
+    fid = body.foot_frames(side)["hindfoot"]
+    pos = np.empty((len(q), 3))
+    for k, qk in enumerate(q):
+        pin.framesForwardKinematics(body.model, data, qk)
+        pos[k] = data.oMf[fid].translation
+    v = np.gradient(pos, time, axis=0) - np.asarray(belt, dtype=float)
+    still = np.linalg.norm(v, axis=1) < STILL_SPEED
+    d = np.diff(np.r_[0, still.astype(int), 0])
+    out = []
+    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True):
+        if b - a >= 5:
+            lo = a + int(FOOT_FLAT[0] * (b - a))
+            hi = a + max(int(np.ceil(FOOT_FLAT[1] * (b - a))), lo - a + 1)
+            out.append((np.arange(lo, hi), floor))
     return out
 
 
@@ -172,6 +211,44 @@ def foot_kinematics(
     )
 
 
+def fill_foot_gaps(
+    markers: np.ndarray, names, markerset: MarkerSet, time: np.ndarray
+) -> tuple[np.ndarray, list[str]]:
+    """Bridge the gaps of each foot's markers by rigid-body fill from the other markers of the
+    same foot (hindfoot and toes: one rigid body in the model, the MTP joint is fixed), see
+    :func:`gc_ocp.gaps.fill_rigid_gaps`. markers: ``(n, m, 3)`` [m] in ``names`` order.
+    Frames with fewer than 3 non-collinear other foot markers stay missing: the IK then poses
+    the foot from what is visible and the shank (2-DOF ankle). Returns the filled copy and one
+    note per filled gap."""
+    out = np.array(markers, dtype=float, copy=True)
+    notes: list[str] = []
+    for side in ("left", "right"):
+        group = [
+            i
+            for i, n in enumerate(names)
+            if markerset.markers[n].is_foot and (markerset.markers[n].side == side)
+        ]
+        if len(group) < 4:
+            continue
+        out, done = fill_rigid_gaps(out, [group])
+        for j, a, b, donors in done:
+            notes.append(
+                f"{side} foot marker {names[j]} {time[a]:.3f}-{time[b - 1]:.3f} s "
+                f"({b - a} frames) from {[names[d] for d in donors]}"
+            )
+    return out, notes
+
+
+def landmark_mapping(markerset: MarkerSet, trial: Trial) -> dict:
+    """The label -> landmark -> segment mapping used for ``trial`` (plain data, see
+    :meth:`gc_ocp.model.landmarks.Recognition.to_json`)."""
+    from gc_ocp.model.landmarks import shipped_mapping
+
+    if markerset.recognition is not None:
+        return markerset.recognition
+    return shipped_mapping(markerset, trial.marker_names, trial.markers, trial.source)
+
+
 def compute_kinematics(
     trial: Trial,
     model: BodyModel | None = None,
@@ -184,18 +261,23 @@ def compute_kinematics(
 
     trial: the walking trial; model: body model (default: de Leva model of the trial's height and
     mass, the height estimated from the pelvis markers when unknown); markerset: a
-    :class:`MarkerSet`, a shipped name or a TOML path (default: detected from the labels);
+    :class:`MarkerSet`, a shipped name or a TOML path (default: a shipped set matching the
+    labels exactly, else one built from the recognised anatomical landmarks, see
+    :func:`gc_ocp.model.markerset.detect_markerset`; the mapping is in ``info["landmarks"]``);
     static: a static standing trial for registration and sole height (optional);
     cutoff_hz: marker low-pass cutoff [Hz]; progress: called with status strings.
     """
     say = progress or (lambda s: None)
     if markerset is None:
-        markerset = detect_markerset(trial.marker_names)
+        markerset = detect_markerset(trial.marker_names, trial.markers, trial.source)
     elif not isinstance(markerset, MarkerSet):
         markerset = load_markerset(markerset)
-    names = markerset.select(trial.marker_names, trial.source)
-    idx = [trial.marker_names.index(n) for n in names]
-    markers = lowpass(trial.markers[:, idx], trial.marker_rate, cutoff_hz, time=trial.marker_time)
+    names, idx = markerset.select_columns(trial.marker_names, trial.source)
+    raw = np.asarray(trial.markers)[:, idx]
+    raw, fills = fill_foot_gaps(raw, names, markerset, trial.marker_time)
+    for f in fills:
+        say(f"rigid-body fill: {f}")
+    markers = lowpass(raw, trial.marker_rate, cutoff_hz, time=trial.marker_time)
     floor = trial.floor_height
 
     st_markers = None
@@ -205,8 +287,8 @@ def compute_kinematics(
             m.name
             for s in ("left", "right")
             for m in markerset.foot_markers(s)
-            if m.name not in static.marker_names
-        ]
+            if m.name not in static.marker_names and m.name in trial.marker_names
+        ]  # (a second column of a duplicated label, "RANK#2", has no name in the static)
         if missing:
             raise InputError(
                 f"Static trial {static.source} lacks foot markers {missing}; "
@@ -286,6 +368,17 @@ def compute_kinematics(
             src = "static"
         else:
             frames = _stance_frames(trial, t, side, FOOT_FLAT)
+            src = f"walking foot-flat {FOOT_FLAT[0]:.0%}-{FOOT_FLAT[1]:.0%} of stance"
+            if not frames:
+                frames = _stance_frames(trial, t, side, FOOT_FLAT, excluded=True)
+                src += " (excluded stances: their plate data are unusable, the foot is still flat)"
+            if not frames:
+                frames = _still_frames(body, q, t, side, trial.belt_velocity, floor)
+                src = (
+                    f"walking foot-flat {FOOT_FLAT[0]:.0%}-{FOOT_FLAT[1]:.0%} of the periods the "
+                    f"foot is still (hindfoot slower than {STILL_SPEED} m/s; no {side} stance on "
+                    "a plate)"
+                )
             if not frames:
                 raise InputError(
                     f"No {side} stance in {trial.source} to calibrate the sole height; "
@@ -293,7 +386,6 @@ def compute_kinematics(
                 )
             qs = np.concatenate([q[i] for i, _ in frames])
             floors = np.concatenate([np.full(len(i), h) for i, h in frames])
-            src = f"walking foot-flat {FOOT_FLAT[0]:.0%}-{FOOT_FLAT[1]:.0%} of stance"
         pts = calibrate_sole_height(body, side, qs, pts, floors)
         sole_info[side] = src
         feet[side] = foot_kinematics(body, q, t, side, pts)
@@ -301,6 +393,8 @@ def compute_kinematics(
         "height": height,
         "mass": trial.mass,
         "markerset": markerset.name,
+        "landmarks": landmark_mapping(markerset, trial),
+        "rigid_fills": fills,
         "registration_rms_history": history,
         "ik_seconds": res.seconds,
         "sole_height_source": sole_info,

@@ -7,7 +7,6 @@ A marker set is a TOML file (format in ``docs/markersets.md``); the shipped ones
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -18,85 +17,19 @@ except ModuleNotFoundError:  # Python 3.10: the tomli backport has the same API
     import tomli as tomllib
 
 from gc_ocp.errors import MarkerError
+from gc_ocp.model.markerdefs import FOOT_SEGMENTS, MarkerDef, MarkerSet
+
+__all__ = [
+    "FOOT_SEGMENTS",
+    "MARKERSET_DIR",
+    "MarkerDef",
+    "MarkerSet",
+    "available_markersets",
+    "detect_markerset",
+    "load_markerset",
+]
 
 MARKERSET_DIR = Path(__file__).resolve().parent.parent / "data" / "markersets"
-FOOT_SEGMENTS = ("hindfoot", "toes")
-
-
-@dataclass(frozen=True)
-class MarkerDef:
-    """One marker: ``segment`` frame name, ``position`` [m] in it (reference height), IK ``weight``,
-    optional foot ``role`` (``heel``, ``toe``, ``metatarsal_lateral``...), ``cluster`` (a tracking
-    marker with no anatomical meaning: its nominal position is a guess, registered before use)."""
-
-    name: str
-    segment: str
-    position: np.ndarray
-    weight: float = 1.0
-    role: str = ""
-    cluster: bool = False
-
-    @property
-    def side(self) -> str | None:
-        if self.segment.endswith("_l"):
-            return "left"
-        if self.segment.endswith("_r"):
-            return "right"
-        return None
-
-    @property
-    def is_foot(self) -> bool:
-        return self.segment.rsplit("_", 1)[0] in FOOT_SEGMENTS
-
-
-@dataclass(frozen=True)
-class MarkerSet:
-    """A loaded marker set; ``markers`` keyed by label, positions for ``reference_height`` [m]."""
-
-    name: str
-    source: Path
-    reference_height: float
-    markers: dict[str, MarkerDef]
-
-    def positions(self, height: float | None = None) -> dict[str, np.ndarray]:
-        """Nominal positions [m] scaled to a subject of ``height`` [m] (unscaled if ``None``)."""
-        k = 1.0 if height is None else height / self.reference_height
-        return {n: k * m.position for n, m in self.markers.items()}
-
-    def foot_markers(self, side: str) -> list[MarkerDef]:
-        return [m for m in self.markers.values() if m.is_foot and m.side == side]
-
-    def by_role(self, side: str, role: str) -> MarkerDef | None:
-        for m in self.markers.values():
-            if m.side == side and m.role == role:
-                return m
-        return None
-
-    def select(self, marker_names, source: str | Path = "the trial") -> list[str]:
-        """Markers of the set present in ``marker_names`` (others of the trial are ignored).
-
-        Raises :class:`MarkerError` if a foot marker of the set is missing from the trial or if a
-        foot has fewer than 3 non-collinear hindfoot markers.
-        """
-        present = set(marker_names)
-        for side in ("left", "right"):
-            feet = self.foot_markers(side)
-            missing = [m.name for m in feet if m.name not in present]
-            if missing:
-                raise MarkerError(
-                    f'Foot marker "{missing[0]}" of marker set "{self.name}" ({self.source}) is missing '
-                    f"from {source} (missing: {missing}). Foot markers define the sole kinematics: "
-                    f"label it in the file, or pass a marker set without it (copy {self.source} and "
-                    "remove the line), keeping >= 3 non-collinear hindfoot markers per foot."
-                )
-            hf = np.array([m.position for m in feet if m.segment.startswith("hindfoot")])
-            if len(hf) < 3 or np.linalg.matrix_rank(hf[1:] - hf[0], tol=1e-3) < 2:
-                raise MarkerError(
-                    f'Marker set "{self.name}" ({self.source}) has fewer than 3 non-collinear markers on '
-                    f"the {side} hindfoot: {[m.name for m in feet]}; add one (e.g. the lateral malleolus "
-                    "attached to the hindfoot)."
-                )
-        return [n for n in self.markers if n in present]
 
 
 def available_markersets() -> list[str]:
@@ -146,22 +79,48 @@ def load_markerset(name_or_path: str | Path) -> MarkerSet:
     )
 
 
-def detect_markerset(marker_names) -> MarkerSet:
-    """The shipped marker set sharing the most labels with ``marker_names`` (ties: the smaller set).
+def detect_markerset(marker_names, markers=None, source="the trial") -> MarkerSet:
+    """The marker set for a trial when none is given (``markers`` ``(n, m, 3)``: optional data,
+    to ignore empty columns and resolve duplicate labels; ``source`` is named in messages).
 
-    Raises :class:`MarkerError` when no set shares at least 3 foot markers with the trial.
+    A shipped TOML set is used when it matches the trial exactly: all its foot markers are in the
+    trial (not empty), no label is duplicated, and every label the landmark vocabulary
+    recognises (landmark or cluster) is in the set (recognition would add nothing; this keeps the
+    shipped sets' tuned positions, e.g. Plug-in Gait's LANK on the hindfoot). Among several, the
+    one sharing the most labels. Otherwise the set is built from the recognised landmarks
+    (:func:`gc_ocp.model.landmarks.recognise_landmarks`), which raises :class:`MarkerError`
+    (naming ``source``, the markers found and what is missing) when a foot cannot be tracked.
+    The mapping used is in the returned set's ``recognition``.
     """
-    names = set(marker_names)
-    best, best_score = None, (-1, 0.0)
-    for n in available_markersets():
-        ms = load_markerset(n)
-        overlap = len(names & set(ms.markers))
-        score = (overlap, overlap / max(len(ms.markers), 1))
-        if score > best_score:
-            best, best_score = ms, score
-    if best is None or best_score[0] < 6:
-        raise MarkerError(
-            f"No shipped marker set matches the trial's markers {sorted(names)[:20]}...; available: "
-            f"{available_markersets()}. Write a marker-set TOML (docs/markersets.md) and pass its path."
-        )
-    return best
+    import dataclasses
+    import warnings
+
+    from gc_ocp.model.landmarks import (
+        markerset_from_recognition,
+        recognise_landmarks,
+        shipped_mapping,
+    )
+
+    labels = [str(x) for x in marker_names]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rec = recognise_landmarks(labels, markers, source, require_feet=False)
+    present = {m.label for m in rec.matches}
+    if markers is None:
+        nonempty = set(labels)
+    else:
+        seen = np.isfinite(np.asarray(markers)).all(axis=2).any(axis=0)
+        nonempty = {lab for lab, ok in zip(labels, seen, strict=True) if ok}
+    unique = len(set(labels)) == len(labels)
+    best, best_n = None, 0
+    for name in available_markersets():
+        ms = load_markerset(name)
+        feet = [m.name for s in ("left", "right") for m in ms.foot_markers(s)]
+        if not unique or not all(f in nonempty for f in feet) or not present <= set(ms.markers):
+            continue
+        n = len(nonempty & set(ms.markers))
+        if n > best_n:
+            best, best_n = ms, n
+    if best is not None:
+        return dataclasses.replace(best, recognition=shipped_mapping(best, labels, markers, source))
+    return markerset_from_recognition(recognise_landmarks(labels, markers, source))

@@ -25,6 +25,8 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
+from gc_ocp.errors import ModelError
+
 if TYPE_CHECKING:  # pragma: no cover
     from gc_ocp.estimation.frame import Frame
     from gc_ocp.estimation.variables import Variables
@@ -70,6 +72,14 @@ class DecodeContext:
         return block_values(self.specs, self.x, self.cov, key)
 
 
+def unique_labels(name: str, stances) -> None:
+    """Stance-scope variables are keyed by stance label (so that a result can warm-start a fit
+    on a subset of its stances, e.g. a cross-validation fold): the labels must be unique."""
+    labels = [st.label for st in stances]
+    if len(set(labels)) != len(labels):
+        raise ModelError(f"{name}: stance labels must be unique, but got {labels}")
+
+
 class Component:
     """Base class: every hook is a no-op, so a component implements only what it does."""
 
@@ -79,6 +89,12 @@ class Component:
     """True when all its decision variables at zero leave the model as if it were absent."""
 
     # --- configuration ------------------------------------------------------------------------
+    @classmethod
+    def present_in(cls, model: tuple) -> bool:
+        """True when ``model`` already has this component's physics, so that the diagnosis does
+        not offer it as a candidate. Default: a component of this class is in ``model``."""
+        return any(isinstance(c, cls) for c in model)
+
     def configure(self, model: tuple) -> tuple:
         """The model this component needs around it (e.g. a damping effect fixes the contact
         law's own damping at zero, so that it is not estimated twice). Default: unchanged."""

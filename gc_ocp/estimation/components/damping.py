@@ -55,6 +55,13 @@ class Damping(Component):
     name: str = "damping"
 
     # --- configuration ------------------------------------------------------------------------
+    @classmethod
+    def present_in(cls, model: tuple) -> bool:
+        """Also present when the model's contact law estimates its own ``c`` (``full_model``)."""
+        return super().present_in(model) or any(
+            isinstance(c, ContactLaw) and c.c.scope != "fixed" for c in model
+        )
+
     def configure(self, model: tuple) -> tuple:
         """The contact law's own damping fixed at 0: this component gives the whole of ``c``."""
         return tuple(

@@ -7,8 +7,7 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
-from gc_ocp.errors import ModelError
-from gc_ocp.estimation.components.base import Component, DecodeContext
+from gc_ocp.estimation.components.base import Component, DecodeContext, unique_labels
 
 SLOT = "ground_offset"
 ENTRIES = ("dz", "tilt_x", "tilt_y")
@@ -83,9 +82,7 @@ class GroundOffset(Component):
         return replace(self, sigma_mm=self.sigma_mm * factor, sigma_deg=self.sigma_deg * factor)
 
     def declare(self, variables, stances) -> None:
-        labels = [st.label for st in stances]
-        if len(set(labels)) != len(labels):
-            raise ModelError(f"{self.name}: stance labels must be unique, but got {labels}")
+        unique_labels(self.name, stances)
         sig = self._sigmas()
         for st in stances:
             if self._free(st.label):

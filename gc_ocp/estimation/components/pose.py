@@ -8,7 +8,7 @@ import casadi as ca
 import numpy as np
 
 from gc_ocp.errors import InputError
-from gc_ocp.estimation.components.base import Component, DecodeContext
+from gc_ocp.estimation.components.base import Component, DecodeContext, unique_labels
 from gc_ocp.trial import SIDES
 
 POSE_SLOTS = ("pose_dp", "pose_dth", "pose_ddp", "pose_ddth")
@@ -92,13 +92,18 @@ class PoseCorrection(Component):
             ) from e
 
     def declare(self, variables, stances) -> None:
-        for i, st in enumerate(stances):
+        unique_labels(self.name, stances)
+        for st in stances:
             K = self.basis(st.time)[0].shape[1]
             # coefficients are stored column-major as 3 x K (x, y, z of knot 0, then knot 1, ...)
             st_ = np.tile(np.broadcast_to(np.asarray(self.sigma_mm, float), 3) * 1e-3, K)
             sr_ = np.tile(np.deg2rad(np.broadcast_to(np.asarray(self.sigma_deg, float), 3)), K)
-            variables.prior_variable((self.name, i, "trans"), 3 * K, st_, self.bound_sigmas * st_)
-            variables.prior_variable((self.name, i, "rot"), 3 * K, sr_, self.bound_sigmas * sr_)
+            variables.prior_variable(
+                (self.name, st.label, "trans"), 3 * K, st_, self.bound_sigmas * st_
+            )
+            variables.prior_variable(
+                (self.name, st.label, "rot"), 3 * K, sr_, self.bound_sigmas * sr_
+            )
 
     def slot_sizes(self, layout) -> dict[str, int]:
         return {s: 3 for s in POSE_SLOTS}
@@ -109,8 +114,8 @@ class PoseCorrection(Component):
         K = B.shape[1]
         L = self.correlation_factor(K)  # coefficients = sigma * L z: fold L into the basis
         B, dB = B @ L, dB @ L
-        tr = ca.reshape(variables.get((self.name, i, "trans")), 3, K)
-        rot = ca.reshape(variables.get((self.name, i, "rot")), 3, K)
+        tr = ca.reshape(variables.get((self.name, stance.label, "trans")), 3, K)
+        rot = ca.reshape(variables.get((self.name, stance.label, "rot")), 3, K)
         return tr @ B.T, rot @ B.T, tr @ dB.T, rot @ dB.T
 
     def slots(self, variables, index, stance) -> dict:

@@ -60,6 +60,13 @@ class StiffnessExponent(Component):
     name: str = "stiffness_exponent"
 
     # --- configuration ------------------------------------------------------------------------
+    @classmethod
+    def present_in(cls, model: tuple) -> bool:
+        """Also present when the model's contact law estimates its own ``n`` (``full_model``)."""
+        return super().present_in(model) or any(
+            isinstance(c, ContactLaw) and c.n.scope != "fixed" for c in model
+        )
+
     def configure(self, model: tuple) -> tuple:
         """The contact law's own exponent fixed at 1: this component gives ``n - 1``."""
         return tuple(

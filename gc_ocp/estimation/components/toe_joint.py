@@ -7,7 +7,7 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
-from gc_ocp.estimation.components.base import Component, DecodeContext
+from gc_ocp.estimation.components.base import Component, DecodeContext, unique_labels
 from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.frame import Segment
 
@@ -99,10 +99,11 @@ class ToeJoint(Component):
     def declare(self, variables, stances) -> None:
         sigma = np.deg2rad(self.sigma_deg)
         bound = np.deg2rad(self.bound_deg)
-        for i, st in enumerate(stances):
+        unique_labels(self.name, stances)
+        for st in stances:
             if self._fixed(st) is None:
                 K = self.basis(st.time)[0].shape[1]
-                variables.prior_variable((self.name, i), K, sigma, bound)
+                variables.prior_variable((self.name, st.label), K, sigma, bound)
 
     def slot_sizes(self, layout) -> dict[str, int]:
         return {s: 1 for s in TOE_SLOTS}
@@ -111,7 +112,7 @@ class ToeJoint(Component):
         B, dB = self.basis(stance.time)
         coef = self._fixed(stance)
         if coef is None:
-            c = variables.get((self.name, index))
+            c = variables.get((self.name, stance.label))
         else:
             c = ca.MX(ca.DM(np.asarray(coef, float)))
         return {"toe_phi": ca.mtimes(ca.DM(B), c).T, "toe_phidot": ca.mtimes(ca.DM(dB), c).T}
@@ -132,9 +133,9 @@ class ToeJoint(Component):
         index = ctx.index()
         per: dict = {}
         peak: dict = {}
-        for i, st in enumerate(ctx.stances):
+        for st in ctx.stances:
             B, _ = self.basis(st.time)
-            key = (self.name, i)
+            key = (self.name, st.label)
             if key in index:
                 spec = index[key]
                 coef, coef_se = ctx.values(key)

@@ -1,0 +1,314 @@
+"""Fitting and scoring one model on held-out stances: the measurement the diagnosis ranks by.
+
+**Folds (leave-one-stance-out).** Every stance whose foot has at least one other stance is held
+out once; the model is fitted on the remaining stances (all trials of the subject together), then
+frozen on the held-out stance (contact parameters, sole corrections, clock offset and belt speed
+fixed at the training fit) with only the stance-scope nuisance re-estimated under its prior (the
+foot-pose correction; a stance-scope effect such as the toe hinge or the ground offset is also
+re-estimated: it is a property of that stance). A foot with a single stance is never held out
+(its contact parameters would come from nothing). When no stance can be held out at all, the
+comparison falls back to in-sample scores with a BIC penalty and says so.
+
+**Held-out score.** Per fold, the negative log evidence of the held-out stance given the trained
+parameters, with the nuisance integrated out under its prior (Laplace approximation):
+
+    E = data cost + nuisance prior cost + 1/2 log det(H_z)
+
+where ``H_z`` is the Gauss-Newton Hessian of the held-out objective in the nuisance variables,
+stored in units of their prior sigma (so the prior alone has ``H_z = I``, log det 0). The second
+term charges a correction for moving away from the markers; the third (Occam) term charges the
+nuisance for the freedom it uses. So a model whose signature the pose correction can absorb does
+not win by letting it absorb more; a stance-scope effect does not win by adding freedom. The
+combined held-out score is ``S = sqrt(2 sum E / n)`` over all held-out residuals (dimensionless:
+residuals in units of the error scale of :class:`~gc_ocp.estimation.problem.Weights`, all six
+channels) and a reduction is ``1 - S_child / S_parent`` (in %).
+
+**Uncertainty.** A paired bootstrap, the same draw for both models: blocks of
+:data:`BLOCK_SECONDS` resampled within each held-out stance (residuals are autocorrelated over
+~0.1 s), and, with at least :data:`MIN_CLUSTERS` held-out stances, the stances themselves
+resampled first (two-stage), so that the interval also covers stance-to-stance variability.
+With fewer held-out stances a resampling of stances is meaningless (two stances give three
+distinct draws), so the interval reflects the within-stance variability only; the per-stance
+reductions are reported beside it. The per-stance prior and Occam terms are spread evenly over
+its frames.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+
+import numpy as np
+
+from gc_ocp.errors import SolveError
+from gc_ocp.estimation.fit import STRATEGIES, best_of, frozen_model, with_lls_start
+from gc_ocp.estimation.problem import Weights, build_estimation
+from gc_ocp.estimation.result import EstimationResult
+from gc_ocp.estimation.solve import IpoptOptions, solve
+from gc_ocp.stance import StanceData
+
+BLOCK_SECONDS = 0.1
+"""Bootstrap block length [s]: the residuals' autocorrelation time after the 6 Hz filtering of
+the kinematics (the HAC bandwidth of ``solve._bandwidth`` is 5-12 frames at 100 Hz)."""
+
+
+MIN_CLUSTERS = 5
+"""Held-out stances needed before the bootstrap also resamples the stances."""
+
+
+def fold_plan(stances: list[StanceData]) -> list[int]:
+    """Indices of the stances held out one at a time: those whose foot has another stance."""
+    sides = [st.side for st in stances]
+    return [i for i, s in enumerate(sides) if sides.count(s) >= 2]
+
+
+@dataclasses.dataclass
+class Fold:
+    """One held-out stance: the training fit, the held-out fit and its score terms."""
+
+    label: str
+    train: EstimationResult
+    heldout: EstimationResult
+    occam: float
+    frame_cost: np.ndarray  # (T,) data cost per frame of the held-out stance
+
+    @property
+    def energy(self) -> float:
+        return self.heldout.data_cost + self.heldout.prior_cost + self.occam
+
+
+@dataclasses.dataclass
+class Evaluation:
+    """A model fitted on all stances (``full``) and on each fold."""
+
+    label: str
+    names: tuple[str, ...]
+    model: tuple
+    full: EstimationResult
+    folds: list[Fold]
+    seconds: float = 0.0
+
+    @property
+    def heldout_fits(self) -> list:
+        return [f.heldout.stance_fits[0] for f in self.folds]
+
+    @property
+    def n_residuals(self) -> int:
+        return sum(f.heldout.n_data for f in self.folds) if self.folds else self.full.n_data
+
+
+def _frame_cost(fit: dict, weights: Weights) -> np.ndarray:
+    r = (np.asarray(fit["model"]) - np.asarray(fit["measured"])) * weights.inverse_sigmas(
+        fit["body_weight"]
+    )
+    return 0.5 * np.sum(r**2, axis=1)
+
+
+def occam_term(problem, x: np.ndarray) -> float:
+    """``1/2 log det(H_z)`` of the nuisance (the variables with a prior) at ``x``: ``H_z`` the
+    Gauss-Newton Hessian of the objective in those variables in units of their prior sigma."""
+    pw = np.asarray(problem.prior_weights, float)
+    sel = pw > 0
+    if not sel.any():
+        return 0.0
+    _, J = problem.data_jacobian(x)
+    Jp = J[:, np.flatnonzero(sel)].toarray() / pw[sel]  # columns in units of the prior sigma
+    H = Jp.T @ Jp + np.eye(Jp.shape[1])
+    sign, logdet = np.linalg.slogdet(H)
+    return 0.5 * float(logdet) if sign > 0 else float("inf")
+
+
+def _fit(
+    data: list[StanceData],
+    model: tuple,
+    start: EstimationResult | None,
+    weights: Weights | None,
+    options: IpoptOptions | None,
+) -> EstimationResult:
+    """``model`` (law started at the LLS of ``data``) fitted on ``data``: from ``start`` alone
+    when given (a fit of the model this one extends, or of the same model on more stances), with
+    the usual starts as a fallback if that solve fails; from the usual starts otherwise."""
+    model = with_lls_start(model, data)
+    if start is not None:
+        try:
+            return best_of(data, model, weights, options, strategies=(), start=start)
+        except SolveError:
+            pass
+    return best_of(data, model, weights, options, strategies=STRATEGIES, start=start)
+
+
+def evaluate(
+    data: list[StanceData],
+    model: tuple,
+    label: str,
+    names: tuple[str, ...],
+    plan: list[int],
+    parent: Evaluation | None = None,
+    weights: Weights | None = None,
+    options: IpoptOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Evaluation:
+    """Fit ``model`` on all of ``data`` and on each fold of ``plan``, and score every held-out
+    stance. Warm starts: from ``parent``'s fits (the model this one extends) when given; the
+    base's folds start from its own fit on all stances."""
+    import time
+
+    say = progress or (lambda s: None)
+    weights = weights or Weights()
+    t0 = time.perf_counter()
+    full = _fit(data, model, parent.full if parent else None, weights, options)
+    folds = []
+    for j, i in enumerate(plan):
+        held = data[i]
+        train = [d for k, d in enumerate(data) if k != i]
+        start = parent.folds[j].train if parent else full
+        tr = _fit(train, model, start, weights, options)
+        hp = build_estimation([held], frozen_model(with_lls_start(model, train), tr), weights)
+        hr = solve(hp, options, raise_on_failure=False)
+        folds.append(
+            Fold(
+                label=held.label,
+                train=tr,
+                heldout=hr,
+                occam=occam_term(hp, hr.x) if hr.x.size else 0.0,
+                frame_cost=_frame_cost(hr.stance_fits[0], weights),
+            )
+        )
+    ev = Evaluation(label, names, model, full, folds, time.perf_counter() - t0)
+    say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
+    return ev
+
+
+def describe(ev: Evaluation) -> str:
+    if not ev.folds:
+        return f"in-sample J = {ev.full.objective:.1f}"
+    return f"held-out score {score(ev):.3f}, in-sample J = {ev.full.objective:.1f}"
+
+
+def score(ev: Evaluation) -> float:
+    """The combined held-out score ``S = sqrt(2 sum E / n)`` (module doc); in-sample (with the
+    BIC penalty ``1/2 n_param ln n``) when there are no folds."""
+    if ev.folds:
+        e = sum(f.energy for f in ev.folds)
+    else:
+        e = ev.full.objective + 0.5 * ev.full.n_param * np.log(ev.full.n_data)
+    return float(np.sqrt(2.0 * e / ev.n_residuals))
+
+
+def _stance_costs(ev: Evaluation) -> list[np.ndarray]:
+    """Per held-out stance, the per-frame cost with its prior and Occam terms spread evenly (in
+    the no-fold fallback: the in-sample fit's stances, prior and BIC penalty spread over all)."""
+    if ev.folds:
+        return [
+            f.frame_cost + (f.heldout.prior_cost + f.occam) / f.frame_cost.size for f in ev.folds
+        ]
+    w = Weights()
+    costs = [_frame_cost(fit, w) for fit in ev.full.stance_fits]
+    n = sum(c.size for c in costs)
+    extra = ev.full.prior_cost + 0.5 * ev.full.n_param * np.log(ev.full.n_data)
+    return [c + extra / n for c in costs]
+
+
+def reduction(
+    parent: Evaluation,
+    child: Evaluation,
+    n_boot: int = 2000,
+    seed: int = 0,
+    frame_rate: float = 100.0,
+) -> dict:
+    """Held-out reduction of ``child`` over ``parent``: ``{"pct", "ci": [lo, hi] (95 %),
+    "per_stance": {label: pct}, "insample_pct", "superior_pct"}`` (module doc)."""
+    a, b = _stance_costs(parent), _stance_costs(child)
+    pct = 100.0 * (1.0 - score(child) / score(parent))
+    rng = np.random.default_rng(seed)
+    L = max(1, int(round(BLOCK_SECONDS * frame_rate)))
+    draws = np.empty(n_boot)
+    S = len(a)
+    for k in range(n_boot):
+        ea = eb = 0.0
+        for s in rng.integers(0, S, S) if S >= MIN_CLUSTERS else range(S):
+            n = a[s].size
+            Ls = min(L, n)
+            starts = rng.integers(0, n - Ls + 1, int(np.ceil(n / Ls)))
+            idx = (starts[:, None] + np.arange(Ls)).ravel()[:n]
+            ea += a[s][idx].sum()
+            eb += b[s][idx].sum()
+        draws[k] = 100.0 * (1.0 - np.sqrt(eb / ea)) if ea > 0 else 0.0
+    lo, hi = np.percentile(draws, [2.5, 97.5])
+    labels = [f.label for f in parent.folds] or [f["label"] for f in parent.full.stance_fits]
+    per = {
+        lab: float(100.0 * (1.0 - np.sqrt(cb.sum() / ca.sum())))
+        for lab, ca, cb in zip(labels, a, b, strict=True)
+    }
+    ins = 100.0 * (1.0 - np.sqrt(child.full.objective / parent.full.objective))
+    return {
+        "pct": float(pct),
+        "ci": [float(lo), float(hi)],
+        "per_stance": per,
+        "insample_pct": float(ins),
+        "superior_pct": float(
+            100.0 * (1.0 - superior_rms(child) / superior_rms(parent))
+            if superior_rms(parent) > 0
+            else 0.0
+        ),
+    }
+
+
+def weighted_residuals(ev: Evaluation) -> np.ndarray:
+    """All held-out (or, without folds, in-sample) weighted residuals, flattened: the vector
+    whose changes between models tell whether two effects explain the same part of the gap."""
+    fits = ev.heldout_fits if ev.folds else ev.full.stance_fits
+    w = Weights()
+    return np.concatenate(
+        [
+            (
+                (np.asarray(f["model"]) - np.asarray(f["measured"]))
+                * w.inverse_sigmas(f["body_weight"])
+            ).ravel()
+            for f in fits
+        ]
+    )
+
+
+def heldout_quality(ev: Evaluation) -> dict:
+    """``{side: {six fit.json channel keys, "cop_mm"}}`` of the held-out stances (pooled per
+    foot; in-sample without folds)."""
+    from gc_ocp.estimation.result import fit_quality
+
+    fits = ev.heldout_fits if ev.folds else ev.full.stance_fits
+    rms, cop = fit_quality(fits)
+    return {side: {**ch, "cop_mm": cop.get(side, float("nan"))} for side, ch in rms.items()}
+
+
+def superior_rms(ev: Evaluation) -> float:
+    """Held-out superior-force RMS [% BW] pooled over both feet (each stance normalised by its
+    own body weight)."""
+    fits = ev.heldout_fits if ev.folds else ev.full.stance_fits
+    e = np.concatenate(
+        [
+            100
+            * (np.asarray(f["model"])[:, 2] - np.asarray(f["measured"])[:, 2])[
+                np.asarray(f["in_contact"])
+            ]
+            / f["body_weight"]
+            for f in fits
+        ]
+    )
+    return float(np.sqrt(np.mean(e**2))) if e.size else float("nan")
+
+
+__all__ = [
+    "BLOCK_SECONDS",
+    "MIN_CLUSTERS",
+    "Evaluation",
+    "Fold",
+    "evaluate",
+    "describe",
+    "fold_plan",
+    "heldout_quality",
+    "occam_term",
+    "reduction",
+    "score",
+    "superior_rms",
+    "weighted_residuals",
+]
