@@ -27,7 +27,14 @@ def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> Non
         type=Path,
         help="C3D file, or TRC marker file (then give --grf). Default: the bundled example C3D.",
     )
-    p.add_argument("--grf", type=Path, help="OpenSim MOT/STO ground reactions for a TRC trial.")
+    p.add_argument(
+        "--grf",
+        type=Path,
+        action="append",
+        help="OpenSim MOT/STO ground reactions of a TRC trial; repeat it for several TRC trials, "
+        "in their order. Default: the MOT/STO file beside the TRC (named after it, or the only "
+        "one in its folder).",
+    )
     p.add_argument("--mass", type=float, help="Subject mass [kg] (overrides the file).")
     p.add_argument("--height", type=float, help="Subject height [m] (overrides the file).")
     p.add_argument(
@@ -54,16 +61,20 @@ def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> Non
 
 
 def _load(args: argparse.Namespace):
+    """The trials of the command line (several trials = one subject), each TRC paired with its
+    ground reactions (:func:`gc_ocp.io.pairing.pair_trials`; the pairing is printed)."""
     from gc_ocp.io import load_trial
+    from gc_ocp.io.pairing import pair_trials
 
-    trials = args.trial or [None]
-    if args.grf is not None and len(trials) > 1:
-        raise InputError(
-            "--grf applies to one TRC trial; give one trial per command when using --grf."
-        )
+    files = pair_trials(args.trial, args.grf)
+    for f in files:  # what was found, and every trial of a multi-trial command
+        if (f.grf is not None and not args.grf) or len(files) > 1:
+            _progress(f.describe())
     return [
-        load_trial(t, grf=args.grf, mass=args.mass, height=args.height, belt_speed=args.belt_speed)
-        for t in trials
+        load_trial(
+            f.trial, grf=f.grf, mass=args.mass, height=args.height, belt_speed=args.belt_speed
+        )
+        for f in files
     ]
 
 
@@ -154,7 +165,7 @@ def _sha256(path) -> str:
 
 
 def provenance(args: argparse.Namespace, pairs) -> dict:
-    """What a ``fit.json`` was computed from: inputs with content hashes, options, subject values
+    """What a ``fit.json`` (or ``diagnosis.json``) was computed from: inputs with content hashes, options, subject values
     and their sources, stances used and excluded (with the reason), package version, date."""
     import datetime
     import platform
@@ -189,15 +200,18 @@ def provenance(args: argparse.Namespace, pairs) -> dict:
                 "marker_cutoff_hz": kin.cutoff_hz,
             }
         )
-    options = {
-        k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items() if k != "func"
-    }
-    options["trial"] = [str(p) for p in args.trial]
+
+    def plain(v):
+        if isinstance(v, Path):
+            return str(v)
+        return [plain(x) for x in v] if isinstance(v, (list, tuple)) else v
+
+    options = {k: plain(v) for k, v in vars(args).items() if k not in ("func", "command")}
     return {
         "gc_ocp_version": __version__,
         "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "python": platform.python_version(),
-        "command": "gc-ocp fit",
+        "command": f"gc-ocp {args.command}",
         "options": options,
         "trials": trials,
     }
@@ -266,6 +280,84 @@ def cmd_fit(args: argparse.Namespace) -> int:
         f"wrote {len(written)} files to {args.out} (fit.json and {len(figs)} figures); {n_flags} flags"
     )
     return 0
+
+
+DIAGNOSE_OUTPUTS = (
+    "diagnosis.json",
+    "report.html",
+    "where_heatmap.png",
+    "where_heatmap_final.png",
+    "where_residuals.png",
+    "ranking.png",
+    "waterfall.png",
+)
+"""Every file ``gc-ocp diagnose`` may write (one set, replaced as a whole)."""
+
+
+def _effects(args: argparse.Namespace) -> list[str] | None:
+    """``--effects a,b`` checked against the effect library and the base (before any work)."""
+    from gc_ocp.diagnosis import candidate_names
+    from gc_ocp.diagnosis.diagnose import resolve_base
+    from gc_ocp.estimation.components import EFFECTS
+
+    effects = None
+    if args.effects is not None:
+        effects = [e.strip() for e in args.effects.split(",") if e.strip()]
+        unknown = [e for e in effects if e not in EFFECTS]
+        if unknown or not effects:
+            raise InputError(
+                f"--effects {args.effects}: unknown effect(s) {', '.join(unknown) or '(none given)'}; "
+                f"choose from {', '.join(EFFECTS)} (comma-separated)."
+            )
+    _, base = resolve_base(args.base)
+    if not candidate_names(base, effects):
+        raise InputError(
+            f"--effects {args.effects}: every effect is already in the base '{args.base}'; "
+            "choose other effects or a smaller --base (seed, registered)."
+        )
+    return effects
+
+
+def cmd_diagnose(args: argparse.Namespace) -> int:
+    from gc_ocp.diagnosis import diagnose
+    from gc_ocp.diagnosis.report import report_figures, report_html
+    from gc_ocp.outputs import OutputSet, check_writable
+
+    check_writable(args.out)  # before any computation
+    effects = _effects(args)
+    trials = _load(args)
+    pairs = [(t, _kinematics(t, args)) for t in trials]
+    prov = provenance(args, pairs)
+    d = diagnose(pairs, base=args.base, candidates=effects, progress=_progress)
+    print(d.summary())
+    figs = report_figures(d)
+    files = {
+        "where_heatmap.png": "heatmap",
+        "where_heatmap_final.png": "heatmap_final",
+        "where_residuals.png": "residuals",
+        "ranking.png": "ranking",
+        "waterfall.png": "waterfall",
+    }
+    out = OutputSet(args.out, DIAGNOSE_OUTPUTS)
+    try:
+        out.text("diagnosis.json", json.dumps({**d.to_json(), "provenance": prov}, indent=2))
+        out.text("report.html", report_html(d, provenance=prov, figures=figs))
+        for name, key in files.items():
+            if key in figs:
+                out.figure(name, figs[key], dpi=100)
+        written = out.commit()
+    finally:
+        out.discard()
+        _close(figs.values())
+    print(f"wrote {len(written)} files to {args.out}; open {args.out / 'report.html'} in a browser")
+    return 0
+
+
+def _close(figs) -> None:
+    import matplotlib.pyplot as plt
+
+    for fig in figs:
+        plt.close(fig)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -340,6 +432,33 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--holdout", help='Stance to hold out, e.g. "right@0.407s" (see `gc-ocp info`).')
     p.add_argument("--out", type=Path, required=True, help="Output folder.")
     p.set_defaults(func=cmd_fit)
+
+    p = sub.add_parser(
+        "diagnose",
+        help="Where the model disagrees with the plates, which effect causes it, how far it "
+        "shrinks.",
+        description="Fit the base model on the trials of one subject, score it on held-out "
+        "stances (leave one stance out), add each candidate effect alone and rank them by the "
+        "held-out reduction (95 % bootstrap interval), add the best passing one and re-rank "
+        "(forward selection). Writes DIR/diagnosis.json, DIR/report.html (one self-contained "
+        "page) and the figures as PNG. Exit status 1 if a solve fails, 2 on bad input.",
+    )
+    _add_trial_args(p)
+    p.add_argument(
+        "--base",
+        choices=("seed", "registered", "full"),
+        default="registered",
+        help="Model the effects are added to: seed (the seed's law alone), registered (default: "
+        "+ friction, sole and pose registration, belt speed), full (+ damping, stiffness "
+        "exponent).",
+    )
+    p.add_argument(
+        "--effects",
+        help="Comma-separated candidate effects (docs/effects.md), e.g. damping,friction. "
+        "Default: every effect the base does not have.",
+    )
+    p.add_argument("--out", type=Path, required=True, help="Output folder.")
+    p.set_defaults(func=cmd_diagnose)
     return parser
 
 
