@@ -344,7 +344,10 @@ def _sole_table(sole: dict) -> str:
             s = se.get(side, {}).get(unit, [float("nan")] * 3)
             rows.append(
                 f"<tr><td class=l>{_e(side)}</td><td class=l>{_e(unit)}</td>"
-                + "".join(f"<td>{_num(a, '+.1f')} ± {_num(b, '.1f')}</td>" for a, b in zip(v, s))
+                + "".join(
+                    f"<td>{_num(a, '+.1f')} ± {_num(b, '.1f')}</td>"
+                    for a, b in zip(v, s, strict=True)
+                )
                 + "</tr>"
             )
     return (
