@@ -68,12 +68,12 @@ def test_report_names_every_ranked_effect_and_its_numbers(diagnosis, page):
 
 def test_report_says_when_effects_are_confounded(diagnosis):
     """Two effects flagged as confounded are named as ambiguous in plain words."""
-    from gc_ocp.diagnosis.report import confounded_pairs, report_html
+    from gc_ocp.diagnosis.report import confounded_groups, report_html
 
     r = diagnosis.ranking[0]
     twin = {**r, "effect": "ground_offset", "confounded_with": [r["effect"]]}
     ranking = [{**r, "confounded_with": ["ground_offset"]}, twin]
-    assert confounded_pairs(ranking) == [(r["effect"], "ground_offset")]
+    assert confounded_groups(ranking) == [[r["effect"], "ground_offset"]]
     d = dataclasses.replace(diagnosis, ranking=ranking, rounds=[ranking])
     page = report_html(d, provenance=_provenance())
     assert (

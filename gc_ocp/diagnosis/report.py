@@ -165,14 +165,32 @@ def _where_text(where: dict) -> str:
     )
 
 
-def confounded_pairs(ranking: list[dict]) -> list[tuple[str, str]]:
-    """Unordered pairs of effects flagged as confounded, in ranking order."""
-    pairs: list[tuple[str, str]] = []
-    for r in ranking:
-        for other in r.get("confounded_with", []):
-            if (other, r["effect"]) not in pairs and (r["effect"], other) not in pairs:
-                pairs.append((r["effect"], other))
-    return pairs
+def confounded_groups(ranking: list[dict]) -> list[list[str]]:
+    """The effects flagged as confounded, grouped (connected through ``confounded_with``), each
+    group and the groups in ranking order."""
+    order = [r["effect"] for r in ranking]
+    links = {r["effect"]: set(r.get("confounded_with", [])) for r in ranking}
+    for a, others in list(links.items()):
+        for b in others:
+            links.setdefault(b, set()).add(a)
+    groups, seen = [], set()
+    for e in order:
+        if e in seen or not links.get(e):
+            continue
+        group, todo = set(), [e]
+        while todo:
+            x = todo.pop()
+            if x not in group:
+                group.add(x)
+                todo += list(links.get(x, ()))
+        seen |= group
+        groups.append(sorted(group, key=lambda x: order.index(x) if x in order else len(order)))
+    return groups
+
+
+def _and(names: list[str]) -> str:
+    b = [f"<b>{_e(n)}</b>" for n in names]
+    return b[0] if len(b) == 1 else ", ".join(b[:-1]) + " and " + b[-1]
 
 
 def _verdict(r: dict, threshold: float) -> str:
@@ -207,26 +225,28 @@ def _ranking_table(rows: list[dict], threshold: float) -> str:
 
 
 def _confounding_text(ranking: list[dict], selected: list[str]) -> str:
-    pairs = confounded_pairs(ranking)
-    if not pairs:
+    groups = confounded_groups(ranking)
+    if not groups:
         return (
             "<p>No two candidates explain the same part of the gap (no confounded pair).</p>"
             if len(ranking) > 1
             else ""
         )
     items = []
-    for a, b in pairs:
+    for g in groups:
         s = (
-            f"<b>{_e(a)}</b> and <b>{_e(b)}</b> explain the same part of the gap: the data "
-            "cannot tell them apart."
+            f"{_and(g)} explain the same part of the gap: the data cannot tell "
+            f"{'them' if len(g) == 2 else 'these'} apart."
         )
-        chosen = [x for x in (a, b) if x in selected]
+        chosen = [x for x in g if x in selected]
         if len(chosen) == 1:
-            other = b if chosen[0] == a else a
+            others = " or ".join(x for x in g if x != chosen[0])
             s += (
-                f" {_e(chosen[0])} was added because it scored higher here; read it as "
-                f"&ldquo;{_e(chosen[0])} or {_e(other)}&rdquo;."
+                f" {_e(chosen[0])} was added because it scored highest; read it as "
+                f"&ldquo;{_e(chosen[0])} or {_e(others)}&rdquo;."
             )
+        elif not chosen and not any(r["passes"] for r in ranking if r["effect"] in g):
+            s += " None of them passes on its own."
         items.append(f"<li>{s}</li>")
     return '<div class="warn"><b>Ambiguous effects.</b><ul>' + "".join(items) + "</ul></div>"
 
@@ -242,7 +262,8 @@ def _waterfall_table(waterfall: list[dict]) -> str:
         if len(waterfall) < 2:
             return ""
         ok = all(isinstance(v, (int, float)) and math.isfinite(v) for v in (a, b)) and a > 0
-        return f"<td>{_num(100 * (b - a) / a, '+.0f') if ok else '–'}</td>"
+        pct = _num(100 * (b - a) / a, "+.0f") if ok else "–"
+        return f"<td>{'0' if pct in ('+0', '-0') else pct}</td>"
 
     rows = []
     sup = [w["heldout_superior_force_pct_bw"] for w in waterfall]
@@ -503,9 +524,18 @@ def _page(d, prov: dict | None, figs: dict) -> str:
     )
     held = "held-out" if d.folds.get("n") else "in-sample"
     if d.selected:
+        steps = []
+        for k, name in enumerate(d.selected):
+            r = next(x for x in d.rounds[k] if x["effect"] == name)
+            lo, hi = r["heldout_rms_reduction_ci"]
+            steps.append(
+                f"<b>{_e(name)}</b> ({_num(r['heldout_rms_reduction_pct'], '.1f')} % "
+                f"[{_num(lo, '.1f')}, {_num(hi, '.1f')}])"
+            )
         verdict = (
-            f"Adding <b>{_e(', then '.join(d.selected))}</b> to the <i>{_e(d.base)}</i> model "
-            f"shrinks the {held} superior-force RMS from {_num(base_sup)} to {_num(final_sup)} % BW."
+            f"Adding {', then '.join(steps)} to the <i>{_e(d.base)}</i> model reduces its "
+            f"{held} combined score by the percentage shown (95 % interval); the {held} "
+            f"superior-force RMS goes from {_num(base_sup)} to {_num(final_sup)} % BW."
         )
     else:
         verdict = (
@@ -514,7 +544,7 @@ def _page(d, prov: dict | None, figs: dict) -> str:
             f"clearly better than the <i>{_e(d.base)}</i> model ({held} superior-force RMS "
             f"{_num(base_sup)} % BW)."
         )
-    ambiguous = confounded_pairs(d.ranking)
+    ambiguous = confounded_groups(d.ranking)
     if ambiguous:
         verdict += " Some effects are confounded (see below)."
     title = f"Diagnosis: {d.base} model vs the force plates"
@@ -654,7 +684,7 @@ def write_report(
 
 __all__ = [
     "CHANNEL_KEYS",
-    "confounded_pairs",
+    "confounded_groups",
     "report_figures",
     "report_html",
     "worst_cells",
