@@ -25,36 +25,49 @@ def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> Non
         "trial",
         nargs="*",
         type=Path,
-        help="C3D file, or TRC marker file (then give --grf). Default: the bundled example C3D.",
+        metavar="TRIAL",
+        help="C3D files, or TRC marker files (with --grf, or the MOT/STO file beside each); "
+        "several trials are the trials of one subject. Default: the bundled example C3D.",
     )
     p.add_argument(
         "--grf",
         type=Path,
         action="append",
+        metavar="FILE",
         help="OpenSim MOT/STO ground reactions of a TRC trial; repeat it for several TRC trials, "
         "in their order. Default: the MOT/STO file beside the TRC (named after it, or the only "
         "one in its folder).",
     )
-    p.add_argument("--mass", type=float, help="Subject mass [kg] (overrides the file).")
-    p.add_argument("--height", type=float, help="Subject height [m] (overrides the file).")
+    p.add_argument(
+        "--mass", type=float, metavar="KG", help="Subject mass [kg] (overrides the file)."
+    )
+    p.add_argument(
+        "--height", type=float, metavar="M", help="Subject height [m] (overrides the file)."
+    )
     p.add_argument(
         "--belt-speed",
         type=float,
         dest="belt_speed",
+        metavar="M/S",
         help="Treadmill belt speed [m/s]; the belt moves backward (-X lab).",
     )
     if with_static:
         p.add_argument(
-            "--static", type=Path, help="Static standing trial (TRC or C3D) for scaling."
+            "--static",
+            type=Path,
+            metavar="FILE",
+            help="Static standing trial (TRC or C3D) for scaling.",
         )
         p.add_argument(
             "--markerset",
+            metavar="NAME|FILE",
             help="Marker set name (plugingait, rajagopal, gait2392) or TOML file. "
             "Default: detected from the marker labels.",
         )
         p.add_argument(
             "--cutoff",
             type=float,
+            metavar="HZ",
             default=None,
             help="Marker low-pass cutoff [Hz] (zero-lag 4th-order Butterworth; default 6).",
         )
@@ -390,7 +403,7 @@ def build_parser() -> argparse.ArgumentParser:
         "sole-point heights with stances shaded.",
     )
     _add_trial_args(p)
-    p.add_argument("--out", type=Path, required=True, help="Output folder.")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
     p.add_argument(
         "--format", choices=("csv", "npz"), default="csv", help="Trajectory file format."
     )
@@ -407,7 +420,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--seeds", type=int, default=20, help="Noise draws for the noisy rows (default 20)."
     )
-    p.add_argument("--out", type=Path, required=True, help="Output folder.")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
     p.set_defaults(func=cmd_reproduce_seed)
 
     p = sub.add_parser(
@@ -430,7 +443,7 @@ def build_parser() -> argparse.ArgumentParser:
         "far the headline parameters move, in units of their SE (sensitivity.json/.md).",
     )
     p.add_argument("--holdout", help='Stance to hold out, e.g. "right@0.407s" (see `gc-ocp info`).')
-    p.add_argument("--out", type=Path, required=True, help="Output folder.")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
     p.set_defaults(func=cmd_fit)
 
     p = sub.add_parser(
@@ -454,10 +467,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--effects",
+        metavar="A,B,...",
         help="Comma-separated candidate effects (docs/effects.md), e.g. damping,friction. "
         "Default: every effect the base does not have.",
     )
-    p.add_argument("--out", type=Path, required=True, help="Output folder.")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
     p.set_defaults(func=cmd_diagnose)
     return parser
 
