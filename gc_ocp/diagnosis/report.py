@@ -159,9 +159,23 @@ def _where_text(where: dict) -> str:
         )
     if not items:
         return "<p>No held-out residual to map.</p>"
+    methods = where.get("phase_method", {})
+    fallback = [lab for lab, m in methods.items() if m != "force"]
+    phases = (
+        "Phases (loading response, mid-stance, terminal stance, pre-swing) are cut at the peaks "
+        "and valley of each stance's measured vertical force"
+        + (
+            f", except for {_e(', '.join(fallback))} (no clear double hump: Perry's average "
+            "fractions of stance)."
+            if fallback
+            else "."
+        )
+    )
     return (
         "<p>The cells that hold most of the held-out misfit (share of the foot's weighted squared "
-        "residual, the quantity the fit minimises):</p><ul>" + "".join(items) + "</ul>"
+        "residual, the quantity the fit minimises):</p><ul>"
+        + "".join(items)
+        + f"</ul><p class=small>{phases}</p>"
     )
 
 
