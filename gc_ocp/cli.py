@@ -295,15 +295,16 @@ def cmd_fit(args: argparse.Namespace) -> int:
     return 0
 
 
-DIAGNOSE_OUTPUTS = (
-    "diagnosis.json",
-    "report.html",
-    "where_heatmap.png",
-    "where_heatmap_final.png",
-    "where_residuals.png",
-    "ranking.png",
-    "waterfall.png",
-)
+DIAGNOSE_FIGURES = {
+    "heatmap": "where_heatmap.png",
+    "heatmap_final": "where_heatmap_final.png",
+    "residuals": "where_residuals.png",
+    "ranking": "ranking.png",
+    "waterfall": "waterfall.png",
+}
+"""The report's figures (:func:`gc_ocp.diagnosis.report.report_pngs`) and their file names."""
+
+DIAGNOSE_OUTPUTS = ("diagnosis.json", "report.html", *DIAGNOSE_FIGURES.values())
 """Every file ``gc-ocp diagnose`` may write (one set, replaced as a whole)."""
 
 
@@ -318,9 +319,10 @@ def _effects(args: argparse.Namespace) -> list[str] | None:
         effects = [e.strip() for e in args.effects.split(",") if e.strip()]
         unknown = [e for e in effects if e not in EFFECTS]
         if unknown or not effects:
+            what = f"unknown effect(s) {', '.join(unknown)}" if unknown else "no effect given"
             raise InputError(
-                f"--effects {args.effects}: unknown effect(s) {', '.join(unknown) or '(none given)'}; "
-                f"choose from {', '.join(EFFECTS)} (comma-separated)."
+                f"--effects {args.effects!r}: {what}; choose from {', '.join(EFFECTS)} "
+                "(comma-separated)."
             )
     _, base = resolve_base(args.base)
     if not candidate_names(base, effects):
@@ -333,8 +335,8 @@ def _effects(args: argparse.Namespace) -> list[str] | None:
 
 def cmd_diagnose(args: argparse.Namespace) -> int:
     from gc_ocp.diagnosis import diagnose
-    from gc_ocp.diagnosis.report import report_figures, report_html
-    from gc_ocp.outputs import OutputSet, check_writable
+    from gc_ocp.diagnosis.report import report_html, report_pngs
+    from gc_ocp.outputs import OutputSet, atomic_write, check_writable
 
     check_writable(args.out)  # before any computation
     effects = _effects(args)
@@ -343,34 +345,18 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     prov = provenance(args, pairs)
     d = diagnose(pairs, base=args.base, candidates=effects, progress=_progress)
     print(d.summary())
-    figs = report_figures(d)
-    files = {
-        "where_heatmap.png": "heatmap",
-        "where_heatmap_final.png": "heatmap_final",
-        "where_residuals.png": "residuals",
-        "ranking.png": "ranking",
-        "waterfall.png": "waterfall",
-    }
+    pngs = report_pngs(d)
     out = OutputSet(args.out, DIAGNOSE_OUTPUTS)
     try:
         out.text("diagnosis.json", json.dumps({**d.to_json(), "provenance": prov}, indent=2))
-        out.text("report.html", report_html(d, provenance=prov, figures=figs))
-        for name, key in files.items():
-            if key in figs:
-                out.figure(name, figs[key], dpi=100)
+        out.text("report.html", report_html(d, provenance=prov, pngs=pngs))
+        for key, png in pngs.items():
+            atomic_write(out.path(DIAGNOSE_FIGURES[key]), lambda tmp, png=png: tmp.write_bytes(png))
         written = out.commit()
     finally:
         out.discard()
-        _close(figs.values())
     print(f"wrote {len(written)} files to {args.out}; open {args.out / 'report.html'} in a browser")
     return 0
-
-
-def _close(figs) -> None:
-    import matplotlib.pyplot as plt
-
-    for fig in figs:
-        plt.close(fig)
 
 
 def build_parser() -> argparse.ArgumentParser:

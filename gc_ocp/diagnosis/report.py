@@ -80,7 +80,7 @@ CHANNEL_KEYS = (*(TABLE_KEYS[c] for c in CHANNELS), "cop_mm")
 def report_figures(diagnosis) -> dict:
     """The report's figures as matplotlib figures: ``heatmap`` (base, held-out), ``residuals``
     (base, held-out, over time), ``ranking``, ``waterfall`` and, when an effect was selected,
-    ``heatmap_final``. The caller closes them (the CLI also saves them as PNG)."""
+    ``heatmap_final``. The caller closes them."""
     figs = {
         "heatmap": diagnosis.heatmap("base"),
         "residuals": diagnosis.residual_figure("base"),
@@ -92,10 +92,26 @@ def report_figures(diagnosis) -> dict:
     return figs
 
 
-def _data_uri(fig) -> str:
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=FIGURE_DPI)
-    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+def report_pngs(diagnosis, dpi: int = FIGURE_DPI) -> dict[str, bytes]:
+    """:func:`report_figures` rendered as PNG bytes (the figures are closed): what the page
+    embeds and what the CLI writes beside it."""
+    import matplotlib.pyplot as plt
+
+    figs = report_figures(diagnosis)
+    try:
+        out = {}
+        for name, fig in figs.items():
+            buf = io.BytesIO()
+            fig.savefig(buf, format="png", dpi=dpi)
+            out[name] = buf.getvalue()
+        return out
+    finally:
+        for fig in figs.values():
+            plt.close(fig)
+
+
+def _data_uri(png: bytes) -> str:
+    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
 
 
 def _figure(fig, alt: str, caption: str) -> str:
@@ -510,23 +526,12 @@ def _provenance(prov: dict | None, d) -> str:
 
 
 # --- the page --------------------------------------------------------------------------------
-def report_html(diagnosis, provenance: dict | None = None, figures: dict | None = None) -> str:
+def report_html(diagnosis, provenance: dict | None = None, pngs: dict | None = None) -> str:
     """The report of ``diagnosis`` (a :class:`~gc_ocp.diagnosis.Diagnosis`) as one
     self-contained HTML page (module doc). provenance: what the CLI records in
-    ``diagnosis.json`` (inputs, options, date); figures: :func:`report_figures` of the diagnosis
-    when already made (otherwise they are made and closed here)."""
-    import matplotlib.pyplot as plt
-
-    d = diagnosis
-    own = figures is None
-    figs = report_figures(d) if own else figures
-    try:
-        page = _page(d, provenance, figs)
-    finally:
-        if own:
-            for fig in figs.values():
-                plt.close(fig)
-    return page
+    ``diagnosis.json`` (inputs, options, date); pngs: :func:`report_pngs` of the diagnosis
+    when already rendered (otherwise they are rendered here)."""
+    return _page(diagnosis, provenance, report_pngs(diagnosis) if pngs is None else pngs)
 
 
 def _page(d, prov: dict | None, figs: dict) -> str:
@@ -688,12 +693,12 @@ def write_report(
     diagnosis,
     path: str | os.PathLike,
     provenance: dict | None = None,
-    figures: dict | None = None,
+    pngs: dict | None = None,
 ) -> Path:
     """Write :func:`report_html` of ``diagnosis`` to ``path`` atomically; returns the path."""
     from gc_ocp.outputs import atomic_write_text
 
-    return atomic_write_text(path, report_html(diagnosis, provenance, figures))
+    return atomic_write_text(path, report_html(diagnosis, provenance, pngs))
 
 
 __all__ = [
@@ -701,6 +706,7 @@ __all__ = [
     "confounded_groups",
     "report_figures",
     "report_html",
+    "report_pngs",
     "worst_cells",
     "write_report",
 ]
