@@ -8,11 +8,14 @@ The public API, importable from the top level::
     kin = gc_ocp.compute_kinematics(trial)        # IK and sole-point trajectories
     report = gc_ocp.fit([(trial, kin)], model=gc_ocp.full_model(), holdout="right@0.407")
     print(report.summary())
+    diagnosis = gc_ocp.diagnose([(trial, kin)])   # which unmodelled effect explains the gap
+    print(diagnosis.summary())
 
 Layers (each importable on its own): :mod:`gc_ocp.io` (trial loading), :mod:`gc_ocp.model` (the
 27-DOF body model), :mod:`gc_ocp.kinematics` (IK, sole points), :mod:`gc_ocp.stance` (the stance
 type), :mod:`gc_ocp.contact` (contact laws, equivalent wrench, the seed's study),
-:mod:`gc_ocp.estimation` (composable joint kinematics-contact estimation, CasADi + Ipopt).
+:mod:`gc_ocp.estimation` (composable joint kinematics-contact estimation, CasADi + Ipopt),
+:mod:`gc_ocp.diagnosis` (where the model-data gap lies, which effect causes it, how far it shrinks).
 Names are imported on first use, so ``import gc_ocp`` stays light.
 """
 
@@ -52,6 +55,13 @@ _PUBLIC = {
     "full_model": "gc_ocp.estimation",
     "model_from_names": "gc_ocp.estimation",
     "register": "gc_ocp.estimation",
+    "base_model": "gc_ocp.estimation",
+    "bare_seed_model": "gc_ocp.estimation",
+    "EFFECTS": "gc_ocp.estimation",
+    # the sim-to-real diagnosis
+    "diagnose": "gc_ocp.diagnosis",
+    "diagnose_stances": "gc_ocp.diagnosis",
+    "Diagnosis": "gc_ocp.diagnosis",
     # plots (figures are returned, never shown)
     "plot_fit": "gc_ocp.estimation.plots",
     # errors

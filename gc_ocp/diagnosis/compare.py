@@ -237,7 +237,7 @@ def reduction(
     lo, hi = np.percentile(draws, [2.5, 97.5])
     labels = [f.label for f in parent.folds] or [f["label"] for f in parent.full.stance_fits]
     per = {
-        lab: 100.0 * (1.0 - np.sqrt(cb.sum() / ca.sum()))
+        lab: float(100.0 * (1.0 - np.sqrt(cb.sum() / ca.sum())))
         for lab, ca, cb in zip(labels, a, b, strict=True)
     }
     ins = 100.0 * (1.0 - np.sqrt(child.full.objective / parent.full.objective))

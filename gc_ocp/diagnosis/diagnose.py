@@ -16,8 +16,10 @@ confounding (see ``docs/diagnosis.md``).
 5. **Confounding**: two candidates are named confounded when their changes of the held-out
    residual are alike (cosine similarity of the weighted residual changes above
    :data:`CONFOUND_COSINE`, both reducing the score), or when one stops passing once the other
-   is in the model (its gain falls by more than half: the gains are not additive). The result
-   says so instead of guessing which one it is.
+   is in the model (its gain falls by more than half: the gains are not additive), or with the
+   base's per-stance nuisance (``kinematic_correction``) when its gain comes mostly from a
+   smaller nuisance cost rather than a better fit of the data (:data:`NUISANCE_SHARE`). The
+   result says so instead of guessing which one it is.
 """
 
 from __future__ import annotations
@@ -63,6 +65,11 @@ part of the gap."""
 NON_ADDITIVE_FRACTION = 0.5
 """An effect whose gain on top of another falls below this fraction of its gain alone is
 confounded with it."""
+
+NUISANCE_SHARE = 0.5
+"""An effect whose held-out gain comes mostly (more than this fraction) from a smaller nuisance
+cost (the pose correction moves less, or more cheaply) rather than from a better fit of the data
+does what the base's per-stance nuisance already does: it is named confounded with it."""
 
 BASES: dict[str, Callable[[], tuple]] = {
     "seed": bare_seed_model,
@@ -115,6 +122,7 @@ class Diagnosis:
     threshold_pct: float
     evaluations: dict = dataclasses.field(default_factory=dict, repr=False)
     notes: list[str] = dataclasses.field(default_factory=list)
+    max_effects: int | None = None
 
     @property
     def base_evaluation(self) -> Evaluation:
@@ -143,6 +151,7 @@ class Diagnosis:
             "where": self.where,
             "folds": self.folds,
             "threshold_pct": self.threshold_pct,
+            "max_effects": self.max_effects,
             "score": (
                 "held-out combined score: sqrt(2 E / n), E = data cost + nuisance prior cost + "
                 "1/2 log det of the nuisance Hessian (all six channels, in units of the error "
@@ -265,14 +274,37 @@ def _n_params(child: Evaluation, parent: Evaluation) -> int:
     return int(child.full.n_free - parent.full.n_free)
 
 
+def _terms(ev: Evaluation) -> tuple[float, float]:
+    """(data cost, nuisance cost = prior + Occam) summed over the held-out stances."""
+    if not ev.folds:
+        return ev.full.data_cost, ev.full.prior_cost
+    return (
+        sum(f.heldout.data_cost for f in ev.folds),
+        sum(f.heldout.prior_cost + f.occam for f in ev.folds),
+    )
+
+
+def _nuisance_names(model: tuple) -> list[str]:
+    """Registry names of the model's stance-scope components (the per-stance nuisance)."""
+    names = {cls: n for n, cls in REGISTRY.items()}
+    return [names.get(type(c), c.name) for c in model if c.scope == "stance"]
+
+
 def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
     rows = []
     base_r = weighted_residuals(parent)
     deltas = {}
+    pd, pn = _terms(parent)
     for name, ev in evs.items():
         red = reduction(parent, ev, n_boot=n_boot, seed=seed, frame_rate=rate)
         d = base_r - weighted_residuals(ev)
         deltas[name] = d
+        cd, cn = _terms(ev)
+        gain = (pd + pn) - (cd + cn)
+        from_nuisance = (pn - cn) / gain if gain > 0 else 0.0
+        relieves = [
+            n for n in _nuisance_names(parent.model) if gain > 0 and from_nuisance > NUISANCE_SHARE
+        ]
         rows.append(
             {
                 "effect": name,
@@ -283,7 +315,8 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
                 "per_stance_reduction_pct": red["per_stance"],
                 "n_params": _n_params(ev, parent),
                 "passes": bool(red["pct"] >= threshold and red["ci"][0] > 0.0),
-                "confounded_with": [],
+                "gain_from_nuisance": float(from_nuisance),
+                "confounded_with": relieves,
                 "flags": [f["code"] for f in ev.full.flags],
             }
         )
@@ -443,6 +476,7 @@ def diagnose_stances(
         threshold_pct=threshold_pct,
         evaluations=evaluations,
         notes=notes,
+        max_effects=max_effects,
     )
 
 

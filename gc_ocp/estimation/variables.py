@@ -1,7 +1,7 @@
 """Decision variables of the estimator: named blocks with scaling, bounds and Gaussian priors.
 
 Every variable block has a key (a tuple such as ``("contact", "k", "left", "PL")`` or
-``("pose", 3, "trans")``) and is *scaled* so that O(1) is a typical magnitude:
+``("pose", "walk:right@0.41s", "trans")``) and is *scaled* so that O(1) is a typical magnitude:
 
 * ``parameter``: a physical parameter, optimised as its value or (``log=True``) its logarithm,
   with an optional Gaussian prior around its initial value;

@@ -1,0 +1,142 @@
+"""Diagnosis speed: a full diagnosis of the bundled trial, cold and warm, and where the time goes.
+
+Run:  PYTHONPATH=. python benchmarks/diagnosis_speed.py [--skip-cold] [--subject DIR]
+
+1. Bundled trial (3 stances, 2 held-out folds), default base ("registered"), every candidate of
+   the library (7), forward selection to the end:
+   * cold: a fresh compile cache (``GC_OCP_CACHE_DIR`` set to an empty folder), so every new
+     configuration is generated as C and compiled (once per machine in real use);
+   * warm: the same cache again, with 1 worker process and with the default workers (both cores);
+   * baseline measured in the same run: one ``fit()`` of the base model on every stance (two
+     starts), so the diagnosis's cost is printed as a multiple of a plain fit.
+   Each run is a separate Python process (a clean compile cache and no shared state); its
+   breakdown: the base's fits (all stances + each fold), each candidate's evaluation per round,
+   and the rest (bootstrap, ranking, residual maps).
+2. Several trials of one subject (``--subject FILE FILE FILE``, e.g. three walking trials of the
+   BTS subject in ``../shared/data/bts_unipd_5trials``): the same, warm only.
+
+Targets (issue 13): <= 60 s warm for the bundled trial, <= 120 s for three trials of a subject,
+on a 2-core machine. Machines here are noisy: read ratios, not absolute seconds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+def child(args) -> None:
+    """One diagnosis (or one fit) in this process; prints a JSON line of timings."""
+    import warnings
+
+    warnings.simplefilter("ignore")
+    import gc_ocp
+    from gc_ocp.diagnosis import diagnose
+
+    if args.trials:
+        pairs = []
+        for p in args.trials:
+            t = gc_ocp.load_trial(p)
+            pairs.append((t, gc_ocp.compute_kinematics(t)))
+    else:
+        t = gc_ocp.load_trial()
+        pairs = [(t, gc_ocp.compute_kinematics(t))]
+    t0 = time.perf_counter()
+    if args.mode == "fit":
+        from gc_ocp.estimation.components import base_model
+
+        gc_ocp.fit(pairs, model=base_model())
+        print(json.dumps({"total": time.perf_counter() - t0}))
+        return
+    d = diagnose(pairs, workers=args.workers)
+    total = time.perf_counter() - t0
+    evs = d.evaluations
+    print(
+        json.dumps(
+            {
+                "total": total,
+                "diagnosis_seconds": d.seconds,
+                "base": evs["base"].seconds,
+                "candidates": {k: v.seconds for k, v in evs.items() if k != "base"},
+                "rounds": len(d.rounds),
+                "selected": d.selected,
+                "stances": len(d.folds["stances"]),
+                "folds": d.folds["n"],
+            }
+        )
+    )
+
+
+def run(mode: str, cache: str, workers: int | None = None, trials=()) -> dict:
+    env = dict(os.environ, GC_OCP_CACHE_DIR=cache)
+    cmd = [sys.executable, __file__, "--child", mode]
+    if workers is not None:
+        cmd += ["--workers", str(workers)]
+    for t in trials:
+        cmd += ["--trial", str(t)]
+    t0 = time.perf_counter()
+    out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
+    if out.returncode != 0:
+        raise SystemExit(f"child failed:\n{out.stderr[-3000:]}")
+    d = json.loads(out.stdout.strip().splitlines()[-1])
+    d["process"] = time.perf_counter() - t0
+    return d
+
+
+def report(name: str, r: dict, fit_s: float) -> None:
+    print(
+        f"{name:<34} {r['diagnosis_seconds']:7.1f} s  ({r['diagnosis_seconds'] / fit_s:5.1f} x a fit; "
+        f"process {r['process']:.0f} s; {r['stances']} stances, {r['folds']} folds, "
+        f"{r['rounds']} rounds, selected {r['selected'] or 'none'})"
+    )
+    cand = r["candidates"]
+    rest = r["diagnosis_seconds"] - r["base"] - (sum(cand.values()) if r.get("serial") else 0)
+    print(f"    base (all stances + folds): {r['base']:.1f} s")
+    for k, v in sorted(cand.items(), key=lambda kv: -kv[1])[:6]:
+        print(f"    {k:<44} {v:6.1f} s")
+    if r.get("serial"):
+        print(f"    rest (bootstrap, ranking, maps): {rest:.1f} s")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--child", choices=["diagnose", "fit"])
+    ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--trial", dest="trials", action="append", default=[])
+    ap.add_argument("--skip-cold", action="store_true")
+    ap.add_argument("--subject", type=Path, nargs="+", default=None)
+    args = ap.parse_args()
+    if args.child:
+        args.mode = args.child
+        child(args)
+        return
+    cache = tempfile.mkdtemp(prefix="gc_ocp_bench_cache_")
+    print(f"compile cache: {cache} (fresh)")
+    if not args.skip_cold:
+        cold = run("diagnose", cache)
+        cold["serial"] = False
+    fit_s = run("fit", cache)["total"]
+    print(f"baseline: one fit() of the base model on every stance: {fit_s:.1f} s")
+    if not args.skip_cold:
+        report("bundled, cold (compiles)", cold, fit_s)
+    w1 = run("diagnose", cache, workers=1)
+    w1["serial"] = True
+    report("bundled, warm, 1 worker", w1, fit_s)
+    w2 = run("diagnose", cache)
+    report("bundled, warm, default workers", w2, fit_s)
+    print(f"parallel speed-up (warm): {w1['diagnosis_seconds'] / w2['diagnosis_seconds']:.2f} x")
+    if args.subject:
+        trials = args.subject
+        run("diagnose", cache, trials=trials)  # warm the cache for this subject's configurations
+        s = run("diagnose", cache, trials=trials)
+        report(f"{len(trials)} trials of one subject, warm", s, fit_s)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,180 @@
+"""The diagnosis core: gait phases, the residual map, the held-out score and the decision rule."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from gc_ocp.contact.channels import TABLE_KEYS
+from gc_ocp.diagnosis import PHASES, diagnose_stances, phase_bounds, where
+from gc_ocp.diagnosis.compare import (
+    Evaluation,
+    evaluate,
+    fold_plan,
+    occam_term,
+    reduction,
+    score,
+)
+from gc_ocp.diagnosis.phases import PERRY_STANCE_FRACTIONS, phase_index
+from gc_ocp.estimation.components import base_model
+from gc_ocp.estimation.components.damping import Damping
+from gc_ocp.estimation.problem import build_estimation
+from gc_ocp.estimation.recovery import real_motion, simulate, truth_from_fit
+
+
+def _double_hump(t: np.ndarray) -> np.ndarray:
+    """A walking-like vertical force: peaks at 25 % and 75 % of stance, valley at 50 %."""
+    u = (t - t[0]) / (t[-1] - t[0])
+    return 700 * (np.exp(-(((u - 0.25) / 0.12) ** 2)) + np.exp(-(((u - 0.75) / 0.12) ** 2)))
+
+
+def test_phases_follow_the_force_peaks_and_valley():
+    t = np.linspace(0.0, 0.6, 61)
+    b, method = phase_bounds(t, _double_hump(t), np.ones(t.size, bool))
+    assert method == "force"
+    # peaks at 0.15 s and 0.45 s, valley at 0.30 s: exact on this 10 ms grid
+    np.testing.assert_allclose(b, [0.0, 0.15, 0.30, 0.45, 0.6], atol=1e-12)
+    ph = phase_index(t, b)
+    assert ph[0] == 0 and ph[-1] == 3 and set(ph) == {0, 1, 2, 3}
+    assert np.all(np.diff(ph) >= 0)  # phases in time order
+
+
+def test_phases_fall_back_to_perry_fractions_on_a_flat_force():
+    t = np.linspace(0.0, 0.6, 61)
+    inc = np.ones(t.size, bool)
+    inc[:5] = inc[-5:] = False  # unloaded margins are not part of the stance
+    b, method = phase_bounds(t, np.full(t.size, 600.0), inc)
+    assert method == "fractions"
+    np.testing.assert_allclose(b, 0.05 + 0.5 * np.asarray(PERRY_STANCE_FRACTIONS), atol=1e-12)
+    assert np.all(phase_index(t, b)[~inc] == -1)
+
+
+def _fit(side="right", label="t:right@0.00s", offset_phase=1, bw=700.0, h=1.7):
+    t = np.linspace(0.0, 0.6, 61)
+    meas = np.zeros((t.size, 6))
+    meas[:, 2] = _double_hump(t)
+    mod = meas.copy()
+    b, _ = phase_bounds(t, meas[:, 2], np.ones(t.size, bool))
+    ph = phase_index(t, b)
+    mod[ph == offset_phase, 2] += 0.01 * bw  # 1 % BW error in one phase only
+    return {
+        "label": label,
+        "side": side,
+        "time": t,
+        "measured": meas,
+        "model": mod,
+        "in_contact": np.ones(t.size, bool),
+        "reference_point": np.zeros(3),
+        "ground_height": 0.0,
+        "body_weight": bw,
+        "height": h,
+    }
+
+
+def test_where_puts_the_residual_in_its_phase_and_channel():
+    w = where([_fit(offset_phase=PHASES.index("mid_stance"))])
+    cells = w["rms"]["right"][TABLE_KEYS["superior_force"]]
+    assert cells["mid_stance"] == pytest.approx(1.0, rel=1e-12)  # 1 % BW exactly
+    for ph in ("loading_response", "terminal_stance", "pre_swing"):
+        assert cells[ph] == 0.0
+    assert w["rms"]["right"][TABLE_KEYS["anterior_force"]]["all"] == 0.0
+    share = w["share"]["right"]
+    assert share[TABLE_KEYS["superior_force"]]["mid_stance"] == pytest.approx(1.0)
+    # normalised: 1 % BW in units of the 2 % BW force error scale
+    assert w["normalised"]["right"][TABLE_KEYS["superior_force"]]["mid_stance"] == pytest.approx(
+        0.5, rel=1e-12
+    )
+    assert "left" not in w["rms"]
+
+
+def test_fold_plan_holds_out_only_feet_with_another_stance():
+    class S:
+        def __init__(self, side):
+            self.side = side
+
+    assert fold_plan([S("right"), S("left"), S("right")]) == [0, 2]
+    assert fold_plan([S("right"), S("left")]) == []
+
+
+@pytest.fixture(scope="module")
+def bundled():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        stances = real_motion()
+        truth = truth_from_fit(stances, base_model())
+    return stances, truth
+
+
+@pytest.fixture(scope="module")
+def base_eval(bundled):
+    stances, truth = bundled
+    data = simulate(stances, truth, np.random.default_rng(3))
+    plan = fold_plan(data)
+    return data, evaluate(data, base_model(), "base", (), plan)
+
+
+def test_heldout_terms_add_up(base_eval):
+    """The per-frame costs sum to the held-out data cost; the Occam term is >= 0 (H_z >= I) and
+    its value is the log-determinant recomputed independently; a model compared with itself
+    reduces nothing."""
+    data, ev = base_eval
+    assert len(ev.folds) == 2
+    for f in ev.folds:
+        assert f.frame_cost.sum() == pytest.approx(f.heldout.data_cost, rel=1e-9)
+        assert f.occam >= 0.0
+        held = next(d for d in data if d.label == f.label)
+        from gc_ocp.estimation.fit import frozen_model, with_lls_start
+
+        train = [d for d in data if d is not held]
+        hp = build_estimation([held], frozen_model(with_lls_start(base_model(), train), f.train))
+        assert occam_term(hp, f.heldout.x) == pytest.approx(f.occam, rel=1e-9)
+    r = reduction(ev, ev, n_boot=50)
+    assert r["pct"] == 0.0 and r["ci"] == [0.0, 0.0]
+    assert score(ev) > 0
+
+
+def test_occam_term_is_zero_without_nuisance(base_eval):
+    """A held-out stance with every component frozen and no stance-scope nuisance has nothing
+    to integrate out: no Occam term."""
+    from gc_ocp.estimation.fit import frozen_model
+
+    data, ev = base_eval
+    frozen = frozen_model(base_model(), ev.folds[0].train)
+    pb = build_estimation(data[:1], tuple(c for c in frozen if c.scope != "stance"))
+    assert pb.x0.size == 0
+    assert occam_term(pb, pb.x0) == 0.0
+
+
+def test_an_injected_damping_is_found_and_nothing_on_the_base_truth(bundled):
+    """Blind on synthetic data from the bundled trial's motion (0.5 % BW plate noise): with a
+    true Hunt-Crossley damping of 1 s/m the diagnosis selects damping; with the base model as
+    truth it selects nothing. Candidates limited to the two effects that share the base's
+    compiled functions (no compilation in the test)."""
+    stances, truth = bundled
+    cands = ["damping", "stiffness_exponent"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d_eff = diagnose_stances(
+            simulate(stances, (*truth, Damping(fixed=1.0)), np.random.default_rng(1)),
+            candidates=cands,
+            max_effects=1,
+            n_boot=300,
+            workers=1,
+        )
+        d_none = diagnose_stances(
+            simulate(stances, truth, np.random.default_rng(2)),
+            candidates=cands,
+            max_effects=1,
+            n_boot=300,
+            workers=1,
+        )
+    assert d_eff.selected == ["damping"], d_eff.summary()
+    assert d_none.selected == [], d_none.summary()
+    top = d_eff.ranking[0]
+    assert top["effect"] == "damping" and top["heldout_rms_reduction_ci"][0] > 0
+    js = d_eff.to_json()
+    assert set(js["base"]["heldout_rms"]["right"]) == {*TABLE_KEYS.values(), "cop_mm"}
+    assert [w["model"] for w in js["waterfall"]] == ["base", "+damping"]
+    assert isinstance(d_eff.base_evaluation, Evaluation)
