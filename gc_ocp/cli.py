@@ -178,8 +178,9 @@ def _sha256(path) -> str:
 
 
 def provenance(args: argparse.Namespace, pairs) -> dict:
-    """What a ``fit.json`` (or ``diagnosis.json``) was computed from: inputs with content hashes, options, subject values
-    and their sources, stances used and excluded (with the reason), package version, date."""
+    """What a ``fit.json`` (or ``diagnosis.json``) was computed from: inputs with content
+    hashes, command and options, subject values and their sources, stances used and excluded
+    (with the reason), package version, date."""
     import datetime
     import platform
 
