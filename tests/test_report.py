@@ -82,6 +82,15 @@ def test_report_says_when_effects_are_confounded(diagnosis):
     )
     assert "sha256 0123456789abcdef" in page and "gc-ocp diagnose" in page
 
+    alone = [{**r, "confounded_with": ["kinematic_correction"], "gain_from_nuisance": 0.8}]
+    assert confounded_groups(alone) == []  # a part of the base is not a candidate
+    page = report_html(dataclasses.replace(diagnosis, ranking=alone, rounds=[alone]))
+    assert (
+        f"<b>{r['effect']}</b> and the base's <b>kinematic_correction</b> (the per-stance "
+        "correction the base already has) explain the same part of the gap" in page
+    )
+    assert "80 % of its held-out gain" in page
+
 
 def test_write_report_is_atomic(diagnosis, tmp_path):
     from gc_ocp.diagnosis.report import write_report

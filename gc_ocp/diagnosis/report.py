@@ -196,10 +196,11 @@ def _where_text(where: dict) -> str:
 
 
 def confounded_groups(ranking: list[dict]) -> list[list[str]]:
-    """The effects flagged as confounded, grouped (connected through ``confounded_with``), each
-    group and the groups in ranking order."""
+    """The candidate effects flagged as confounded with each other, grouped (connected through
+    ``confounded_with``), each group and the groups in ranking order. A confounding with a part
+    of the base (its per-stance nuisance) is not a group: :func:`_confounding_text` says it."""
     order = [r["effect"] for r in ranking]
-    links = {r["effect"]: set(r.get("confounded_with", [])) for r in ranking}
+    links = {r["effect"]: set(r.get("confounded_with", [])) & set(order) for r in ranking}
     for a, others in list(links.items()):
         for b in others:
             links.setdefault(b, set()).add(a)
@@ -254,9 +255,34 @@ def _ranking_table(rows: list[dict], threshold: float) -> str:
     return "<table>" + head + "".join(body) + "</table>"
 
 
+def _nuisance_text(ranking: list[dict]) -> list[str]:
+    """Effects confounded with a part of the base (not a candidate): the base's per-stance
+    nuisance, when the effect's held-out gain comes mostly from a cheaper nuisance."""
+    names = {r["effect"] for r in ranking}
+    items = []
+    for r in ranking:
+        parts = [c for c in r.get("confounded_with", []) if c not in names]
+        if not parts:
+            continue
+        share = r.get("gain_from_nuisance")
+        why = (
+            f"{100 * share:.0f} % of its held-out gain"
+            if share is not None
+            else "its held-out gain"
+        )
+        items.append(
+            f"<b>{_e(r['effect'])}</b> and the base's {_and(parts)} (the per-stance correction "
+            "the base already has) explain the same part of the gap: the data cannot tell them "
+            f"apart ({why} comes from the correction moving less, not from a better fit of the "
+            "plates)."
+        )
+    return items
+
+
 def _confounding_text(ranking: list[dict], selected: list[str]) -> str:
     groups = confounded_groups(ranking)
-    if not groups:
+    nuisance = _nuisance_text(ranking)
+    if not groups and not nuisance:
         return (
             "<p>No two candidates explain the same part of the gap (no confounded pair).</p>"
             if len(ranking) > 1
@@ -278,6 +304,7 @@ def _confounding_text(ranking: list[dict], selected: list[str]) -> str:
         elif not chosen and not any(r["passes"] for r in ranking if r["effect"] in g):
             s += " None of them passes on its own."
         items.append(f"<li>{s}</li>")
+    items += [f"<li>{s}</li>" for s in nuisance]
     return '<div class="warn"><b>Ambiguous effects.</b><ul>' + "".join(items) + "</ul></div>"
 
 
@@ -563,7 +590,7 @@ def _page(d, prov: dict | None, figs: dict) -> str:
             f"clearly better than the <i>{_e(d.base)}</i> model ({held} superior-force RMS "
             f"{_num(base_sup)} % BW)."
         )
-    ambiguous = confounded_groups(d.ranking)
+    ambiguous = confounded_groups(d.ranking) or _nuisance_text(d.ranking)
     if ambiguous:
         verdict += " Some effects are confounded (see below)."
     title = f"Diagnosis: {d.base} model vs the force plates"
