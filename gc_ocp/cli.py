@@ -305,7 +305,7 @@ DIAGNOSE_FIGURES = {
 }
 """The report's figures (:func:`gc_ocp.diagnosis.report.report_pngs`) and their file names."""
 
-DIAGNOSE_OUTPUTS = ("diagnosis.json", "report.html", *DIAGNOSE_FIGURES.values())
+DIAGNOSE_OUTPUTS = ("diagnosis.json", "final_fit.json", "report.html", *DIAGNOSE_FIGURES.values())
 """Every file ``gc-ocp diagnose`` may write (one set, replaced as a whole)."""
 
 
@@ -350,6 +350,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     out = OutputSet(args.out, DIAGNOSE_OUTPUTS)
     try:
         out.text("diagnosis.json", json.dumps({**d.to_json(), "provenance": prov}, indent=2))
+        final = d.final_evaluation.full  # the selected model on all stances, as fit.json has it
+        out.text("final_fit.json", json.dumps({**final.to_json(), "provenance": prov}, indent=2))
         out.text("report.html", report_html(d, provenance=prov, pngs=pngs))
         for key, png in pngs.items():
             atomic_write(out.path(DIAGNOSE_FIGURES[key]), lambda tmp, png=png: tmp.write_bytes(png))

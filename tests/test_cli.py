@@ -222,7 +222,11 @@ def test_diagnose_cli_writes_json_report_and_figures(tmp_path, capsys):
 
     names = {p.name for p in out.iterdir()}
     figures = {"where_heatmap.png", "where_residuals.png", "ranking.png", "waterfall.png"}
-    assert {"diagnosis.json", "report.html"} | figures <= names
+    assert {"diagnosis.json", "final_fit.json", "report.html"} | figures <= names
+    from gc_ocp.estimation.result import EstimationResult
+
+    final = EstimationResult.from_json(out / "final_fit.json")
+    assert set(final.components) >= {"contact", "sole", "pose", *d["selected"]}
     assert all((out / f).stat().st_size > 10_000 for f in figures)
     page = (out / "report.html").read_text(encoding="utf-8")
     assert "<b>damping</b>" in page and "http" not in page.split("<body>")[1].split("sha256")[0]

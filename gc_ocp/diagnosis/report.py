@@ -196,26 +196,29 @@ def _where_text(where: dict) -> str:
 
 
 def confounded_groups(ranking: list[dict]) -> list[list[str]]:
-    """The candidate effects flagged as confounded with each other, grouped (connected through
-    ``confounded_with``), each group and the groups in ranking order. A confounding with a part
-    of the base (its per-stance nuisance) is not a group: :func:`_confounding_text` says it."""
+    """The candidate effects flagged as confounded with each other, as groups in which every
+    two are flagged (so a group can be read as "any one of these"; an effect may sit in two
+    groups), each group and the groups in ranking order. A confounding with a part of the base
+    (its per-stance nuisance) is not a group: :func:`_nuisance_text` says it."""
     order = [r["effect"] for r in ranking]
-    links = {r["effect"]: set(r.get("confounded_with", [])) & set(order) for r in ranking}
-    for a, others in list(links.items()):
-        for b in others:
-            links.setdefault(b, set()).add(a)
-    groups, seen = [], set()
-    for e in order:
-        if e in seen or not links.get(e):
+    linked = set()
+    for r in ranking:
+        for other in r.get("confounded_with", []):
+            if other in order and other != r["effect"]:
+                linked.add(frozenset((r["effect"], other)))
+    edges = sorted(linked, key=lambda e: sorted(order.index(x) for x in e))
+    groups: list[list[str]] = []
+    covered: set = set()
+    for edge in edges:
+        if edge in covered:
             continue
-        group, todo = set(), [e]
-        while todo:
-            x = todo.pop()
-            if x not in group:
-                group.add(x)
-                todo += list(links.get(x, ()))
-        seen |= group
-        groups.append(sorted(group, key=lambda x: order.index(x) if x in order else len(order)))
+        group = sorted(edge, key=order.index)
+        for c in order:
+            if c not in group and all(frozenset((c, g)) in linked for g in group):
+                group.append(c)
+        group.sort(key=order.index)
+        covered |= {frozenset((a, b)) for a in group for b in group if a != b}
+        groups.append(group)
     return groups
 
 
@@ -453,7 +456,7 @@ def _flatten(block, prefix: str = "", depth: int = 0) -> list[tuple[str, str]]:
         if all(isinstance(x, (int, float)) for x in flat) and len(flat) <= 6:
             out.append((prefix.rstrip(" /"), "[" + ", ".join(_num(x, ".4g") for x in flat) + "]"))
         else:
-            out.append((prefix.rstrip(" /"), f"({len(flat)} values, in diagnosis.json)"))
+            out.append((prefix.rstrip(" /"), f"({len(flat)} values)"))
     elif isinstance(block, (str, bool)):
         out.append((prefix.rstrip(" /"), _e(block)))
     return out
