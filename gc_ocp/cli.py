@@ -120,9 +120,12 @@ def cmd_info(args: argparse.Namespace) -> int:
 def cmd_kinematics(args: argparse.Namespace) -> int:
     from gc_ocp.kinematics.export import write_kinematics
 
-    for trial in _load(args):
+    trials = _load(args)
+    names = [t.name for t in trials]
+    for i, trial in enumerate(trials):
         kin = _kinematics(trial, args)
-        out = args.out if len(args.trial) <= 1 else args.out / trial.name
+        sub = trial.name if names.count(trial.name) == 1 else f"{i + 1}_{trial.name}"
+        out = args.out if len(trials) == 1 else args.out / sub  # one folder per trial
         paths = write_kinematics(trial, kin, out, fmt=args.format)
         for p in paths:
             print(f"wrote {p}")
