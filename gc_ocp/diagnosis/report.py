@@ -301,7 +301,7 @@ def _confounding_text(ranking: list[dict], selected: list[str]) -> str:
         if len(chosen) == 1:
             others = " or ".join(x for x in g if x != chosen[0])
             s += (
-                f" {_e(chosen[0])} was added because it scored highest; read it as "
+                f" The selection added {_e(chosen[0])}; read it as "
                 f"&ldquo;{_e(chosen[0])} or {_e(others)}&rdquo;."
             )
         elif not chosen and not any(r["passes"] for r in ranking if r["effect"] in g):
