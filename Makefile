@@ -19,7 +19,9 @@ demo: $(VENV)/.installed
 	$(BIN)/gc-ocp kinematics --out $(OUT)/kinematics
 	$(BIN)/gc-ocp fit --holdout right@0.407 --out $(OUT)/fit
 	$(BIN)/gc-ocp reproduce-seed --seeds 5 --out $(OUT)/seed
+	$(BIN)/gc-ocp diagnose --out $(OUT)/diagnosis
 	@echo "Demo output written to $(abspath $(OUT))"
+	@echo "Diagnosis report: $(abspath $(OUT))/diagnosis/report.html (open it in a browser)"
 
 test: lint
 	$(BIN)/python -m pytest -q -W error::RuntimeWarning

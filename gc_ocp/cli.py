@@ -25,23 +25,42 @@ def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> Non
         "trial",
         nargs="*",
         type=Path,
-        help="C3D file, or TRC marker file (then give --grf). Default: the bundled example C3D.",
+        metavar="TRIAL",
+        help="C3D files, or TRC marker files (with --grf, or the MOT/STO file beside each); "
+        "several trials are the trials of one subject. Default: the bundled example C3D.",
     )
-    p.add_argument("--grf", type=Path, help="OpenSim MOT/STO ground reactions for a TRC trial.")
-    p.add_argument("--mass", type=float, help="Subject mass [kg] (overrides the file).")
-    p.add_argument("--height", type=float, help="Subject height [m] (overrides the file).")
+    p.add_argument(
+        "--grf",
+        type=Path,
+        action="append",
+        metavar="FILE",
+        help="OpenSim MOT/STO ground reactions of a TRC trial; repeat it for several TRC trials, "
+        "in their order. Default: the MOT/STO file beside the TRC (named after it, or the only "
+        "one in its folder).",
+    )
+    p.add_argument(
+        "--mass", type=float, metavar="KG", help="Subject mass [kg] (overrides the file)."
+    )
+    p.add_argument(
+        "--height", type=float, metavar="M", help="Subject height [m] (overrides the file)."
+    )
     p.add_argument(
         "--belt-speed",
         type=float,
         dest="belt_speed",
+        metavar="M/S",
         help="Treadmill belt speed [m/s]; the belt moves backward (-X lab).",
     )
     if with_static:
         p.add_argument(
-            "--static", type=Path, help="Static standing trial (TRC or C3D) for scaling."
+            "--static",
+            type=Path,
+            metavar="FILE",
+            help="Static standing trial (TRC or C3D) for scaling.",
         )
         p.add_argument(
             "--markerset",
+            metavar="NAME|FILE",
             help="Marker set name (plugingait, rajagopal, gait2392) or TOML file. "
             "Default: a shipped set matching the labels exactly, else one built from the "
             "anatomical landmarks recognised in the labels (docs/data_formats.md).",
@@ -49,22 +68,27 @@ def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> Non
         p.add_argument(
             "--cutoff",
             type=float,
+            metavar="HZ",
             default=None,
             help="Marker low-pass cutoff [Hz] (zero-lag 4th-order Butterworth; default 6).",
         )
 
 
 def _load(args: argparse.Namespace):
+    """The trials of the command line (several trials = one subject), each TRC paired with its
+    ground reactions (:func:`gc_ocp.io.pairing.pair_trials`; the pairing is printed)."""
     from gc_ocp.io import load_trial
+    from gc_ocp.io.pairing import pair_trials
 
-    trials = args.trial or [None]
-    if args.grf is not None and len(trials) > 1:
-        raise InputError(
-            "--grf applies to one TRC trial; give one trial per command when using --grf."
-        )
+    files = pair_trials(args.trial, args.grf)
+    for f in files:  # what was found, and every trial of a multi-trial command
+        if (f.grf is not None and not args.grf) or len(files) > 1:
+            _progress(f.describe())
     return [
-        load_trial(t, grf=args.grf, mass=args.mass, height=args.height, belt_speed=args.belt_speed)
-        for t in trials
+        load_trial(
+            f.trial, grf=f.grf, mass=args.mass, height=args.height, belt_speed=args.belt_speed
+        )
+        for f in files
     ]
 
 
@@ -105,10 +129,13 @@ def cmd_info(args: argparse.Namespace) -> int:
 def cmd_kinematics(args: argparse.Namespace) -> int:
     from gc_ocp.kinematics.export import write_kinematics
 
-    for trial in _load(args):
+    trials = _load(args)
+    names = [t.name for t in trials]
+    for i, trial in enumerate(trials):
         kin = _kinematics(trial, args)
         _print_landmarks(kin)
-        out = args.out if len(args.trial) <= 1 else args.out / trial.name
+        sub = trial.name if names.count(trial.name) == 1 else f"{i + 1}_{trial.name}"
+        out = args.out if len(trials) == 1 else args.out / sub  # one folder per trial
         paths = write_kinematics(trial, kin, out, fmt=args.format)
         for p in paths:
             print(f"wrote {p}")
@@ -165,8 +192,9 @@ def _sha256(path) -> str:
 
 
 def provenance(args: argparse.Namespace, pairs) -> dict:
-    """What a ``fit.json`` was computed from: inputs with content hashes, options, subject values
-    and their sources, stances used and excluded (with the reason), package version, date."""
+    """What a ``fit.json`` (or ``diagnosis.json``) was computed from: inputs with content
+    hashes, command and options, subject values and their sources, stances used and excluded
+    (with the reason), package version, date."""
     import datetime
     import platform
 
@@ -200,15 +228,18 @@ def provenance(args: argparse.Namespace, pairs) -> dict:
                 "marker_cutoff_hz": kin.cutoff_hz,
             }
         )
-    options = {
-        k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items() if k != "func"
-    }
-    options["trial"] = [str(p) for p in args.trial]
+
+    def plain(v):
+        if isinstance(v, Path):
+            return str(v)
+        return [plain(x) for x in v] if isinstance(v, (list, tuple)) else v
+
+    options = {k: plain(v) for k, v in vars(args).items() if k not in ("func", "command")}
     return {
         "gc_ocp_version": __version__,
         "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "python": platform.python_version(),
-        "command": "gc-ocp fit",
+        "command": f"gc-ocp {args.command}",
         "options": options,
         "trials": trials,
     }
@@ -286,6 +317,72 @@ def cmd_fit(args: argparse.Namespace) -> int:
     return 0
 
 
+DIAGNOSE_FIGURES = {
+    "heatmap": "where_heatmap.png",
+    "heatmap_final": "where_heatmap_final.png",
+    "residuals": "where_residuals.png",
+    "ranking": "ranking.png",
+    "waterfall": "waterfall.png",
+}
+"""The report's figures (:func:`gc_ocp.diagnosis.report.report_pngs`) and their file names."""
+
+DIAGNOSE_OUTPUTS = ("diagnosis.json", "final_fit.json", "report.html", *DIAGNOSE_FIGURES.values())
+"""Every file ``gc-ocp diagnose`` may write (one set, replaced as a whole)."""
+
+
+def _effects(args: argparse.Namespace) -> list[str] | None:
+    """``--effects a,b`` checked against the effect library and the base (before any work)."""
+    from gc_ocp.diagnosis import candidate_names
+    from gc_ocp.diagnosis.diagnose import resolve_base
+    from gc_ocp.estimation.components import EFFECTS
+
+    effects = None
+    if args.effects is not None:
+        effects = [e.strip() for e in args.effects.split(",") if e.strip()]
+        unknown = [e for e in effects if e not in EFFECTS]
+        if unknown or not effects:
+            what = f"unknown effect(s) {', '.join(unknown)}" if unknown else "no effect given"
+            raise InputError(
+                f"--effects {args.effects!r}: {what}; choose from {', '.join(EFFECTS)} "
+                "(comma-separated)."
+            )
+    _, base = resolve_base(args.base)
+    if not candidate_names(base, effects):
+        raise InputError(
+            f"--effects {args.effects}: every effect is already in the base '{args.base}'; "
+            "choose other effects or a smaller --base (seed, registered)."
+        )
+    return effects
+
+
+def cmd_diagnose(args: argparse.Namespace) -> int:
+    from gc_ocp.diagnosis import diagnose
+    from gc_ocp.diagnosis.report import report_html, report_pngs
+    from gc_ocp.outputs import OutputSet, atomic_write, check_writable
+
+    check_writable(args.out)  # before any computation
+    effects = _effects(args)
+    trials = _load(args)
+    pairs = [(t, _kinematics(t, args)) for t in trials]
+    prov = provenance(args, pairs)
+    d = diagnose(pairs, base=args.base, candidates=effects, progress=_progress)
+    print(d.summary())
+    pngs = report_pngs(d)
+    out = OutputSet(args.out, DIAGNOSE_OUTPUTS)
+    try:
+        out.text("diagnosis.json", json.dumps({**d.to_json(), "provenance": prov}, indent=2))
+        final = d.final_evaluation.full  # the selected model on all stances, as fit.json has it
+        out.text("final_fit.json", json.dumps({**final.to_json(), "provenance": prov}, indent=2))
+        out.text("report.html", report_html(d, provenance=prov, pngs=pngs))
+        for key, png in pngs.items():
+            atomic_write(out.path(DIAGNOSE_FIGURES[key]), lambda tmp, png=png: tmp.write_bytes(png))
+        written = out.commit()
+    finally:
+        out.discard()
+    print(f"wrote {len(written)} files to {args.out}; open {args.out / 'report.html'} in a browser")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="gc-ocp",
@@ -316,7 +413,7 @@ def build_parser() -> argparse.ArgumentParser:
         "sole-point heights with stances shaded.",
     )
     _add_trial_args(p)
-    p.add_argument("--out", type=Path, required=True, help="Output folder.")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
     p.add_argument(
         "--format", choices=("csv", "npz"), default="csv", help="Trajectory file format."
     )
@@ -333,7 +430,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--seeds", type=int, default=20, help="Noise draws for the noisy rows (default 20)."
     )
-    p.add_argument("--out", type=Path, required=True, help="Output folder.")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
     p.set_defaults(func=cmd_reproduce_seed)
 
     p = sub.add_parser(
@@ -356,8 +453,36 @@ def build_parser() -> argparse.ArgumentParser:
         "far the headline parameters move, in units of their SE (sensitivity.json/.md).",
     )
     p.add_argument("--holdout", help='Stance to hold out, e.g. "right@0.407s" (see `gc-ocp info`).')
-    p.add_argument("--out", type=Path, required=True, help="Output folder.")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
     p.set_defaults(func=cmd_fit)
+
+    p = sub.add_parser(
+        "diagnose",
+        help="Where the model disagrees with the plates, which effect causes it, how far it "
+        "shrinks.",
+        description="Fit the base model on the trials of one subject, score it on held-out "
+        "stances (leave one stance out), add each candidate effect alone and rank them by the "
+        "held-out reduction (95 % bootstrap interval), add the best passing one and re-rank "
+        "(forward selection). Writes DIR/diagnosis.json, DIR/report.html (one self-contained "
+        "page) and the figures as PNG. Exit status 1 if a solve fails, 2 on bad input.",
+    )
+    _add_trial_args(p)
+    p.add_argument(
+        "--base",
+        choices=("seed", "registered", "full"),
+        default="registered",
+        help="Model the effects are added to: seed (the seed's law alone), registered (default: "
+        "+ friction, sole and pose registration, belt speed), full (+ damping, stiffness "
+        "exponent).",
+    )
+    p.add_argument(
+        "--effects",
+        metavar="A,B,...",
+        help="Comma-separated candidate effects (docs/effects.md), e.g. damping,friction. "
+        "Default: every effect the base does not have.",
+    )
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
+    p.set_defaults(func=cmd_diagnose)
     return parser
 
 

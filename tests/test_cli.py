@@ -185,3 +185,108 @@ def test_version(capsys):
     with pytest.raises(SystemExit) as e:
         main(["--version"])
     assert e.value.code == 0 and capsys.readouterr().out.strip() == f"gc-ocp {__version__}"
+
+
+HELDOUT_KEYS = [*(TABLE_KEYS[c] for c in CHANNELS), "cop_mm"]
+RANKING_KEYS = {
+    "effect",
+    "heldout_rms_reduction_pct",
+    "heldout_rms_reduction_ci",
+    "insample_rms_reduction_pct",
+    "n_params",
+    "confounded_with",
+}
+
+
+def test_diagnose_cli_writes_json_report_and_figures(tmp_path, capsys):
+    out = tmp_path / "diagnosis"
+    assert main(["diagnose", "--effects", "damping", "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert "fitting the base" in captured.err and "round 1" in captured.err  # progress
+    assert "report.html" in captured.out and "ranking" in captured.out
+
+    d = json.loads((out / "diagnosis.json").read_text())
+    assert d["base"]["model"] == ["contact", "sole", "pose", "belt"]
+    assert d["base"]["heldout_rms"]
+    for side, chans in d["base"]["heldout_rms"].items():
+        assert side in ("left", "right") and list(chans) == HELDOUT_KEYS
+    [r] = d["ranking"]
+    assert r["effect"] == "damping" and RANKING_KEYS <= set(r)
+    lo, hi = r["heldout_rms_reduction_ci"]
+    assert lo <= r["heldout_rms_reduction_pct"] <= hi and r["n_params"] >= 1
+    assert isinstance(d["selected"], list) and set(d["selected"]) <= {"damping"}
+    assert [w["model"] for w in d["waterfall"]][0] == "base"
+    for w in d["waterfall"]:
+        assert w["heldout_superior_force_pct_bw"] > 0
+        assert all(list(c) == HELDOUT_KEYS for c in w["heldout_rms"].values())
+    assert {"base", "final"} <= set(d["where"]) and d["folds"]["n"] >= 1 and d["seconds"] > 0
+    prov = d["provenance"]
+    assert prov["command"] == "gc-ocp diagnose" and prov["options"]["effects"] == "damping"
+    assert len(prov["trials"][0]["files"][0]["sha256"]) == 64
+
+    names = {p.name for p in out.iterdir()}
+    figures = {"where_heatmap.png", "where_residuals.png", "ranking.png", "waterfall.png"}
+    assert {"diagnosis.json", "final_fit.json", "report.html"} | figures <= names
+    from gc_ocp.estimation.result import EstimationResult
+
+    final = EstimationResult.from_json(out / "final_fit.json")
+    assert set(final.components) >= {"contact", "sole", "pose", *d["selected"]}
+    assert all((out / f).stat().st_size > 10_000 for f in figures)
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "<b>damping</b>" in page and "http" not in page.split("<body>")[1].split("sha256")[0]
+    assert not list(tmp_path.glob(".diagnosis.*"))  # no staging folder left
+
+
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["--effects", "damping,wobble"], "unknown effect(s) wobble; choose from damping"),
+        (["--base", "full", "--effects", "damping,stiffness_exponent"], "already in the base"),
+    ],
+)
+def test_diagnose_bad_effects_exit_2_before_any_work(tmp_path, capsys, argv, needle):
+    out = tmp_path / "diagnosis"
+    assert main(["diagnose", *argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err and "Traceback" not in err, err
+    assert "choose" in err and "solving" not in err and not out.exists()
+
+
+def test_trc_is_paired_with_the_only_mot_in_its_folder(capsys):
+    """The Rajagopal folder holds one .mot (grf_walk.mot, not named after the TRC) and a static
+    TRC; the Gait2392 folder's .mot is named after its TRC. Several trials, one command."""
+    from conftest import G23, RAJ
+
+    if not RAJ.is_dir():
+        pytest.skip(f"real datasets not found at {RAJ}")
+    argv = ["info", str(RAJ / "motion_capture_walk.trc"), str(G23 / "subject01_walk1.trc")]
+    assert main([*argv, "--mass", "80"]) == 0
+    err = capsys.readouterr().err
+    assert f"+ ground reactions {RAJ / 'grf_walk.mot'} (the only .mot/.sto file" in err
+    assert f"{G23 / 'subject01_walk1_grf.mot'} (its name starts with" in err
+
+
+def test_pairing_rules(tmp_path):
+    from gc_ocp.errors import InputError
+    from gc_ocp.io.pairing import pair_trials
+
+    for name in ("walk1.trc", "walk10.trc", "walk1_grf.mot", "walk10_grf.sto", "static.trc"):
+        (tmp_path / name).write_text("")
+    w1, w10 = tmp_path / "walk1.trc", tmp_path / "walk10.trc"
+    got = pair_trials([w1, w10])
+    assert [f.grf.name for f in got] == ["walk1_grf.mot", "walk10_grf.sto"]
+    given = pair_trials([w10, tmp_path / "a.c3d", w1], ["x.mot", "y.mot"])  # TRC order
+    assert [f.grf and f.grf.name for f in given] == ["x.mot", None, "y.mot"]
+    with pytest.raises(InputError, match=r"2 TRC trial\(s\).*one --grf per TRC trial"):
+        pair_trials([w1, w10], ["x.mot"])
+    with pytest.raises(InputError, match="cannot tell which ground-reaction file"):
+        pair_trials([tmp_path / "static.trc"])
+    with pytest.raises(InputError, match="given twice"):
+        pair_trials([w1, tmp_path / "." / "walk1.trc"])
+    (tmp_path / "only").mkdir()
+    (tmp_path / "only" / "a.trc").write_text("")
+    (tmp_path / "only" / "b.trc").write_text("")
+    (tmp_path / "only" / "grf.mot").write_text("")
+    assert pair_trials([tmp_path / "only" / "a.trc"])[0].grf.name == "grf.mot"
+    with pytest.raises(InputError, match="would both take the ground reactions"):
+        pair_trials([tmp_path / "only" / "a.trc", tmp_path / "only" / "b.trc"])

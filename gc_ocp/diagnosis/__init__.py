@@ -8,7 +8,7 @@ it shrinks once that effect is added (``docs/diagnosis.md``).
 
 Layout: :mod:`.phases` (gait phases of a stance), :mod:`.where` (residual map and figures),
 :mod:`.compare` (folds, held-out score, bootstrap), :mod:`.diagnose` (ranking, selection,
-confounding, the :class:`Diagnosis` result).
+confounding, the :class:`Diagnosis` result), :mod:`.report` (the self-contained HTML report).
 """
 
 from gc_ocp.diagnosis.diagnose import (
@@ -20,6 +20,7 @@ from gc_ocp.diagnosis.diagnose import (
     diagnose_stances,
 )
 from gc_ocp.diagnosis.phases import PHASES, phase_bounds
+from gc_ocp.diagnosis.report import report_html, write_report
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure, where
 
 __all__ = [
@@ -32,6 +33,8 @@ __all__ = [
     "diagnose_stances",
     "heatmap_figure",
     "phase_bounds",
+    "report_html",
     "residual_figure",
     "where",
+    "write_report",
 ]

@@ -1,0 +1,122 @@
+"""The diagnosis report: one self-contained HTML page."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import warnings
+
+import pytest
+
+
+@pytest.fixture(scope="module")
+def diagnosis():
+    """A cheap diagnosis of the bundled trial: the registered base and one candidate."""
+    from gc_ocp.diagnosis import diagnose_stances
+    from gc_ocp.estimation.fit import fit_data
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+
+    trial = load_trial()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # LLS start / height notes are tested elsewhere
+        _, data, _ = fit_data([(trial, compute_kinematics(trial))])
+        return diagnose_stances(data, candidates=["damping"], n_boot=200)
+
+
+@pytest.fixture(scope="module")
+def page(diagnosis):
+    from gc_ocp.diagnosis.report import report_html
+
+    return report_html(diagnosis)
+
+
+def test_report_is_self_contained(page):
+    assert page.startswith("<!DOCTYPE html>") and page.rstrip().endswith("</html>")
+    refs = re.findall(r'(?:src|href)\s*=\s*["\']?([^"\'\s>]+)', page, flags=re.I)
+    assert refs  # the figures
+    for ref in refs:
+        assert not re.match(r"(https?:)?//", ref, flags=re.I), ref
+        assert ref.startswith("data:"), ref  # nothing outside the file, not even a local path
+    imgs = re.findall(r"<img\b[^>]*>", page, flags=re.I)
+    assert len(imgs) >= 4  # heat map, residual over time, ranking, waterfall
+    for img in imgs:
+        assert re.search(r'src="data:image/png;base64,[A-Za-z0-9+/=]{1000,}"', img), img[:80]
+    assert not re.search(r"<(script|link|iframe|object|embed)\b", page, flags=re.I)
+    assert not re.search(r"url\(|@import", page, flags=re.I)  # no CSS fetch either
+
+
+def test_report_names_every_ranked_effect_and_its_numbers(diagnosis, page):
+    for r in diagnosis.ranking:
+        assert f"<b>{r['effect']}</b>" in page
+        assert f"{r['heldout_rms_reduction_pct']:+.1f}" in page
+        lo, hi = r["heldout_rms_reduction_ci"]
+        assert f"[{lo:+.1f}, {hi:+.1f}]" in page
+        assert f"{r['insample_rms_reduction_pct']:+.1f}" in page
+    for heading in (
+        "Where the gap is",
+        "Which effect explains it",
+        "How far the gap shrinks",
+        "The final model",
+        "Decision rule",
+        "Notes and flags",
+        "Provenance",
+    ):
+        assert heading in page, heading
+    assert "Contact units" in page and "Shared parameters" in page and " ± " in page
+
+
+def test_report_says_when_effects_are_confounded(diagnosis):
+    """Two effects flagged as confounded are named as ambiguous in plain words."""
+    from gc_ocp.diagnosis.report import confounded_groups, report_html
+
+    r = diagnosis.ranking[0]
+    twin = {**r, "effect": "ground_offset", "confounded_with": [r["effect"]]}
+    ranking = [{**r, "confounded_with": ["ground_offset"]}, twin]
+    assert confounded_groups(ranking) == [[r["effect"], "ground_offset"]]
+    d = dataclasses.replace(diagnosis, ranking=ranking, rounds=[ranking])
+    page = report_html(d, provenance=_provenance())
+    assert (
+        f"<b>{r['effect']}</b> and <b>ground_offset</b> explain the same part of the gap: the "
+        "data cannot tell them apart." in page
+    )
+    assert "sha256 0123456789abcdef" in page and "gc-ocp diagnose" in page
+
+    alone = [{**r, "confounded_with": ["kinematic_correction"], "gain_from_nuisance": 0.8}]
+    assert confounded_groups(alone) == []  # a part of the base is not a candidate
+    page = report_html(dataclasses.replace(diagnosis, ranking=alone, rounds=[alone]))
+    assert (
+        f"<b>{r['effect']}</b> and the base's <b>kinematic_correction</b> (the per-stance "
+        "correction the base already has) explain the same part of the gap" in page
+    )
+    assert "80 % of its held-out gain" in page
+
+
+def test_write_report_is_atomic(diagnosis, tmp_path):
+    from gc_ocp.diagnosis.report import write_report
+
+    path = write_report(diagnosis, tmp_path / "r" / "report.html")
+    assert path.read_text(encoding="utf-8").startswith("<!DOCTYPE html>")
+    assert [p.name for p in path.parent.iterdir()] == ["report.html"]
+
+
+def _provenance() -> dict:
+    return {
+        "gc_ocp_version": "0.0",
+        "date": "2026-01-01T00:00:00+00:00",
+        "python": "3",
+        "command": "gc-ocp diagnose",
+        "options": {"effects": "damping"},
+        "trials": [
+            {
+                "name": "walk",
+                "files": [{"path": "/data/walk.c3d", "sha256": "0123456789abcdef" * 4}],
+                "mass_kg": 70.0,
+                "mass_source": "file",
+                "height_m": 1.7,
+                "height_source": "file",
+                "stances_used": ["walk:right@0.4s"],
+                "stances_excluded": [],
+            }
+        ],
+    }
