@@ -161,7 +161,7 @@ def confirm(stances, holdout: int, candidates, say) -> dict:
     }
 
 
-def run(name: str, cache: Path, candidates, say) -> dict:
+def run(name: str, cache: Path, candidates, say, max_effects: int | None = None) -> dict:
     from gc_ocp.diagnosis import diagnose
     from gc_ocp.estimation.fit import fit_data
 
@@ -176,11 +176,12 @@ def run(name: str, cache: Path, candidates, say) -> dict:
             say(f"== {name}: diagnosis read from {path}")
         else:
             say(f"== {name}: diagnosis on all stances")
-            d = diagnose([tk], candidates=candidates, progress=say)
+            d = diagnose([tk], candidates=candidates, max_effects=max_effects, progress=say)
             say(d.summary())
             out = {"trial": name, "description": DESCRIPTION[name], "diagnosis": d.to_json()}
             out["summary"] = d.summary()
             out["diagnosis_seconds"] = d.seconds
+            out["max_effects"] = max_effects
             path.write_text(json.dumps(_jsonable(out), indent=1))
         _, stances, _ = fit_data([tk])
         sides = [s.side for s in stances]
@@ -306,6 +307,12 @@ def main() -> None:
     ap.add_argument("--candidates", nargs="*", default=None, help="default: every effect")
     ap.add_argument("--cache", type=Path, default=ROOT / "benchmarks" / ".diagnosis_real")
     ap.add_argument("--report", action="store_true", help="only rebuild the markdown from --cache")
+    ap.add_argument(
+        "--max-effects",
+        type=int,
+        default=None,
+        help="stop the forward selection after that many effects (compute budget)",
+    )
     ap.add_argument("--fresh", action="store_true", help="rerun the diagnoses found in --cache")
     args = ap.parse_args()
 
@@ -321,7 +328,7 @@ def main() -> None:
             continue
         if args.fresh and path.exists():
             path.unlink()
-        results.append(run(name, args.cache, args.candidates, say))
+        results.append(run(name, args.cache, args.candidates, say, args.max_effects))
     print(markdown(results))
 
 
