@@ -27,7 +27,7 @@ Vicon Plug-in Gait trials of BTKData):
    :data:`CONFIRM_MAX_EFFECTS` effects. The full diagnosis's own per-stance reductions are printed beside it, but they are not
    independent of the selection (that stance was one of its folds).
 
-Each trial's result is cached as JSON in ``--cache`` (default ``benchmarks/.diagnosis_real``) so
+Each trial's result is cached as JSON in ``--cache`` (default ``benchmarks/diagnosis_real/``) so
 the markdown (stdout) can be rebuilt (``--report``) and a trial rerun alone; a cached diagnosis is
 reused (only the confirmation is redone) unless ``--fresh``.
 """
@@ -244,6 +244,12 @@ def markdown(results: list[dict]) -> str:
             "```",
             "",
         ]
+        if d["ranking"] and "gain_from_nuisance" not in d["ranking"][0]:
+            lines += [
+                "(Run before `gain_from_nuisance` and the nuisance-confounding label existed; "
+                "the ranking, intervals and selection do not depend on them.)",
+                "",
+            ]
         for k, rows in enumerate(d["rounds"][1:], start=2):
             lines.append(
                 f"Round {k} (on top of {', '.join(d['selected'][: k - 1])}): "
@@ -305,7 +311,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--trials", nargs="*", default=list(TRIALS), choices=TRIALS)
     ap.add_argument("--candidates", nargs="*", default=None, help="default: every effect")
-    ap.add_argument("--cache", type=Path, default=ROOT / "benchmarks" / ".diagnosis_real")
+    ap.add_argument("--cache", type=Path, default=ROOT / "benchmarks" / "diagnosis_real")
     ap.add_argument("--report", action="store_true", help="only rebuild the markdown from --cache")
     ap.add_argument(
         "--max-effects",
