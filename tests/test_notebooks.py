@@ -4,7 +4,9 @@ The kernel is ``python3`` when it resolves to the interpreter running the tests 
 where ``pip install -e '.[dev]'`` installed ipykernel: its spec says ``python`` and
 jupyter_client substitutes ``sys.executable``); otherwise a temporary kernel spec pointing at
 ``sys.executable`` is used, so the notebooks always run against this environment. The repository
-root is prepended to the kernel's ``PYTHONPATH`` so the notebooks import this checkout.
+root is prepended to the kernel's ``PYTHONPATH`` so the notebooks import this checkout, and
+``GC_OCP_NOTEBOOK_SMALL=1`` asks each notebook for its small settings (a notebook reads it in its
+parameter cell, e.g. fewer candidate effects in the diagnosis).
 """
 
 from __future__ import annotations
@@ -65,6 +67,7 @@ def test_notebook_runs(path: Path, tmp_path, monkeypatch):
         "PYTHONPATH", os.pathsep.join([str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])
     )
     monkeypatch.setenv("MPLBACKEND", "Agg")
+    monkeypatch.setenv("GC_OCP_NOTEBOOK_SMALL", "1")
     kernel = _kernel_name(tmp_path, monkeypatch)
     nb = nbformat.read(path, as_version=4)
     client = nbclient.NotebookClient(
@@ -85,7 +88,8 @@ def test_notebook_runs(path: Path, tmp_path, monkeypatch):
         if o.get("output_type") == "error"
     ]
     assert not errors, f"{path.name}: error outputs {errors}"
-    # every cell that calls a plotting function shows its figure (an image output), so that a
+    # every cell that calls a plotting function (``plot_*``, or a result's figure method such as
+    # ``.heatmap()`` / ``.ranking_figure()``) shows its figure (an image output), so that a
     # notebook without inline plotting (figures printed as "<Figure ...>") fails here
     import re
 
@@ -95,7 +99,7 @@ def test_notebook_runs(path: Path, tmp_path, monkeypatch):
         plots = [
             ln
             for ln in c.source.splitlines()
-            if re.search(r"\bplot_\w+\(", ln) and "import" not in ln
+            if re.search(r"\bplot_\w+\(|\.(heatmap|\w+_figure)\(", ln) and "import" not in ln
         ]
         if plots:
             images = [o for o in c.get("outputs", []) if "image/png" in o.get("data", {})]
