@@ -281,6 +281,7 @@ def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
         magnitudes=args.magnitude or ("moderate", "strong"),
         resume=args.resume,
         progress=_progress,
+        first_seed=args.first_seed,
     )
     print(report(res))
     print(f"wrote {args.out / 'confusion.json'} and {args.out / 'confusion.png'}")
@@ -382,6 +383,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--effects", help='Comma-separated truths (effects and/or "none"); default all candidates.'
+    )
+    p.add_argument(
+        "--first-seed",
+        type=int,
+        default=0,
+        dest="first_seed",
+        help="First noise draw (runs of other seeds can be merged; default 0).",
     )
     p.add_argument("--resume", action="store_true", help="Keep the cases of an earlier run.")
     p.set_defaults(func=cmd_benchmark_diagnosis)

@@ -62,6 +62,7 @@ def test_strong_effect_is_found_and_none_rejected(tmp_path):
         magnitudes=["strong"],
         candidates=["time_offset", "damping"],
         n_boot=500,
+        workers=1,
     )
     saved = json.loads((tmp_path / "confusion.json").read_text())
     assert (tmp_path / "confusion.png").stat().st_size > 0

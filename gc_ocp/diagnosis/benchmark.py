@@ -354,10 +354,12 @@ def plan(
     effects: Sequence[str] | None = None,
     seeds: int = 3,
     magnitudes: Sequence[str] = MAGNITUDES,
+    first_seed: int = 0,
 ) -> list[dict]:
-    """The cases: every truth (the base's candidates and "none") x magnitude x seed, seeds
-    outermost (a partial run covers every truth). "none" has no magnitude: it gets one case per
-    (magnitude, seed) with distinct seeds, as many as any effect."""
+    """The cases: every truth (the base's candidates and "none") x magnitude x seed (``seeds``
+    of them from ``first_seed``: runs of other seeds can be merged), seeds outermost (a partial
+    run covers every truth). "none" has no magnitude: it gets one case per (magnitude, seed)
+    with distinct seeds, as many as any effect."""
     _, model = resolve_base(base)
     cands = candidate_names(model)
     truths = [*cands, NONE] if effects is None else list(effects)
@@ -370,7 +372,7 @@ def plan(
     if bad:
         raise InputError(f"Unknown magnitude(s) {bad}; choose from {list(MAGNITUDES)}")
     cases = []
-    for seed in range(seeds):
+    for seed in range(first_seed, first_seed + seeds):
         for j, mag in enumerate(magnitudes):
             for e in truths:
                 s = seed if e != NONE else seed * len(magnitudes) + j
@@ -391,6 +393,7 @@ def run_case(
     realism: Realism = Realism(),
     n_boot: int = 2000,
     progress: Callable[[str], None] | None = None,
+    workers: int | None = None,
 ) -> dict:
     """Generate one case's data and diagnose it blind: the case with ``answer``, ``correct``,
     the ranking rows and timing."""
@@ -414,7 +417,13 @@ def run_case(
         # by the fit itself; not the benchmark's message
         warnings.filterwarnings("ignore", message="LLS initialisation not possible")
         d = diagnose_stances(
-            data, base=base, candidates=candidates, max_effects=1, n_boot=n_boot, progress=progress
+            data,
+            base=base,
+            candidates=candidates,
+            max_effects=1,
+            n_boot=n_boot,
+            progress=progress,
+            workers=workers,
         )
     answer = d.selected[0] if d.selected else NONE
     rows = [
@@ -491,6 +500,34 @@ def summarize(cases: list[dict], labels: Sequence[str]) -> dict:
     }
 
 
+def merge(results: Sequence[dict]) -> dict:
+    """Runs of the same base with other seeds as one result (cases deduplicated by truth,
+    magnitude and seed; the summary recomputed)."""
+    first = results[0]
+    cases, seen = [], set()
+    for r in results:
+        if r["settings"]["base"] != first["settings"]["base"]:
+            raise InputError("merge: results of different bases")
+        for c in r["cases"]:
+            k = (c["truth"], c["magnitude"], c["seed"])
+            if k not in seen:
+                seen.add(k)
+                cases.append(c)
+    settings = {
+        **first["settings"],
+        "seeds": sorted({c["seed"] for c in cases if c["truth"] != NONE}),
+    }
+    return {
+        "settings": settings,
+        "summary": summarize(cases, [*settings["candidates"], NONE]),
+        "cases": cases,
+        "seconds": {
+            "wall_this_run": None,
+            "cases_total": sum(c["seconds_generate"] + c["seconds_diagnose"] for c in cases),
+        },
+    }
+
+
 def confusion_figure(result: dict):
     """The confusion matrix (counts; rows truth, columns answer) as a matplotlib figure."""
     import matplotlib.pyplot as plt
@@ -537,22 +574,25 @@ def run_benchmark(
     n_boot: int = 2000,
     resume: bool = False,
     progress: Callable[[str], None] | None = None,
+    workers: int | None = None,
+    first_seed: int = 0,
 ) -> dict:
     """Run every case of :func:`plan`; ``DIR/confusion.json`` is rewritten atomically after each
     case (``resume``: keep the cases of an earlier run with the same settings), then
-    ``DIR/confusion.png``. Returns the result dict written to ``confusion.json``."""
+    ``DIR/confusion.png``. Returns the result dict written to ``confusion.json``. ``workers``:
+    processes per diagnosis round (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`)."""
     from gc_ocp.outputs import atomic_savefig, atomic_write_text, check_writable
 
     say = progress or (lambda s: None)
     out = check_writable(out)
-    cases = plan(base, effects, seeds, magnitudes)
+    cases = plan(base, effects, seeds, magnitudes, first_seed)
     _, model = resolve_base(base)
     cands = candidate_names(model, candidates)
     settings = {
         "base": base,
         "base_components": [c.name for c in model],
         "candidates": cands,
-        "seeds": seeds,
+        "seeds": list(range(first_seed, first_seed + seeds)),
         "magnitudes": list(magnitudes),
         "values": {k: VALUES[k] for k in VALUES if k in {c["truth"] for c in cases}},
         "realism": dataclasses.asdict(realism),
@@ -591,7 +631,7 @@ def run_benchmark(
             f"[{len(done) + 1}/{len(cases)}] base {base}: truth {case['truth']} "
             f"({case['magnitude']}), seed {case['seed']}"
         )
-        r = run_case(case, base, candidates, realism, n_boot, progress=None)
+        r = run_case(case, base, candidates, realism, n_boot, progress=None, workers=workers)
         done.append(r)
         s = summarize(done, labels)
         say(
@@ -641,6 +681,34 @@ def report(result: dict) -> str:
     )
 
 
+def markdown(result: dict) -> str:
+    """The confusion matrix and rates of a result as Markdown (rows truth, columns answer)."""
+    s, st = result["summary"], result["settings"]
+    short = {a: a.replace("_", " ") for a in s["answers"]}
+    lines = [
+        f"**base `{st['base']}`** ({', '.join(st['base_components'])}); candidates: "
+        f"{', '.join(st['candidates'])}; {s['n_cases']} cases, "
+        f"{result['seconds']['cases_total'] / 60:.0f} min of case time",
+        "",
+        "| truth \\ answer | " + " | ".join(short[a] for a in s["answers"]) + " |",
+        "|---|" + "---|" * len(s["answers"]),
+    ]
+    for t, row in zip(s["truths"], s["matrix"], strict=True):
+        cells = [
+            f"**{v}**" if a == t and v else (str(v) if v else ".")
+            for a, v in zip(s["answers"], row, strict=True)
+        ]
+        lines.append(f"| {t} | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        f"top-1 accuracy (effect cases): **{_pct(s['top1_accuracy'])}**; "
+        f'"none" correctly rejected: **{_pct(s["none_correct_rejection"])}**; overall '
+        f"{_pct(s['overall_accuracy'])}; effect cases right or flagged ambiguous (truth among "
+        f"the answer's `confounded_with`): {_pct(s['top1_accuracy_ambiguity_flagged_ok'])}",
+    ]
+    return "\n".join(lines)
+
+
 __all__ = [
     "MAGNITUDES",
     "NONE",
@@ -650,6 +718,8 @@ __all__ = [
     "confusion_figure",
     "drift",
     "generate",
+    "markdown",
+    "merge",
     "motion",
     "plan",
     "report",
