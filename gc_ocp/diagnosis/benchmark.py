@@ -437,7 +437,10 @@ def run_case(
                 "n_params",
                 "passes",
                 "confounded_with",
+                "per_stance_reduction_pct",
+                "gain_from_nuisance",
             )
+            if k in r
         }
         for r in d.ranking
     ]
