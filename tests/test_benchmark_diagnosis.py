@@ -81,3 +81,42 @@ def test_strong_effect_is_found_and_none_rejected(tmp_path):
     s = saved["summary"]
     assert s["top1_accuracy"] == 1.0 and s["none_correct_rejection"] == 1.0
     assert s["matrix"] == [[1, 0, 0], [0, 0, 1]]  # rows time_offset, none; columns + damping
+
+
+def _fake_evaluation(frame_costs: list[np.ndarray]):
+    """An Evaluation-like object with held-out per-frame costs (no prior, no Occam term)."""
+    from types import SimpleNamespace
+
+    from gc_ocp.diagnosis.compare import Evaluation, Fold
+
+    folds = []
+    for i, c in enumerate(frame_costs):
+        fit = {
+            "model": np.zeros((c.size, 6)),
+            "measured": np.zeros((c.size, 6)),
+            "in_contact": np.ones(c.size, bool),
+            "body_weight": 600.0,
+        }
+        held = SimpleNamespace(
+            data_cost=float(c.sum()), prior_cost=0.0, n_data=6 * c.size, stance_fits=[fit]
+        )
+        folds.append(Fold(f"s{i}", None, held, 0.0, c))
+    full = SimpleNamespace(objective=float(sum(c.sum() for c in frame_costs)))
+    return Evaluation("x", (), (), full, folds)
+
+
+def test_tied_candidates_are_named_confounded():
+    """Two passing candidates whose paired held-out difference is within the bootstrap noise
+    are named confounded with each other; a clearly better one is not tied to a worse one."""
+    from gc_ocp.diagnosis.diagnose import _flag_ties
+
+    rng = np.random.default_rng(0)
+    base = [np.full(60, 1.0) for _ in range(3)]
+    a = [c * 0.8 * (1 + 0.02 * rng.standard_normal(c.size)) for c in base]
+    b = [c * 0.8 * (1 + 0.02 * rng.standard_normal(c.size)) for c in base]  # same as a
+    w = [c * 0.95 for c in base]  # passes too, clearly worse than a and b
+    evs = {n: _fake_evaluation(v) for n, v in {"a": a, "b": b, "w": w}.items()}
+    rows = [{"effect": n, "passes": True, "confounded_with": []} for n in ("a", "b", "w")]
+    _flag_ties(rows, evs, 500, 0, 100.0)
+    by = {r["effect"]: r["confounded_with"] for r in rows}
+    assert by == {"a": ["b"], "b": ["a"], "w": []}
