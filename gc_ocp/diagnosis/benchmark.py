@@ -235,14 +235,18 @@ def truth_model(effect: str, magnitude: str, base: tuple, stances, rng) -> tuple
         }
         return (*base, ContactDensity(fixed=theta))
     if effect == "toe_joint":
-        # the sole at its nominal points: the base fit moves TT near the MTP axis, where a hinge
-        # barely changes its depth (see tests/test_effect_toe_joint.py)
-        base = tuple(
-            dataclasses.replace(c, fixed={s: 0 * np.asarray(o) for s, o in c.fixed.items()})
-            if c.name == "sole"
-            else c
-            for c in base
-        )
+        # TT at its nominal point, the other units as fitted: the base fit moves TT 20-25 mm
+        # back, nearly under the MTP axis, where a hinge barely changes its depth (see
+        # tests/test_effect_toe_joint.py, which zeroes the whole sole)
+        def nominal_tt(c):
+            fixed = {}
+            for side, o in c.fixed.items():
+                o = np.array(o, float)
+                o[list(stances[0].layout.units).index("TT")] = 0.0
+                fixed[side] = o
+            return dataclasses.replace(c, fixed=fixed)
+
+        base = tuple(nominal_tt(c) if c.name == "sole" else c for c in base)
         return (*base, ToeJoint(fixed=_toe_angles(stances, float(v))))
     if effect == "ground_offset":
         dz, tilt = v
@@ -504,18 +508,16 @@ def summarize(cases: list[dict], labels: Sequence[str]) -> dict:
 
 
 def merge(results: Sequence[dict]) -> dict:
-    """Runs of the same base with other seeds as one result (cases deduplicated by truth,
-    magnitude and seed; the summary recomputed)."""
+    """Runs of the same base with other seeds as one result (cases keyed by truth, magnitude and
+    seed; a later result's case replaces an earlier one; the summary recomputed)."""
     first = results[0]
-    cases, seen = [], set()
+    by_key: dict = {}
     for r in results:
         if r["settings"]["base"] != first["settings"]["base"]:
             raise InputError("merge: results of different bases")
         for c in r["cases"]:
-            k = (c["truth"], c["magnitude"], c["seed"])
-            if k not in seen:
-                seen.add(k)
-                cases.append(c)
+            by_key[(c["truth"], c["magnitude"], c["seed"])] = c
+    cases = list(by_key.values())
     settings = {
         **first["settings"],
         "seeds": sorted({c["seed"] for c in cases if c["truth"] != NONE}),
