@@ -18,8 +18,9 @@ confounding (see ``docs/diagnosis.md``).
    :data:`CONFOUND_COSINE`, both reducing the score), or when one stops passing once the other
    is in the model (its gain falls by more than half: the gains are not additive), or with the
    base's per-stance nuisance (``kinematic_correction``) when its gain comes mostly from a
-   smaller nuisance cost rather than a better fit of the data (:data:`NUISANCE_SHARE`). The
-   result says so instead of guessing which one it is.
+   smaller nuisance cost rather than a better fit of the data (:data:`NUISANCE_SHARE`), or
+   when both pass and the paired bootstrap of their difference does not order them (a tie).
+   The result says so instead of guessing which one it is.
 """
 
 from __future__ import annotations
@@ -329,7 +330,22 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
             if na > 0 and nb > 0 and float(da @ db) / (na * nb) > CONFOUND_COSINE:
                 a["confounded_with"].append(b["effect"])
     rows.sort(key=lambda r: -r["heldout_rms_reduction_pct"])
+    _flag_ties(rows, evs, n_boot, seed, rate)
     return rows
+
+
+def _flag_ties(rows: list[dict], evs: dict, n_boot, seed, rate) -> None:
+    """Passing candidates whose held-out scores do not differ significantly (the 95 % interval
+    of their paired difference, the same block bootstrap, reaches 0) are named confounded with
+    each other: the data do not order them, so which one comes first is not an answer."""
+    passing = [r for r in rows if r["passes"]]
+    for i, a in enumerate(passing):
+        for b in passing[i + 1 :]:
+            hi = reduction(evs[a["effect"]], evs[b["effect"]], n_boot, seed, rate)["ci"][1]
+            if hi >= 0.0:  # b is not significantly worse than a
+                for x, y in ((a, b), (b, a)):
+                    if y["effect"] not in x["confounded_with"]:
+                        x["confounded_with"].append(y["effect"])
 
 
 def _evaluate_one(args) -> Evaluation:

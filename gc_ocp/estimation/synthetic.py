@@ -115,6 +115,20 @@ def noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) -> 
     dR = Rotation.from_matrix(np.einsum("nji,njk->nik", P[:, :3, :3], Rs)).as_rotvec()
     dR = filtfilt(b, a, dR, axis=0)
     do = filtfilt(b, a, os_ - P[:, :3, 3], axis=0)
+    return with_pose_error(foot, dR, do)
+
+
+def with_pose_error(
+    foot: FootKinematics, rotation: np.ndarray, translation: np.ndarray
+) -> FootKinematics:
+    """``foot`` seen with a rigid error of its hindfoot pose: ``rotation`` ``(T, 3)`` [rad] a
+    rotation vector in the hindfoot frame (``R' = R exp(rotation)``), ``translation`` ``(T, 3)``
+    [m] of the hindfoot origin in ``lab``; the same rigid error moves the toes (the toes are not
+    tracked separately), twists updated consistently. Zero error gives back the input exactly."""
+    from scipy.spatial.transform import Rotation
+
+    dR, do = np.asarray(rotation, float), np.asarray(translation, float)
+    P = foot.hindfoot_pose
     Rn = np.einsum("nij,njk->nik", P[:, :3, :3], Rotation.from_rotvec(dR).as_matrix())
     on = P[:, :3, 3] + do
     # the same rigid error moves both segments: a lab transform D = (R_d, t_d) with
@@ -170,5 +184,7 @@ __all__ = [
     "synthetic_stance",
     "default_truth",
     "nominal_points",
+    "noisy_pose",
+    "with_pose_error",
     "GRAVITY",
 ]

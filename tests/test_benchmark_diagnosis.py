@@ -1,0 +1,122 @@
+"""The withheld-effect benchmark's plumbing (``gc_ocp.diagnosis.benchmark``) on a small case: a
+strong clock offset and "none", one seed, two candidates, against the bare seed base (the
+cheapest fits: the law alone). The full benchmark is ``gc-ocp benchmark-diagnosis``
+(``benchmarks/diagnosis_blind_output.md``)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from gc_ocp.diagnosis import benchmark
+from gc_ocp.errors import InputError
+
+
+def test_plan_covers_every_truth_and_rejects_unknown_names():
+    cases = benchmark.plan("registered", seeds=2)
+    truths = {c["truth"] for c in cases}
+    # the registered base has sole and pose corrections: they are not candidates
+    assert truths == {
+        "damping",
+        "stiffness_exponent",
+        "contact_density",
+        "toe_joint",
+        "ground_offset",
+        "time_offset",
+        "friction",
+        "none",
+    }
+    assert len(cases) == 8 * 2 * 2
+    # "none" gets distinct seeds, as many cases as an effect
+    assert sorted(c["seed"] for c in cases if c["truth"] == "none") == [0, 1, 2, 3]
+    assert len({c["seed"] for c in benchmark.plan("seed", seeds=1) if c["truth"] == "none"}) == 2
+    with pytest.raises(InputError, match="not candidates on base 'registered'"):
+        benchmark.plan("registered", effects=["sole_geometry"])
+    with pytest.raises(InputError, match="Unknown magnitude"):
+        benchmark.plan("seed", magnitudes=["huge"])
+
+
+def test_generator_thresholds_the_plate_and_drifts_the_foot():
+    """Frames below 20 N are zero on the plate; the seen foot differs from the true one by the
+    drift (a few mm), the true motion is untouched."""
+    stances = benchmark.motion("seed")
+    truth = benchmark.base_truth("seed")
+    rng = np.random.default_rng(0)
+    data = benchmark.generate(stances, truth, rng, benchmark.Realism(), (0.0, 2e-3, 0.5))
+    for st, d in zip(stances, data, strict=True):
+        low = d.measured[:, 2] < 20.0
+        assert low.any() and np.all(d.measured[low] == 0.0)
+        moved = np.linalg.norm(d.foot.positions - st.foot.positions, axis=2)
+        assert 1e-4 < np.median(moved) < 1e-2  # [m]
+
+
+@pytest.mark.slow
+def test_strong_effect_is_found_and_none_rejected(tmp_path):
+    res = benchmark.run_benchmark(
+        tmp_path,
+        base="seed",
+        effects=["time_offset", "none"],
+        seeds=1,
+        magnitudes=["strong"],
+        candidates=["time_offset", "damping"],
+        n_boot=500,
+        workers=1,
+    )
+    saved = json.loads((tmp_path / "confusion.json").read_text())
+    assert (tmp_path / "confusion.png").stat().st_size > 0
+    assert saved["summary"] == json.loads(json.dumps(res["summary"]))
+    by_truth = {c["truth"]: c for c in saved["cases"]}
+    print(benchmark.report(res))
+    for c in saved["cases"]:
+        print(
+            c["truth"],
+            "->",
+            c["answer"],
+            [(r["effect"], r["heldout_rms_reduction_pct"]) for r in c["ranking"]],
+        )
+    assert by_truth["time_offset"]["answer"] == "time_offset"
+    assert by_truth["none"]["answer"] == "none"
+    s = saved["summary"]
+    assert s["top1_accuracy"] == 1.0 and s["none_correct_rejection"] == 1.0
+    assert s["matrix"] == [[1, 0, 0], [0, 0, 1]]  # rows time_offset, none; columns + damping
+
+
+def _fake_evaluation(frame_costs: list[np.ndarray]):
+    """An Evaluation-like object with held-out per-frame costs (no prior, no Occam term)."""
+    from types import SimpleNamespace
+
+    from gc_ocp.diagnosis.compare import Evaluation, Fold
+
+    folds = []
+    for i, c in enumerate(frame_costs):
+        fit = {
+            "model": np.zeros((c.size, 6)),
+            "measured": np.zeros((c.size, 6)),
+            "in_contact": np.ones(c.size, bool),
+            "body_weight": 600.0,
+        }
+        held = SimpleNamespace(
+            data_cost=float(c.sum()), prior_cost=0.0, n_data=6 * c.size, stance_fits=[fit]
+        )
+        folds.append(Fold(f"s{i}", None, held, 0.0, c))
+    full = SimpleNamespace(objective=float(sum(c.sum() for c in frame_costs)))
+    return Evaluation("x", (), (), full, folds)
+
+
+def test_tied_candidates_are_named_confounded():
+    """Two passing candidates whose paired held-out difference is within the bootstrap noise
+    are named confounded with each other; a clearly better one is not tied to a worse one."""
+    from gc_ocp.diagnosis.diagnose import _flag_ties
+
+    rng = np.random.default_rng(0)
+    base = [np.full(60, 1.0) for _ in range(3)]
+    a = [c * 0.8 * (1 + 0.02 * rng.standard_normal(c.size)) for c in base]
+    b = [c * 0.8 * (1 + 0.02 * rng.standard_normal(c.size)) for c in base]  # same as a
+    w = [c * 0.95 for c in base]  # passes too, clearly worse than a and b
+    evs = {n: _fake_evaluation(v) for n, v in {"a": a, "b": b, "w": w}.items()}
+    rows = [{"effect": n, "passes": True, "confounded_with": []} for n in ("a", "b", "w")]
+    _flag_ties(rows, evs, 500, 0, 100.0)
+    by = {r["effect"]: r["confounded_with"] for r in rows}
+    assert by == {"a": ["b"], "b": ["a"], "w": []}
