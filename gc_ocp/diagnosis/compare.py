@@ -127,8 +127,17 @@ def _fit(
 ) -> EstimationResult:
     """``model`` (law started at the LLS of ``data``) fitted on ``data``: from ``start`` alone
     when given (a fit of the model this one extends, or of the same model on more stances), with
-    the usual starts as a fallback if that solve fails; from the usual starts otherwise."""
-    model = with_lls_start(model, data)
+    the usual starts as a fallback if that solve fails; from the usual starts otherwise.
+
+    The seed's LLS is rank deficient on many folds (a unit never loaded in the remaining
+    stances); it only sets the law's start and prior centre, so its warning is given once, on
+    the base's fit of all stances (``start`` None), not once per fold and candidate."""
+    import warnings
+
+    with warnings.catch_warnings():
+        if start is not None:
+            warnings.filterwarnings("ignore", message="LLS initialisation not possible")
+        model = with_lls_start(model, data)
     if start is not None:
         try:
             return best_of(data, model, weights, options, strategies=(), start=start)

@@ -162,13 +162,20 @@ class Diagnosis:
             "seconds": self.seconds,
         }
 
+    @property
+    def _scored(self) -> str:
+        """ "held-out", or "in-sample" when no stance could be held out (the JSON keys keep
+        their names; ``folds.kind`` says which)."""
+        return "held-out" if self.folds["n"] else "in-sample"
+
     def summary(self) -> str:
         f = self.folds
         lines = [
             f"Diagnosis on base '{self.base}' ({', '.join(self.base_components)}); "
             f"{f['kind']}, {f['n']} held-out stance(s); {self.seconds:.0f} s",
-            f"base held-out superior-force RMS {self.waterfall[0]['heldout_superior_force_pct_bw']:.2f} % BW",
-            "ranking (held-out reduction of the combined score, 95 % interval; in-sample):",
+            f"base {self._scored} superior-force RMS "
+            f"{self.waterfall[0]['heldout_superior_force_pct_bw']:.2f} % BW",
+            f"ranking ({self._scored} reduction of the combined score, 95 % interval; in-sample):",
         ]
         for r in self.ranking:
             mark = "PASS" if r["passes"] else "    "
@@ -186,7 +193,7 @@ class Diagnosis:
             "selected: "
             + (", ".join(self.selected) if self.selected else "none (no effect passes)")
         )
-        lines.append("waterfall (held-out superior-force RMS, % BW):")
+        lines.append(f"waterfall ({self._scored} superior-force RMS, % BW):")
         for w in self.waterfall:
             lines.append(f"  {w['model']:<28} {w['heldout_superior_force_pct_bw']:.2f}")
         lines += [f"note: {n}" for n in self.notes]
@@ -271,8 +278,11 @@ def _step(label: str, ev: Evaluation) -> dict:
 
 
 def _n_params(child: Evaluation, parent: Evaluation) -> int:
-    """Physical parameters (no prior) and per-stance variables the effect adds."""
-    return int(child.full.n_free - parent.full.n_free)
+    """Scalars the added effect estimates (its own variables, summed over the stances for a
+    per-stance effect). Not the change of ``n_free``: an effect may also fix variables of the
+    model (``contact_density`` replaces the five per-unit stiffnesses by a 4-parameter field)."""
+    names = {c.name for c in child.model} - {c.name for c in parent.model}
+    return int(sum(s.size for s in child.full.variables if s.key[0] in names))
 
 
 def _terms(ev: Evaluation) -> tuple[float, float]:
@@ -302,9 +312,13 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
         deltas[name] = d
         cd, cn = _terms(ev)
         gain = (pd + pn) - (cd + cn)
-        from_nuisance = (pn - cn) / gain if gain > 0 else 0.0
+        # the share is only meaningful for a gain that counts (near 0 it is a ratio of noise)
+        meaningful = gain > 0 and red["pct"] >= threshold
+        from_nuisance = (pn - cn) / gain if meaningful else None
         relieves = [
-            n for n in _nuisance_names(parent.model) if gain > 0 and from_nuisance > NUISANCE_SHARE
+            n
+            for n in _nuisance_names(parent.model)
+            if meaningful and from_nuisance > NUISANCE_SHARE
         ]
         rows.append(
             {
@@ -316,7 +330,7 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
                 "per_stance_reduction_pct": red["per_stance"],
                 "n_params": _n_params(ev, parent),
                 "passes": bool(red["pct"] >= threshold and red["ci"][0] > 0.0),
-                "gain_from_nuisance": float(from_nuisance),
+                "gain_from_nuisance": None if from_nuisance is None else float(from_nuisance),
                 "confounded_with": relieves,
                 "flags": [f["code"] for f in ev.full.flags],
             }
