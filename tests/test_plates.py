@@ -1,5 +1,5 @@
 """Force plates of any lab: C3D types 1-4, Y-up/Z-up files, MOT plate naming, stances against
-the data README, subject mass, and bad inputs (``docs/data_formats_plates.md``)."""
+the data README, subject mass, and bad inputs (``docs/data_formats.md``)."""
 
 from __future__ import annotations
 
