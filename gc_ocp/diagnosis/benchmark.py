@@ -65,7 +65,7 @@ What does **not** differ (documented limits): the truth's contact law has the fi
 smaller smoothing in the truth (0.1 mm, 3 cm/s) changes the truth's wrench by 0.5-4.8 % BW and a
 10 Hz truth motion by 1-5 % BW (measured on the bundled trial): both are model differences of
 their own (the law's shape, heel-strike content the 6 Hz kinematics lack) that the friction and
-stiffness candidates would rightly pick up; they are options of :class:`Realism`
+stiffness candidates would rightly pick up; the smoothing is an option of :class:`Realism`
 (``truth_depth_smoothing``, ``truth_slip_smoothing``), off by default.
 """
 
