@@ -63,7 +63,7 @@ RULES = {
     ),
 }
 """Decision rules replayed on the stored rankings (no refit): the library's and a proposal
-(``docs/diagnosis_benchmark.md``: its 3 % is above the largest in-sample gain of any candidate
+(``docs/diagnosis.md (withheld-effect benchmark)``: its 3 % is above the largest in-sample gain of any candidate
 on the "none" cases of seeds 0-2, 2.6 %; seeds 3-4 were run after it was chosen)."""
 
 
@@ -117,7 +117,7 @@ def report(results: dict[str, dict]) -> str:
         "and the seed base's kinematic_correction cases), plate noise 0.5 % BW, plate wrench "
         "zeroed below 20 N. `diagnose_stances(max_effects=1)` blind; top-1 = first selected "
         "effect or none. Settings and values: `gc_ocp/diagnosis/benchmark.py`; discussion: "
-        "`docs/diagnosis_benchmark.md`. The runs (split by seed into parallel processes, merged "
+        "`docs/diagnosis.md (withheld-effect benchmark)`. The runs (split by seed into parallel processes, merged "
         "here) used the decision rule before the in-sample guard and the tie flag; both are "
         "replayed at the end on the stored rankings.",
         "",

@@ -116,8 +116,14 @@ def main() -> None:
         args.mode = args.child
         child(args)
         return
-    cache = tempfile.mkdtemp(prefix="gc_ocp_bench_cache_")
-    print(f"compile cache: {cache} (fresh)")
+    if args.skip_cold:  # the machine's own cache (warm after any earlier diagnosis)
+        from gc_ocp.estimation.compiled import cache_dir
+
+        cache = str(cache_dir())
+        print(f"compile cache: {cache} (the machine's; warm runs only)")
+    else:
+        cache = tempfile.mkdtemp(prefix="gc_ocp_bench_cache_")
+        print(f"compile cache: {cache} (fresh)")
     if not args.skip_cold:
         cold = run("diagnose", cache)
         cold["serial"] = False

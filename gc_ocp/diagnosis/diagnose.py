@@ -10,7 +10,7 @@ confounding (see ``docs/diagnosis.md``).
    it reduces the in-sample objective by at least :data:`MIN_REDUCTION_PCT` too (a held-out gain
    without an in-sample one comes from how the model extrapolates per-unit stiffnesses from few
    training stances: the false answers of the withheld-effect benchmark,
-   ``docs/diagnosis_benchmark.md``). The held-out score already charges extra parameters that only fit noise (they do not predict the
+   ``docs/diagnosis.md (withheld-effect benchmark)``). The held-out score already charges extra parameters that only fit noise (they do not predict the
    held-out stance) and the nuisance for the freedom it uses (Occam term); the threshold guards
    against the noise of the score itself (calibrated on the withheld-effect benchmark's "none"
    cases).
