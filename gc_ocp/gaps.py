@@ -84,17 +84,6 @@ for a rigid-body fill: 3 donors within ~2 mm of a line leave the rotation about 
 :data:`gc_ocp.io.checks.FOOT_FIX_LEVER`)."""
 
 
-def _off_line(points: np.ndarray) -> float:
-    """Largest distance [m] of ``points`` ``(k, 3)`` from the line through the two farthest."""
-    if len(points) < 3:
-        return 0.0
-    d = np.linalg.norm(points[:, None] - points[None], axis=2)
-    i, j = np.unravel_index(np.argmax(d), d.shape)
-    axis = (points[j] - points[i]) / max(d[i, j], 1e-12)
-    rel = points - points[i]
-    return float(np.linalg.norm(rel - np.outer(rel @ axis, axis), axis=1).max())
-
-
 def fill_rigid_gaps(
     x: np.ndarray, groups, min_lever: float = RIGID_MIN_LEVER
 ) -> tuple[np.ndarray, list[tuple[int, int, int, list[int]]]]:
@@ -114,7 +103,7 @@ def fill_rigid_gaps(
     Returns the filled copy and the filled runs ``(marker, first frame, end frame (exclusive),
     donors)``.
     """
-    from gc_ocp.geometry import kabsch
+    from gc_ocp.geometry import kabsch, off_line
 
     x = np.asarray(x, dtype=float)
     out = x.copy()
@@ -130,7 +119,7 @@ def fill_rigid_gaps(
                     if f < b:
                         don = [q for q in range(len(group)) if q != k and ok[f, q]]
                         pts = x[f, [group[q] for q in don]]
-                        if len(don) >= 3 and _off_line(pts) >= min_lever:
+                        if len(don) >= 3 and off_line(pts) >= min_lever:
                             ref = ok[:, k] & ok[:, don].all(axis=1)
                             before = np.flatnonzero(ref[:a])
                             after = np.flatnonzero(ref[b:]) + b

@@ -54,3 +54,16 @@ def kabsch(local: np.ndarray, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     for k, frame in enumerate(lab):  # per frame: the same arithmetic as a single fit
         R[k], t[k] = _kabsch_one(local, frame)
     return R, t
+
+
+def off_line(points: np.ndarray) -> float:
+    """Largest distance [m] of ``points`` ``(k, 3)`` from the line through the two farthest apart
+    (0 for fewer than three points): how well they fix a rigid body's rotation."""
+    points = np.asarray(points, float)
+    if len(points) < 3:
+        return 0.0
+    d = np.linalg.norm(points[:, None] - points[None], axis=2)
+    i, j = np.unravel_index(np.argmax(d), d.shape)
+    axis = (points[j] - points[i]) / max(d[i, j], 1e-12)
+    rel = points - points[i]
+    return float(np.linalg.norm(rel - np.outer(rel @ axis, axis), axis=1).max())

@@ -59,17 +59,10 @@ def _base_truth():
 
 def _true_toes(stances) -> dict:
     """Spline coefficients [rad] of phi(t): 0 until 55 % of the stance, then a smooth step to
-    +15 deg at toe-off (least squares on the basis)."""
-    tj = ToeJoint()
-    fixed = {}
-    for st in stances:
-        t = st.time
-        t_on, t_off = t[st.in_contact][[0, -1]]
-        t_a = t_on + 0.55 * (t_off - t_on)
-        s = np.clip((t - t_a) / (t_off - t_a), 0, 1)
-        B, _ = tj.basis(t)
-        fixed[st.label] = np.linalg.lstsq(B, np.deg2rad(PEAK_DEG) * s * s * (3 - 2 * s))[0]
-    return fixed
+    +15 deg at toe-off (the benchmark's definition, ``benchmark._toe_angles``)."""
+    from gc_ocp.diagnosis.benchmark import _toe_angles
+
+    return _toe_angles(stances, PEAK_DEG)
 
 
 # --- exactness ------------------------------------------------------------------------------

@@ -35,6 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gc_ocp.geometry import off_line
+
 try:
     import tomllib
 except ModuleNotFoundError:  # Python 3.10
@@ -492,24 +494,13 @@ def _foot_point(lm: Landmark) -> np.ndarray:
     return p + TOES_IN_HINDFOOT if lm.segment == "toes" else p
 
 
-def _spread(points: np.ndarray) -> float:
-    """Largest distance [m] of a point from the line through the two farthest apart."""
-    if len(points) < 3:
-        return 0.0
-    d = np.linalg.norm(points[:, None] - points[None], axis=2)
-    i, j = np.unravel_index(np.argmax(d), d.shape)
-    axis = (points[j] - points[i]) / max(d[i, j], 1e-12)
-    rel = points - points[i]
-    return float(np.linalg.norm(rel - np.outer(rel @ axis, axis), axis=1).max())
-
-
 def foot_problem(rec: Recognition, side: str) -> str:
     """Why the ``side`` foot cannot be tracked from the recognised landmarks ("" if it can)."""
     v = vocabulary()
     foot = rec.foot(side)
     pts = np.array([_foot_point(v.landmarks[m.landmark]) for m in foot]).reshape(-1, 3)
     ankle = [m for m in rec.matches if m.side == side and m.role.startswith("ankle")]
-    if len(foot) >= 3 and _spread(pts) >= MIN_FOOT_LEVER:
+    if len(foot) >= 3 and off_line(pts) >= MIN_FOOT_LEVER:
         return ""
     if len(foot) >= 2 and ankle:
         return ""
