@@ -21,7 +21,7 @@ from gc_ocp.diagnosis.phases import PERRY_STANCE_FRACTIONS, phase_index
 from gc_ocp.estimation.components import base_model
 from gc_ocp.estimation.components.damping import Damping
 from gc_ocp.estimation.problem import build_estimation
-from gc_ocp.estimation.recovery import real_motion, simulate, truth_from_fit
+from gc_ocp.estimation.recovery import bundled_base_truth, simulate
 
 
 def _double_hump(t: np.ndarray) -> np.ndarray:
@@ -102,9 +102,7 @@ def test_fold_plan_holds_out_only_feet_with_another_stance():
 def bundled():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        stances = real_motion()
-        truth = truth_from_fit(stances, base_model())
-    return stances, truth
+        return bundled_base_truth()
 
 
 @pytest.fixture(scope="module")

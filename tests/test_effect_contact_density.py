@@ -13,7 +13,6 @@ toe tip (a linear gradient in xi, no lateral or curvature term).
 
 from __future__ import annotations
 
-import functools
 import time
 
 import numpy as np
@@ -47,14 +46,12 @@ precise moments 12-fold against the sole prior, and the truth's fitted sole offs
 HEEL_TO_TOE = 3.0
 
 
-@functools.cache
 def _stances():
-    return recovery.real_motion()
+    return recovery.bundled_base_truth()[0]
 
 
-@functools.cache
 def _base_truth():
-    return recovery.truth_from_fit(_stances(), base_model())
+    return recovery.bundled_base_truth()[1]
 
 
 def _true_field(law) -> dict:

@@ -11,8 +11,6 @@ dissipation ``c`` [s/m] added to the diagnosis's base model.
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 import pytest
 
@@ -29,25 +27,21 @@ from gc_ocp.estimation.fit import lls_k0
 from gc_ocp.estimation.recovery import (
     PLATE_NOISE_PCT_BW,
     TORQUE_NOISE_LENGTH,
+    bundled_base_truth,
     fit_model,
-    real_motion,
     simulate,
-    truth_from_fit,
 )
 
 TRUE_C = 1.0  # [s/m], mid-range of the 0.5-2 s/m reported for heel pads and shoe soles
 MARKER_NOISE = 1e-4  # [m]; 0.5 mm swamps every law effect on this stiff trial (see corrections)
 
 
-@functools.cache
 def _motion():
-    return real_motion()
+    return bundled_base_truth()[0]
 
 
-@functools.cache
 def _truth():
-    stances = _motion()
-    return truth_from_fit(stances, base_model())
+    return bundled_base_truth()[1]
 
 
 def test_registered_under_its_name():

@@ -15,7 +15,6 @@ What the data determine: loaded units slide at 1-14 cm/s (median 4 cm/s, force-w
 
 from __future__ import annotations
 
-import functools
 import time
 
 import numpy as np
@@ -30,14 +29,12 @@ from gc_ocp.estimation.problem import build_estimation
 EXCESS, VISCOUS = 0.3, 0.75
 
 
-@functools.cache
 def _motion():
-    return recovery.real_motion()
+    return recovery.bundled_base_truth()[0]
 
 
-@functools.cache
 def _truth():
-    return recovery.truth_from_fit(_motion(), base_model())
+    return recovery.bundled_base_truth()[1]
 
 
 def _wrenches(stances, model):

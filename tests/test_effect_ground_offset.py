@@ -16,7 +16,6 @@ covariance with the priors) say how well the data and priors together place it.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import time
 
 import numpy as np
@@ -32,14 +31,12 @@ DZ, TILT_Y = 0.003, np.deg2rad(0.8)
 TRUE_STANCE = 0
 
 
-@functools.cache
 def _motion():
-    return recovery.real_motion()
+    return recovery.bundled_base_truth()[0]
 
 
-@functools.cache
 def _truth():
-    return recovery.truth_from_fit(_motion(), base_model())
+    return recovery.bundled_base_truth()[1]
 
 
 def _wrenches(stances, model):

@@ -35,10 +35,9 @@ from gc_ocp.estimation.fit import lls_k0
 from gc_ocp.estimation.recovery import (
     PLATE_NOISE_PCT_BW,
     TORQUE_NOISE_LENGTH,
+    bundled_base_truth,
     fit_model,
-    real_motion,
     simulate,
-    truth_from_fit,
 )
 
 TRUE_N = 1.5  # Hertz contact of a rounded heel / forefoot
@@ -47,16 +46,14 @@ D_REF = 0.005  # [m] the contact law's reference depth (f_ref) and the component
 SIDES = ("left", "right")
 
 
-@functools.cache
 def _motion():
-    return real_motion()
+    return bundled_base_truth()[0]
 
 
 @functools.cache
 def _truth():
     """The base fit's truth with n = 1.5: the law's k rescaled per unit to keep f(5 mm)."""
-    stances = _motion()
-    law, *rest = truth_from_fit(stances, base_model())
+    law, *rest = bundled_base_truth()[1]
     k1 = law.k.value
     kn = {s: {u: v * D_REF ** (1 - TRUE_N) for u, v in ks.items()} for s, ks in k1.items()}
     f_ref = {s: {u: v * D_REF for u, v in ks.items()} for s, ks in k1.items()}  # [N]

@@ -7,7 +7,6 @@ the model wrench at frame t is compared with the plate signal at t + delta.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import re
 
 import numpy as np
@@ -29,10 +28,8 @@ CHANNELS = (
 )
 
 
-@functools.cache
 def _motion():
-    stances = recovery.real_motion()
-    return stances, recovery.truth_from_fit(stances, base_model())
+    return recovery.bundled_base_truth()
 
 
 def _noiseless(delay: float, **kw):

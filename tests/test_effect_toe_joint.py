@@ -42,9 +42,8 @@ fit is then the maximum-likelihood one and its standard errors are meaningful. T
 (2 % BW, x 0.25 m) down-weight the very precise moments 12-fold against the priors."""
 
 
-@functools.cache
 def _stances():
-    return recovery.real_motion()
+    return recovery.bundled_base_truth()[0]
 
 
 @functools.cache
@@ -53,7 +52,7 @@ def _base_truth():
     moves TT 20-25 mm back (to the 25 mm bound), nearly under the MTP axis: there a 15 deg hinge
     barely changes TT's depth and the base absorbs it (base-only RMS at the noise). The nominal TT,
     73 mm from the axis, is the case where the hinge matters and can be tested."""
-    law, sole, *rest = recovery.truth_from_fit(_stances(), base_model())
+    law, sole, *rest = recovery.bundled_base_truth()[1]
     return (law, dataclasses.replace(sole, fixed={s: 0 * v for s, v in sole.fixed.items()}), *rest)
 
 

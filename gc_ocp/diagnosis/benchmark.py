@@ -72,7 +72,6 @@ stiffness candidates would rightly pick up; the smoothing is an option of :class
 from __future__ import annotations
 
 import dataclasses
-import functools
 import json
 import time
 import warnings
@@ -131,19 +130,16 @@ class Realism:
 # --- the truth ---------------------------------------------------------------------------------
 
 
-@functools.cache
 def _motion() -> tuple[StanceData, ...]:
-    from gc_ocp.estimation.recovery import real_motion
+    from gc_ocp.estimation.recovery import bundled_base_truth
 
-    return tuple(real_motion())
+    return tuple(bundled_base_truth()[0])
 
 
-@functools.cache
 def _registered_truth() -> tuple:
-    from gc_ocp.estimation.components import base_model
-    from gc_ocp.estimation.recovery import truth_from_fit
+    from gc_ocp.estimation.recovery import bundled_base_truth
 
-    return truth_from_fit(list(_motion()), base_model())
+    return bundled_base_truth()[1]
 
 
 def base_truth(base: str) -> tuple:

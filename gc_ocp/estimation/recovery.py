@@ -70,6 +70,23 @@ def truth_from_fit(stances: Sequence[StanceData], base: tuple) -> tuple:
     return tuple(c for c in frozen_model(model, res) if c.scope != "stance")
 
 
+@functools.cache
+def _bundled_base_truth() -> tuple[tuple[StanceData, ...], tuple]:
+    from gc_ocp.estimation.components import base_model
+
+    stances = tuple(real_motion())
+    return stances, truth_from_fit(list(stances), base_model())
+
+
+def bundled_base_truth() -> tuple[list[StanceData], tuple]:
+    """``(stances, truth)``: the bundled trial's stances (:func:`real_motion`) and the base model
+    (``base_model()``) fitted to them, frozen (:func:`truth_from_fit`). The common start of the
+    effect recoveries and of the withheld-effect benchmark; fitted once per process (a fresh
+    list each call, the stances and components themselves are immutable)."""
+    stances, truth = _bundled_base_truth()
+    return list(stances), truth
+
+
 def simulate(
     stances: Sequence[StanceData],
     truth: tuple,
@@ -133,6 +150,7 @@ def started_from_truth(model: tuple, truth: tuple) -> tuple:
 
 
 __all__ = [
+    "bundled_base_truth",
     "fit_model",
     "real_motion",
     "rms_line",
