@@ -254,7 +254,9 @@ def markdown(results: list[dict]) -> str:
             lines.append(
                 f"Round {k} (on top of {', '.join(d['selected'][: k - 1])}): "
                 + "; ".join(
-                    f"{x['effect']} {x['heldout_rms_reduction_pct']:+.1f} "
+                    f"{x['effect']} in-sample {x['insample_rms_reduction_pct']:+.1f} (screened)"
+                    if x["heldout_rms_reduction_pct"] is None
+                    else f"{x['effect']} {x['heldout_rms_reduction_pct']:+.1f} "
                     f"{_ci(x['heldout_rms_reduction_ci'])}{' PASS' if x['passes'] else ''}"
                     for x in rows
                 )

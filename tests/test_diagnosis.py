@@ -10,15 +10,18 @@ import pytest
 from gc_ocp.contact.channels import TABLE_KEYS
 from gc_ocp.diagnosis import PHASES, diagnose_stances, phase_bounds, where
 from gc_ocp.diagnosis.compare import (
+    NESTING_RTOL,
     Evaluation,
     evaluate,
     fold_plan,
+    insample_reduction,
     occam_term,
     reduction,
     score,
 )
+from gc_ocp.diagnosis.diagnose import _rank
 from gc_ocp.diagnosis.phases import PERRY_STANCE_FRACTIONS, phase_index
-from gc_ocp.estimation.components import base_model
+from gc_ocp.estimation.components import base_model, model_from_names
 from gc_ocp.estimation.components.damping import Damping
 from gc_ocp.estimation.problem import build_estimation
 from gc_ocp.estimation.recovery import bundled_base_truth, simulate
@@ -143,6 +146,29 @@ def test_occam_term_is_zero_without_nuisance(base_eval):
     pb = build_estimation(data[:1], tuple(c for c in frozen if c.scope != "stance"))
     assert pb.x0.size == 0
     assert occam_term(pb, pb.x0) == 0.0
+
+
+def test_fold_fits_nest_and_a_screened_candidate_is_not_held_out(base_eval):
+    """A model that extends its parent ends each fold's training fit at or below the parent's
+    (its effect at the neutral value is the parent exactly; the objective is not convex, so
+    this is what the second start guarantees). With an in-sample screen it cannot meet, the
+    candidate is fitted on all stances only, and its ranking row says so (no held-out figures,
+    does not pass)."""
+    data, parent = base_eval
+    plan = fold_plan(data)
+    model = model_from_names(["damping"], base=base_model())
+    child = evaluate(data, model, "base+damping", ("damping",), plan, parent=parent)
+    for fc, fp in zip(child.folds, parent.folds, strict=True):
+        assert fc.train.objective <= fp.train.objective * (1.0 + NESTING_RTOL)
+    gain = insample_reduction(parent.full, child.full)
+    screened = evaluate(
+        data, model, "base+damping", ("damping",), plan, parent=parent, screen_pct=gain + 1.0
+    )
+    assert screened.screened and screened.folds == []
+    (row,) = _rank(parent, {"damping": screened}, 2.0, 50, 0, 100.0)
+    assert row["screened"] and not row["passes"]
+    assert row["heldout_rms_reduction_pct"] is None
+    assert row["insample_rms_reduction_pct"] == pytest.approx(gain)
 
 
 def test_an_injected_damping_is_found_and_nothing_on_the_base_truth(bundled):

@@ -41,7 +41,13 @@ from collections.abc import Callable
 import numpy as np
 
 from gc_ocp.errors import SolveError
-from gc_ocp.estimation.fit import STRATEGIES, best_of, frozen_model, with_lls_start
+from gc_ocp.estimation.fit import (
+    STRATEGIES,
+    best_of,
+    frozen_model,
+    rescaled_start,
+    with_lls_start,
+)
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, solve
@@ -50,6 +56,10 @@ from gc_ocp.stance import StanceData
 BLOCK_SECONDS = 0.1
 """Bootstrap block length [s]: the residuals' autocorrelation time after the 6 Hz filtering of
 the kinematics (the HAC bandwidth of ``solve._bandwidth`` is 5-12 frames at 100 Hz)."""
+
+
+NESTING_RTOL = 1e-6
+"""Relative slack of the nesting check of a fold fit (Ipopt's acceptable objective change)."""
 
 
 MIN_CLUSTERS = 5
@@ -87,6 +97,7 @@ class Evaluation:
     full: EstimationResult
     folds: list[Fold]
     seconds: float = 0.0
+    screened: bool = False  # not held out: its in-sample gain over its parent was too small
 
     @property
     def heldout_fits(self) -> list:
@@ -124,6 +135,7 @@ def _fit(
     start: EstimationResult | None,
     weights: Weights | None,
     options: IpoptOptions | None,
+    covariance: bool = True,
 ) -> EstimationResult:
     """``model`` (law started at the LLS of ``data``) fitted on ``data``: from ``start`` alone
     when given (a fit of the model this one extends, or of the same model on more stances), with
@@ -140,10 +152,14 @@ def _fit(
         model = with_lls_start(model, data)
     if start is not None:
         try:
-            return best_of(data, model, weights, options, strategies=(), start=start)
+            return best_of(
+                data, model, weights, options, strategies=(), start=start, covariance=covariance
+            )
         except SolveError:
             pass
-    return best_of(data, model, weights, options, strategies=STRATEGIES, start=start)
+    return best_of(
+        data, model, weights, options, strategies=STRATEGIES, start=start, covariance=covariance
+    )
 
 
 def evaluate(
@@ -156,24 +172,59 @@ def evaluate(
     weights: Weights | None = None,
     options: IpoptOptions | None = None,
     progress: Callable[[str], None] | None = None,
+    screen_pct: float | None = None,
 ) -> Evaluation:
     """Fit ``model`` on all of ``data`` and on each fold of ``plan``, and score every held-out
     stance. Warm starts: from ``parent``'s fits (the model this one extends) when given; the
-    base's folds start from its own fit on all stances."""
+    base's folds start from its own fit on all stances.
+
+    screen_pct: with a ``parent``, stop after the fit on all stances when the in-sample
+    reduction (:func:`insample_reduction`) is below it: the evaluation is ``screened`` (no
+    folds). The diagnosis's decision rule requires that reduction, so such a model cannot pass
+    whatever its held-out score."""
     import time
 
     say = progress or (lambda s: None)
     weights = weights or Weights()
     t0 = time.perf_counter()
     full = _fit(data, model, parent.full if parent else None, weights, options)
+    if (
+        screen_pct is not None
+        and parent is not None
+        and insample_reduction(parent.full, full) < screen_pct
+    ):
+        ev = Evaluation(label, names, model, full, [], time.perf_counter() - t0, screened=True)
+        say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
+        return ev
     folds = []
     for j, i in enumerate(plan):
         held = data[i]
         train = [d for k, d in enumerate(data) if k != i]
-        start = parent.folds[j].train if parent else full
-        tr = _fit(train, model, start, weights, options)
+        # From the model's own fit on all stances (the nearest problem). The objective is not
+        # convex, and a model nests its parent (its effect at the neutral value is the parent
+        # exactly), so its training fit must end at or below the parent's on the same stances:
+        # when it does not, it also starts from the parent's fold fit and keeps the lower.
+        # No covariance for the fold fits: only their values and costs are used.
+        tr = _fit(train, model, full, weights, options, covariance=False)
+        if parent is not None:
+            ptr = parent.folds[j].train
+            if tr.objective > ptr.objective * (1.0 + NESTING_RTOL):
+                alt = _fit(train, model, ptr, weights, options, covariance=False)
+                tr = alt if alt.objective < tr.objective else tr
         hp = build_estimation([held], frozen_model(with_lls_start(model, train), tr), weights)
-        hr = solve(hp, options, raise_on_failure=False)
+        hr = solve(hp, options, raise_on_failure=False, covariance=False)
+        if parent is not None:
+            # also from the stance's nuisance as the parent model left it; the nuisance's
+            # optimum is not unique, keep the lower one
+            warm = solve(
+                hp,
+                options,
+                x0=rescaled_start(parent.folds[j].heldout, hp),
+                raise_on_failure=False,
+                covariance=False,
+            )
+            if warm.success and (not hr.success or warm.objective < hr.objective):
+                hr = warm
         folds.append(
             Fold(
                 label=held.label,
@@ -188,7 +239,15 @@ def evaluate(
     return ev
 
 
+def insample_reduction(parent: EstimationResult, child: EstimationResult) -> float:
+    """In-sample reduction [%] of ``child`` over ``parent``: ``1 - sqrt(J_child / J_parent)``
+    (the objectives of the fits on all stances)."""
+    return float(100.0 * (1.0 - np.sqrt(child.objective / parent.objective)))
+
+
 def describe(ev: Evaluation) -> str:
+    if ev.screened:
+        return f"in-sample J = {ev.full.objective:.1f} (screened: not held out)"
     if not ev.folds:
         return f"in-sample J = {ev.full.objective:.1f}"
     return f"held-out score {score(ev):.3f}, in-sample J = {ev.full.objective:.1f}"
@@ -249,7 +308,7 @@ def reduction(
         lab: float(100.0 * (1.0 - np.sqrt(cb.sum() / ca.sum())))
         for lab, ca, cb in zip(labels, a, b, strict=True)
     }
-    ins = 100.0 * (1.0 - np.sqrt(child.full.objective / parent.full.objective))
+    ins = insample_reduction(parent.full, child.full)
     return {
         "pct": float(pct),
         "ci": [float(lo), float(hi)],
@@ -315,6 +374,7 @@ __all__ = [
     "describe",
     "fold_plan",
     "heldout_quality",
+    "insample_reduction",
     "occam_term",
     "reduction",
     "score",

@@ -40,6 +40,7 @@ from gc_ocp.diagnosis.compare import (
     evaluate,
     fold_plan,
     heldout_quality,
+    insample_reduction,
     reduction,
     score,
     superior_rms,
@@ -192,6 +193,11 @@ class Diagnosis:
                 f"[{r['heldout_rms_reduction_ci'][0]:+.1f}, {r['heldout_rms_reduction_ci'][1]:+.1f}]"
                 f"  in-sample {r['insample_rms_reduction_pct']:+6.1f} %  ({r['n_params']} params){conf}"
             )
+        for k, rows in enumerate(self.rounds[1:], 2):
+            lines.append(
+                f"round {k} (on top of {' + '.join(['base', *self.selected[: k - 1]])}): "
+                + "; ".join(_row_text(r) for r in rows)
+            )
         lines.append(
             "selected: "
             + (", ".join(self.selected) if self.selected else "none (no effect passes)")
@@ -270,6 +276,15 @@ class Diagnosis:
         return fig
 
 
+def _row_text(r: dict) -> str:
+    """One later-round row in a line: ``effect +x.x % [lo, hi]`` (or its in-sample screen)."""
+    if r["heldout_rms_reduction_pct"] is None:
+        return f"{r['effect']} in-sample {r['insample_rms_reduction_pct']:+.1f} % (screened)"
+    lo, hi = r["heldout_rms_reduction_ci"]
+    mark = " PASS" if r["passes"] else ""
+    return f"{r['effect']} {r['heldout_rms_reduction_pct']:+.1f} % [{lo:+.1f}, {hi:+.1f}]{mark}"
+
+
 def _step(label: str, ev: Evaluation) -> dict:
     return {
         "label": label,
@@ -310,6 +325,9 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
     deltas = {}
     pd, pn = _terms(parent)
     for name, ev in evs.items():
+        if ev.screened:
+            rows.append(_screened_row(name, ev, parent))
+            continue
         red = reduction(parent, ev, n_boot=n_boot, seed=seed, frame_rate=rate)
         d = base_r - weighted_residuals(ev)
         deltas[name] = d
@@ -339,22 +357,52 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
                     and red["ci"][0] > 0.0
                     and red["insample_pct"] >= threshold
                 ),
+                "screened": False,
                 "gain_from_nuisance": None if from_nuisance is None else float(from_nuisance),
                 "confounded_with": relieves,
                 "flags": [f["code"] for f in ev.full.flags],
             }
         )
-    for a in rows:
-        for b in rows:
+    held = [r for r in rows if r["heldout_rms_reduction_pct"] is not None]
+    for a in held:
+        for b in held:
             if a is b or a["heldout_rms_reduction_pct"] <= 0 or b["heldout_rms_reduction_pct"] <= 0:
                 continue
             da, db = deltas[a["effect"]], deltas[b["effect"]]
             na, nb = np.linalg.norm(da), np.linalg.norm(db)
             if na > 0 and nb > 0 and float(da @ db) / (na * nb) > CONFOUND_COSINE:
                 a["confounded_with"].append(b["effect"])
-    rows.sort(key=lambda r: -r["heldout_rms_reduction_pct"])
+    # held out first (best first), then the screened ones (by their in-sample reduction)
+    rows.sort(
+        key=lambda r: (
+            r["heldout_rms_reduction_pct"] is None,
+            -(
+                r["insample_rms_reduction_pct"]
+                if r["heldout_rms_reduction_pct"] is None
+                else r["heldout_rms_reduction_pct"]
+            ),
+        )
+    )
     _flag_ties(rows, evs, n_boot, seed, rate)
     return rows
+
+
+def _screened_row(name: str, ev: Evaluation, parent: Evaluation) -> dict:
+    """The ranking row of a candidate screened out on its in-sample reduction (not held out)."""
+    return {
+        "effect": name,
+        "heldout_rms_reduction_pct": None,
+        "heldout_rms_reduction_ci": [None, None],
+        "heldout_superior_force_reduction_pct": None,
+        "insample_rms_reduction_pct": insample_reduction(parent.full, ev.full),
+        "per_stance_reduction_pct": {},
+        "n_params": _n_params(ev, parent),
+        "passes": False,
+        "screened": True,
+        "gain_from_nuisance": None,
+        "confounded_with": [],
+        "flags": [f["code"] for f in ev.full.flags],
+    }
 
 
 def _flag_ties(rows: list[dict], evs: dict, n_boot, seed, rate) -> None:
@@ -372,20 +420,21 @@ def _flag_ties(rows: list[dict], evs: dict, n_boot, seed, rate) -> None:
 
 
 def _evaluate_one(args) -> Evaluation:
-    stances, model, label, names, plan, parent, weights, options = args
-    return evaluate(stances, model, label, names, plan, parent, weights, options)
+    stances, model, label, names, plan, parent, weights, options, screen = args
+    return evaluate(stances, model, label, names, plan, parent, weights, options, screen_pct=screen)
 
 
-def _evaluate_all(stances, jobs, plan, parent, weights, options, workers, say) -> dict:
+def _evaluate_all(stances, jobs, plan, parent, weights, options, workers, say, screen) -> dict:
     """``{name: Evaluation}`` of every job ``{name: (label, model, names)}``, on ``workers``
-    processes (forked: the compiled per-frame functions are loaded from the disk cache)."""
+    processes (forked: the compiled per-frame functions are loaded from the disk cache).
+    ``screen``: the in-sample screen of :func:`~gc_ocp.diagnosis.compare.evaluate` (or None)."""
     args = {
-        n: (stances, model, label, names, plan, parent, weights, options)
+        n: (stances, model, label, names, plan, parent, weights, options, screen)
         for n, (label, model, names) in jobs.items()
     }
     if workers <= 1 or len(jobs) <= 1:
         return {
-            n: evaluate(*a[:6], weights=weights, options=options, progress=say)
+            n: evaluate(*a[:6], weights=weights, options=options, progress=say, screen_pct=screen)
             for n, a in args.items()
         }
     import multiprocessing as mp
@@ -469,7 +518,11 @@ def diagnose_stances(
             )
             for n in remaining
         }
-        evs = _evaluate_all(stances, jobs, plan, current, weights, options, workers, say)
+        # round 1 ranks every candidate on held-out stances (the ranking the user reads); later
+        # rounds only decide the selection, so a candidate whose in-sample reduction is below
+        # the threshold (it cannot pass) is not held out there (``screened``)
+        screen = threshold_pct if rounds and plan else None
+        evs = _evaluate_all(stances, jobs, plan, current, weights, options, workers, say, screen)
         evaluations.update({ev.label: ev for ev in evs.values()})
         rows = _rank(current, evs, threshold_pct, n_boot, seed, rate)
         rounds.append(rows)
@@ -492,7 +545,9 @@ def diagnose_stances(
             e = r["effect"]
             if e in later and r["passes"] and e != added:
                 g0, g1 = r["heldout_rms_reduction_pct"], later[e]["heldout_rms_reduction_pct"]
-                if g1 < NON_ADDITIVE_FRACTION * g0:
+                # screened (g1 None): its in-sample gain fell below the threshold: it stopped
+                # passing once the other effect was in the model
+                if g1 is None or g1 < NON_ADDITIVE_FRACTION * g0:
                     for a, b in ((r, added), (next(x for x in ranking if x["effect"] == added), e)):
                         if b not in a["confounded_with"]:
                             a["confounded_with"].append(b)

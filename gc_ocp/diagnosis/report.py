@@ -52,6 +52,8 @@ def _e(x) -> str:
 
 
 def _num(v, fmt: str = ".2f") -> str:
+    if v is None:
+        return "–"
     try:
         v = float(v)
     except (TypeError, ValueError):
@@ -228,11 +230,16 @@ def _and(names: list[str]) -> str:
 
 
 def _verdict(r: dict, threshold: float) -> str:
+    """The decision rule's outcome for a ranking row, with the condition that failed."""
     if r["passes"]:
         return "pass"
+    if r["heldout_rms_reduction_pct"] is None:
+        return f"fail (in-sample below {threshold:g} %: not held out)"
     if r["heldout_rms_reduction_pct"] < threshold:
         return f"fail (below {threshold:g} %)"
-    return "fail (interval reaches 0)"
+    if r["heldout_rms_reduction_ci"][0] <= 0.0:
+        return "fail (interval reaches 0)"
+    return f"fail (in-sample below {threshold:g} %)"
 
 
 def _ranking_table(rows: list[dict], threshold: float) -> str:

@@ -90,7 +90,7 @@ bundled example a single solve from the LLS start ends at J = 655 and the contin
 the Rajagopal trial the single solve ends at 530 and the continuation at 682."""
 
 
-def _rescaled_start(prev: EstimationResult, prob) -> np.ndarray:
+def rescaled_start(prev: EstimationResult, prob) -> np.ndarray:
     """Warm start for ``prob`` from the result ``prev``, matching variables by key (prior
     variables are stored in units of their sigma, so they are rescaled)."""
     x0 = prob.x0.copy()
@@ -113,11 +113,13 @@ def estimate(
     options: IpoptOptions | None = None,
     continuation: tuple[float, ...] = CONTINUATION,
     progress: Callable[[str], None] | None = None,
+    covariance: bool = True,
 ) -> EstimationResult:
     """Solve ``model`` on ``data`` with prior-width continuation (see :data:`CONTINUATION`).
 
     The returned result is the last stage's (the requested priors); its ``seconds`` and
-    ``iterations`` are the totals over all stages.
+    ``iterations`` are the totals over all stages. The covariance is computed for the last stage
+    only, and not at all with ``covariance=False``.
     """
     say = progress or (lambda s: None)
     steps = continuation if any(c.has_prior_scale for c in model) else (1.0,)
@@ -130,9 +132,9 @@ def estimate(
             for c in model
         )
         prob = build_estimation(data, m, weights)
-        x0 = _rescaled_start(prev, prob) if prev is not None else None
+        x0 = rescaled_start(prev, prob) if prev is not None else None
         last = f == steps[-1]
-        res = solve(prob, options, x0=x0, raise_on_failure=last)
+        res = solve(prob, options, x0=x0, raise_on_failure=last, covariance=covariance and last)
         total_s += res.seconds
         total_it += res.iterations
         say(
@@ -151,6 +153,7 @@ def best_of(
     strategies: tuple[tuple[float, ...], ...] = STRATEGIES,
     progress: Callable[[str], None] | None = None,
     start: EstimationResult | None = None,
+    covariance: bool = True,
 ) -> EstimationResult:
     """Run :func:`estimate` once per continuation schedule in ``strategies`` and keep the result
     with the lowest objective (``seconds``/``iterations`` are totals over every start). A start
@@ -166,7 +169,7 @@ def best_of(
         say("start: from the given result")
         try:
             prob = build_estimation(data, model, weights)
-            r = solve(prob, options, x0=_rescaled_start(start, prob))
+            r = solve(prob, options, x0=rescaled_start(start, prob), covariance=covariance)
             total_s += r.seconds
             total_it += r.iterations
             best = r
@@ -175,7 +178,7 @@ def best_of(
     for steps in strategies:
         say(f"start: prior scales {steps}")
         try:
-            r = estimate(data, model, weights, options, steps, progress=say)
+            r = estimate(data, model, weights, options, steps, progress=say, covariance=covariance)
         except SolveError as e:
             err = e
             if e.result is not None:

@@ -23,6 +23,7 @@ COP error at 1 BW weighs as little as a 2.4 % BW force error.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -135,9 +136,19 @@ class StanceBlock:
     T: int
     fm: FrameModel
 
+    @functools.cached_property
+    def A_csr(self):
+        """``A`` as a scipy CSR matrix (converted once: the conversion costs more than the
+        product it serves)."""
+        return self.A.sparse().tocsr()
+
+    @functools.cached_property
+    def _y0(self) -> np.ndarray:
+        return np.asarray(self.y0, float).ravel()
+
     def Y(self, x: np.ndarray) -> np.ndarray:
         """Numeric ``(n_y, T)`` per-frame inputs at ``x``."""
-        y = self.A.sparse() @ np.asarray(x, float) + np.asarray(self.y0).ravel()
+        y = self.A_csr @ np.asarray(x, float) + self._y0
         return y.reshape(self.T, self.fm.slots.size).T
 
 
@@ -239,7 +250,7 @@ class EstimationProblem:
         ny = b.fm.slots.size
         rows = [start + j for j in range(size)]  # frame 0: rows 0..ny-1 of A (frame-major)
         assert max(rows) < ny
-        return b.A.sparse()[rows, :].toarray()
+        return b.A_csr[rows, :].toarray()
 
     def data_jacobian(self, x: np.ndarray):
         """Weighted data residuals ``r`` (n_data,) and their Jacobian in ``x`` (scipy CSR,
@@ -253,7 +264,7 @@ class EstimationProblem:
             res, jac = (np.asarray(a) for a in b.fm.jac.map(b.T)(b.D, b.Y(x)))
             rs.append(res.T.ravel())
             blocks = jac.reshape(6, b.T, ny).transpose(1, 0, 2)  # (T, 6, n_y)
-            Js.append(sp.block_diag(list(blocks), format="csr") @ b.A.sparse())
+            Js.append(sp.block_diag(list(blocks), format="csr") @ b.A_csr)
         return np.concatenate(rs), sp.vstack(Js, format="csr")
 
 

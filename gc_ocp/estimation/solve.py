@@ -198,9 +198,12 @@ def solve(
     options: IpoptOptions | None = None,
     x0: np.ndarray | None = None,
     raise_on_failure: bool = True,
+    covariance: bool = True,
 ) -> EstimationResult:
     """Solve with Ipopt (exact CasADi derivatives). Raises :class:`SolveError` carrying the
-    result when Ipopt does not converge (unless ``raise_on_failure=False``)."""
+    result when Ipopt does not converge (unless ``raise_on_failure=False``). ``covariance=False``
+    skips the covariance (and so the standard errors) of the result: for intermediate solves
+    whose uncertainty nobody reads (continuation stages, the diagnosis's fold fits)."""
     options = options or IpoptOptions()
     solver = make_solver(problem, options)
     x_init = problem.x0 if x0 is None else x0
@@ -221,6 +224,7 @@ def solve(
         success=success,
         iterations=int(stats.get("iter_count", -1)),
         seconds=seconds,
+        covariance=covariance,
     )
     if not success and raise_on_failure:
         raise SolveError(
@@ -236,10 +240,12 @@ def result_at(
     success: bool = True,
     iterations: int = 0,
     seconds: float = 0.0,
+    covariance: bool = True,
 ) -> EstimationResult:
-    """The plain-data result of ``problem`` at decision vector ``x`` (covariance included)."""
+    """The plain-data result of ``problem`` at decision vector ``x`` (covariance included unless
+    ``covariance=False``: then ``covariance`` is None and standard errors are NaN)."""
     x = np.asarray(x, float)
-    cov = _covariance(problem, x) if np.all(np.isfinite(x)) else None
+    cov = _covariance(problem, x) if covariance and np.all(np.isfinite(x)) else None
     blocks, fits = decode(problem, x, cov)
     rms, cop = fit_quality(fits)
     data_cost, prior_cost = problem.costs(x)
