@@ -184,7 +184,7 @@ def _toe_angles(stances, peak_deg: float) -> dict:
     to ``peak_deg`` at toe-off (as ``tests/test_effect_toe_joint.py``)."""
     from gc_ocp.estimation.components.toe_joint import ToeJoint
 
-    tj, fixed = ToeJoint(), {}
+    tj, fixed = ToeJoint(drive="spline"), {}
     for st in stances:
         t = st.time
         t_on, t_off = t[st.in_contact][[0, -1]]
@@ -255,7 +255,7 @@ def truth_model(effect: str, magnitude: str, base: tuple, stances, rng) -> tuple
             return dataclasses.replace(c, fixed=fixed)
 
         base = tuple(nominal_tt(c) if c.name == "sole" else c for c in base)
-        return (*base, ToeJoint(fixed=_toe_angles(stances, float(v))))
+        return (*base, ToeJoint(drive="spline", fixed=_toe_angles(stances, float(v))))
     if effect == "ground_offset":
         dz, tilt = v
         fixed = {

@@ -4,8 +4,9 @@
 out once; the model is fitted on the remaining stances (all trials of the subject together), then
 frozen on the held-out stance (contact parameters, sole corrections, clock offset and belt speed
 fixed at the training fit) with only the stance-scope nuisance re-estimated under its prior (the
-foot-pose correction; a stance-scope effect such as the toe hinge or the ground offset is also
-re-estimated: it is a property of that stance). A foot with a single stance is never held out
+foot-pose correction; a stance-scope effect such as the ground offset or the spline-driven toe
+hinge is also re-estimated: it is a property of that stance; the pitch-driven toe hinge, the
+diagnosis's default, is global and frozen). A foot with a single stance is never held out
 (its contact parameters would come from nothing). When no stance can be held out at all, the
 comparison falls back to in-sample scores with a BIC penalty and says so.
 
