@@ -46,35 +46,69 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-TRIALS = ("plugingait", "rajagopal", "gait2392", "vicon_btk", "vicon_clusters")
+TRIALS = (
+    "plugingait",
+    "rajagopal",
+    "gait2392",
+    "vicon_btk",
+    "vicon_clusters",
+    "helen_hayes",
+    "type2",
+    "camargo",
+    "bts_subject",
+)
 DESCRIPTION = {
     "plugingait": "bundled example (Plug-in Gait, Vicon; 63.6 kg)",
     "rajagopal": "OpenSim Rajagopal overground (TRC + MOT; 85.07 kg)",
     "gait2392": "OpenSim Gait2392 treadmill (TRC + MOT; 72.6 kg)",
     "vicon_btk": "BTKData PiG_Motion3_FF (Plug-in Gait, Vicon Nexus; 74 kg)",
     "vicon_clusters": "BTKData FunctionalWalk (Plug-in Gait + clusters, Vicon; 60 kg)",
+    "helen_hayes": "Motion Analysis Gait.c3d (Helen Hayes; mass estimated)",
+    "type2": "c3d.org type-2a.c3d (Helen Hayes, type-2 plates; mass estimated; type-4a holds "
+    "the same raw data)",
+    "camargo": "Camargo et al. level-ground circuit (OpenSim TRC + MOT, 6 plates, turns; "
+    "mass estimated)",
+    "bts_subject": "BTS, one subject: diagnosis on Walking1-3 together, confirmed on "
+    "Walking4-5 (anatomical markers, Y up; mass estimated)",
 }
 DATA = ROOT.parent / "shared" / "data"
+FILES = {
+    "vicon_btk": ["vicon_plugingait_btk/PiG_Motion3_FF.c3d"],
+    "vicon_clusters": ["vicon_plugingait_clusters/FunctionalWalk.c3d"],
+    "helen_hayes": ["motionanalysis_helenhayes/Gait.c3d"],
+    "type2": ["c3dorg_helenhayes_types/type-2a.c3d"],
+    "camargo": ["camargo_opensim_circuit/levelground_ccw_fast_01_01.trc"],
+    "bts_subject": [f"bts_unipd_5trials/Walking{k}.c3d" for k in (1, 2, 3)],
+}
+"""Files of each trial (loaded with nothing but the path: landmarks recognised, plates and mass
+read or estimated, a TRC paired with its MOT)."""
+CONFIRM_FILES = {"bts_subject": [f"bts_unipd_5trials/Walking{k}.c3d" for k in (4, 5)]}
+"""Other trials of the same subject, never used by the diagnosis: its selection is confirmed on
+them (:func:`gc_ocp.diagnosis.confirm`)."""
 CONFIRM_MAX_EFFECTS = 2
 """Effects the two-stance (in-sample) diagnosis of the confirmation may select: in-sample with a
 BIC penalty nearly every effect passes, and the full diagnoses select one or two."""
 
 
-def load(name: str):
-    """``(Trial, TrialKinematics)`` of a named trial, loaded as the tests load it."""
+def _pairs(files) -> list:
     from gc_ocp.io import load_trial
     from gc_ocp.kinematics import compute_kinematics
 
+    out = []
+    for f in files:
+        t = load_trial(DATA / f)
+        out.append((t, compute_kinematics(t)))
+    return out
+
+
+def load(name: str) -> list:
+    """``[(Trial, TrialKinematics), ...]`` of a named trial (several for a subject); the first
+    three as the tests load them."""
     if name in ("plugingait", "rajagopal", "gait2392"):
         from test_estimation import _real
 
-        return _real(name)
-    path = {
-        "vicon_btk": DATA / "vicon_plugingait_btk" / "PiG_Motion3_FF.c3d",
-        "vicon_clusters": DATA / "vicon_plugingait_clusters" / "FunctionalWalk.c3d",
-    }[name]
-    t = load_trial(path)
-    return t, compute_kinematics(t)
+        return [_real(name)]
+    return _pairs(FILES[name])
 
 
 def _jsonable(o):
@@ -176,20 +210,28 @@ def run(name: str, cache: Path, candidates, say, max_effects: int | None = None)
             say(f"== {name}: diagnosis read from {path}")
         else:
             say(f"== {name}: diagnosis on all stances")
-            d = diagnose([tk], candidates=candidates, max_effects=max_effects, progress=say)
+            d = diagnose(tk, candidates=candidates, max_effects=max_effects, progress=say)
             say(d.summary())
             out = {"trial": name, "description": DESCRIPTION[name], "diagnosis": d.to_json()}
             out["summary"] = d.summary()
             out["diagnosis_seconds"] = d.seconds
             out["max_effects"] = max_effects
             path.write_text(json.dumps(_jsonable(out), indent=1))
-        _, stances, _ = fit_data([tk])
-        sides = [s.side for s in stances]
-        conf = []
-        for i, s in enumerate(sides):
-            if sides.count(s) >= 2:
-                conf.append(confirm(stances, i, candidates, say))
-        out["confirmation"] = conf
+        if name in CONFIRM_FILES:  # other trials of the subject: confirm on them
+            from gc_ocp.diagnosis import confirm as confirm_trials
+
+            new = _pairs(CONFIRM_FILES[name])
+            c = confirm_trials(tk, new, out["diagnosis"]["selected"], progress=say)
+            out["confirmation"] = []
+            out["confirmation_trials"] = c
+        else:
+            _, stances, _ = fit_data(tk)
+            sides = [s.side for s in stances]
+            conf = []
+            for i, s in enumerate(sides):
+                if sides.count(s) >= 2:
+                    conf.append(confirm(stances, i, candidates, say))
+            out["confirmation"] = conf
     out["confirmation_seconds"] = time.perf_counter() - t0
     path.write_text(json.dumps(_jsonable(out), indent=1))
     return out
@@ -282,6 +324,23 @@ def markdown(results: list[dict]) -> str:
         "|---|---|---|---|---|",
     ]
     for r in results:
+        if "confirmation_trials" in r:
+            c = r["confirmation_trials"]
+            steps = " → ".join(
+                f"{s['model']} {s['heldout_superior_force_pct_bw']:.2f}" for s in c["steps"]
+            )
+            last = c["steps"][-1]
+            tot = (
+                f"{last['total_reduction_pct']:+.1f} {_ci(last['total_reduction_ci'])}"
+                if "total_reduction_pct" in last
+                else "(nothing selected)"
+            )
+            lines.append(
+                f"| {r['trial']} | other trials: {len(c['test'])} stances "
+                f"({', '.join(c['test'])}) | {', '.join(c['selected']) or 'none'} | {steps} "
+                f"| {tot} |"
+            )
+            continue
         if not r["confirmation"]:
             lines.append(f"| {r['trial']} | none | not possible: one stance per foot | | |")
             continue

@@ -202,3 +202,22 @@ def test_an_injected_damping_is_found_and_nothing_on_the_base_truth(bundled):
     assert set(js["base"]["heldout_rms"]["right"]) == {*TABLE_KEYS.values(), "cop_mm"}
     assert [w["model"] for w in js["waterfall"]] == ["base", "+damping"]
     assert isinstance(d_eff.base_evaluation, Evaluation)
+
+
+def test_confirmation_on_an_unseen_stance_shrinks_the_gap_of_a_true_effect(bundled):
+    """``confirm_stances``: base and base + damping trained on two stances of data with a true
+    damping of 1 s/m, scored on the third: the damping model predicts it better (interval
+    above 0), and a single step's total reduction is that step's."""
+    from gc_ocp.diagnosis import confirm_stances
+
+    stances, truth = bundled
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        eff = simulate(stances, (*truth, Damping(fixed=1.0)), np.random.default_rng(4))
+        c = confirm_stances(eff[:2], eff[2:], ["damping"], n_boot=300)
+    assert c["test"] == [eff[2].label] and c["train"] == [s.label for s in eff[:2]]
+    assert [s["model"] for s in c["steps"]] == ["base", "+damping"]
+    step = c["steps"][1]
+    assert step["total_reduction_pct"] == pytest.approx(step["step_reduction_pct"])
+    assert step["total_reduction_ci"][0] > 0.0, c
+    assert step["heldout_superior_force_pct_bw"] < c["steps"][0]["heldout_superior_force_pct_bw"]

@@ -16,6 +16,8 @@ from gc_ocp.diagnosis.diagnose import (
     MIN_REDUCTION_PCT,
     Diagnosis,
     candidate_names,
+    confirm,
+    confirm_stances,
     diagnose,
     diagnose_stances,
 )
@@ -29,6 +31,8 @@ __all__ = [
     "PHASES",
     "Diagnosis",
     "candidate_names",
+    "confirm",
+    "confirm_stances",
     "diagnose",
     "diagnose_stances",
     "heatmap_figure",

@@ -212,29 +212,85 @@ def evaluate(
             if tr.objective > ptr.objective * (1.0 + NESTING_RTOL):
                 alt = _fit(train, model, ptr, weights, options, covariance=False)
                 tr = alt if alt.objective < tr.objective else tr
-        hp = build_estimation([held], frozen_model(with_lls_start(model, train), tr), weights)
-        hr = solve(hp, options, raise_on_failure=False, covariance=False)
-        if parent is not None:
-            # also from the stance's nuisance as the parent model left it; the nuisance's
-            # optimum is not unique, keep the lower one
-            warm = solve(
-                hp,
-                options,
-                x0=rescaled_start(parent.folds[j].heldout, hp),
-                raise_on_failure=False,
-                covariance=False,
-            )
-            if warm.success and (not hr.success or warm.objective < hr.objective):
-                hr = warm
         folds.append(
-            Fold(
-                label=held.label,
-                train=tr,
-                heldout=hr,
-                occam=occam_term(hp, hr.x) if hr.x.size else 0.0,
-                frame_cost=_frame_cost(hr.stance_fits[0], weights),
+            _score_heldout(
+                held,
+                train,
+                model,
+                tr,
+                weights,
+                options,
+                parent.folds[j].heldout if parent else None,
             )
         )
+    ev = Evaluation(label, names, model, full, folds, time.perf_counter() - t0)
+    say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
+    return ev
+
+
+def _score_heldout(
+    held: StanceData,
+    train: list[StanceData],
+    model: tuple,
+    tr: EstimationResult,
+    weights: Weights,
+    options: IpoptOptions | None,
+    parent_heldout: EstimationResult | None = None,
+) -> Fold:
+    """``model`` trained as ``tr`` (on ``train``), frozen on the stance ``held``: only its
+    stance-scope nuisance is re-estimated under its prior, from the prior mean and, when given,
+    also from where a parent model's held-out fit left it (the nuisance's optimum is not unique;
+    the lower objective is kept)."""
+    hp = build_estimation([held], frozen_model(with_lls_start(model, train), tr), weights)
+    hr = solve(hp, options, raise_on_failure=False, covariance=False)
+    if parent_heldout is not None:
+        warm = solve(
+            hp,
+            options,
+            x0=rescaled_start(parent_heldout, hp),
+            raise_on_failure=False,
+            covariance=False,
+        )
+        if warm.success and (not hr.success or warm.objective < hr.objective):
+            hr = warm
+    return Fold(
+        label=held.label,
+        train=tr,
+        heldout=hr,
+        occam=occam_term(hp, hr.x) if hr.x.size else 0.0,
+        frame_cost=_frame_cost(hr.stance_fits[0], weights),
+    )
+
+
+def evaluate_on(
+    train: list[StanceData],
+    test: list[StanceData],
+    model: tuple,
+    label: str,
+    names: tuple[str, ...] = (),
+    parent: Evaluation | None = None,
+    weights: Weights | None = None,
+    options: IpoptOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Evaluation:
+    """Fit ``model`` on all of ``train`` and score every stance of ``test`` with it (frozen, the
+    nuisance re-estimated, as a fold's held-out stance): the confirmation of a diagnosis on
+    stances or trials of the subject it never saw. ``parent``: the evaluation of the model this
+    one extends, on the same ``train``/``test`` (warm starts). The result's ``folds`` are the
+    test stances (all with the same training fit), so :func:`reduction` and :func:`score`
+    apply."""
+    import time
+
+    say = progress or (lambda s: None)
+    weights = weights or Weights()
+    t0 = time.perf_counter()
+    full = _fit(train, model, parent.full if parent else None, weights, options)
+    folds = [
+        _score_heldout(
+            held, train, model, full, weights, options, parent.folds[j].heldout if parent else None
+        )
+        for j, held in enumerate(test)
+    ]
     ev = Evaluation(label, names, model, full, folds, time.perf_counter() - t0)
     say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
     return ev
@@ -372,6 +428,7 @@ __all__ = [
     "Evaluation",
     "Fold",
     "evaluate",
+    "evaluate_on",
     "describe",
     "fold_plan",
     "heldout_quality",
