@@ -120,3 +120,36 @@ def _provenance() -> dict:
             }
         ],
     }
+
+
+def test_report_says_when_none_is_inconclusive(diagnosis):
+    """A "none" whose candidate reduces the score in-sample and held out without a supported
+    margin is called inconclusive, in the result, its JSON, its summary and the page; the
+    verdict of each row names the condition that failed."""
+    from gc_ocp.diagnosis.report import _verdict, report_html
+
+    r = diagnosis.ranking[0]
+    weak = {
+        **r,
+        "passes": False,
+        "inconclusive": True,
+        "heldout_rms_reduction_pct": 1.5,
+        "heldout_rms_reduction_ci": [-0.5, 3.5],
+        "insample_rms_reduction_pct": 6.0,
+        "confounded_with": [],
+    }
+    d = dataclasses.replace(
+        diagnosis, ranking=[weak], rounds=[[weak]], selected=[], waterfall=diagnosis.waterfall[:1]
+    )
+    assert d.inconclusive == [r["effect"]] and d.to_json()["inconclusive"] == [r["effect"]]
+    assert f"inconclusive: {r['effect']}" in d.summary()
+    page = report_html(d)
+    assert "No candidate effect passes" in page and "Inconclusive:" in page
+    assert _verdict(weak, 2.0) == "fail (below 2 %)"
+    assert _verdict({**weak, "heldout_rms_reduction_pct": 3.0}, 2.0) == "fail (interval reaches 0)"
+    in_sample = {**weak, "heldout_rms_reduction_pct": 3.0, "heldout_rms_reduction_ci": [1, 5]}
+    assert _verdict({**in_sample, "insample_rms_reduction_pct": 1.0}, 2.0) == (
+        "fail (in-sample below 2 %)"
+    )
+    screened = {**weak, "heldout_rms_reduction_pct": None, "heldout_rms_reduction_ci": [None] * 2}
+    assert _verdict(screened, 2.0) == "fail (in-sample below 2 %: not held out)"

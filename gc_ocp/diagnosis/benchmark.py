@@ -465,6 +465,7 @@ def run_case(
         "answer": answer,
         "correct": answer == truth_name,
         "confounded_with": row["confounded_with"] if row else [],
+        "inconclusive": d.inconclusive,
         "truth_rank": (
             next(i for i, r in enumerate(rows) if r["effect"] == truth_name) + 1
             if truth_row
@@ -482,7 +483,7 @@ def summarize(cases: list[dict], labels: Sequence[str]) -> dict:
     """Confusion matrix (rows: truth, columns: answer; ``labels`` then any other answer),
     top-1 accuracy on the effect cases, the "none" correct-rejection rate, overall accuracy and
     the accuracy counting a confusion flagged as ambiguous (the truth among the answer's
-    ``confounded_with``) as not wrong."""
+    ``confounded_with``, or among the ``inconclusive`` candidates of a "none") as not wrong."""
     truths = [t for t in labels if any(c["truth"] == t for c in cases)]
     answers = list(labels) + sorted({c["answer"] for c in cases} - set(labels))
     m = np.zeros((len(truths), len(answers)), int)
@@ -494,7 +495,15 @@ def summarize(cases: list[dict], labels: Sequence[str]) -> dict:
     def rate(cs, ok=lambda c: c["correct"]):
         return float(np.mean([ok(c) for c in cs])) if cs else None
 
-    flagged = lambda c: c["correct"] or c["truth"] in c["confounded_with"]  # noqa: E731
+    def flagged(c) -> bool:
+        """Right, or the truth named by the answer: among the selected effect's
+        ``confounded_with``, or (answer "none") among the ``inconclusive`` candidates."""
+        return (
+            c["correct"]
+            or c["truth"] in c["confounded_with"]
+            or (c["answer"] == NONE and c["truth"] in c.get("inconclusive", []))
+        )
+
     per = {
         t: {
             mag: rate([c for c in cases if c["truth"] == t and c["magnitude"] == mag])
@@ -717,7 +726,8 @@ def markdown(result: dict) -> str:
         f"top-1 accuracy (effect cases): **{_pct(s['top1_accuracy'])}**; "
         f'"none" correctly rejected: **{_pct(s["none_correct_rejection"])}**; overall '
         f"{_pct(s['overall_accuracy'])}; effect cases right or flagged ambiguous (truth among "
-        f"the answer's `confounded_with`): {_pct(s['top1_accuracy_ambiguity_flagged_ok'])}",
+        f'the answer\'s `confounded_with`, or among the `inconclusive` of a "none"): '
+        f"{_pct(s['top1_accuracy_ambiguity_flagged_ok'])}",
     ]
     return "\n".join(lines)
 

@@ -131,6 +131,14 @@ class Diagnosis:
     max_effects: int | None = None
 
     @property
+    def inconclusive(self) -> list[str]:
+        """Candidates of the last round that fail the rule yet reduce the score both in-sample
+        (by at least the threshold) and on held-out stances, without a margin the data support
+        (below the threshold, or an interval reaching 0): with more stances they might pass. When
+        nothing is selected, "none" is then a weak answer, and the result says so."""
+        return [r["effect"] for r in (self.rounds[-1] if self.rounds else []) if r["inconclusive"]]
+
+    @property
     def base_evaluation(self) -> Evaluation:
         return self.evaluations["base"]
 
@@ -153,6 +161,7 @@ class Diagnosis:
             "ranking": self.ranking,
             "rounds": self.rounds,
             "selected": self.selected,
+            "inconclusive": self.inconclusive,
             "waterfall": [{k: v for k, v in w.items() if k != "label"} for w in self.waterfall],
             "where": self.where,
             "folds": self.folds,
@@ -203,6 +212,11 @@ class Diagnosis:
             "selected: "
             + (", ".join(self.selected) if self.selected else "none (no effect passes)")
         )
+        if self.inconclusive:
+            lines.append(
+                f"inconclusive: {', '.join(self.inconclusive)} (reduce the score in-sample and "
+                "held out, without a clear margin: more stances would decide)"
+            )
         lines.append(f"waterfall ({self._scored} superior-force RMS, % BW):")
         for w in self.waterfall:
             lines.append(f"  {w['model']:<28} {w['heldout_superior_force_pct_bw']:.2f}")
@@ -359,6 +373,12 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
                     and red["insample_pct"] >= threshold
                 ),
                 "screened": False,
+                # gains in-sample and on held-out stances, without a margin the data support
+                "inconclusive": bool(
+                    red["pct"] > 0.0
+                    and red["insample_pct"] >= threshold
+                    and not (red["pct"] >= threshold and red["ci"][0] > 0.0)
+                ),
                 "gain_from_nuisance": None if from_nuisance is None else float(from_nuisance),
                 "confounded_with": relieves,
                 "flags": [f["code"] for f in ev.full.flags],
@@ -400,6 +420,7 @@ def _screened_row(name: str, ev: Evaluation, parent: Evaluation) -> dict:
         "n_params": _n_params(ev, parent),
         "passes": False,
         "screened": True,
+        "inconclusive": False,
         "gain_from_nuisance": None,
         "confounded_with": [],
         "flags": [f["code"] for f in ev.full.flags],

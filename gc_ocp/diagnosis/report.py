@@ -600,6 +600,14 @@ def _page(d, prov: dict | None, figs: dict) -> str:
             f"clearly better than the <i>{_e(d.base)}</i> model ({held} superior-force RMS "
             f"{_num(base_sup)} % BW)."
         )
+    if d.inconclusive:
+        verdict += (
+            f" <b>Inconclusive:</b> {_and(d.inconclusive)} reduce"
+            f"{'s' if len(d.inconclusive) == 1 else ''} the score in-sample (by at least "
+            f"{d.threshold_pct:g} %) and on held-out stances, but without a margin these data "
+            "support (below the threshold, or an interval reaching 0); more stances or trials "
+            "of the subject would decide."
+        )
     ambiguous = confounded_groups(d.ranking) or _nuisance_text(d.ranking)
     if ambiguous:
         verdict += " Some effects are confounded (see below)."
