@@ -24,7 +24,8 @@ OUT = HERE / "diagnosis_blind"
 
 
 def _case_lines(res: dict) -> list[str]:
-    """Every wrong case: truth, answer, the answer's and the truth's held-out reductions."""
+    """Every wrong case: truth, answer, the answer's and the truth's held-out reductions, and
+    what the result flagged (the answer's confounded_with, or the inconclusive of a "none")."""
     lines = []
     for c in res["cases"]:
         if c["correct"]:
@@ -34,12 +35,17 @@ def _case_lines(res: dict) -> list[str]:
 
         def fmt(r):
             lo, hi = r["heldout_rms_reduction_ci"]
-            return f"{r['heldout_rms_reduction_pct']:+.1f} % [{lo:+.1f}, {hi:+.1f}]"
+            return (
+                f"{r['heldout_rms_reduction_pct']:+.1f} % [{lo:+.1f}, {hi:+.1f}], "
+                f"in-sample {r['insample_rms_reduction_pct']:+.1f} %"
+            )
 
+        flagged = c["confounded_with"] if c["answer"] != benchmark.NONE else []
+        incl = c.get("inconclusive", []) if c["answer"] == benchmark.NONE else []
+        flag = ", ".join(flagged) + ("inconclusive: " + ", ".join(incl) if incl else "")
         lines.append(
             f"| {c['truth']} | {c['magnitude']} | {c['seed']} | {c['answer']} | "
-            f"{fmt(a) if a else '-'} | {fmt(t) if t else '-'} | "
-            f"{', '.join(c['confounded_with']) or '-'} |"
+            f"{fmt(a) if a else '-'} | {fmt(t) if t else '-'} | {flag or '-'} |"
         )
     return lines
 
@@ -94,7 +100,7 @@ def replay_lines(results: dict[str, dict]) -> list[str]:
     ]
     for base, res in results.items():
         seeds = sorted({c["seed"] for c in res["cases"] if c["truth"] != benchmark.NONE})
-        groups = [("0-2", [s for s in seeds if s < 3]), ("3-4", [s for s in seeds if s >= 3])]
+        groups = [(f"{seeds[0]}-{seeds[-1]}", seeds)] if seeds else []
         for name, rule in RULES.items():
             for label, ss in groups:
                 if not ss:
@@ -111,19 +117,26 @@ def report(results: dict[str, dict]) -> str:
     out = [
         "# Withheld-effect benchmark of the diagnosis (`benchmarks/diagnosis_blind.py`)",
         "",
-        "Truth = the registered base fitted to the bundled trial's three real stances, frozen, plus "
-        "one effect (or none) at a known value; marker noise 0.5 mm, soft-tissue drift 2 mm / "
-        "0.5 deg per axis (per-foot pattern, 25 % stride-to-stride variation; registered base, "
-        "and the seed base's kinematic_correction cases), plate noise 0.5 % BW, plate wrench "
-        "zeroed below 20 N. `diagnose_stances(max_effects=1)` blind; top-1 = first selected "
-        "effect or none. Settings and values: `gc_ocp/diagnosis/benchmark.py`; discussion: "
-        "`docs/diagnosis.md (withheld-effect benchmark)`. The runs (split by seed into parallel processes, merged "
-        "here) used the decision rule before the in-sample guard and the tie flag; both are "
-        "replayed at the end on the stored rankings.",
+        "Truth = the registered base fitted to real stances, frozen, plus one effect (or none) at "
+        "a known value; marker noise 0.5 mm, soft-tissue drift 2 mm / 0.5 deg per axis "
+        "(per-foot pattern, 25 % stride-to-stride variation; registered base, and the seed "
+        "base's kinematic_correction cases), plate noise 0.5 % BW, plate wrench zeroed below "
+        "20 N. `diagnose_stances(max_effects=1)` blind; top-1 = first selected effect or none. "
+        "Motion: the bundled trial's three stances (two folds), unless the section says "
+        "otherwise. Settings and values: `gc_ocp/diagnosis/benchmark.py`; discussion: "
+        "`docs/diagnosis.md (withheld-effect benchmark)`. Runs split by seed into parallel "
+        "processes are merged here.",
         "",
     ]
     for base, res in results.items():
-        out += [f"## base `{base}`", "", benchmark.markdown(res), ""]
+        files = res["settings"].get("motion_files")
+        where = (
+            f"motion of {len(files)} trials of one subject ({', '.join(Path(f).name for f in files)}"
+            f"; {len(res['settings']['motion'])} stances)"
+            if files
+            else "motion of the bundled trial"
+        )
+        out += [f"## base `{base.split(':')[0]}`, {where}", "", benchmark.markdown(res), ""]
         per = res["summary"]["per_truth_and_magnitude"]
         out += ["| truth | " + " | ".join(benchmark.MAGNITUDES) + " |", "|---|---|---|"]
         for t, m in per.items():
@@ -137,8 +150,8 @@ def report(results: dict[str, dict]) -> str:
         out += ["", f"Wrong answers ({len(wrong)}):", ""]
         if wrong:
             out += [
-                "| truth | magnitude | seed | answer | answer's reduction [95 % CI] | truth's "
-                "reduction | answer confounded with |",
+                "| truth | magnitude | seed | answer | answer's held-out reduction [95 % CI] | "
+                "truth's | flagged (confounded with / inconclusive) |",
                 "|---|---|---|---|---|---|---|",
                 *wrong,
             ]
@@ -147,37 +160,63 @@ def report(results: dict[str, dict]) -> str:
         out += [
             "",
             f"Time: {sec['cases_total'] / 60:.0f} min of case time, {sec['cases_total'] / n:.0f} s "
-            "per case (2 shared cores, other jobs running).",
+            "per case (2 cores shared by two benchmark processes).",
             "",
         ]
     out += replay_lines(results)
     return "\n".join(out)
 
 
+BTS = [
+    HERE.parent.parent / "shared" / "data" / "bts_unipd_5trials" / f"Walking{k}.c3d"
+    for k in (1, 2, 3)
+]
+"""Three trials of one subject (6 stances, 3 per foot: 6 folds, 2 training stances per foot)."""
+
+
+def _runs(base: str, motion: str) -> list[Path]:
+    """The confusion.json files of a base and motion (split runs: ``{name}_s{first seed}``)."""
+    name = base if motion == "bundled" else f"{base}_{motion}"
+    one = OUT / name / "confusion.json"
+    return ([one] if one.exists() else []) + sorted(OUT.glob(f"{name}_s*/confusion.json"))
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--bases", default="registered,seed")
+    ap.add_argument("--motion", choices=("bundled", "bts"), default="bundled")
+    ap.add_argument("--effects", default=None, help="comma-separated truths (default: all)")
     ap.add_argument("--report-only", action="store_true")
     ap.add_argument("--resume", action="store_true")
     a = ap.parse_args(argv)
     bases = [b for b in a.bases.split(",") if b]
+    files = BTS if a.motion == "bts" else None
     if not a.report_only:
         for base in bases:
+            name = base if a.motion == "bundled" else f"{base}_{a.motion}"
+            if a.first_seed:
+                name += f"_s{a.first_seed}"
             res = benchmark.run_benchmark(
-                OUT / base,
+                OUT / name,
                 base=base,
+                effects=a.effects.split(",") if a.effects else None,
                 seeds=a.seeds,
+                first_seed=a.first_seed,
                 resume=a.resume,
+                files=files,
+                workers=1,
                 progress=lambda s: print(s, file=sys.stderr, flush=True),
             )
             print(benchmark.report(res))
     results = {}
     for b in ("registered", "seed"):
-        # the base's folder and any split runs beside it (e.g. registered_seed2)
-        found = sorted(OUT.glob(f"{b}*/confusion.json"))
-        if found:
-            results[b] = benchmark.merge([json.loads(f.read_text()) for f in found])
+        for motion in ("bundled", "bts"):
+            found = _runs(b, motion)
+            if found:
+                key = b if motion == "bundled" else f"{b}:{motion}"
+                results[key] = benchmark.merge([json.loads(f.read_text()) for f in found])
     (HERE / "diagnosis_blind_output.md").write_text(report(results))
     import matplotlib
 
@@ -186,7 +225,7 @@ def main(argv=None) -> int:
 
     for b, res in results.items():
         fig = benchmark.confusion_figure(res)
-        fig.savefig(OUT / f"confusion_{b}.png", dpi=120)
+        fig.savefig(OUT / f"confusion_{b.replace(':', '_')}.png", dpi=120)
         plt.close(fig)
     print(f"wrote {HERE / 'diagnosis_blind_output.md'}")
     return 0

@@ -397,6 +397,7 @@ def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
         resume=args.resume,
         progress=_progress,
         first_seed=args.first_seed,
+        files=args.trial or None,
     )
     print(report(res))
     print(f"wrote {args.out / 'confusion.json'} and {args.out / 'confusion.png'}")
@@ -535,6 +536,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="First noise draw (runs of other seeds can be merged; default 0).",
     )
     p.add_argument("--resume", action="store_true", help="Keep the cases of an earlier run.")
+    p.add_argument(
+        "--trial",
+        action="append",
+        type=Path,
+        metavar="FILE",
+        help="A trial whose real motion the cases use (repeatable: trials of one subject; "
+        "default: the bundled example). More stances per foot give more held-out folds.",
+    )
     p.set_defaults(func=cmd_benchmark_diagnosis)
     return parser
 

@@ -72,6 +72,7 @@ stiffness candidates would rightly pick up; the smoothing is an option of :class
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import time
 import warnings
@@ -130,38 +131,60 @@ class Realism:
 # --- the truth ---------------------------------------------------------------------------------
 
 
-def _motion() -> tuple[StanceData, ...]:
-    from gc_ocp.estimation.recovery import bundled_base_truth
+@functools.cache
+def _source(files: tuple[str, ...] | None) -> tuple[tuple[StanceData, ...], tuple]:
+    """``(stances, registered truth)`` of the motion source: the bundled trial (``None``, the
+    shared truth of the tests, :func:`~gc_ocp.estimation.recovery.bundled_base_truth`) or the
+    trials ``files`` of one subject, loaded as ``gc-ocp`` loads them, with the registered base
+    fitted to all their stances and frozen (fitted once per process)."""
+    from gc_ocp.estimation.recovery import bundled_base_truth, truth_from_fit
 
-    return tuple(bundled_base_truth()[0])
+    if files is None:
+        stances, truth = bundled_base_truth()
+        return tuple(stances), truth
+    from gc_ocp.estimation.components import base_model
+    from gc_ocp.estimation.fit import fit_data
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+
+    pairs = []
+    for f in files:
+        t = load_trial(f)
+        pairs.append((t, compute_kinematics(t)))
+    _, stances, _ = fit_data(pairs)
+    return tuple(stances), truth_from_fit(stances, base_model())
 
 
-def _registered_truth() -> tuple:
-    from gc_ocp.estimation.recovery import bundled_base_truth
-
-    return bundled_base_truth()[1]
+def _motion(files: tuple[str, ...] | None = None) -> tuple[StanceData, ...]:
+    return _source(files)[0]
 
 
-def base_truth(base: str) -> tuple:
-    """The frozen truth of ``base``: the registered base fitted to the bundled trial's real
-    stances (law, sole offsets, belt); for the bare ``seed`` base its law alone, the fitted sole
-    offsets being baked into the motion's sole points (:func:`motion`)."""
+def _registered_truth(files: tuple[str, ...] | None = None) -> tuple:
+    return _source(files)[1]
+
+
+def base_truth(base: str, files: tuple[str, ...] | None = None) -> tuple:
+    """The frozen truth of ``base``: the registered base fitted to the real stances of the
+    motion source (``files``: trials of one subject; None: the bundled trial) (law, sole offsets,
+    belt); for the bare ``seed`` base its law alone, the fitted sole offsets being baked into
+    the motion's sole points (:func:`motion`)."""
     resolve_base(base)
-    truth = _registered_truth()
+    truth = _registered_truth(files)
     return (_law(truth),) if base == "seed" else truth
 
 
-def motion(base: str, effect: str = NONE) -> list[StanceData]:
-    """The true motion of the cases: the bundled trial's stances. For the ``seed`` base the sole
+def motion(base: str, effect: str = NONE, files: tuple[str, ...] | None = None) -> list[StanceData]:
+    """The true motion of the cases: the stances of the motion source (``files``; None: the
+    bundled trial). For the ``seed`` base the sole
     points are the registered fit's (nominal + fitted offsets; TT at its nominal point for
     ``toe_joint``, see :func:`truth_model`): a bare law on the nominal points of real kinematics
     leaves heel units of a stance that never touch the ground, so a truth fitted that way has
     per-unit stiffnesses no other stance can predict, and every held-out score is dominated by
     that, not by the effect."""
-    stances = list(_motion())
+    stances = list(_motion(files))
     if base != "seed":
         return stances
-    sole = next(c for c in _registered_truth() if c.name == "sole")
+    sole = next(c for c in _registered_truth(files) if c.name == "sole")
     out = []
     for st in stances:
         off = np.array(sole.fixed[st.side], float)
@@ -406,15 +429,18 @@ def run_case(
     n_boot: int = 2000,
     progress: Callable[[str], None] | None = None,
     workers: int | None = None,
+    files: Sequence[str] | None = None,
 ) -> dict:
     """Generate one case's data and diagnose it blind: the case with ``answer``, ``correct``,
-    the ranking rows and timing."""
+    the ranking rows and timing. ``files``: trials of one subject whose motion the case uses
+    (default: the bundled trial)."""
     t0 = time.perf_counter()
     truth_name, mag = case["truth"], case["magnitude"]
     rng = np.random.default_rng(_case_seed(base, truth_name, mag, case["seed"]))
-    stances = motion(base, truth_name)
+    files = None if files is None else tuple(str(f) for f in files)
+    stances = motion(base, truth_name, files)
     _, base_model_ = resolve_base(base)
-    truth = truth_model(truth_name, mag, base_truth(base), stances, rng)
+    truth = truth_model(truth_name, mag, base_truth(base, files), stances, rng)
     has_pose = any(c.name == "pose" for c in base_model_)
     if truth_name == "kinematic_correction":
         kin_err = VALUES[truth_name][mag]
@@ -598,11 +624,14 @@ def run_benchmark(
     progress: Callable[[str], None] | None = None,
     workers: int | None = None,
     first_seed: int = 0,
+    files: Sequence[str] | None = None,
 ) -> dict:
     """Run every case of :func:`plan`; ``DIR/confusion.json`` is rewritten atomically after each
     case (``resume``: keep the cases of an earlier run with the same settings), then
     ``DIR/confusion.png``. Returns the result dict written to ``confusion.json``. ``workers``:
-    processes per diagnosis round (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`)."""
+    processes per diagnosis round (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`);
+    ``files``: trials of one subject whose real motion the cases use (default: the bundled
+    trial; more stances per foot give the held-out score more folds)."""
     from gc_ocp.outputs import atomic_savefig, atomic_write_text, check_writable
 
     say = progress or (lambda s: None)
@@ -618,7 +647,8 @@ def run_benchmark(
         "magnitudes": list(magnitudes),
         "values": {k: VALUES[k] for k in VALUES if k in {c["truth"] for c in cases}},
         "realism": dataclasses.asdict(realism),
-        "motion": [st.label for st in _motion()],
+        "motion": [st.label for st in _motion(None if files is None else tuple(map(str, files)))],
+        "motion_files": None if files is None else [str(f) for f in files],
         "truth_fit": "registered base fitted to the real stances, frozen"
         + ("; its sole offsets baked into the sole points" if base == "seed" else ""),
         "n_boot": n_boot,
@@ -653,7 +683,9 @@ def run_benchmark(
             f"[{len(done) + 1}/{len(cases)}] base {base}: truth {case['truth']} "
             f"({case['magnitude']}), seed {case['seed']}"
         )
-        r = run_case(case, base, candidates, realism, n_boot, progress=None, workers=workers)
+        r = run_case(
+            case, base, candidates, realism, n_boot, progress=None, workers=workers, files=files
+        )
         done.append(r)
         s = summarize(done, labels)
         say(
