@@ -163,6 +163,58 @@ def _fit(
     )
 
 
+def fit_full(
+    data: list[StanceData],
+    model: tuple,
+    parent: Evaluation | None = None,
+    weights: Weights | None = None,
+    options: IpoptOptions | None = None,
+) -> EstimationResult:
+    """``model``'s fit on all of ``data``, from ``parent``'s (the model it extends) when given."""
+    return _fit(data, model, parent.full if parent else None, weights or Weights(), options)
+
+
+def screened_out(parent: Evaluation | None, full: EstimationResult, screen_pct) -> bool:
+    """Whether a fit on all stances fails the in-sample screen of :func:`evaluate`."""
+    return (
+        screen_pct is not None
+        and parent is not None
+        and insample_reduction(parent.full, full) < screen_pct
+    )
+
+
+def fit_fold(
+    data: list[StanceData],
+    model: tuple,
+    plan: list[int],
+    j: int,
+    full: EstimationResult,
+    parent: Evaluation | None = None,
+    weights: Weights | None = None,
+    options: IpoptOptions | None = None,
+) -> Fold:
+    """Fold ``j`` of ``plan``: ``model`` trained on every stance but ``data[plan[j]]`` and scored
+    on that one. The training fit starts from the model's own fit on all stances ``full`` (the
+    nearest problem). The objective is not convex, and a model nests its parent (its effect at
+    the neutral value is the parent exactly), so its training fit must end at or below the
+    parent's on the same stances: when it does not, it also starts from the parent's fold fit
+    and keeps the lower. No covariance for the fold fits: only their values and costs are
+    used."""
+    weights = weights or Weights()
+    i = plan[j]
+    held = data[i]
+    train = [d for k, d in enumerate(data) if k != i]
+    tr = _fit(train, model, full, weights, options, covariance=False)
+    if parent is not None:
+        ptr = parent.folds[j].train
+        if tr.objective > ptr.objective * (1.0 + NESTING_RTOL):
+            alt = _fit(train, model, ptr, weights, options, covariance=False)
+            tr = alt if alt.objective < tr.objective else tr
+    return _score_heldout(
+        held, train, model, tr, weights, options, parent.folds[j].heldout if parent else None
+    )
+
+
 def evaluate(
     data: list[StanceData],
     model: tuple,
@@ -175,9 +227,9 @@ def evaluate(
     progress: Callable[[str], None] | None = None,
     screen_pct: float | None = None,
 ) -> Evaluation:
-    """Fit ``model`` on all of ``data`` and on each fold of ``plan``, and score every held-out
-    stance. Warm starts: from ``parent``'s fits (the model this one extends) when given; the
-    base's folds start from its own fit on all stances.
+    """Fit ``model`` on all of ``data`` (:func:`fit_full`) and on each fold of ``plan``
+    (:func:`fit_fold`), and score every held-out stance. Warm starts: from ``parent``'s fits (the
+    model this one extends) when given; the folds from the model's own fit on all stances.
 
     screen_pct: with a ``parent``, stop after the fit on all stances when the in-sample
     reduction (:func:`insample_reduction`) is below it: the evaluation is ``screened`` (no
@@ -186,43 +238,15 @@ def evaluate(
     import time
 
     say = progress or (lambda s: None)
-    weights = weights or Weights()
     t0 = time.perf_counter()
-    full = _fit(data, model, parent.full if parent else None, weights, options)
-    if (
-        screen_pct is not None
-        and parent is not None
-        and insample_reduction(parent.full, full) < screen_pct
-    ):
+    full = fit_full(data, model, parent, weights, options)
+    if screened_out(parent, full, screen_pct):
         ev = Evaluation(label, names, model, full, [], time.perf_counter() - t0, screened=True)
         say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
         return ev
-    folds = []
-    for j, i in enumerate(plan):
-        held = data[i]
-        train = [d for k, d in enumerate(data) if k != i]
-        # From the model's own fit on all stances (the nearest problem). The objective is not
-        # convex, and a model nests its parent (its effect at the neutral value is the parent
-        # exactly), so its training fit must end at or below the parent's on the same stances:
-        # when it does not, it also starts from the parent's fold fit and keeps the lower.
-        # No covariance for the fold fits: only their values and costs are used.
-        tr = _fit(train, model, full, weights, options, covariance=False)
-        if parent is not None:
-            ptr = parent.folds[j].train
-            if tr.objective > ptr.objective * (1.0 + NESTING_RTOL):
-                alt = _fit(train, model, ptr, weights, options, covariance=False)
-                tr = alt if alt.objective < tr.objective else tr
-        folds.append(
-            _score_heldout(
-                held,
-                train,
-                model,
-                tr,
-                weights,
-                options,
-                parent.folds[j].heldout if parent else None,
-            )
-        )
+    folds = [
+        fit_fold(data, model, plan, j, full, parent, weights, options) for j in range(len(plan))
+    ]
     ev = Evaluation(label, names, model, full, folds, time.perf_counter() - t0)
     say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
     return ev
@@ -429,6 +453,9 @@ __all__ = [
     "Fold",
     "evaluate",
     "evaluate_on",
+    "fit_fold",
+    "fit_full",
+    "screened_out",
     "describe",
     "fold_plan",
     "heldout_quality",

@@ -39,11 +39,14 @@ from gc_ocp.diagnosis.compare import (
     describe,
     evaluate,
     evaluate_on,
+    fit_fold,
+    fit_full,
     fold_plan,
     heldout_quality,
     insample_reduction,
     reduction,
     score,
+    screened_out,
     superior_rms,
     weighted_residuals,
 )
@@ -441,34 +444,107 @@ def _flag_ties(rows: list[dict], evs: dict, n_boot, seed, rate) -> None:
                         x["confounded_with"].append(y["effect"])
 
 
-def _evaluate_one(args) -> Evaluation:
-    stances, model, label, names, plan, parent, weights, options, screen = args
-    return evaluate(stances, model, label, names, plan, parent, weights, options, screen_pct=screen)
+_SHARED: dict = {}
+"""What every task of a round reads (stances, fold plan, parent, weights, options, the jobs),
+set before the worker processes are forked so that it is inherited, not pickled per task."""
 
 
-def _evaluate_all(stances, jobs, plan, parent, weights, options, workers, say, screen) -> dict:
-    """``{name: Evaluation}`` of every job ``{name: (label, model, names)}``, on ``workers``
-    processes (forked: the compiled per-frame functions are loaded from the disk cache).
-    ``screen``: the in-sample screen of :func:`~gc_ocp.diagnosis.compare.evaluate` (or None)."""
-    args = {
-        n: (stances, model, label, names, plan, parent, weights, options, screen)
-        for n, (label, model, names) in jobs.items()
-    }
+def _task_full(name: str):
+    sh = _SHARED
+    t0 = time.perf_counter()
+    full = fit_full(sh["stances"], sh["jobs"][name][1], sh["parent"], sh["weights"], sh["options"])
+    return name, full, time.perf_counter() - t0
+
+
+def _task_fold(name: str, j: int, full):
+    sh = _SHARED
+    t0 = time.perf_counter()
+    fold = fit_fold(
+        sh["stances"],
+        sh["jobs"][name][1],
+        sh["plan"],
+        j,
+        full,
+        sh["parent"],
+        sh["weights"],
+        sh["options"],
+    )
+    return name, j, fold, time.perf_counter() - t0
+
+
+def _evaluate_all(
+    stances, jobs, plan, parent, weights, options, workers, say, screen, hint=None
+) -> dict:
+    """``{name: Evaluation}`` of every job ``{name: (label, model, names)}``. With ``workers`` >
+    1, on that many forked processes, one task per fit: every candidate's fit on all stances,
+    then, as each ends and passes the in-sample ``screen`` (:func:`~.compare.evaluate`), one
+    task per fold; so a dear candidate (the 16-unit denser sole) is spread over the processes
+    instead of holding one while the others idle. ``seconds`` of an evaluation: the sum of its
+    tasks' times. ``hint``: ``{name: seconds}`` of the candidates in the previous round (the
+    dearest are submitted first)."""
     if workers <= 1 or len(jobs) <= 1:
         return {
-            n: evaluate(*a[:6], weights=weights, options=options, progress=say, screen_pct=screen)
-            for n, a in args.items()
+            n: evaluate(
+                stances,
+                model,
+                label,
+                names,
+                plan,
+                parent,
+                weights=weights,
+                options=options,
+                progress=say,
+                screen_pct=screen,
+            )
+            for n, (label, model, names) in jobs.items()
         }
     import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-    out = {}
-    with ProcessPoolExecutor(workers, mp_context=mp.get_context("fork")) as pool:
-        futures = {pool.submit(_evaluate_one, a): n for n, a in args.items()}
-        for fut in as_completed(futures):
-            ev = fut.result()
-            out[futures[fut]] = ev
-            say(f"  {ev.label}: {describe(ev)} ({ev.seconds:.1f} s)")
+    _SHARED.update(
+        stances=stances,
+        jobs=jobs,
+        plan=plan,
+        parent=parent,
+        weights=weights,
+        options=options,
+    )
+    fulls: dict = {}
+    folds: dict = {n: [None] * len(plan) for n in jobs}
+    secs: dict = dict.fromkeys(jobs, 0.0)
+    out: dict = {}
+    try:
+        with ProcessPoolExecutor(workers, mp_context=mp.get_context("fork")) as pool:
+            # the dearest candidates first (their time in the previous round, when known)
+            order = sorted(jobs, key=lambda n: -(hint or {}).get(n, 0.0))
+            pending = {pool.submit(_task_full, n) for n in order}
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    res = fut.result()
+                    n = res[0]
+                    label, model, names = jobs[n]
+                    if len(res) == 3:  # a fit on all stances
+                        _, full, dt = res
+                        fulls[n], secs[n] = full, secs[n] + dt
+                        if screened_out(parent, full, screen):
+                            out[n] = Evaluation(label, names, model, full, [], dt, screened=True)
+                        elif not plan:
+                            out[n] = Evaluation(label, names, model, full, [], dt)
+                        else:
+                            pending |= {
+                                pool.submit(_task_fold, n, j, full) for j in range(len(plan))
+                            }
+                            continue
+                    else:  # a fold
+                        _, j, fold, dt = res
+                        folds[n][j], secs[n] = fold, secs[n] + dt
+                        if any(f is None for f in folds[n]):
+                            continue
+                        out[n] = Evaluation(label, names, model, fulls[n], folds[n], secs[n])
+                    say(f"  {label}: {describe(out[n])} ({out[n].seconds:.1f} s)")
+    finally:
+        _SHARED.clear()
     return {n: out[n] for n in jobs}
 
 
@@ -529,6 +605,7 @@ def diagnose_stances(
     selected: list[str] = []
     remaining = list(names)
     rounds: list[list[dict]] = []
+    hint: dict = {}
     limit = len(names) if max_effects is None else max_effects
     while remaining:
         say(f"round {len(rounds) + 1}: {len(remaining)} candidate(s) on top of {current.label}")
@@ -544,7 +621,10 @@ def diagnose_stances(
         # rounds only decide the selection, so a candidate whose in-sample reduction is below
         # the threshold (it cannot pass) is not held out there (``screened``)
         screen = threshold_pct if rounds and plan else None
-        evs = _evaluate_all(stances, jobs, plan, current, weights, options, workers, say, screen)
+        evs = _evaluate_all(
+            stances, jobs, plan, current, weights, options, workers, say, screen, hint
+        )
+        hint = {n: ev.seconds for n, ev in evs.items()}
         evaluations.update({ev.label: ev for ev in evs.values()})
         rows = _rank(current, evs, threshold_pct, n_boot, seed, rate)
         rounds.append(rows)
