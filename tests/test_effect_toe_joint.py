@@ -317,13 +317,13 @@ def test_pitch_drive_decode_matches_the_model():
     """The decoded per-stance angle (NumPy) is the model's (SX, read back from the hinged toes)
     on the recorded frames: 1e-9 deg (asin of a sine read back: round-off); fixed values: SE 0."""
     st = _stances()
-    onset = {s: _flat_pitch(st, s) for s in ("left", "right")}
+    onset = {"left": 0.0, "right": np.deg2rad(1.0)}  # above each stance's foot flat
     tj = ToeJoint(pitch_fixed={"gain": 0.7, "onset": onset})
     pb = build_estimation(st, (*base_model(), tj))
     blk = result_at(pb, pb.x0).blocks["toe_joint"]
     data = Layout(list(BASE_DATA))
     for s in st:
-        fn = _pitch_frame_fn(0.7, onset[s.side])
+        fn = _pitch_frame_fn(0.7, _flat_pitch([s], s.side) + onset[s.side])
         got = []
         for k in range(s.n):
             d = np.zeros(data.size)
@@ -355,7 +355,7 @@ def test_pitch_drive_is_recovered_on_real_motion():
     onsets and fits to the noise; the welded base does not."""
     t0 = time.perf_counter()
     stances = _stances()
-    onset = {s: _flat_pitch(stances, s) + np.deg2rad(PITCH_ONSET_DEG) for s in ("left", "right")}
+    onset = {s: np.deg2rad(PITCH_ONSET_DEG) for s in ("left", "right")}  # above foot flat
     truth = (*_base_truth(), ToeJoint(pitch_fixed={"gain": PITCH_GAIN, "onset": onset}))
     data = recovery.simulate(stances, truth, np.random.default_rng(7))
     m1, m0 = (*base_model(), ToeJoint()), base_model()

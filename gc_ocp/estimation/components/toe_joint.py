@@ -90,7 +90,8 @@ def pitch_drive(pitch, pitch_dot, onset, gain, smooth) -> tuple:
 def _flat_pitch(stances, side: str) -> float:
     """The hindfoot's pitch at foot flat [rad]: the median over the frames between 20 % and 50 %
     of each contact of ``side``'s stances (all stances when the side has none; 0 without any).
-    It is the marker set's tilt of the foot frame when the sole is flat on the ground."""
+    It is the marker set's (and the skin's) tilt of the foot frame when the sole is flat on the
+    ground; the pitch drive counts the onset from each stance's own value."""
     sts = [st for st in stances if st.side == side] or list(stances)
     vals = []
     for st in sts:
@@ -121,25 +122,27 @@ class ToeJoint(Component):
 
         phi = gain * s * softplus((pitch - onset) / s),  phi_dot = gain * sigmoid(.) * pitch_dot
 
-    ``onset``: the pitch at which the toes start to bend (the heel leaves the ground), which
-    absorbs the marker set's tilt of the foot frame at foot flat; ``s = smooth_deg`` (2 deg, fixed)
+    ``onset``: the pitch at which the toes start to bend (the heel leaves the ground), counted
+    from the stance's own pitch at foot flat (:func:`_flat_pitch` of that stance alone): the
+    foot frame's tilt at foot flat is the marker set's and the skin's, and differs from stance to
+    stance by a few degrees, so a new stance is predicted from its own foot flat, with no
+    variable of its own; ``s = smooth_deg`` (2 deg, fixed)
     rounds the kink; ``gain``: 1 = the toes stay flat on the ground after heel rise, 0 = welded
     toes, between = the toes follow part of the hindfoot's pitch (they lift or roll over the tip).
     Variables (scope ``"global"``, frozen on a held-out stance, which thus pays nothing extra):
     ``gain`` [-], one shared by both feet, prior N(gain_mean, gain_sigma^2) = N(0.5, 0.5^2)
     (half-way between welded and flat toes; both within one sigma), bounds [0, gain_max = 1.2]
     (a toe does not dorsiflex faster than the hindfoot pitches by much more than its roll-off);
-    ``onset`` [rad] per side, prior N(centre, (onset_sigma_deg = 10 deg)^2) and bounds centre +-
-    onset_bound_deg (30 deg), centre = ``onset_deg[side]`` or, by default, the hindfoot's pitch at
-    foot flat on the fitted stances of that side (:func:`_flat_pitch`; a few degrees for skin
-    marker sets, the marker set's tilt). Why a shared gain and per-side onsets: the two feet of
-    one subject roll off alike (the gain is the foot's physics), but each foot's frame comes from
-    its own markers, so its tilt at foot flat (the onset) differs per foot.
+    ``onset`` [rad] above the stance's foot flat, per side, prior N(centre, (onset_sigma_deg = 10
+    deg)^2) and bounds centre +- onset_bound_deg (30 deg), centre = ``onset_deg[side]`` or 0 (the
+    toes start bending as the heel leaves foot flat). Why a shared gain and per-side onsets: the
+    two feet of one subject roll off alike (the gain is the foot's physics), but each foot has
+    its own markers and its own heel-rise pattern.
     Identifiability: the toe unit's load during push-off fixes mostly the product of gain and
     the pitch above onset; onset and gain are correlated (a later onset with a larger gain gives
     a similar angle at toe-off), the onset's prior and the timing of the toe load separate them.
-    ``pitch_fixed``: ``{"gain": float, "onset": {side: rad}}`` applied without estimating them
-    (a frozen result, a synthetic truth).
+    ``pitch_fixed``: ``{"gain": float, "onset": {side: rad above foot flat}}`` applied without
+    estimating them (a frozen result, a synthetic truth).
 
     ``drive="spline"``: per stance, the coefficients [rad] of a cubic B-spline in time (knots
     every ``knot_spacing`` [s], the basis of :meth:`PoseCorrection.basis`); ``phi_dot`` is the
@@ -224,10 +227,9 @@ class ToeJoint(Component):
             )
             sig, bound = np.deg2rad(self.onset_sigma_deg), np.deg2rad(self.onset_bound_deg)
             for side in SIDES:
+                c = 0.0
                 if self.onset_deg is not None and side in self.onset_deg:
                     c = float(np.deg2rad(self.onset_deg[side]))
-                else:
-                    c = _flat_pitch(stances, side)
                 variables.parameter(self._onset_key(side), c, c - bound, c + bound, prior_sigma=sig)
             return
         sigma = np.deg2rad(self.sigma_deg)
@@ -243,12 +245,13 @@ class ToeJoint(Component):
 
     def slots(self, variables, index, stance) -> dict:
         if self.drive == "pitch":
+            flat = _flat_pitch([stance], stance.side)  # the slot is the absolute onset
             if self.pitch_fixed is not None:
                 onset = float(self.pitch_fixed["onset"][stance.side])
                 gain = float(self.pitch_fixed["gain"])
-                return {"toe_onset": ca.MX(1, 1) + onset, "toe_gain": ca.MX(1, 1) + gain}
+                return {"toe_onset": ca.MX(1, 1) + (flat + onset), "toe_gain": ca.MX(1, 1) + gain}
             return {
-                "toe_onset": variables.get(self._onset_key(stance.side)),
+                "toe_onset": variables.get(self._onset_key(stance.side)) + flat,
                 "toe_gain": variables.get(self._gain_key()),
             }
         B, dB = self.basis(stance.time)
@@ -283,7 +286,7 @@ class ToeJoint(Component):
         "max_deg": {label: float}}``: the toe angle per stance with standard errors by the delta
         method (0 where fixed). Spline: each stance also has ``"coef_deg"``, ``"coef_se_deg"``.
         Pitch: each stance also has ``"pitch_deg"`` (the hindfoot pitch); the block has
-        ``"gain"``, ``"gain_se"``, ``"onset"`` ``{side: rad}``, ``"onset_deg"``,
+        ``"gain"``, ``"gain_se"``, ``"onset"`` ``{side: rad above each stance's foot flat}``, ``"onset_deg"``,
         ``"onset_se_deg"`` and ``"gain_onset_corr"`` ``{side: float}``."""
         if self.drive == "pitch":
             return self._decode_pitch(ctx)
@@ -333,7 +336,8 @@ class ToeJoint(Component):
         peak: dict = {}
         for st in ctx.stances:
             pitch = pitch_numpy(st.foot.hindfoot_pose)
-            o = onset[st.side]
+            flat = _flat_pitch([st], st.side)
+            o = onset[st.side] + flat
             phi, _ = pitch_drive(pitch, 0.0, o, gain, s)
             se = np.zeros(st.n)
             if free:
@@ -357,6 +361,7 @@ class ToeJoint(Component):
                 "phi_deg": np.rad2deg(phi).tolist(),
                 "phi_se_deg": np.rad2deg(se).tolist(),
                 "pitch_deg": np.rad2deg(pitch).tolist(),
+                "flat_pitch_deg": float(np.rad2deg(flat)),
             }
             peak[st.label] = float(np.rad2deg(phi[np.argmax(np.abs(phi))]))
         return {
