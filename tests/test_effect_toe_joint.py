@@ -390,3 +390,18 @@ def test_pitch_drive_is_recovered_on_real_motion():
     for side in r0.rms:
         assert r0.rms[side]["superior_force_pct_bw"] > 1.25 * noise, (side, r0.rms[side])
     print(f"toe_joint pitch recovery: {time.perf_counter() - t0:.1f} s")
+
+
+def test_the_drive_follows_the_model_it_joins():
+    """``model_from_names`` adds the predictive pitch drive to a model with a per-stance nuisance
+    (the pose correction of the registered base) and the per-stance spline to a bare one (the
+    seed base), where the held-out stance has no other per-stance unknown."""
+    from gc_ocp.estimation.components import bare_seed_model, model_from_names
+
+    def drive(model):
+        return next(c for c in model if c.name == "toe_joint").drive
+
+    assert drive(model_from_names(["toe_joint"], base=base_model())) == "pitch"
+    assert drive(model_from_names(["toe_joint"], base=bare_seed_model())) == "spline"
+    both = model_from_names(["kinematic_correction", "toe_joint"], base=bare_seed_model())
+    assert drive(both) == "pitch"

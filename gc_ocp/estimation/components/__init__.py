@@ -67,13 +67,16 @@ def register(name: str, cls: type[Component]) -> None:
 
 
 def model_from_names(names, base: tuple = ()) -> tuple[Component, ...]:
-    """``base`` plus the registered components ``names`` (default settings), skipping those whose
-    class is already in ``base``."""
+    """``base`` plus the registered components ``names`` (the defaults for the model they join,
+    :meth:`Component.for_model`), skipping those whose class is already in ``base``."""
     unknown = [n for n in names if n not in REGISTRY]
     if unknown:
         raise ModelError(f"Unknown component(s) {unknown}; choose from {sorted(REGISTRY)}")
-    have = {type(c) for c in base}
-    return tuple(base) + tuple(REGISTRY[n]() for n in names if REGISTRY[n] not in have)
+    model = tuple(base)
+    for n in names:
+        if REGISTRY[n] not in {type(c) for c in model}:
+            model = (*model, REGISTRY[n].for_model(model))
+    return model
 
 
 def base_model() -> tuple[Component, ...]:

@@ -95,6 +95,12 @@ class Component:
         not offer it as a candidate. Default: a component of this class is in ``model``."""
         return any(isinstance(c, cls) for c in model)
 
+    @classmethod
+    def for_model(cls, model: tuple) -> Component:
+        """This component with the default settings for a model whose other components are
+        ``model`` (what :func:`model_from_names` adds). Default: ``cls()``."""
+        return cls()
+
     def configure(self, model: tuple) -> tuple:
         """The model this component needs around it (e.g. a damping effect fixes the contact
         law's own damping at zero, so that it is not estimated twice). Default: unchanged."""

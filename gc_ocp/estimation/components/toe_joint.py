@@ -187,6 +187,18 @@ class ToeJoint(Component):
         """``"stance"`` for the per-stance spline, ``"global"`` for the pitch drive."""
         return "stance" if self.drive == "spline" else "global"
 
+    @classmethod
+    def for_model(cls, model: tuple) -> ToeJoint:
+        """The pitch drive when ``model`` has a per-stance nuisance (a component of scope
+        ``"stance"``, e.g. the pose correction), the spline drive otherwise. With the pose
+        correction, a per-stance toe angle duplicates freedom the base already has (it pays the
+        Occam charge on every held-out stance and is absorbed), so only a toe hinge that
+        *predicts* a new stance can show; on a bare model (the seed base) the held-out stance has
+        no per-stance unknown, and the toe angle, which no marker measures, is re-estimated
+        there as the ``kinematic_correction`` candidate's pose is: like for like."""
+        stance_scoped = any(c.scope == "stance" for c in model)
+        return cls(drive="pitch" if stance_scoped else "spline")
+
     def with_prior_scale(self, factor: float) -> ToeJoint:
         """The same component with its prior widths multiplied by ``factor`` (bounds kept)."""
         if self.drive == "spline":
