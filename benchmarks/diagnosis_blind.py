@@ -188,6 +188,11 @@ def main(argv=None) -> int:
     ap.add_argument("--bases", default="registered,seed")
     ap.add_argument("--motion", choices=("bundled", "bts"), default="bundled")
     ap.add_argument("--effects", default=None, help="comma-separated truths (default: all)")
+    ap.add_argument(
+        "--tag",
+        default="",
+        help="suffix of a partial rerun's folder (its cases replace the main run's)",
+    )
     ap.add_argument("--report-only", action="store_true")
     ap.add_argument("--resume", action="store_true")
     a = ap.parse_args(argv)
@@ -196,8 +201,8 @@ def main(argv=None) -> int:
     if not a.report_only:
         for base in bases:
             name = base if a.motion == "bundled" else f"{base}_{a.motion}"
-            if a.first_seed:
-                name += f"_s{a.first_seed}"
+            if a.first_seed or a.tag:  # a split or partial rerun, merged over the main run
+                name += f"_s{a.first_seed}{a.tag}"
             res = benchmark.run_benchmark(
                 OUT / name,
                 base=base,

@@ -99,6 +99,7 @@ class Evaluation:
     folds: list[Fold]
     seconds: float = 0.0
     screened: bool = False  # not held out: its in-sample gain over its parent was too small
+    weights: Weights = dataclasses.field(default_factory=Weights)  # of every fit and score
 
     @property
     def heldout_fits(self) -> list:
@@ -110,10 +111,7 @@ class Evaluation:
 
 
 def _frame_cost(fit: dict, weights: Weights) -> np.ndarray:
-    r = (np.asarray(fit["model"]) - np.asarray(fit["measured"])) * weights.inverse_sigmas(
-        fit["body_weight"]
-    )
-    return 0.5 * np.sum(r**2, axis=1)
+    return 0.5 * np.sum(weights.residuals(fit) ** 2, axis=1)
 
 
 def occam_term(problem, x: np.ndarray) -> float:
@@ -241,13 +239,17 @@ def evaluate(
     t0 = time.perf_counter()
     full = fit_full(data, model, parent, weights, options)
     if screened_out(parent, full, screen_pct):
-        ev = Evaluation(label, names, model, full, [], time.perf_counter() - t0, screened=True)
+        ev = Evaluation(
+            label, names, model, full, [], time.perf_counter() - t0, True, weights or Weights()
+        )
         say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
         return ev
     folds = [
         fit_fold(data, model, plan, j, full, parent, weights, options) for j in range(len(plan))
     ]
-    ev = Evaluation(label, names, model, full, folds, time.perf_counter() - t0)
+    ev = Evaluation(
+        label, names, model, full, folds, time.perf_counter() - t0, False, weights or Weights()
+    )
     say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
     return ev
 
@@ -315,7 +317,7 @@ def evaluate_on(
         )
         for j, held in enumerate(test)
     ]
-    ev = Evaluation(label, names, model, full, folds, time.perf_counter() - t0)
+    ev = Evaluation(label, names, model, full, folds, time.perf_counter() - t0, False, weights)
     say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
     return ev
 
@@ -351,8 +353,7 @@ def _stance_costs(ev: Evaluation) -> list[np.ndarray]:
         return [
             f.frame_cost + (f.heldout.prior_cost + f.occam) / f.frame_cost.size for f in ev.folds
         ]
-    w = Weights()
-    costs = [_frame_cost(fit, w) for fit in ev.full.stance_fits]
+    costs = [_frame_cost(fit, ev.weights) for fit in ev.full.stance_fits]
     n = sum(c.size for c in costs)
     extra = ev.full.prior_cost + 0.5 * ev.full.n_param * np.log(ev.full.n_data)
     return [c + extra / n for c in costs]
@@ -407,16 +408,7 @@ def weighted_residuals(ev: Evaluation) -> np.ndarray:
     """All held-out (or, without folds, in-sample) weighted residuals, flattened: the vector
     whose changes between models tell whether two effects explain the same part of the gap."""
     fits = ev.heldout_fits if ev.folds else ev.full.stance_fits
-    w = Weights()
-    return np.concatenate(
-        [
-            (
-                (np.asarray(f["model"]) - np.asarray(f["measured"]))
-                * w.inverse_sigmas(f["body_weight"])
-            ).ravel()
-            for f in fits
-        ]
-    )
+    return np.concatenate([ev.weights.residuals(f).ravel() for f in fits])
 
 
 def heldout_quality(ev: Evaluation) -> dict:

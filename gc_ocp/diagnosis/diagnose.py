@@ -509,6 +509,7 @@ def _evaluate_all(
         weights=weights,
         options=options,
     )
+    w = weights or Weights()
     fulls: dict = {}
     folds: dict = {n: [None] * len(plan) for n in jobs}
     secs: dict = dict.fromkeys(jobs, 0.0)
@@ -528,9 +529,9 @@ def _evaluate_all(
                         _, full, dt = res
                         fulls[n], secs[n] = full, secs[n] + dt
                         if screened_out(parent, full, screen):
-                            out[n] = Evaluation(label, names, model, full, [], dt, screened=True)
+                            out[n] = Evaluation(label, names, model, full, [], dt, True, w)
                         elif not plan:
-                            out[n] = Evaluation(label, names, model, full, [], dt)
+                            out[n] = Evaluation(label, names, model, full, [], dt, False, w)
                         else:
                             pending |= {
                                 pool.submit(_task_fold, n, j, full) for j in range(len(plan))
@@ -541,7 +542,9 @@ def _evaluate_all(
                         folds[n][j], secs[n] = fold, secs[n] + dt
                         if any(f is None for f in folds[n]):
                             continue
-                        out[n] = Evaluation(label, names, model, fulls[n], folds[n], secs[n])
+                        out[n] = Evaluation(
+                            label, names, model, fulls[n], folds[n], secs[n], False, w
+                        )
                     say(f"  {label}: {describe(out[n])} ({out[n].seconds:.1f} s)")
     finally:
         _SHARED.clear()

@@ -49,6 +49,12 @@ class Weights:
             [sf, sf, sf, sf * self.torque_length, sf * self.torque_length, sf * self.torque_length]
         )
 
+    def residuals(self, fit: dict) -> np.ndarray:
+        """``(T, 6)`` weighted residuals (model - measured, in units of the error scale) of a
+        stance fit (``EstimationResult.stance_fits`` item)."""
+        res = np.asarray(fit["model"], float) - np.asarray(fit["measured"], float)
+        return res * self.inverse_sigmas(fit["body_weight"])
+
 
 def _assemble_hessian(As: list[ca.DM], BDs: list[ca.MX], nx: int) -> ca.MX:
     """``sum_s A_s^T BD_s A_s`` assembled in time linear in the number of stances.
