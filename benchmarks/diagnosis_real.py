@@ -91,12 +91,14 @@ BIC penalty nearly every effect passes, and the full diagnoses select one or two
 
 
 def _pairs(files) -> list:
+    """Trials loaded as ``gc-ocp`` loads them: a TRC paired with its MOT/STO (``pair_trials``)."""
     from gc_ocp.io import load_trial
+    from gc_ocp.io.pairing import pair_trials
     from gc_ocp.kinematics import compute_kinematics
 
     out = []
-    for f in files:
-        t = load_trial(DATA / f)
+    for p in pair_trials([DATA / f for f in files]):
+        t = load_trial(p.trial, p.grf)
         out.append((t, compute_kinematics(t)))
     return out
 
