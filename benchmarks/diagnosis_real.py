@@ -262,7 +262,8 @@ def markdown(results: list[dict]) -> str:
         "Base `registered` (seed law with k per unit and a fitted mu; sole and pose "
         "registration; belt speed on the treadmill). Reductions are of the held-out combined "
         "score (all six channels, nuisance prior and Occam terms), with the 95 % paired block "
-        "bootstrap interval; PASS = reduction >= threshold and interval above 0. Superior RMS: "
+        "bootstrap interval; PASS (bold) = reduction >= threshold, interval above 0 and in-sample "
+        "reduction >= threshold. Superior RMS: "
         "held-out superior force, both feet pooled, % BW.",
         "",
         "## Diagnosis per trial",

@@ -224,7 +224,7 @@ def test_confirmation_on_an_unseen_stance_shrinks_the_gap_of_a_true_effect(bundl
 
 
 def test_parallel_rounds_give_the_serial_answer(bundled):
-    """The task-parallel rounds (one task per fit, on forked processes) compute the same fits
+    """The parallel rounds (one task per candidate, on forked processes) compute the same fits
     as the serial ones: the same rankings in every round, to round-off, and the same selection;
     later rounds screen the same candidates."""
     stances, truth = bundled

@@ -39,14 +39,11 @@ from gc_ocp.diagnosis.compare import (
     describe,
     evaluate,
     evaluate_on,
-    fit_fold,
-    fit_full,
     fold_plan,
     heldout_quality,
     insample_reduction,
     reduction,
     score,
-    screened_out,
     superior_rms,
     weighted_residuals,
 )
@@ -445,43 +442,39 @@ def _flag_ties(rows: list[dict], evs: dict, n_boot, seed, rate) -> None:
 
 
 _SHARED: dict = {}
-"""What every task of a round reads (stances, fold plan, parent, weights, options, the jobs),
-set before the worker processes are forked so that it is inherited, not pickled per task."""
+"""What every task of a round reads (stances, fold plan, parent, weights, options, screen, the
+jobs), set before the worker processes are forked so that it is inherited, not pickled per task."""
 
 
-def _task_full(name: str):
+def _task(name: str) -> Evaluation:
     sh = _SHARED
-    t0 = time.perf_counter()
-    full = fit_full(sh["stances"], sh["jobs"][name][1], sh["parent"], sh["weights"], sh["options"])
-    return name, full, time.perf_counter() - t0
-
-
-def _task_fold(name: str, j: int, full):
-    sh = _SHARED
-    t0 = time.perf_counter()
-    fold = fit_fold(
+    label, model, names = sh["jobs"][name]
+    return evaluate(
         sh["stances"],
-        sh["jobs"][name][1],
+        model,
+        label,
+        names,
         sh["plan"],
-        j,
-        full,
         sh["parent"],
         sh["weights"],
         sh["options"],
+        screen_pct=sh["screen"],
     )
-    return name, j, fold, time.perf_counter() - t0
 
 
 def _evaluate_all(
     stances, jobs, plan, parent, weights, options, workers, say, screen, hint=None
 ) -> dict:
-    """``{name: Evaluation}`` of every job ``{name: (label, model, names)}``. With ``workers`` >
-    1, on that many forked processes, one task per fit: every candidate's fit on all stances,
-    then, as each ends and passes the in-sample ``screen`` (:func:`~.compare.evaluate`), one
-    task per fold; so a dear candidate (the 16-unit denser sole) is spread over the processes
-    instead of holding one while the others idle. ``seconds`` of an evaluation: the sum of its
-    tasks' times. ``hint``: ``{name: seconds}`` of the candidates in the previous round (the
-    dearest are submitted first)."""
+    """``{name: Evaluation}`` of every job ``{name: (label, model, names)}``, one task per
+    candidate on ``workers`` forked processes (the compiled per-frame functions are loaded from
+    the disk cache once per process and configuration), the dearest first (``hint``: ``{name:
+    seconds}`` of the candidates in the previous round). ``screen``: the in-sample screen of
+    :func:`~gc_ocp.diagnosis.compare.evaluate`.
+
+    One task per *fit* (a candidate's folds spread over the processes) was tried and measured
+    slower (bundled trial 63.6 s against 49.5 s; three BTS trials 149.5 s against 149.6 s): every
+    process then derives and loads every configuration's functions, and the results travel
+    between processes."""
     if workers <= 1 or len(jobs) <= 1:
         return {
             n: evaluate(
@@ -499,7 +492,7 @@ def _evaluate_all(
             for n, (label, model, names) in jobs.items()
         }
     import multiprocessing as mp
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures import ProcessPoolExecutor, as_completed
 
     _SHARED.update(
         stances=stances,
@@ -508,44 +501,17 @@ def _evaluate_all(
         parent=parent,
         weights=weights,
         options=options,
+        screen=screen,
     )
-    w = weights or Weights()
-    fulls: dict = {}
-    folds: dict = {n: [None] * len(plan) for n in jobs}
-    secs: dict = dict.fromkeys(jobs, 0.0)
     out: dict = {}
     try:
         with ProcessPoolExecutor(workers, mp_context=mp.get_context("fork")) as pool:
-            # the dearest candidates first (their time in the previous round, when known)
             order = sorted(jobs, key=lambda n: -(hint or {}).get(n, 0.0))
-            pending = {pool.submit(_task_full, n) for n in order}
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    res = fut.result()
-                    n = res[0]
-                    label, model, names = jobs[n]
-                    if len(res) == 3:  # a fit on all stances
-                        _, full, dt = res
-                        fulls[n], secs[n] = full, secs[n] + dt
-                        if screened_out(parent, full, screen):
-                            out[n] = Evaluation(label, names, model, full, [], dt, True, w)
-                        elif not plan:
-                            out[n] = Evaluation(label, names, model, full, [], dt, False, w)
-                        else:
-                            pending |= {
-                                pool.submit(_task_fold, n, j, full) for j in range(len(plan))
-                            }
-                            continue
-                    else:  # a fold
-                        _, j, fold, dt = res
-                        folds[n][j], secs[n] = fold, secs[n] + dt
-                        if any(f is None for f in folds[n]):
-                            continue
-                        out[n] = Evaluation(
-                            label, names, model, fulls[n], folds[n], secs[n], False, w
-                        )
-                    say(f"  {label}: {describe(out[n])} ({out[n].seconds:.1f} s)")
+            futures = {pool.submit(_task, n): n for n in order}
+            for fut in as_completed(futures):
+                ev = fut.result()
+                out[futures[fut]] = ev
+                say(f"  {ev.label}: {describe(ev)} ({ev.seconds:.1f} s)")
     finally:
         _SHARED.clear()
     return {n: out[n] for n in jobs}
