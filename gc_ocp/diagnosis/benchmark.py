@@ -155,21 +155,13 @@ def _source(files: tuple[str, ...] | None) -> tuple[tuple[StanceData, ...], tupl
     return tuple(stances), truth_from_fit(stances, base_model())
 
 
-def _motion(files: tuple[str, ...] | None = None) -> tuple[StanceData, ...]:
-    return _source(files)[0]
-
-
-def _registered_truth(files: tuple[str, ...] | None = None) -> tuple:
-    return _source(files)[1]
-
-
 def base_truth(base: str, files: tuple[str, ...] | None = None) -> tuple:
     """The frozen truth of ``base``: the registered base fitted to the real stances of the
     motion source (``files``: trials of one subject; None: the bundled trial) (law, sole offsets,
     belt); for the bare ``seed`` base its law alone, the fitted sole offsets being baked into
     the motion's sole points (:func:`motion`)."""
     resolve_base(base)
-    truth = _registered_truth(files)
+    truth = _source(files)[1]
     return (_law(truth),) if base == "seed" else truth
 
 
@@ -181,10 +173,10 @@ def motion(base: str, effect: str = NONE, files: tuple[str, ...] | None = None) 
     leaves heel units of a stance that never touch the ground, so a truth fitted that way has
     per-unit stiffnesses no other stance can predict, and every held-out score is dominated by
     that, not by the effect."""
-    stances = list(_motion(files))
+    stances = list(_source(files)[0])
     if base != "seed":
         return stances
-    sole = next(c for c in _registered_truth(files) if c.name == "sole")
+    sole = next(c for c in _source(files)[1] if c.name == "sole")
     out = []
     for st in stances:
         off = np.array(sole.fixed[st.side], float)
@@ -636,6 +628,7 @@ def run_benchmark(
 
     say = progress or (lambda s: None)
     out = check_writable(out)
+    files = None if files is None else tuple(str(f) for f in files)
     cases = plan(base, effects, seeds, magnitudes, first_seed)
     _, model = resolve_base(base)
     cands = candidate_names(model, candidates)
@@ -647,8 +640,8 @@ def run_benchmark(
         "magnitudes": list(magnitudes),
         "values": {k: VALUES[k] for k in VALUES if k in {c["truth"] for c in cases}},
         "realism": dataclasses.asdict(realism),
-        "motion": [st.label for st in _motion(None if files is None else tuple(map(str, files)))],
-        "motion_files": None if files is None else [str(f) for f in files],
+        "motion": [st.label for st in _source(files)[0]],
+        "motion_files": None if files is None else list(files),
         "truth_fit": "registered base fitted to the real stances, frozen"
         + ("; its sole offsets baked into the sole points" if base == "seed" else ""),
         "n_boot": n_boot,

@@ -161,26 +161,6 @@ def _fit(
     )
 
 
-def fit_full(
-    data: list[StanceData],
-    model: tuple,
-    parent: Evaluation | None = None,
-    weights: Weights | None = None,
-    options: IpoptOptions | None = None,
-) -> EstimationResult:
-    """``model``'s fit on all of ``data``, from ``parent``'s (the model it extends) when given."""
-    return _fit(data, model, parent.full if parent else None, weights or Weights(), options)
-
-
-def screened_out(parent: Evaluation | None, full: EstimationResult, screen_pct) -> bool:
-    """Whether a fit on all stances fails the in-sample screen of :func:`evaluate`."""
-    return (
-        screen_pct is not None
-        and parent is not None
-        and insample_reduction(parent.full, full) < screen_pct
-    )
-
-
 def fit_fold(
     data: list[StanceData],
     model: tuple,
@@ -225,7 +205,7 @@ def evaluate(
     progress: Callable[[str], None] | None = None,
     screen_pct: float | None = None,
 ) -> Evaluation:
-    """Fit ``model`` on all of ``data`` (:func:`fit_full`) and on each fold of ``plan``
+    """Fit ``model`` on all of ``data`` and on each fold of ``plan``
     (:func:`fit_fold`), and score every held-out stance. Warm starts: from ``parent``'s fits (the
     model this one extends) when given; the folds from the model's own fit on all stances.
 
@@ -237,8 +217,12 @@ def evaluate(
 
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
-    full = fit_full(data, model, parent, weights, options)
-    if screened_out(parent, full, screen_pct):
+    full = _fit(data, model, parent.full if parent else None, weights or Weights(), options)
+    if (
+        screen_pct is not None
+        and parent is not None
+        and insample_reduction(parent.full, full) < screen_pct
+    ):
         ev = Evaluation(
             label, names, model, full, [], time.perf_counter() - t0, True, weights or Weights()
         )
@@ -446,8 +430,6 @@ __all__ = [
     "evaluate",
     "evaluate_on",
     "fit_fold",
-    "fit_full",
-    "screened_out",
     "describe",
     "fold_plan",
     "heldout_quality",

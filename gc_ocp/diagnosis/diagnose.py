@@ -162,7 +162,7 @@ class Diagnosis:
             "rounds": self.rounds,
             "selected": self.selected,
             "inconclusive": self.inconclusive,
-            "waterfall": [{k: v for k, v in w.items() if k != "label"} for w in self.waterfall],
+            "waterfall": [_public(w) for w in self.waterfall],
             "where": self.where,
             "folds": self.folds,
             "threshold_pct": self.threshold_pct,
@@ -310,6 +310,11 @@ def _step(label: str, ev: Evaluation) -> dict:
     }
 
 
+def _public(step: dict) -> dict:
+    """A waterfall step as written to JSON: without its evaluation ``label`` (an internal key)."""
+    return {k: v for k, v in step.items() if k != "label"}
+
+
 def _n_params(child: Evaluation, parent: Evaluation) -> int:
     """Scalars the added effect estimates (its own variables, summed over the stances for a
     per-stance effect). Not the change of ``n_free``: an effect may also fix variables of the
@@ -356,6 +361,11 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
             for n in _nuisance_names(parent.model)
             if meaningful and from_nuisance > NUISANCE_SHARE
         ]
+        # an in-sample gain too: a held-out gain without one comes from how the model
+        # extrapolates unit stiffnesses between stances, not from explaining the misfit
+        passes = bool(
+            red["pct"] >= threshold and red["ci"][0] > 0.0 and red["insample_pct"] >= threshold
+        )
         rows.append(
             {
                 "effect": name,
@@ -365,19 +375,11 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
                 "insample_rms_reduction_pct": red["insample_pct"],
                 "per_stance_reduction_pct": red["per_stance"],
                 "n_params": _n_params(ev, parent),
-                # an in-sample gain too: a held-out gain without one comes from how the model
-                # extrapolates unit stiffnesses between stances, not from explaining the misfit
-                "passes": bool(
-                    red["pct"] >= threshold
-                    and red["ci"][0] > 0.0
-                    and red["insample_pct"] >= threshold
-                ),
+                "passes": passes,
                 "screened": False,
                 # gains in-sample and on held-out stances, without a margin the data support
                 "inconclusive": bool(
-                    red["pct"] > 0.0
-                    and red["insample_pct"] >= threshold
-                    and not (red["pct"] >= threshold and red["ci"][0] > 0.0)
+                    not passes and red["pct"] > 0.0 and red["insample_pct"] >= threshold
                 ),
                 "gain_from_nuisance": None if from_nuisance is None else float(from_nuisance),
                 "confounded_with": relieves,
@@ -698,7 +700,7 @@ def confirm_stances(
     kw = {"weights": weights, "options": options, "progress": say}
     say(f"confirming on {len(test)} new stance(s), trained on {len(train)}")
     first = parent = evaluate_on(train, test, base_model_, "base", **kw)
-    steps = [{**_step("base", first), "label": None}]
+    steps = [_public(_step("base", first))]
     for j in range(len(selected)):
         names = tuple(selected[: j + 1])
         ev = evaluate_on(
@@ -714,8 +716,7 @@ def confirm_stances(
         r_total = reduction(first, ev, n_boot=n_boot, seed=seed, frame_rate=rate)
         steps.append(
             {
-                **_step(f"+{names[-1]}", ev),
-                "label": None,
+                **_public(_step(f"+{names[-1]}", ev)),
                 "step_reduction_pct": r_step["pct"],
                 "step_reduction_ci": r_step["ci"],
                 "total_reduction_pct": r_total["pct"],
@@ -728,7 +729,7 @@ def confirm_stances(
         "train": [st.label for st in train],
         "test": [st.label for st in test],
         "selected": list(selected),
-        "steps": [{k: v for k, v in st.items() if k != "label"} for st in steps],
+        "steps": steps,
     }
 
 
