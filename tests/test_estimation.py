@@ -250,13 +250,23 @@ def test_rajagopal_holdout_right():
     assert rep.heldout.rms["right"]["superior_force_pct_bw"] <= 5.0
 
 
-def test_structured_derivatives_match_casadi_ad():
+@pytest.mark.parametrize("which", ["full", "seed", "dense"])
+def test_structured_derivatives_match_casadi_ad(which):
     """The gradient and the arrow-assembled Hessian given to Ipopt equal CasADi's own AD of the
-    objective (round-off: relative 1e-10, the sums involve ~1e3 terms of magnitude ~1)."""
+    objective (round-off: relative 1e-10, the sums involve ~1e3 terms of magnitude ~1). Models:
+    with per-frame slots (the pose spline) beside the constant ones, with constant slots only
+    (the seed's law), and with the 16-unit sole (80 slots per frame, 68 of them constant)."""
     import casadi as ca
 
+    from gc_ocp.estimation.components import model_from_names
+
     _, _, sts = _stances(np.random.default_rng(3))
-    pb = build_estimation(sts, full_model())
+    model = {
+        "full": full_model,
+        "seed": seed_model,
+        "dense": lambda: model_from_names(["contact_density"], base=full_model()),
+    }[which]()
+    pb = build_estimation(sts, model)
     x = pb.x0 + 0.05 * np.random.default_rng(4).normal(size=pb.x0.size)
     H = np.asarray(ca.Function("h1", [pb.x], [pb.hessian])(x))
     H_ad = np.asarray(ca.Function("h2", [pb.x], [ca.hessian(pb.objective, pb.x)[0]])(x))

@@ -56,52 +56,6 @@ class Weights:
         return res * self.inverse_sigmas(fit["body_weight"])
 
 
-def _assemble_hessian(As: list[ca.DM], BDs: list[ca.MX], nx: int) -> ca.MX:
-    """``sum_s A_s^T BD_s A_s`` assembled in time linear in the number of stances.
-
-    Summing ``S`` global ``nx x nx`` matrices costs O(S * nnz). Instead, the variables are split
-    into *shared* ones (used by several stances: contact parameters, sole corrections) and each
-    stance's *own* ones (its pose correction); the Hessian has an arrow structure
-    ``[[H_SS, H_S1, H_S2, ...], [H_1S, H_11, 0, ...], ...]`` whose small shared block is the only
-    sum, and it is permuted back to the decision-vector order by one constant product.
-    """
-    cols = [np.unique(np.asarray(A.sparsity().get_col(), dtype=int)) for A in As]
-    count = np.zeros(nx, dtype=int)
-    for c in cols:
-        count[c] += 1
-    shared = np.flatnonzero(count >= 2)
-    pos_shared = {v: i for i, v in enumerate(shared)}
-    own = [c[count[c] == 1] for c in cols]
-    unused = np.flatnonzero(count == 0)
-    nS = shared.size
-    HSS = ca.MX(nS, nS)
-    HSO, HOO = [], []
-    for A, BD, c, o in zip(As, BDs, cols, own, strict=True):
-        sc = c[count[c] >= 2]
-        E = ca.DM(nS, sc.size)
-        for j, v in enumerate(sc):
-            E[pos_shared[v], j] = 1.0
-        AS, AO = A[:, sc.tolist()], A[:, o.tolist()]
-        BA_S, BA_O = ca.mtimes(BD, AS), ca.mtimes(BD, AO)
-        HSS = HSS + ca.mtimes(E, ca.mtimes(ca.mtimes(AS.T, BA_S), E.T))
-        HSO.append(ca.mtimes(E, ca.mtimes(AS.T, BA_O)))
-        HOO.append(ca.mtimes(AO.T, BA_O))
-    sizes = [o.size for o in own]
-    n_own = sum(sizes)
-    rows = [ca.horzcat(HSS, *HSO, ca.MX(nS, unused.size))]
-    before = 0
-    for hso, hoo, n in zip(HSO, HOO, sizes, strict=True):
-        rows.append(
-            ca.horzcat(hso.T, ca.MX(n, before), hoo, ca.MX(n, n_own - before - n + unused.size))
-        )
-        before += n
-    rows.append(ca.MX(unused.size, nx))
-    Hp = ca.vertcat(*rows)
-    order = np.concatenate([shared, *own, unused]).astype(int)
-    Pm = ca.DM(ca.Sparsity.triplet(nx, nx, list(range(nx)), order.tolist()), 1.0)  # x_perm = Pm x
-    return ca.mtimes(Pm.T, ca.mtimes(Hp, Pm))
-
-
 def frame_data(st: StanceData, weights: Weights, fm: FrameModel, model: tuple) -> np.ndarray:
     """``(n_data, T)`` numeric per-frame inputs of one stance, in the order of ``fm.data``."""
     f = st.foot
@@ -156,6 +110,90 @@ class StanceBlock:
         """Numeric ``(n_y, T)`` per-frame inputs at ``x``."""
         y = self.A_csr @ np.asarray(x, float) + self._y0
         return y.reshape(self.T, self.fm.slots.size).T
+
+
+def _stance_hessian(b: StanceBlock, Yl: ca.MX) -> tuple[np.ndarray, ca.MX]:
+    """``(cols, H)``: one stance's ``sum_t A_t^T H_t A_t`` on the decision variables it uses
+    (``cols``, ascending), ``H`` a dense ``|cols| x |cols|`` MX. ``A_t`` (``n_y x nx``) are the
+    stance's rows of ``A`` for frame t and ``H_t`` the per-frame Hessian in the slots.
+
+    Most slots are the same linear map of x on every frame (contact parameters, sole points:
+    their rows of ``A_t`` do not depend on t); only a few change (a pose spline). Splitting the
+    slots into those constant ones ``c`` and the per-frame ones ``p``::
+
+        sum_t A_t^T H_t A_t = A_c^T (sum_t H_t,cc) A_c + A_c^T X + X^T A_c + sum_t A_pt^T H_t,pp A_pt
+        with X = sum_t H_t,cp A_pt
+
+    the frame sum of the ``cc`` block is taken inside the mapped per-frame function, and no
+    ``(n_y T)^2`` block-diagonal product remains (the 16-unit sole has n_y = 80 slots of which
+    12 are per frame). Exact: the same sum, grouped differently."""
+    ny, T = b.fm.slots.size, b.T
+    cols = np.unique(b.A_csr.indices)
+    Ad = b.A_csr[:, cols].toarray().reshape(T, ny, cols.size)
+    const = np.all(Ad == Ad[:1], axis=(0, 2))
+    c, p = np.flatnonzero(const).tolist(), np.flatnonzero(~const).tolist()
+    nd = b.D.shape[0]
+    Dv, yv = ca.MX.sym("D", nd), ca.MX.sym("y", ny)
+    Hf = b.fm.hess(Dv, yv)
+    Ac = ca.sparsify(ca.DM(Ad[0][c]))
+    if not p:
+        parts = ca.Function("hess_cc", [Dv, yv], [Hf[c, c]])
+        Scc = parts.map(T, [False, False], [True], {})(b.D, Yl)
+        return cols, ca.mtimes(Ac.T, ca.mtimes(Scc, Ac))
+    parts = ca.Function("hess_parts", [Dv, yv], [Hf[c, c], Hf[c, p], Hf[p, p]])
+    Scc, Hcp, Hpp = parts.map(T, [False, False], [True, False, False], {})(b.D, Yl)
+    Ap = ca.sparsify(ca.DM(Ad[:, p, :].reshape(T * len(p), cols.size)))  # rows (t, slot)
+    X = ca.mtimes(Hcp, Ap)
+    cross = ca.mtimes(Ac.T, X)
+    BDpp = ca.diagcat(*ca.horzsplit(Hpp, len(p)))
+    H = ca.mtimes(Ac.T, ca.mtimes(Scc, Ac)) + cross + cross.T + ca.mtimes(Ap.T, ca.mtimes(BDpp, Ap))
+    return cols, H
+
+
+def _assemble_hessian(parts: list[tuple[np.ndarray, ca.MX]], nx: int) -> ca.MX:
+    """``sum_s H_s`` of the stances' Hessians ``(cols_s, H_s)`` (:func:`_stance_hessian`),
+    assembled in time linear in the number of stances.
+
+    Summing ``S`` global ``nx x nx`` matrices costs O(S * nnz). Instead, the variables are split
+    into *shared* ones (used by several stances: contact parameters, sole corrections) and each
+    stance's *own* ones (its pose correction); the Hessian has an arrow structure
+    ``[[H_SS, H_S1, H_S2, ...], [H_1S, H_11, 0, ...], ...]`` whose small shared block is the only
+    sum, and it is permuted back to the decision-vector order by one constant product.
+    """
+    cols = [c for c, _ in parts]
+    count = np.zeros(nx, dtype=int)
+    for c in cols:
+        count[c] += 1
+    shared = np.flatnonzero(count >= 2)
+    pos_shared = {v: i for i, v in enumerate(shared)}
+    own = [c[count[c] == 1] for c in cols]
+    unused = np.flatnonzero(count == 0)
+    nS = shared.size
+    HSS = ca.MX(nS, nS)
+    HSO, HOO = [], []
+    for c, H in parts:  # own variables in column order, as in ``own``
+        is_shared = count[c] >= 2
+        ks, ko = np.flatnonzero(is_shared).tolist(), np.flatnonzero(~is_shared).tolist()
+        E = ca.DM(nS, len(ks))
+        for j, v in enumerate(c[is_shared]):
+            E[pos_shared[v], j] = 1.0
+        HSS = HSS + ca.mtimes(E, ca.mtimes(H[ks, ks], E.T))
+        HSO.append(ca.mtimes(E, H[ks, ko]))
+        HOO.append(H[ko, ko])
+    sizes = [o.size for o in own]
+    n_own = sum(sizes)
+    rows = [ca.horzcat(HSS, *HSO, ca.MX(nS, unused.size))]
+    before = 0
+    for hso, hoo, n in zip(HSO, HOO, sizes, strict=True):
+        rows.append(
+            ca.horzcat(hso.T, ca.MX(n, before), hoo, ca.MX(n, n_own - before - n + unused.size))
+        )
+        before += n
+    rows.append(ca.MX(unused.size, nx))
+    Hp = ca.vertcat(*rows)
+    order = np.concatenate([shared, *own, unused]).astype(int)
+    Pm = ca.DM(ca.Sparsity.triplet(nx, nx, list(range(nx)), order.tolist()), 1.0)  # x_perm = Pm x
+    return ca.mtimes(Pm.T, ca.mtimes(Hp, Pm))
 
 
 def _stance_slots(
@@ -351,10 +389,10 @@ def build_estimation(
         ny = b.fm.slots.size
         Yl = ca.reshape(ca.mtimes(b.A, x) + b.y0, ny, b.T)
         gs.append(ca.mtimes(b.A.T, ca.vec(b.fm.grad.map(b.T)(b.D, Yl))))
-        hs.append(ca.diagcat(*ca.horzsplit(b.fm.hess.map(b.T)(b.D, Yl), ny)))
+        hs.append(_stance_hessian(b, Yl))
     grad = grad + ca.sum2(ca.horzcat(*gs)) if gs else grad
     # the prior term as a *sparse* diagonal (a DM built from a dense array would make H dense)
-    hess = _assemble_hessian([b.A for b in blocks], hs, nx) + ca.DM(ca.Sparsity.diag(nx), pw**2)
+    hess = _assemble_hessian(hs, nx) + ca.DM(ca.Sparsity.diag(nx), pw**2)
     return EstimationProblem(
         stances=list(stances),
         model=model,
