@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, replace
 
 import casadi as ca
@@ -12,6 +13,32 @@ from gc_ocp.estimation.components.base import Component, DecodeContext, unique_l
 from gc_ocp.trial import SIDES
 
 POSE_SLOTS = ("pose_dp", "pose_dth", "pose_ddp", "pose_ddth")
+
+
+@functools.lru_cache(maxsize=512)
+def _bspline_basis(time_bytes: bytes, knot_spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """Cubic B-spline value and derivative design matrices on the times ``time_bytes`` (float64),
+    clamped knots about every ``knot_spacing`` [s] from the first to the last time."""
+    from scipy.interpolate import BSpline
+
+    time = np.frombuffer(time_bytes, dtype=float)
+    t0, t1 = float(time[0]), float(time[-1])
+    n_int = max(1, int(np.ceil((t1 - t0) / knot_spacing)))
+    inner = np.linspace(t0, t1, n_int + 1)
+    deg = 3
+    knots = np.concatenate([[t0] * deg, inner, [t1] * deg])
+    K = len(knots) - deg - 1
+    B = np.zeros((time.size, K))
+    dB = np.zeros((time.size, K))
+    for j in range(K):
+        c = np.zeros(K)
+        c[j] = 1.0
+        spl = BSpline(knots, c, deg, extrapolate=False)
+        B[:, j] = np.nan_to_num(spl(time))
+        dB[:, j] = np.nan_to_num(spl.derivative()(time))
+    B[-1, -1] = 1.0  # right end is inclusive
+    B.flags.writeable = dB.flags.writeable = False
+    return B, dB
 
 
 @dataclass(frozen=True)
@@ -50,25 +77,10 @@ class PoseCorrection(Component):
         return replace(self, sigma_mm=scaled(self.sigma_mm), sigma_deg=scaled(self.sigma_deg))
 
     def basis(self, time: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """B-spline design matrices ``(n, K)`` for value and time derivative on ``time`` [s]."""
-        from scipy.interpolate import BSpline
-
-        t0, t1 = float(time[0]), float(time[-1])
-        n_int = max(1, int(np.ceil((t1 - t0) / self.knot_spacing)))
-        inner = np.linspace(t0, t1, n_int + 1)
-        deg = 3
-        knots = np.concatenate([[t0] * deg, inner, [t1] * deg])
-        K = len(knots) - deg - 1
-        B = np.zeros((time.size, K))
-        dB = np.zeros((time.size, K))
-        for j in range(K):
-            c = np.zeros(K)
-            c[j] = 1.0
-            spl = BSpline(knots, c, deg, extrapolate=False)
-            B[:, j] = np.nan_to_num(spl(time))
-            dB[:, j] = np.nan_to_num(spl.derivative()(time))
-        B[-1, -1] = 1.0  # right end is inclusive
-        return B, dB
+        """B-spline design matrices ``(n, K)`` for value and time derivative on ``time`` [s]
+        (read-only: cached, the same stance is built into many problems)."""
+        t = np.ascontiguousarray(time, dtype=float)
+        return _bspline_basis(t.tobytes(), float(self.knot_spacing))
 
     def correlation_factor(self, K: int) -> np.ndarray:
         """``L`` (K x K, lower triangular) with ``L L^T`` the coefficients' correlation matrix
