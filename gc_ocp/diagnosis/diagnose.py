@@ -474,9 +474,9 @@ def _evaluate_all(
     :func:`~gc_ocp.diagnosis.compare.evaluate`.
 
     One task per *fit* (a candidate's folds spread over the processes) was tried and measured
-    slower (bundled trial 63.6 s against 49.5 s; three BTS trials 149.5 s against 149.6 s): every
-    process then derives and loads every configuration's functions, and the results travel
-    between processes."""
+    slower before the Hessian regrouping (bundled trial 63.6 s against 49.5 s; three BTS trials
+    149.5 s against 149.6 s): every process then derives and loads every configuration's
+    functions, and the results travel between processes."""
     if workers <= 1 or len(jobs) <= 1:
         return {
             n: evaluate(
