@@ -73,6 +73,22 @@ RULES = {
 on the "none" cases of seeds 0-2, 2.6 %; seeds 3-4 were run after it was chosen)."""
 
 
+def _library_rule(threshold: float):
+    """The library's rule (``diagnose._rank``) at another ``threshold`` [%], held-out and
+    in-sample alike: does the threshold hold the answers back?"""
+    return (
+        lambda r: (
+            r["heldout_rms_reduction_pct"] >= threshold
+            and r["heldout_rms_reduction_ci"][0] > 0
+            and r["insample_rms_reduction_pct"] >= threshold
+        ),
+        "heldout_rms_reduction_pct",
+    )
+
+
+RULES.update({f"library's rule at threshold {t:g} %": _library_rule(t) for t in (1.5, 1.0, 0.5)})
+
+
 def replay(res: dict, rule, seeds) -> tuple[int, int, int, int]:
     """(effect cases right, effect cases, none cases right, none cases) under ``rule``."""
     ok, key = rule
