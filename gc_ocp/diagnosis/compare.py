@@ -216,24 +216,22 @@ def evaluate(
     import time
 
     say = progress or (lambda s: None)
+    weights = weights or Weights()
     t0 = time.perf_counter()
-    full = _fit(data, model, parent.full if parent else None, weights or Weights(), options)
-    if (
+    full = _fit(data, model, parent.full if parent else None, weights, options)
+    screened = (
         screen_pct is not None
         and parent is not None
         and insample_reduction(parent.full, full) < screen_pct
-    ):
-        ev = Evaluation(
-            label, names, model, full, [], time.perf_counter() - t0, True, weights or Weights()
-        )
-        say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
-        return ev
-    folds = [
-        fit_fold(data, model, plan, j, full, parent, weights, options) for j in range(len(plan))
-    ]
-    ev = Evaluation(
-        label, names, model, full, folds, time.perf_counter() - t0, False, weights or Weights()
     )
+    folds = (
+        []
+        if screened
+        else [
+            fit_fold(data, model, plan, j, full, parent, weights, options) for j in range(len(plan))
+        ]
+    )
+    ev = Evaluation(label, names, model, full, folds, time.perf_counter() - t0, screened, weights)
     say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
     return ev
 

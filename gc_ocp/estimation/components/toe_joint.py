@@ -356,14 +356,11 @@ class ToeJoint(Component):
                 se = np.full(st.n, np.nan)
                 if ctx.cov is not None:
                     gspec, ospec = index[self._gain_key()], index[self._onset_key(st.side)]
-                    x = (pitch - o) / s
-                    # d phi / d (stored gain, stored onset): scale 1 for both (not log)
-                    G = np.column_stack(
-                        [
-                            s * np.logaddexp(0.0, x) * gspec.scale[0],
-                            -gain * 0.5 * (1 + np.tanh(x / 2)) * ospec.scale[0],
-                        ]
-                    )
+                    # d phi / d (stored gain, stored onset), from the drive itself: phi is
+                    # linear in the gain, and d phi / d onset = -(phi_dot at pitch_dot = 1)
+                    dgain = pitch_drive(pitch, 0.0, o, 1.0, s)[0]
+                    donset = -pitch_drive(pitch, 1.0, o, gain, s)[1]
+                    G = np.column_stack([dgain * gspec.scale[0], donset * ospec.scale[0]])
                     i = [gspec.start, ospec.start]
                     C = ctx.cov[np.ix_(i, i)]
                     se = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", G, C, G), 0.0))
