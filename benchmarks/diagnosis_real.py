@@ -21,7 +21,7 @@ Vicon Plug-in Gait trials of BTKData):
    *diagnosis itself*: the diagnosis is run on the other two stances (one per foot: in-sample
    with the BIC penalty, the only score two stances allow), then the base and the base plus what
    that diagnosis selected (cumulatively, in its order) are fitted on those two stances and
-   scored on the stance the selection never saw (held-out score with the nuisance prior and
+   scored on the stance the selection never saw by `confirm_stances` (held-out score with the nuisance prior and
    Occam terms, paired block bootstrap within the stance). Done for each of the two stances in
    turn. In-sample, nearly every effect passes, so that diagnosis stops after
    :data:`CONFIRM_MAX_EFFECTS` effects. The full diagnosis's own per-stance reductions are printed beside it, but they are not
@@ -128,9 +128,7 @@ def _jsonable(o):
 def confirm(stances, holdout: int, candidates, say) -> dict:
     """Diagnose ``stances`` without ``stances[holdout]``, then score base vs base + each cumulative
     selection on that stance (trained on the others)."""
-    from gc_ocp.diagnosis import diagnose_stances
-    from gc_ocp.diagnosis.compare import evaluate, reduction, score, superior_rms
-    from gc_ocp.estimation.components import base_model, model_from_names
+    from gc_ocp.diagnosis import confirm_stances, diagnose_stances
 
     held = stances[holdout]
     subset = [s for k, s in enumerate(stances) if k != holdout]
@@ -138,43 +136,7 @@ def confirm(stances, holdout: int, candidates, say) -> dict:
     d = diagnose_stances(
         subset, candidates=candidates, max_effects=CONFIRM_MAX_EFFECTS, progress=say
     )
-    rate = 1.0 / float(np.median(np.diff(held.time)))
-    base = base_model()
-    plan = [holdout]
-    parent = evaluate(stances, base, "base", (), plan, progress=say)
-    steps = [
-        {
-            "model": "base",
-            "heldout_superior_force_pct_bw": superior_rms(parent),
-            "score": score(parent),
-        }
-    ]
-    first = parent
-    for j in range(len(d.selected)):
-        names = tuple(d.selected[: j + 1])
-        ev = evaluate(
-            stances,
-            model_from_names(list(names), base=base),
-            "base+" + "+".join(names),
-            names,
-            plan,
-            parent=parent,
-            progress=say,
-        )
-        r_step = reduction(parent, ev, frame_rate=rate)
-        r_total = reduction(first, ev, frame_rate=rate)
-        steps.append(
-            {
-                "model": "+" + names[-1],
-                "heldout_superior_force_pct_bw": superior_rms(ev),
-                "score": score(ev),
-                "step_reduction_pct": r_step["pct"],
-                "step_reduction_ci": r_step["ci"],
-                "total_reduction_pct": r_total["pct"],
-                "total_reduction_ci": r_total["ci"],
-            }
-        )
-        parent = ev
+    c = confirm_stances(subset, [held], d.selected, progress=say)
     return {
         "heldout": held.label,
         "diagnosed_on": [s.label for s in subset],
@@ -192,7 +154,7 @@ def confirm(stances, holdout: int, candidates, say) -> dict:
             }
             for r in d.ranking
         ],
-        "steps": steps,
+        "steps": c["steps"],
         "seconds": d.seconds,
     }
 
