@@ -19,7 +19,7 @@ from gc_ocp.diagnosis.compare import (
     reduction,
     score,
 )
-from gc_ocp.diagnosis.diagnose import _rank
+from gc_ocp.diagnosis.diagnose import CONFOUND_COSINE, _flag_alike, _rank
 from gc_ocp.diagnosis.phases import PERRY_STANCE_FRACTIONS, phase_index
 from gc_ocp.estimation.components import base_model, model_from_names
 from gc_ocp.estimation.components.damping import Damping
@@ -99,6 +99,30 @@ def test_fold_plan_holds_out_only_feet_with_another_stance():
 
     assert fold_plan([S("right"), S("left"), S("right")]) == [0, 2]
     assert fold_plan([S("right"), S("left")]) == []
+
+
+def test_alike_residual_changes_are_named_confounded_only_when_both_gain():
+    rows = [
+        {"effect": e, "gain": g, "confounded_with": []}
+        for e, g in (("sole", 70.0), ("pose", 68.0), ("friction", 30.0), ("damping", 1.0))
+    ]
+    rng = np.random.default_rng(0)
+    shared = rng.normal(size=400)
+    deltas = {
+        "sole": shared + 0.1 * rng.normal(size=400),
+        "pose": shared + 0.1 * rng.normal(size=400),
+        "friction": rng.normal(size=400),  # unrelated: cosine ~ 1/sqrt(400)
+        "damping": shared,  # alike, but its gain is under the threshold
+    }
+    _flag_alike(rows, deltas, lambda r: r["gain"] >= 2.0)
+    named = {r["effect"]: r["confounded_with"] for r in rows}
+    assert named == {"sole": ["pose"], "pose": ["sole"], "friction": [], "damping": []}
+    # a pair just under the cosine is not named: vectors at an angle whose cosine is below it
+    a = np.array([1.0, 0.0])
+    b = np.array([CONFOUND_COSINE - 0.01, np.sqrt(1 - (CONFOUND_COSINE - 0.01) ** 2)])
+    pair = [{"effect": "a", "confounded_with": []}, {"effect": "b", "confounded_with": []}]
+    _flag_alike(pair, {"a": a, "b": b}, lambda r: True)
+    assert pair[0]["confounded_with"] == [] and pair[1]["confounded_with"] == []
 
 
 @pytest.fixture(scope="module")

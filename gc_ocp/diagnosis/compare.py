@@ -386,10 +386,11 @@ def reduction(
     }
 
 
-def weighted_residuals(ev: Evaluation) -> np.ndarray:
-    """All held-out (or, without folds, in-sample) weighted residuals, flattened: the vector
-    whose changes between models tell whether two effects explain the same part of the gap."""
-    fits = ev.heldout_fits if ev.folds else ev.full.stance_fits
+def weighted_residuals(ev: Evaluation, insample: bool = False) -> np.ndarray:
+    """All held-out (or, without folds or with ``insample``, the fit on all stances') weighted
+    residuals, flattened: the vector whose changes between models tell whether two effects
+    explain the same part of the gap."""
+    fits = ev.heldout_fits if ev.folds and not insample else ev.full.stance_fits
     return np.concatenate([ev.weights.residuals(f).ravel() for f in fits])
 
 
