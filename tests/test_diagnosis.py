@@ -123,6 +123,11 @@ def test_alike_residual_changes_are_named_confounded_only_when_both_gain():
     pair = [{"effect": "a", "confounded_with": []}, {"effect": "b", "confounded_with": []}]
     _flag_alike(pair, {"a": a, "b": b}, lambda r: True)
     assert pair[0]["confounded_with"] == [] and pair[1]["confounded_with"] == []
+    # in-sample: alike but one a sliver of the other is not named; comparable sizes are
+    small = [{"effect": e, "confounded_with": []} for e in ("big", "sliver", "peer")]
+    sizes = {"big": shared, "sliver": 0.2 * shared, "peer": 0.8 * shared}
+    _flag_alike(small, sizes, lambda r: True, comparable=True)
+    assert [r["confounded_with"] for r in small] == [["peer"], [], ["big"]]
 
 
 @pytest.fixture(scope="module")

@@ -19,8 +19,9 @@ confounding (see ``docs/diagnosis.md``).
 5. **Confounding**: two candidates are named confounded when their changes of the held-out
    residual are alike (cosine similarity of the weighted residual changes above
    :data:`CONFOUND_COSINE`, both reducing the score), or their changes of the in-sample
-   residual are (both reducing the in-sample objective by the threshold: they explain the same
-   part of the gap on the fitted stances, even if only one carries over to held-out ones), or when one stops passing once the other
+   residual are, with comparable sizes (both reducing the in-sample objective by the
+   threshold: they explain the same part of the gap on the fitted stances, even if only one
+   carries over to held-out ones), or when one stops passing once the other
    is in the model (its gain falls by more than half: the gains are not additive), or with the
    base's per-stance nuisance (``kinematic_correction``) when its gain comes mostly from a
    smaller nuisance cost rather than a better fit of the data (:data:`NUISANCE_SHARE`), or
@@ -71,6 +72,12 @@ CONFOUND_COSINE = 0.5
 explain the same part of the gap. On the withheld-effect benchmark, in-sample changes of
 unrelated effects stay below 0.35, those of effects that can play each other reach 0.7-0.99
 (damping and clock offset 0.69; sole offsets, ground offset and pose correction 0.85-0.99)."""
+
+COMPARABLE_FRACTION = 0.5
+"""In-sample confounding also needs the two residual changes to be of comparable size (the
+smaller at least this fraction of the larger): an effect that repairs a sliver of the misfit
+another repairs in full does not stand in for it. On the seed base, where nearly every
+candidate repairs a little of the missing registration, this keeps the flag specific."""
 
 NON_ADDITIVE_FRACTION = 0.5
 """An effect whose gain on top of another falls below this fraction of its gain alone is
@@ -395,7 +402,7 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
     # in-sample: every candidate (screened ones too) against the fits on all stances
     base_in = weighted_residuals(parent, insample=True)
     ins = {n: base_in - weighted_residuals(ev, insample=True) for n, ev in evs.items()}
-    _flag_alike(rows, ins, lambda r: r["insample_rms_reduction_pct"] >= threshold)
+    _flag_alike(rows, ins, lambda r: r["insample_rms_reduction_pct"] >= threshold, comparable=True)
     # held out first (best first), then the screened ones (by their in-sample reduction)
     rows.sort(
         key=lambda r: (
@@ -411,17 +418,22 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
     return rows
 
 
-def _flag_alike(rows: list[dict], deltas: dict, gains: Callable[[dict], bool]) -> None:
+def _flag_alike(
+    rows: list[dict], deltas: dict, gains: Callable[[dict], bool], comparable: bool = False
+) -> None:
     """Name confounded the pairs of ``rows`` that both satisfy ``gains`` and whose residual
     changes (``deltas``: effect -> vector) have a cosine similarity above
-    :data:`CONFOUND_COSINE`."""
+    :data:`CONFOUND_COSINE`; with ``comparable``, only when the smaller change is at least
+    :data:`COMPARABLE_FRACTION` of the larger (either could stand in for the other)."""
     for a in rows:
         for b in rows:
             if a is b or not (gains(a) and gains(b)) or b["effect"] in a["confounded_with"]:
                 continue
             da, db = deltas[a["effect"]], deltas[b["effect"]]
             na, nb = np.linalg.norm(da), np.linalg.norm(db)
-            if na > 0 and nb > 0 and float(da @ db) / (na * nb) > CONFOUND_COSINE:
+            if na == 0 or nb == 0 or float(da @ db) / (na * nb) <= CONFOUND_COSINE:
+                continue
+            if not comparable or min(na, nb) >= COMPARABLE_FRACTION * max(na, nb):
                 a["confounded_with"].append(b["effect"])
 
 
