@@ -185,8 +185,11 @@ def residual_figure(
         ax.set_ylabel("% BW (×H)")
         ax.set_title(f"{r['label']} (phases from {r['method']})", fontsize=9)
     axes[-1, 0].set_xlabel("time [s]")
-    axes[0, 0].legend(fontsize=7, ncol=4, loc="upper right")
-    fig.tight_layout()
+    # the legend above the panels, not over the first stance's residual
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, ncol=4, loc="upper center", frameon=False)
+    height = fig.get_size_inches()[1]
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.45 / height))
     return fig
 
 
