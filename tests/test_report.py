@@ -153,3 +153,44 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
     )
     screened = {**weak, "heldout_rms_reduction_pct": None, "heldout_rms_reduction_ci": [None] * 2}
     assert _verdict(screened, 2.0) == "fail (in-sample below 2 %: not held out)"
+
+
+def test_report_states_the_rule_the_code_applies(diagnosis):
+    """The page's method section gives the decision rule and the confounding criteria with the
+    library's constants (a changed constant changes the page), and says when the interval
+    cannot resample stances (fewer held-out stances than ``MIN_CLUSTERS``)."""
+    import importlib
+
+    from gc_ocp.diagnosis import compare
+    from gc_ocp.diagnosis.report import _method
+
+    diagnose = importlib.import_module("gc_ocp.diagnosis.diagnose")  # the module, not the function
+
+    text = _method(diagnosis)
+    t = f"{diagnosis.threshold_pct:g} %"
+    assert f"reduces the in-sample objective by at least {t}" in text  # the in-sample guard
+    assert "inconclusive" in text and "screened" in text
+    assert f"cosine above {diagnose.CONFOUND_COSINE:g}" in text
+    assert f"{100 * diagnose.COMPARABLE_FRACTION:.0f} % of the larger" in text
+    assert f"less than {100 * diagnose.NON_ADDITIVE_FRACTION:.0f} % of its gain" in text
+    assert f"more than {100 * diagnose.NUISANCE_SHARE:.0f} % of an effect" in text
+    n_held = len(diagnosis.folds["heldout"])
+    assert n_held < compare.MIN_CLUSTERS  # the bundled trial: two held-out stances
+    assert f"fewer than {compare.MIN_CLUSTERS}) the stances themselves are not resampled" in text
+    many = dataclasses.replace(
+        diagnosis, folds={**diagnosis.folds, "heldout": [f"s{i}" for i in range(6)], "n": 6}
+    )
+    assert "the held-out stances resampled" in _method(many)
+
+
+def test_effect_block_values_carry_their_standard_errors():
+    """Both namings of a standard error (``c_se``; ``se_ms`` of the clock offset) are shown as
+    ``value ± SE`` beside their value, not as parameters of their own; a zero SE says fixed."""
+    from gc_ocp.diagnosis.report import _flatten
+
+    rows = dict(
+        _flatten(
+            {"trial": {"ms": 10.4, "se_ms": 0.797}, "c": 1.9, "c_se": 0.13, "n": 1.0, "n_se": 0.0}
+        )
+    )
+    assert rows == {"trial / ms": "10.4 ± 0.8", "c": "1.9 ± 0.13", "n": "1 (fixed)"}

@@ -374,7 +374,7 @@ def _rms_table(res, heldout: dict | None) -> str:
 
 def _pm(d: dict, key: str, fmt: str = ".4g") -> str:
     """``value ± SE`` of ``d[key]`` (``d[key + "_se"]``); a zero SE marks a fixed value."""
-    se = d.get(key + "_se")
+    se = d.get(key + "_se", d.get("se_" + key))  # both namings occur (time_offset: se_ms)
     if se is None:
         return _num(d[key], fmt)
     return _num(d[key], fmt) + (" (fixed)" if se == 0 else f" ± {_num(se, '.2g')}")
@@ -451,7 +451,8 @@ def _flatten(block, prefix: str = "", depth: int = 0) -> list[tuple[str, str]]:
     out: list[tuple[str, str]] = []
     if isinstance(block, dict):
         for k, v in block.items():
-            if str(k).endswith("_se") or depth > 4:
+            paired = str(k).startswith("se_") and str(k)[3:] in block  # shown with its value
+            if str(k).endswith("_se") or paired or depth > 4:
                 continue
             name = f"{prefix}{k}"
             if isinstance(v, (int, float)) and not isinstance(v, bool):
@@ -484,10 +485,18 @@ def _effect_blocks(res) -> str:
 
 
 def _method(d) -> str:
-    from gc_ocp.diagnosis.compare import BLOCK_SECONDS
-    from gc_ocp.diagnosis.diagnose import CONFOUND_COSINE, NON_ADDITIVE_FRACTION
+    """The decision rule, the interval and the confounding criteria as the code applies them
+    (every number from the constants of :mod:`.diagnose` and :mod:`.compare`)."""
+    from gc_ocp.diagnosis.compare import BLOCK_SECONDS, MIN_CLUSTERS
+    from gc_ocp.diagnosis.diagnose import (
+        COMPARABLE_FRACTION,
+        CONFOUND_COSINE,
+        NON_ADDITIVE_FRACTION,
+        NUISANCE_SHARE,
+    )
 
     f = d.folds
+    t = f"{d.threshold_pct:g} %"
     if f.get("n"):
         folds = (
             f"Leave one stance out: each of the {f['n']} stance(s) whose foot has another stance "
@@ -496,11 +505,22 @@ def _method(d) -> str:
             "stance-scope effect) re-estimated under its prior. A foot with a single stance is "
             "never held out."
         )
+        n_held = len(f.get("heldout", []))
+        boot = (
+            f"the held-out stances resampled, then {BLOCK_SECONDS * 1000:.0f} ms blocks within each"
+            if n_held >= MIN_CLUSTERS
+            else f"{BLOCK_SECONDS * 1000:.0f} ms blocks resampled within each held-out stance; "
+            f"with {n_held} held-out stance(s) (fewer than {MIN_CLUSTERS}) the stances "
+            "themselves are not resampled, so the interval says whether a gain exceeds the "
+            "frame-to-frame noise of these steps, not whether another step would show it: "
+            "read the per-stance reductions beside it"
+        )
     else:
         folds = (
             "No stance could be held out (every foot has a single stance): the models are "
             "compared in-sample with a BIC penalty, which is weaker evidence."
         )
+        boot = f"{BLOCK_SECONDS * 1000:.0f} ms blocks resampled within each stance"
     return (
         f"<p>{folds} Each model is scored by the held-out combined score "
         f"<i>S</i> = &radic;(2 <i>E</i> / <i>n</i>) over all six channels in units of the "
@@ -508,16 +528,29 @@ def _method(d) -> str:
         "the data cost, the cost of the nuisance corrections under their prior and an Occam "
         "term for the freedom they use; a reduction is 1 − <i>S</i><sub>model</sub> / "
         "<i>S</i><sub>parent</sub>. The 95 % interval comes from a paired bootstrap "
-        f"(held-out stances resampled, then {BLOCK_SECONDS * 1000:.0f} ms blocks within each). "
-        f"<b>Decision rule:</b> an effect passes when its held-out reduction is at least "
-        f"{d.threshold_pct:g} % <i>and</i> the lower end of its interval is above 0; the best "
-        "passing effect is added and the others are re-ranked on top of it, until none passes "
-        "(&ldquo;none&rdquo; is a possible answer). Two effects are called confounded when "
-        f"their changes of the held-out residual are alike (cosine above {CONFOUND_COSINE:g}) "
-        "or when one loses more than "
-        f"{100 * (1 - NON_ADDITIVE_FRACTION):.0f} % of its gain once the other is in the model. "
-        "The in-sample reduction is shown for reference only: it always favours more "
-        "parameters.</p>"
+        f"({boot}).</p>"
+        f"<p><b>Decision rule:</b> an effect passes when its held-out reduction is at least {t}, "
+        f"the lower end of its interval is above 0, <i>and</i> it reduces the in-sample "
+        f"objective by at least {t} too (a held-out gain without an in-sample one comes from "
+        "how a model extrapolates between few stances, not from explaining the misfit). The "
+        "best passing effect is added and the others are re-ranked on top of it, until none "
+        "passes (&ldquo;none&rdquo; is a possible answer). From the second round on, a "
+        f"candidate whose in-sample reduction is below {t} cannot pass and is not held out "
+        "(&ldquo;screened&rdquo;). A candidate that gains in-sample (at least "
+        f"{t}) and on the held-out stances, but without a supported margin, is listed as "
+        "<i>inconclusive</i>: the data neither show it nor rule it out.</p>"
+        "<p><b>Confounded</b> effects (the data cannot tell them apart) are named when "
+        f"(1) their changes of the held-out residual are alike (cosine above "
+        f"{CONFOUND_COSINE:g}, both reducing the score); (2) their changes of the in-sample "
+        f"residual are alike (cosine above {CONFOUND_COSINE:g}, both reducing the in-sample "
+        f"objective by at least {t}, the smaller change at least "
+        f"{100 * COMPARABLE_FRACTION:.0f} % of the larger); (3) one keeps less than "
+        f"{100 * NON_ADDITIVE_FRACTION:.0f} % of its gain once the other is in the model; "
+        f"(4) more than {100 * NUISANCE_SHARE:.0f} % of an effect's held-out gain comes from a "
+        "cheaper pose correction rather than a better fit of the plates (it is then named "
+        "confounded with the base's <code>kinematic_correction</code>); or (5) both pass and "
+        "the paired bootstrap of their difference does not order them. The in-sample reduction "
+        "alone never ranks effects: extra parameters always fit the fitted stances better.</p>"
     )
 
 
