@@ -67,6 +67,12 @@ MIN_CLUSTERS = 5
 """Held-out stances needed before the bootstrap also resamples the stances."""
 
 
+def resamples_stances(n_stances: int) -> bool:
+    """Whether the bootstrap of :func:`reduction` resamples the stances themselves (two-stage)
+    or only blocks within each of ``n_stances`` scored stances."""
+    return n_stances >= MIN_CLUSTERS
+
+
 def fold_plan(stances: list[StanceData]) -> list[int]:
     """Indices of the stances held out one at a time: those whose foot has another stance."""
     sides = [st.side for st in stances]
@@ -358,7 +364,7 @@ def reduction(
     S = len(a)
     for k in range(n_boot):
         ea = eb = 0.0
-        for s in rng.integers(0, S, S) if S >= MIN_CLUSTERS else range(S):
+        for s in rng.integers(0, S, S) if resamples_stances(S) else range(S):
             n = a[s].size
             Ls = min(L, n)
             starts = rng.integers(0, n - Ls + 1, int(np.ceil(n / Ls)))
@@ -435,6 +441,7 @@ __all__ = [
     "insample_reduction",
     "occam_term",
     "reduction",
+    "resamples_stances",
     "score",
     "superior_rms",
     "weighted_residuals",

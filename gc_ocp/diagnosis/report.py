@@ -487,7 +487,7 @@ def _effect_blocks(res) -> str:
 def _method(d) -> str:
     """The decision rule, the interval and the confounding criteria as the code applies them
     (every number from the constants of :mod:`.diagnose` and :mod:`.compare`)."""
-    from gc_ocp.diagnosis.compare import BLOCK_SECONDS, MIN_CLUSTERS
+    from gc_ocp.diagnosis.compare import BLOCK_SECONDS, MIN_CLUSTERS, resamples_stances
     from gc_ocp.diagnosis.diagnose import (
         COMPARABLE_FRACTION,
         CONFOUND_COSINE,
@@ -505,22 +505,23 @@ def _method(d) -> str:
             "stance-scope effect) re-estimated under its prior. A foot with a single stance is "
             "never held out."
         )
-        n_held = len(f.get("heldout", []))
-        boot = (
-            f"the held-out stances resampled, then {BLOCK_SECONDS * 1000:.0f} ms blocks within each"
-            if n_held >= MIN_CLUSTERS
-            else f"{BLOCK_SECONDS * 1000:.0f} ms blocks resampled within each held-out stance; "
-            f"with {n_held} held-out stance(s) (fewer than {MIN_CLUSTERS}) the stances "
-            "themselves are not resampled, so the interval says whether a gain exceeds the "
-            "frame-to-frame noise of these steps, not whether another step would show it: "
-            "read the per-stance reductions beside it"
-        )
     else:
         folds = (
             "No stance could be held out (every foot has a single stance): the models are "
             "compared in-sample with a BIC penalty, which is weaker evidence."
         )
-        boot = f"{BLOCK_SECONDS * 1000:.0f} ms blocks resampled within each stance"
+    # the stances the bootstrap draws from: the held-out ones, or all of them in-sample
+    n_scored = len(f.get("heldout", []) if f.get("n") else f.get("stances", []))
+    which = "held-out " if f.get("n") else ""
+    block = f"{BLOCK_SECONDS * 1000:.0f} ms blocks"
+    boot = (
+        f"the {which}stances resampled, then {block} within each"
+        if resamples_stances(n_scored)
+        else f"{block} resampled within each {which}stance; with {n_scored} {which}stance(s) "
+        f"(fewer than {MIN_CLUSTERS}) the stances themselves are not resampled, so the interval says "
+        "whether a gain exceeds the frame-to-frame noise of these steps, not whether another "
+        "step would show it: read the per-stance reductions beside it"
+    )
     return (
         f"<p>{folds} Each model is scored by the held-out combined score "
         f"<i>S</i> = &radic;(2 <i>E</i> / <i>n</i>) over all six channels in units of the "
