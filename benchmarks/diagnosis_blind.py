@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gc_ocp.diagnosis import benchmark
+from gc_ocp.bench import withheld as benchmark
 
 HERE = Path(__file__).parent
 OUT = HERE / "diagnosis_blind"
@@ -232,7 +232,7 @@ def report(results: dict[str, dict]) -> str:
         "base's kinematic_correction cases), plate noise 0.5 % BW, plate wrench zeroed below "
         "20 N. `diagnose_stances(max_effects=1)` blind; top-1 = first selected effect or none. "
         "Motion: the bundled trial's three stances (two folds), unless the section says "
-        "otherwise. Settings and values: `gc_ocp/diagnosis/benchmark.py`; discussion: "
+        "otherwise. Settings and values: `gc_ocp/bench/withheld.py`; discussion: "
         "`docs/diagnosis.md (withheld-effect benchmark)`. Runs split by seed into parallel "
         "processes are merged here.",
         "",

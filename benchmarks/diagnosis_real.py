@@ -161,7 +161,7 @@ def confirm(stances, holdout: int, candidates, say) -> dict:
 
 def run(name: str, cache: Path, candidates, say, max_effects: int | None = None) -> dict:
     from gc_ocp.diagnosis import diagnose
-    from gc_ocp.estimation.fit import fit_data
+    from gc_ocp.workflow.fitting import fit_data
 
     t0 = time.perf_counter()
     path = cache / f"{name}.json"

@@ -82,7 +82,7 @@ def mean_rms(rms: dict) -> list[float]:
 
 
 def run_all(name, tk, configs, out_rows, say):
-    from gc_ocp.estimation import fit
+    from gc_ocp.workflow import fit
 
     label = holdout_label(tk[0])
     total = 0.0

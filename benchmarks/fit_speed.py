@@ -23,9 +23,10 @@ import casadi as ca
 import numpy as np
 from scipy.optimize import least_squares
 
-from gc_ocp.estimation.components import ContactLaw, full_model
+from gc_ocp.estimation.components import full_model
 from gc_ocp.estimation.problem import build_estimation
 from gc_ocp.estimation.solve import IpoptOptions, make_solver, solve
+from gc_ocp.estimation.starts import with_lls_start
 from gc_ocp.estimation.synthetic import default_truth, synthetic_stance
 
 
@@ -96,7 +97,7 @@ def baseline(prob, budget_s: float):
 
 
 def real_trial(repeats: int, budget: float):
-    from gc_ocp.estimation.fit import lls_initial_k
+
     from gc_ocp.io import load_trial
     from gc_ocp.kinematics import compute_kinematics
     from gc_ocp.stance import stance_data
@@ -104,12 +105,7 @@ def real_trial(repeats: int, budget: float):
     trial = load_trial()
     kin = compute_kinematics(trial)
     data = [stance_data(trial, kin, s, 0.03, 5) for s in trial.stances]
-    model = full_model()
-    law = next(m for m in model if isinstance(m, ContactLaw))
-    k0 = lls_initial_k([(trial, kin)], float(law.n.value_for("left")))
-    model = tuple(
-        c.with_initial_k(k0) if hasattr(c, "with_initial_k") else c for c in model
-    )  # as fit()
+    model = with_lls_start(full_model(), data)  # as fit()
     frames = sum(d.n for d in data)
     print(
         f"\n== 1. Real trial (bundled example): {len(data)} stances "
@@ -144,7 +140,7 @@ def real_trial(repeats: int, budget: float):
         f"   note: gc_ocp.estimation.solve.solve() end to end (nlpsol setup + Ipopt + covariance + decoding)"
         f" took {t_full:.2f} s"
     )
-    from gc_ocp.estimation.fit import best_of
+    from gc_ocp.estimation.starts import best_of
 
     t = time.perf_counter()
     r = best_of(data, model)

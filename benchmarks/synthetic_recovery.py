@@ -269,7 +269,7 @@ def main() -> None:
         if (
             args.starts == "best"
         ):  # the product's path: direct + prior continuation, lower objective kept
-            from gc_ocp.estimation.fit import best_of
+            from gc_ocp.estimation.starts import best_of
 
             # its result is a start's last stage (prior scale 1): the variables of ``prob``
             res = best_of(sts, model, weights)

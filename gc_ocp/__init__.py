@@ -38,8 +38,8 @@ _PUBLIC = {
     "SoleLayout": "gc_ocp.foot",
     "SEED_LAYOUT": "gc_ocp.foot",
     # estimation
-    "fit": "gc_ocp.estimation",
-    "FitReport": "gc_ocp.estimation",
+    "fit": "gc_ocp.workflow",
+    "FitReport": "gc_ocp.workflow",
     "EstimationResult": "gc_ocp.estimation",
     "build_estimation": "gc_ocp.estimation",
     "solve": "gc_ocp.estimation",
@@ -74,16 +74,31 @@ _PUBLIC = {
     "SolveError": "gc_ocp.errors",
 }
 
+_SUBPACKAGES = (
+    "bench",
+    "contact",
+    "diagnosis",
+    "estimation",
+    "io",
+    "kinematics",
+    "model",
+    "workflow",
+)
+"""Layers reachable as attributes after a bare ``import gc_ocp`` (``gc_ocp.estimation.…``)."""
+
 __all__ = ["__version__", *_PUBLIC]
 
 
 def __getattr__(name: str):
     if name in _PUBLIC:
         value = getattr(importlib.import_module(_PUBLIC[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'gc_ocp' has no attribute {name!r}")
+    elif name in _SUBPACKAGES:
+        value = importlib.import_module(f"gc_ocp.{name}")
+    else:
+        raise AttributeError(f"module 'gc_ocp' has no attribute {name!r}")
+    globals()[name] = value
+    return value
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_PUBLIC))
+    return sorted(set(globals()) | set(_PUBLIC) | set(_SUBPACKAGES))

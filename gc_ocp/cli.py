@@ -246,10 +246,10 @@ def provenance(args: argparse.Namespace, pairs) -> dict:
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
-    from gc_ocp.estimation.fit import fit
     from gc_ocp.estimation.plots import plot_fit, plot_pose_corrections, plot_sole_fit
     from gc_ocp.io.checks import require_stances
     from gc_ocp.outputs import OutputSet, check_writable
+    from gc_ocp.workflow.fitting import fit
 
     check_writable(args.out)  # before any computation
     trials = _load(args)
@@ -289,9 +289,9 @@ def cmd_fit(args: argparse.Namespace) -> int:
         out.text("fit.json", json.dumps({**report.to_json(), "provenance": prov}, indent=2))
         out.text("landmarks.json", json.dumps(landmarks, indent=2))
         if args.sensitivity:
-            from gc_ocp.estimation.sensitivity import sensitivity
             from gc_ocp.io import load_static
             from gc_ocp.kinematics import compute_kinematics
+            from gc_ocp.workflow.sensitivity import sensitivity
 
             def kin(t, cutoff_hz):
                 static = load_static(args.static, t) if args.static is not None else None
@@ -384,8 +384,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
-    """The withheld-effect benchmark of the diagnosis (``gc_ocp.diagnosis.benchmark``)."""
-    from gc_ocp.diagnosis.benchmark import report, run_benchmark
+    """The withheld-effect benchmark of the diagnosis (``gc_ocp.bench.withheld``)."""
+    from gc_ocp.bench.withheld import report, run_benchmark
 
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     res = run_benchmark(

@@ -1,4 +1,4 @@
-"""The withheld-effect benchmark's plumbing (``gc_ocp.diagnosis.benchmark``) on a small case: a
+"""The withheld-effect benchmark's plumbing (``gc_ocp.bench.withheld``) on a small case: a
 strong clock offset and "none", one seed, two candidates, against the bare seed base (the
 cheapest fits: the law alone). The full benchmark is ``gc-ocp benchmark-diagnosis``
 (``benchmarks/diagnosis_blind_output.md``)."""
@@ -10,7 +10,7 @@ import json
 import numpy as np
 import pytest
 
-from gc_ocp.diagnosis import benchmark
+from gc_ocp.bench import withheld as benchmark
 from gc_ocp.errors import InputError
 
 

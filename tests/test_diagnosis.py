@@ -7,6 +7,7 @@ import warnings
 import numpy as np
 import pytest
 
+from gc_ocp.bench.recovery import bundled_base_truth, simulate
 from gc_ocp.contact.channels import TABLE_KEYS
 from gc_ocp.diagnosis import PHASES, diagnose_stances, phase_bounds, where
 from gc_ocp.diagnosis.compare import (
@@ -24,7 +25,6 @@ from gc_ocp.diagnosis.phases import PERRY_STANCE_FRACTIONS, phase_index
 from gc_ocp.estimation.components import base_model, model_from_names
 from gc_ocp.estimation.components.damping import Damping
 from gc_ocp.estimation.problem import build_estimation
-from gc_ocp.estimation.recovery import bundled_base_truth, simulate
 
 
 def _double_hump(t: np.ndarray) -> np.ndarray:
@@ -155,7 +155,7 @@ def test_heldout_terms_add_up(base_eval):
         assert f.frame_cost.sum() == pytest.approx(f.heldout.data_cost, rel=1e-9)
         assert f.occam >= 0.0
         held = next(d for d in data if d.label == f.label)
-        from gc_ocp.estimation.fit import frozen_model, with_lls_start
+        from gc_ocp.estimation.starts import frozen_model, with_lls_start
 
         train = [d for d in data if d is not held]
         hp = build_estimation([held], frozen_model(with_lls_start(base_model(), train), f.train))
@@ -168,7 +168,7 @@ def test_heldout_terms_add_up(base_eval):
 def test_occam_term_is_zero_without_nuisance(base_eval):
     """A held-out stance with every component frozen and no stance-scope nuisance has nothing
     to integrate out: no Occam term."""
-    from gc_ocp.estimation.fit import frozen_model
+    from gc_ocp.estimation.starts import frozen_model
 
     data, ev = base_eval
     frozen = frozen_model(base_model(), ev.folds[0].train)

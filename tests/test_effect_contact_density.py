@@ -17,7 +17,8 @@ import time
 
 import numpy as np
 
-from gc_ocp.estimation import Weights, build_estimation, recovery, result_at
+from gc_ocp.bench import recovery
+from gc_ocp.estimation import Weights, build_estimation, result_at
 from gc_ocp.estimation.components import (
     BeltSpeed,
     ContactLaw,

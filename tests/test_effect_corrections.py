@@ -12,8 +12,8 @@ import functools
 
 import numpy as np
 
+from gc_ocp.bench.recovery import fit_model, real_motion, simulate, truth_from_fit
 from gc_ocp.estimation import PoseCorrection, SoleCorrection, bare_seed_model
-from gc_ocp.estimation.recovery import fit_model, real_motion, simulate, truth_from_fit
 
 SIDES = ("left", "right")
 

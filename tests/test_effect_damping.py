@@ -14,6 +14,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from gc_ocp.bench.recovery import (
+    PLATE_NOISE_PCT_BW,
+    TORQUE_NOISE_LENGTH,
+    bundled_base_truth,
+    fit_model,
+    simulate,
+)
 from gc_ocp.estimation import (
     ContactLaw,
     SoleCorrection,
@@ -23,14 +30,7 @@ from gc_ocp.estimation import (
     model_from_names,
 )
 from gc_ocp.estimation.components.damping import Damping
-from gc_ocp.estimation.fit import lls_k0
-from gc_ocp.estimation.recovery import (
-    PLATE_NOISE_PCT_BW,
-    TORQUE_NOISE_LENGTH,
-    bundled_base_truth,
-    fit_model,
-    simulate,
-)
+from gc_ocp.estimation.starts import lls_k0
 
 TRUE_C = 1.0  # [s/m], mid-range of the 0.5-2 s/m reported for heel pads and shoe soles
 MARKER_NOISE = 1e-4  # [m]; 0.5 mm swamps every law effect on this stiff trial (see corrections)

@@ -21,8 +21,8 @@ import time
 import numpy as np
 import pytest
 
+from gc_ocp.bench import recovery
 from gc_ocp.contact.laws import DEFAULT_SMOOTHING, unit_force_function
-from gc_ocp.estimation import recovery
 from gc_ocp.estimation.components import base_model
 from gc_ocp.estimation.components.ground_offset import GroundOffset
 from gc_ocp.estimation.problem import build_estimation

@@ -20,6 +20,13 @@ from dataclasses import replace
 
 import numpy as np
 
+from gc_ocp.bench.recovery import (
+    PLATE_NOISE_PCT_BW,
+    TORQUE_NOISE_LENGTH,
+    bundled_base_truth,
+    fit_model,
+    simulate,
+)
 from gc_ocp.estimation import (
     ContactLaw,
     Param,
@@ -31,14 +38,7 @@ from gc_ocp.estimation import (
     result_at,
 )
 from gc_ocp.estimation.components.stiffness_exponent import StiffnessExponent
-from gc_ocp.estimation.fit import lls_k0
-from gc_ocp.estimation.recovery import (
-    PLATE_NOISE_PCT_BW,
-    TORQUE_NOISE_LENGTH,
-    bundled_base_truth,
-    fit_model,
-    simulate,
-)
+from gc_ocp.estimation.starts import lls_k0
 
 TRUE_N = 1.5  # Hertz contact of a rounded heel / forefoot
 MARKER_NOISE = 1e-4  # [m]; 0.5 mm swamps every law effect on this stiff trial (see corrections)

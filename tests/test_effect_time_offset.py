@@ -12,8 +12,9 @@ import re
 import numpy as np
 import pytest
 
+from gc_ocp.bench import recovery
 from gc_ocp.errors import InputError
-from gc_ocp.estimation import build_estimation, recovery
+from gc_ocp.estimation import build_estimation
 from gc_ocp.estimation.components import REGISTRY, base_model, model_from_names
 from gc_ocp.estimation.components.time_offset import TimeOffset, interpolation_weights
 

@@ -25,7 +25,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from gc_ocp.estimation import Weights, build_estimation, frozen_model, recovery, result_at
+from gc_ocp.bench import recovery
+from gc_ocp.estimation import Weights, build_estimation, frozen_model, result_at
 from gc_ocp.estimation.components import (
     ContactLaw,
     Param,
@@ -60,7 +61,7 @@ def _base_truth():
 def _true_toes(stances) -> dict:
     """Spline coefficients [rad] of phi(t): 0 until 55 % of the stance, then a smooth step to
     +15 deg at toe-off (the benchmark's definition, ``benchmark._toe_angles``)."""
-    from gc_ocp.diagnosis.benchmark import _toe_angles
+    from gc_ocp.bench.withheld import _toe_angles
 
     return _toe_angles(stances, PEAK_DEG)
 

@@ -136,7 +136,7 @@ def bundled():
 
 def test_real_trial_fit_and_holdout(bundled):
     """Bundled example: in-sample and held-out errors within the issue's targets."""
-    from gc_ocp.estimation.fit import fit
+    from gc_ocp.workflow.fitting import fit
 
     rep = fit([bundled], holdout="right@0.407")
     assert_matches_pins("bundled_holdout", rep)
@@ -176,7 +176,7 @@ def test_real_trial_fit_and_holdout(bundled):
 
 
 def test_holdout_errors(bundled):
-    from gc_ocp.estimation.fit import fit
+    from gc_ocp.workflow.fitting import fit
 
     with pytest.raises(InputError, match="matches 0 stances"):
         fit([bundled], holdout="nonexistent")
@@ -224,7 +224,7 @@ def _real(name):
 def test_real_trials_in_sample(name):
     """Issue targets, every foot, in-sample: superior <= 3 % BW, anterior <= 5 % BW, lateral <= 3 % BW,
     COP <= 25 mm, all k > 0 (true by construction: k = exp(z), checked anyway)."""
-    from gc_ocp.estimation.fit import fit
+    from gc_ocp.workflow.fitting import fit
 
     with __import__("warnings").catch_warnings():
         __import__("warnings").simplefilter("ignore")  # height estimated from markers (OpenSim)
@@ -242,7 +242,7 @@ def test_real_trials_in_sample(name):
 
 def test_rajagopal_holdout_right():
     """The Rajagopal right foot has two full stances: hold out the second one."""
-    from gc_ocp.estimation.fit import fit
+    from gc_ocp.workflow.fitting import fit
 
     with __import__("warnings").catch_warnings():
         __import__("warnings").simplefilter("ignore")
@@ -391,8 +391,8 @@ def test_rms_is_normalised_per_stance():
 def test_sensitivity_to_processing_choices(bundled):
     """Refits with another cutoff and margin: values per choice, the reference's SE, and a
     spread/SE ratio; the reference choice reproduces the default fit."""
-    from gc_ocp.estimation import fit
-    from gc_ocp.estimation.sensitivity import sensitivity
+    from gc_ocp.workflow import fit
+    from gc_ocp.workflow.sensitivity import sensitivity
 
     rep = sensitivity([bundled[0]], cutoffs=(6.0, 8.0), margins=(0.03,))
     assert rep.choices == ["6 Hz, 30 ms", "8 Hz, 30 ms"] and rep.reference == "6 Hz, 30 ms"
@@ -409,7 +409,8 @@ def test_extended_model_started_from_the_base_never_ends_higher():
     objective change of 1e-6 over 5 iterations; 1e-4 of J covers both."""
     import warnings
 
-    from gc_ocp.estimation import base_model, fit, model_from_names
+    from gc_ocp.estimation import base_model, model_from_names
+    from gc_ocp.workflow import fit
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

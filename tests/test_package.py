@@ -19,10 +19,67 @@ def test_public_names_resolve(name):
     assert getattr(gc_ocp, name) is not None
 
 
-def test_estimation_is_importable_as_documented():
-    code = "from gc_ocp.estimation import build_estimation, solve, full_model, fit; print('ok')"
+def _fresh(code: str) -> str:
+    """What ``code`` prints in a fresh interpreter (nothing imported before it)."""
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "ok"
+    return out.stdout.strip()
+
+
+def test_estimation_is_importable_as_documented():
+    code = "from gc_ocp.estimation import build_estimation, solve, full_model; print('ok')"
+    assert _fresh(code) == "ok"
+
+
+def test_readme_examples_work_on_a_fresh_interpreter():
+    """``import gc_ocp`` then any layer by attribute (the README's model_from_names example),
+    without an earlier call having imported it."""
+    code = (
+        "import gc_ocp\n"
+        "m = gc_ocp.estimation.model_from_names(['friction'], base=gc_ocp.estimation.base_model())\n"
+        "print([c.name for c in m], gc_ocp.diagnosis.MIN_REDUCTION_PCT > 0, gc_ocp.fit.__name__)"
+    )
+    assert _fresh(code) == "['contact', 'sole', 'pose', 'belt', 'friction'] True fit"
+
+
+CORE = "gc_ocp.estimation"
+"""The estimator's core: it knows stances, never files."""
+FILE_LAYERS = ("gc_ocp.io", "gc_ocp.kinematics", "gc_ocp.workflow", "gc_ocp.diagnosis")
+
+
+def _closure(graph: dict[str, set[str]], roots) -> set[str]:
+    """Every module ``roots`` import, directly or not (importing ``a.b.c`` runs ``a.b`` too)."""
+    seen, todo = set(), list(roots)
+    while todo:
+        m = todo.pop()
+        if m in seen:
+            continue
+        seen.add(m)
+        parts = m.split(".")
+        todo += [".".join(parts[:k]) for k in range(2, len(parts))]
+        todo += graph.get(m, ())
+    return seen
+
+
+def test_the_estimation_core_imports_no_io():
+    """Statically (every import statement, function-level ones included) and at run time."""
+    graph = _import_graph()
+    core = [m for m in graph if m == CORE or m.startswith(CORE + ".")]
+    assert len(core) > 10  # the core was found
+    leaks = sorted(m for m in _closure(graph, core) if m.startswith(FILE_LAYERS))
+    assert not leaks, f"the estimation core reaches {leaks}"
+    code = (
+        "import sys, importlib, pkgutil, gc_ocp.estimation as e\n"
+        "for m in pkgutil.walk_packages(e.__path__, 'gc_ocp.estimation.'):\n"
+        "    importlib.import_module(m.name)\n"
+        f"print(sorted(m for m in sys.modules if m.startswith({FILE_LAYERS!r})))"
+    )
+    assert _fresh(code) == "[]"
+
+
+def test_the_closure_sees_a_file_layer():
+    """The check above can fail: the workflow layer does reach io."""
+    graph = _import_graph()
+    assert "gc_ocp.io.consistency" in _closure(graph, ["gc_ocp.workflow.fitting"])
 
 
 def _module_name(path: Path) -> str:

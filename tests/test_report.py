@@ -13,9 +13,9 @@ import pytest
 def diagnosis():
     """A cheap diagnosis of the bundled trial: the registered base and one candidate."""
     from gc_ocp.diagnosis import diagnose_stances
-    from gc_ocp.estimation.fit import fit_data
     from gc_ocp.io import load_trial
     from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.workflow.fitting import fit_data
 
     trial = load_trial()
     with warnings.catch_warnings():

@@ -42,16 +42,16 @@ from collections.abc import Callable
 import numpy as np
 
 from gc_ocp.errors import SolveError
-from gc_ocp.estimation.fit import (
+from gc_ocp.estimation.problem import Weights, build_estimation
+from gc_ocp.estimation.result import EstimationResult
+from gc_ocp.estimation.solve import IpoptOptions, solve
+from gc_ocp.estimation.starts import (
     STRATEGIES,
     best_of,
     frozen_model,
     rescaled_start,
     with_lls_start,
 )
-from gc_ocp.estimation.problem import Weights, build_estimation
-from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.estimation.solve import IpoptOptions, solve
 from gc_ocp.stance import StanceData
 
 BLOCK_SECONDS = 0.1

@@ -684,7 +684,7 @@ def diagnose(
     """Diagnose the gap between ``base`` and the force plates on ``trials`` (``[(Trial,
     TrialKinematics), ...]`` of one subject: they share contact parameters; pose corrections are
     per stance). Keyword arguments go to :func:`diagnose_stances`."""
-    from gc_ocp.estimation.fit import fit_data
+    from gc_ocp.workflow.fitting import fit_data
 
     _, data, notes = fit_data(trials, progress=progress)
     d = diagnose_stances(data, base, candidates, progress=progress, **kw)
@@ -771,7 +771,7 @@ def confirm(
     """:func:`confirm_stances` on trials: ``trials`` those the diagnosis used, ``new_trials``
     other trials of the same subject (``[(Trial, TrialKinematics), ...]`` each). Keyword
     arguments go to :func:`confirm_stances`."""
-    from gc_ocp.estimation.fit import fit_data
+    from gc_ocp.workflow.fitting import fit_data
 
     _, train, _ = fit_data(trials, progress=progress)
     _, test, _ = fit_data(new_trials, progress=progress)

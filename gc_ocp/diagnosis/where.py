@@ -32,7 +32,7 @@ from gc_ocp.wrench import cop_from_wrench
 
 COP_SCALE_MM = 20.0
 """COP error scale [mm] of the normalised map: the COP noise of a plate at 0.5 % BW force noise
-(see ``gc_ocp.estimation.recovery``), the size of a typical well-fitted COP error."""
+(see ``gc_ocp.bench.recovery``), the size of a typical well-fitted COP error."""
 
 CELLS = (*PHASES, "all")
 

@@ -7,8 +7,11 @@
 Layout: :mod:`.variables` (named decision-variable blocks), :mod:`.components` (one file per
 component: the physics each adds), :mod:`.frame` (the per-frame model composed from
 components), :mod:`.compiled` (SX -> C cache), :mod:`.problem` (the NLP, no component known by
-type), :mod:`.solve` (Ipopt), :mod:`.result` (plain-data result), :mod:`.fit` (starts, held-out
-evaluation), :mod:`.synthetic` (synthetic stances), :mod:`.plots`.
+type), :mod:`.solve` (Ipopt), :mod:`.result` (plain-data result), :mod:`.starts` (the one start path, restarts,
+a model frozen at a result), :mod:`.synthetic` (synthetic stances), :mod:`.plots`.
+
+This is the core: it knows stances, never files (it imports nothing of :mod:`gc_ocp.io`).
+Fitting trials (checks, stance cutting, held-out stance) is :mod:`gc_ocp.workflow`.
 """
 
 from gc_ocp.estimation.components import (
@@ -27,10 +30,10 @@ from gc_ocp.estimation.components import (
     register,
     seed_model,
 )
-from gc_ocp.estimation.fit import FitReport, fit, frozen_model
 from gc_ocp.estimation.problem import EstimationProblem, Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
+from gc_ocp.estimation.starts import frozen_model
 
 __all__ = [
     "EFFECTS",
@@ -42,14 +45,12 @@ __all__ = [
     "ContactLaw",
     "EstimationProblem",
     "EstimationResult",
-    "FitReport",
     "IpoptOptions",
     "Param",
     "PoseCorrection",
     "SoleCorrection",
     "Weights",
     "build_estimation",
-    "fit",
     "frozen_model",
     "full_model",
     "model_from_names",

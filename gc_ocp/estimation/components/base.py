@@ -114,7 +114,7 @@ class Component:
     def observe(self, stance: StanceData, wrench: np.ndarray) -> StanceData:
         """Synthetic data: ``stance`` as the plate would record the model ``wrench`` ``(T, 6)``
         if this component were the truth (e.g. a clock offset delays it). Default: measured =
-        wrench. Used by :func:`gc_ocp.estimation.recovery.simulate`."""
+        wrench. Used by :func:`gc_ocp.bench.recovery.simulate`."""
         return stance
 
     # --- variables ----------------------------------------------------------------------------

@@ -28,7 +28,7 @@ class StiffnessExponent(Component):
     Units of k: k [N/m^n] changes units with n, and ``ln f = ln k + n ln d`` makes k and n
     strongly correlated. While n is estimated, the component also adds ``-(n - 1) ln d_p`` to
     the law's slot ``"log_k"`` (``d_p = pivot_depth``, 5 mm, the typical unit penetration of
-    ``gc_ocp.estimation.fit.TYPICAL_DEPTH``): the law's stiffness *variable* is then
+    ``gc_ocp.estimation.starts.TYPICAL_DEPTH``): the law's stiffness *variable* is then
     ``k_1 = f(d_p) / d_p`` [N/m], the force at the pivot depth per metre, whatever n; the
     physical stiffness is ``k = k_1 d_p^(1 - n)`` [N/m^n] (the slot, which the contact block
     reports, with ``f_ref``). Changing n then keeps each unit's force at 5 mm, the problem is

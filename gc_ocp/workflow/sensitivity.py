@@ -78,8 +78,8 @@ def sensitivity(
 ) -> SensitivityReport:
     """Refit ``trials`` (a list of :class:`~gc_ocp.trial.Trial`) once per marker cutoff [Hz] and
     once per stance margin [s]; the reference choice is the default (6 Hz, 0.03 s)."""
-    from gc_ocp.estimation.fit import MARGIN, fit
     from gc_ocp.kinematics import compute_kinematics as default_kin
+    from gc_ocp.workflow.fitting import MARGIN, fit
 
     kin_fn = compute_kinematics or default_kin
     say = progress or (lambda s: None)

@@ -63,7 +63,7 @@ def truth_from_fit(stances: Sequence[StanceData], base: tuple) -> tuple:
     """The base model fitted to ``stances`` (initialised from the seed's LLS as ``fit`` does),
     every component frozen at its fitted block except the stance-scope ones (pose correction),
     which the truth leaves at zero: the recorded kinematics are the truth's motion."""
-    from gc_ocp.estimation.fit import estimate, frozen_model, with_lls_start
+    from gc_ocp.estimation.starts import estimate, frozen_model, with_lls_start
 
     model = with_lls_start(base, list(stances))
     res = estimate(list(stances), model)

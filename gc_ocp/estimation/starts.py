@@ -1,42 +1,31 @@
-"""High-level fitting: initialise from the seed's linear least squares, solve the joint
-kinematics-contact NLP, and evaluate on a held-out stance.
+"""Starting points and restarts of the estimator: the seed's linear least squares as the
+contact law's start, prior-width continuation, several starts keeping the lowest objective, warm
+starts from a result, and a model frozen at a result for a held-out evaluation.
 
-Held-out protocol (``holdout``): the contact parameters and sole corrections are estimated on
-all other stances. On the held-out stance they are then *fixed*, and only the foot-pose
-correction is re-estimated under its prior (the kinematic nuisance: marker-to-sole registration
-changes from stance to stance). The RMS errors on that stance are reported as ``heldout_rms``.
+Every caller that fits (``gc_ocp.fit``, the diagnosis's folds, the benchmarks) starts the same
+way: :func:`with_lls_start` on the stances it fits, and nothing else (no held-out stance can reach
+the start). This module imports nothing that reads files (the core of :mod:`gc_ocp.estimation`
+never imports :mod:`gc_ocp.io`; ``tests/test_package.py`` checks it).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import warnings
 from collections.abc import Callable
 
 import numpy as np
 
-from gc_ocp.errors import InputError, RankError, SolveError
-from gc_ocp.estimation.components import full_model
+from gc_ocp.contact.lls import fit_stiffness_lls
+from gc_ocp.errors import RankError, SolveError
 from gc_ocp.estimation.problem import Weights, build_estimation
-from gc_ocp.estimation.solve import EstimationResult, IpoptOptions, solve
-from gc_ocp.foot import TrialKinematics
-from gc_ocp.stance import StanceData, stance_data
-from gc_ocp.trial import SIDES, Trial
-
-MARGIN = 0.03
-"""Unloaded frames kept each side of a stance [s]: the model must predict no force there."""
+from gc_ocp.estimation.result import EstimationResult
+from gc_ocp.estimation.solve import IpoptOptions, solve
+from gc_ocp.stance import StanceData
+from gc_ocp.trial import SIDES
 
 TYPICAL_DEPTH = 0.005
 """Typical unit penetration [m] used to convert the LLS stiffness (n = 1) to the initial
 stiffness of an exponent-n law: k_n = k_1 * TYPICAL_DEPTH**(1 - n) (equal force at that depth)."""
-
-
-def lls_initial_k(trials: list[tuple[Trial, TrialKinematics]], n0: float) -> dict | None:
-    """Initial per-unit stiffness from the seed's linear least squares on every stance of
-    ``trials`` (see :func:`lls_k0`)."""
-    from gc_ocp.contact.lls import stances_from_trial
-
-    return lls_k0([s for t, k in trials for s in stances_from_trial(t, k)], n0)
 
 
 def lls_k0(stances: list, n0: float) -> dict | None:
@@ -45,8 +34,6 @@ def lls_k0(stances: list, n0: float) -> dict | None:
     positive one, at least 1e3 N/m), then converted with :data:`TYPICAL_DEPTH`. ``None`` (with a
     warning) when the LLS is rank deficient. A foot without stances gets the floor (the model
     declares both feet)."""
-    from gc_ocp.contact.lls import fit_stiffness_lls
-
     st0 = stances[0]
     try:
         res = fit_stiffness_lls(
@@ -194,48 +181,6 @@ def best_of(
     return best
 
 
-@dataclasses.dataclass
-class FitReport:
-    """A fit and (optionally) its held-out evaluation; ``to_json()`` is the CLI's ``fit.json``."""
-
-    result: EstimationResult
-    heldout: EstimationResult | None = None
-    heldout_label: str | None = None
-    checks: list = dataclasses.field(default_factory=list)
-
-    def to_json(self) -> dict:
-        d = self.result.to_json()
-        if self.heldout is not None:
-            d["heldout_rms"] = self.heldout.rms
-            d["heldout_cop_rms_mm"] = self.heldout.cop_rms_mm
-            d["heldout_stance"] = self.heldout_label
-            d["heldout_pose_correction_rms"] = self.heldout.pose_correction_rms
-            d["heldout_flags"] = self.heldout.flags
-        d["checks"] = list(self.checks)
-        return d
-
-    def summary(self) -> str:
-        s = self.result.summary()
-        if self.checks:
-            s = "input checks:\n" + "\n".join(f"  - {c}" for c in self.checks) + "\n" + s
-        if self.heldout is not None:
-            s += f"\nheld-out stance {self.heldout_label}:\n" + self.heldout.summary()
-        return s
-
-
-def _with_height(trial: Trial, kin: TrialKinematics) -> Trial:
-    """The trial with the height the kinematics used, when the files gave none (with a warning)."""
-    if trial.height is not None or kin.info.get("height") is None:
-        return trial
-    h = float(kin.info["height"])
-    warnings.warn(
-        f"{trial.source}: no subject height given; using {h:.3f} m estimated from the markers "
-        "by the kinematics (pass height=... / --height M to override).",
-        stacklevel=3,
-    )
-    return dataclasses.replace(trial, height=h, height_source="estimated from markers")
-
-
 def frozen_model(model: tuple, result: EstimationResult) -> tuple:
     """The model with every component frozen at ``result``'s blocks (held-out evaluation): the
     contact law and sole corrections fixed, the belt speed fixed for the fitted trials, the
@@ -243,91 +188,14 @@ def frozen_model(model: tuple, result: EstimationResult) -> tuple:
     return tuple(c.frozen(result.blocks[c.name]) if c.name in result.blocks else c for c in model)
 
 
-def fit_data(
-    trials: list[tuple[Trial, TrialKinematics]],
-    margin: float = MARGIN,
-    progress: Callable[[str], None] | None = None,
-) -> tuple[list, list[StanceData], list[str]]:
-    """The checked trials (:func:`gc_ocp.io.consistency.check_for_fit`; a height estimated
-    from the markers when the files gave none), every stance of them with ``margin`` unloaded
-    seconds each side, and the checks' notes (each also warned and reported to ``progress``)."""
-    from gc_ocp.io.consistency import check_for_fit
-
-    say = progress or (lambda s: None)
-    trials, notes = check_for_fit([(_with_height(t, k), k) for t, k in trials])
-    for note in notes:
-        warnings.warn(note, stacklevel=3)
-        say(f"check: {note}")
-    data = [
-        stance_data(trial, kin, st, margin=margin, min_frames=5)
-        for trial, kin in trials
-        for st in trial.stances
-    ]
-    return trials, data, notes
-
-
-def fit(
-    trials: list[tuple[Trial, TrialKinematics]],
-    model: tuple | None = None,
-    weights: Weights | None = None,
-    holdout: str | None = None,
-    options: IpoptOptions | None = None,
-    progress: Callable[[str], None] | None = None,
-    strategies: tuple[tuple[float, ...], ...] = STRATEGIES,
-    margin: float = MARGIN,
-    start: EstimationResult | None = None,
-) -> FitReport:
-    """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
-
-    holdout: label (or unique prefix/substring) of a stance to hold out, see the module doc.
-    margin: unloaded frames kept each side of a stance [s] (:data:`MARGIN`).
-    start: a fit of a model this one extends, tried as one more start (:func:`best_of`).
-    """
-    say = progress or (lambda s: None)
-    model = model or full_model()
-    trials, data, notes = fit_data(trials, margin, say)
-    held = None
-    if holdout is not None:
-        matches = [d for d in data if d.label == holdout or holdout in d.label]
-        if len(matches) != 1:
-            raise InputError(
-                f'--holdout "{holdout}" matches {len(matches)} stances; choose one of {[d.label for d in data]}.'
-            )
-        held = matches[0]
-        data = [d for d in data if d is not held]
-        if not any(d.side == held.side for d in data):
-            raise InputError(
-                f"Held-out stance {held.label} leaves no other stance of the {held.side} foot to fit; "
-                "hold out a foot that has at least two stances."
-            )
-    law = next((c for c in model if hasattr(c, "with_initial_k")), None)
-    if law is not None:  # the contact law starts from the seed's linear least squares
-        say("initialising stiffness from the seed's linear least squares")
-        k0 = lls_initial_k(trials, float(law.n.value_for(SIDES[0])))
-        model = tuple(c.with_initial_k(k0) if c is law else c for c in model)
-    say(f"solving with Ipopt: {len(data)} stances, {sum(d.n for d in data)} frames")
-    res = best_of(data, model, weights, options, strategies, progress=say, start=start)
-    say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
-    report = FitReport(res, checks=notes)
-    if held is not None:
-        hp = build_estimation([held], frozen_model(model, res), weights)
-        hres = solve(hp, options)
-        report.heldout = hres
-        report.heldout_label = held.label
-        say(
-            f"held-out {held.label}: superior force RMS {hres.rms[held.side]['superior_force_pct_bw']:.2f} % BW"
-        )
-    return report
-
-
 __all__ = [
-    "fit",
-    "fit_data",
-    "FitReport",
-    "frozen_model",
-    "lls_initial_k",
-    "lls_k0",
-    "with_lls_start",
-    "estimate",
+    "CONTINUATION",
+    "STRATEGIES",
+    "TYPICAL_DEPTH",
     "best_of",
+    "estimate",
+    "frozen_model",
+    "lls_k0",
+    "rescaled_start",
+    "with_lls_start",
 ]

@@ -2,7 +2,7 @@
 
 For every effect of the library (and for "none"), several seeds and two magnitudes, plate data
 are generated on the real motion of the bundled trial (its three stances) from a **truth** = the
-base model fitted to the real data and frozen (:func:`~gc_ocp.estimation.recovery.truth_from_fit`)
+base model fitted to the real data and frozen (:func:`~gc_ocp.bench.recovery.truth_from_fit`)
 plus that one effect with a known value. :func:`~gc_ocp.diagnosis.diagnose_stances` then runs
 blind (``max_effects=1``) and its top-1 answer (the first selected effect, or "none") is
 compared with the truth. Output: ``confusion.json`` (every case with its ranking, the confusion
@@ -134,18 +134,18 @@ class Realism:
 @functools.cache
 def _source(files: tuple[str, ...] | None) -> tuple[tuple[StanceData, ...], tuple]:
     """``(stances, registered truth)`` of the motion source: the bundled trial (``None``, the
-    shared truth of the tests, :func:`~gc_ocp.estimation.recovery.bundled_base_truth`) or the
+    shared truth of the tests, :func:`~gc_ocp.bench.recovery.bundled_base_truth`) or the
     trials ``files`` of one subject, loaded as ``gc-ocp`` loads them, with the registered base
     fitted to all their stances and frozen (fitted once per process)."""
-    from gc_ocp.estimation.recovery import bundled_base_truth, truth_from_fit
+    from gc_ocp.bench.recovery import bundled_base_truth, truth_from_fit
 
     if files is None:
         stances, truth = bundled_base_truth()
         return tuple(stances), truth
     from gc_ocp.estimation.components import base_model
-    from gc_ocp.estimation.fit import fit_data
     from gc_ocp.io import load_trial
     from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.workflow.fitting import fit_data
 
     pairs = []
     for f in files:
@@ -348,7 +348,7 @@ def generate(
     """What the fitter gets: the plate data ``truth`` predicts on ``stances`` (the true motion),
     with plate noise and thresholding, and the foot kinematics seen through ``kinematic_error``
     = (marker noise [m], drift [m], drift [deg]) (None: exact kinematics)."""
-    from gc_ocp.estimation.recovery import simulate
+    from gc_ocp.bench.recovery import simulate
     from gc_ocp.estimation.synthetic import noisy_pose
 
     law = _law(truth)

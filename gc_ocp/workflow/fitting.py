@@ -1,0 +1,152 @@
+"""Fitting trials: check them, cut their stances, fit a model, evaluate a held-out stance.
+
+The layer above the estimator (:mod:`gc_ocp.estimation`, which knows stances, never files): it
+takes ``[(Trial, TrialKinematics), ...]`` of one subject, runs the input checks
+(:func:`gc_ocp.io.consistency.check_for_fit`), and fits with the estimator's one start path
+(:func:`gc_ocp.estimation.starts.with_lls_start` on the stances it fits).
+
+Held-out protocol (``holdout``): the contact parameters and sole corrections are estimated on
+all other stances, *started from those stances only*. On the held-out stance they are then
+*fixed*, and only the foot-pose correction is re-estimated under its prior (the kinematic
+nuisance: marker-to-sole registration changes from stance to stance). The RMS errors on that
+stance are reported as ``heldout_rms``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from collections.abc import Callable
+
+from gc_ocp.errors import InputError
+from gc_ocp.estimation.components import full_model
+from gc_ocp.estimation.problem import Weights, build_estimation
+from gc_ocp.estimation.result import EstimationResult
+from gc_ocp.estimation.solve import IpoptOptions, solve
+from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
+from gc_ocp.foot import TrialKinematics
+from gc_ocp.io.consistency import check_for_fit
+from gc_ocp.stance import StanceData, stance_data
+from gc_ocp.trial import Trial
+
+MARGIN = 0.03
+"""Unloaded frames kept each side of a stance [s]: the model must predict no force there."""
+
+
+@dataclasses.dataclass
+class FitReport:
+    """A fit and (optionally) its held-out evaluation; ``to_json()`` is the CLI's ``fit.json``."""
+
+    result: EstimationResult
+    heldout: EstimationResult | None = None
+    heldout_label: str | None = None
+    checks: list = dataclasses.field(default_factory=list)
+
+    def to_json(self) -> dict:
+        d = self.result.to_json()
+        if self.heldout is not None:
+            d["heldout_rms"] = self.heldout.rms
+            d["heldout_cop_rms_mm"] = self.heldout.cop_rms_mm
+            d["heldout_stance"] = self.heldout_label
+            d["heldout_pose_correction_rms"] = self.heldout.pose_correction_rms
+            d["heldout_flags"] = self.heldout.flags
+        d["checks"] = list(self.checks)
+        return d
+
+    def summary(self) -> str:
+        s = self.result.summary()
+        if self.checks:
+            s = "input checks:\n" + "\n".join(f"  - {c}" for c in self.checks) + "\n" + s
+        if self.heldout is not None:
+            s += f"\nheld-out stance {self.heldout_label}:\n" + self.heldout.summary()
+        return s
+
+
+def _with_height(trial: Trial, kin: TrialKinematics) -> Trial:
+    """The trial with the height the kinematics used, when the files gave none (with a warning)."""
+    if trial.height is not None or kin.info.get("height") is None:
+        return trial
+    h = float(kin.info["height"])
+    warnings.warn(
+        f"{trial.source}: no subject height given; using {h:.3f} m estimated from the markers "
+        "by the kinematics (pass height=... / --height M to override).",
+        stacklevel=3,
+    )
+    return dataclasses.replace(trial, height=h, height_source="estimated from markers")
+
+
+def fit_data(
+    trials: list[tuple[Trial, TrialKinematics]],
+    margin: float = MARGIN,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[list, list[StanceData], list[str]]:
+    """The checked trials (:func:`gc_ocp.io.consistency.check_for_fit`; a height estimated
+    from the markers when the files gave none), every stance of them with ``margin`` unloaded
+    seconds each side, and the checks' notes (each also warned and reported to ``progress``)."""
+    say = progress or (lambda s: None)
+    trials, notes = check_for_fit([(_with_height(t, k), k) for t, k in trials])
+    for note in notes:
+        warnings.warn(note, stacklevel=3)
+        say(f"check: {note}")
+    data = [
+        stance_data(trial, kin, st, margin=margin, min_frames=5)
+        for trial, kin in trials
+        for st in trial.stances
+    ]
+    return trials, data, notes
+
+
+def fit(
+    trials: list[tuple[Trial, TrialKinematics]],
+    model: tuple | None = None,
+    weights: Weights | None = None,
+    holdout: str | None = None,
+    options: IpoptOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+    strategies: tuple[tuple[float, ...], ...] = STRATEGIES,
+    margin: float = MARGIN,
+    start: EstimationResult | None = None,
+) -> FitReport:
+    """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
+
+    holdout: label (or unique prefix/substring) of a stance to hold out, see the module doc.
+    margin: unloaded frames kept each side of a stance [s] (:data:`MARGIN`).
+    start: a fit of a model this one extends, tried as one more start (:func:`best_of`).
+    """
+    say = progress or (lambda s: None)
+    model = model or full_model()
+    trials, data, notes = fit_data(trials, margin, say)
+    held = None
+    if holdout is not None:
+        matches = [d for d in data if d.label == holdout or holdout in d.label]
+        if len(matches) != 1:
+            raise InputError(
+                f'--holdout "{holdout}" matches {len(matches)} stances; choose one of {[d.label for d in data]}.'
+            )
+        held = matches[0]
+        data = [d for d in data if d is not held]
+        if not any(d.side == held.side for d in data):
+            raise InputError(
+                f"Held-out stance {held.label} leaves no other stance of the {held.side} foot to fit; "
+                "hold out a foot that has at least two stances."
+            )
+    # the one start path: the seed's linear least squares on the stances fitted (never the
+    # held-out one)
+    say("initialising stiffness from the seed's linear least squares")
+    model = with_lls_start(model, data)
+    say(f"solving with Ipopt: {len(data)} stances, {sum(d.n for d in data)} frames")
+    res = best_of(data, model, weights, options, strategies, progress=say, start=start)
+    say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
+    report = FitReport(res, checks=notes)
+    if held is not None:
+        hp = build_estimation([held], frozen_model(model, res), weights)
+        hres = solve(hp, options)
+        report.heldout = hres
+        report.heldout_label = held.label
+        say(
+            f"held-out {held.label}: superior force RMS {hres.rms[held.side]['superior_force_pct_bw']:.2f} % BW"
+        )
+    return report
+
+
+__all__ = ["MARGIN", "FitReport", "fit", "fit_data"]
