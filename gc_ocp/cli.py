@@ -111,7 +111,7 @@ def _kinematics(trial, args):
 
 def _print_landmarks(kin) -> None:
     """Print the marker mapping (label -> landmark -> segment) the kinematics used."""
-    from gc_ocp.model.landmarks import format_mapping
+    from gc_ocp.model.recognition import format_mapping
 
     if "landmarks" in kin.info:
         print(format_mapping(kin.info["landmarks"]))

@@ -14,13 +14,9 @@ from conftest import DATA, G23, _need_data, c3d_trial, gait2392_trial
 
 from gc_ocp.errors import MarkerError
 from gc_ocp.gaps import fill_rigid_gaps
-from gc_ocp.model.landmarks import (
-    classify,
-    markerset_from_recognition,
-    recognise_landmarks,
-    split_side,
-)
+from gc_ocp.model.landmarks import classify, split_side
 from gc_ocp.model.markerset import detect_markerset
+from gc_ocp.model.recognition import markerset_from_recognition, recognise_landmarks
 
 CONVENTIONS = {
     "plug-in gait": {

@@ -241,8 +241,8 @@ def fill_foot_gaps(
 
 def landmark_mapping(markerset: MarkerSet, trial: Trial) -> dict:
     """The label -> landmark -> segment mapping used for ``trial`` (plain data, see
-    :meth:`gc_ocp.model.landmarks.Recognition.to_json`)."""
-    from gc_ocp.model.landmarks import shipped_mapping
+    :meth:`gc_ocp.model.recognition.Recognition.to_json`)."""
+    from gc_ocp.model.recognition import shipped_mapping
 
     if markerset.recognition is not None:
         return markerset.recognition

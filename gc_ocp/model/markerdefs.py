@@ -49,7 +49,7 @@ class MarkerSet:
     columns: for a set built from a trial's labels (:mod:`gc_ocp.model.landmarks`), the trial
     column of each marker key (keys ``label#k`` address the k-th column of a duplicated label);
     ``None``: markers are found by label. recognition: the label -> landmark -> segment mapping
-    as plain data (:meth:`gc_ocp.model.landmarks.Recognition.to_json`), or ``None``.
+    as plain data (:meth:`gc_ocp.model.recognition.Recognition.to_json`), or ``None``.
     """
 
     name: str

@@ -88,14 +88,14 @@ def detect_markerset(marker_names, markers=None, source="the trial") -> MarkerSe
     recognises (landmark or cluster) is in the set (recognition would add nothing; this keeps the
     shipped sets' tuned positions, e.g. Plug-in Gait's LANK on the hindfoot). Among several, the
     one sharing the most labels. Otherwise the set is built from the recognised landmarks
-    (:func:`gc_ocp.model.landmarks.recognise_landmarks`), which raises :class:`MarkerError`
+    (:func:`gc_ocp.model.recognition.recognise_landmarks`), which raises :class:`MarkerError`
     (naming ``source``, the markers found and what is missing) when a foot cannot be tracked.
     The mapping used is in the returned set's ``recognition``.
     """
     import dataclasses
     import warnings
 
-    from gc_ocp.model.landmarks import (
+    from gc_ocp.model.recognition import (
         markerset_from_recognition,
         recognise_landmarks,
         shipped_mapping,
