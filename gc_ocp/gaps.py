@@ -13,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from gc_ocp.geometry import kabsch, off_line
+
 MAX_GAP_FILL = 0.1
 """Longest marker gap filled by interpolation, in [s] (``g / rate``, see the module docstring).
 Longer gaps stay NaN (see :func:`gc_ocp.io.require_markers`). 0.1 s is about a tenth of a gait
@@ -103,7 +105,6 @@ def fill_rigid_gaps(
     Returns the filled copy and the filled runs ``(marker, first frame, end frame (exclusive),
     donors)``.
     """
-    from gc_ocp.geometry import kabsch, off_line
 
     x = np.asarray(x, dtype=float)
     out = x.copy()

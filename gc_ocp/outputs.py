@@ -13,9 +13,12 @@ Files get the permissions the user's umask gives a new file (``0666 & ~umask``),
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+
+from gc_ocp.errors import InputError
 
 
 def atomic_write(path: str | os.PathLike, writer: Callable[[Path], None]) -> Path:
@@ -67,7 +70,6 @@ def _file_mode() -> int:
 
 def check_writable(folder: str | os.PathLike, what: str = "--out") -> Path:
     """Fail early (before any computation) when ``folder`` cannot be an output folder."""
-    from gc_ocp.errors import InputError
 
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
@@ -121,6 +123,5 @@ class OutputSet:
         return out
 
     def discard(self) -> None:
-        import shutil
 
         shutil.rmtree(self.stage, ignore_errors=True)

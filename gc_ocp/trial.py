@@ -17,6 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
+from gc_ocp.errors import MarkerError
+from gc_ocp.wrench import cop_from_wrench, transport_moment
+
 GRAVITY = 9.81
 """Standard gravity used for body weight, in [m/s^2]."""
 
@@ -75,7 +78,6 @@ class Plate:
 
     def cop(self, min_vertical: float = 20.0) -> np.ndarray:
         """Centre of pressure on the plate surface in ``lab`` [m], NaN where Fz < ``min_vertical`` [N]."""
-        from gc_ocp.wrench import cop_from_wrench
 
         return cop_from_wrench(
             self.force, self.moment, self.reference_point, self.surface_height, min_vertical
@@ -189,8 +191,6 @@ class Trial:
         try:
             return self.markers[:, self.marker_names.index(name)]
         except ValueError:
-            from gc_ocp.errors import MarkerError
-
             raise MarkerError(
                 f'Marker "{name}" is not in {self.source}; markers found: {list(self.marker_names)}'
             ) from None
@@ -198,7 +198,6 @@ class Trial:
     def stance_wrench(self, stance: Stance, times: np.ndarray) -> np.ndarray:
         """Measured wrench of ``stance`` at ``times`` [s]: ``(n, 6)`` = force [N], moment [N·m]
         about ``stance.reference_point``, in ``lab``. Linear interpolation of the plate samples."""
-        from gc_ocp.wrench import transport_moment
 
         plate = self.plates[stance.plate]
         f = np.column_stack([np.interp(times, plate.time, plate.force[:, i]) for i in range(3)])

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
+import scipy.sparse as sp
 
 from gc_ocp.errors import InputError, ModelError
 from gc_ocp.estimation.frame import BASE_DATA, FrameModel, frame_model
@@ -300,7 +301,6 @@ class EstimationProblem:
         """Weighted data residuals ``r`` (n_data,) and their Jacobian in ``x`` (scipy CSR,
         n_data x nx) at ``x``, from the per-frame Jacobians (``J_t A_t``): no symbolic Jacobian
         of the whole graph is built. Rows are in the order of :attr:`residuals`."""
-        import scipy.sparse as sp
 
         rs, Js = [], []
         for b in self.blocks:

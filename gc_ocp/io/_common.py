@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from gc_ocp.errors import UnitsError
+from gc_ocp.model.landmarks import classify, vocabulary
 from gc_ocp.trial import Plate
 
 Y_UP_TO_LAB = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
@@ -146,7 +147,6 @@ def marker_side(name: str) -> str | None:
 
 def _landmark(name: str) -> tuple[str, str | None]:
     """``(landmark, side)`` of a label by the landmark vocabulary (``("", None)`` if none)."""
-    from gc_ocp.model.landmarks import classify
 
     kind, key, side = classify(name)
     return (key, side) if kind == "landmark" else ("", None)
@@ -160,7 +160,6 @@ def foot_markers(names: list[str] | tuple[str, ...], side: str) -> list[int]:
     """Indices of the foot markers (heel, ankle, toe, metatarsal, midfoot) of ``side``: by the
     name patterns below, or recognised as a foot landmark or malleolus by the landmark
     vocabulary (:mod:`gc_ocp.model.landmarks`; e.g. CAST ``RFCC``, ``RFM1``)."""
-    from gc_ocp.model.landmarks import vocabulary
 
     voc = vocabulary()
     out = []

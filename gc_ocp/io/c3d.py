@@ -25,6 +25,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import ezc3d
 import numpy as np
 
 from gc_ocp.errors import InputError, PlateError
@@ -298,7 +299,6 @@ def _analog_reading(c, params: dict, i: int, kind: int, pos: float, path: Path) 
 
 def read_c3d(path: Path) -> RawTrial:
     """Read markers, plates and subject data of a C3D file (SI, C3D global frame, Z up)."""
-    import ezc3d
 
     head = path.read_bytes()[:512]
     if len(head) == 512 and head[1] == 0x50:

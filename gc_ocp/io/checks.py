@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from gc_ocp.errors import MarkerError
+from gc_ocp.errors import MarkerError, PlateError
 from gc_ocp.gaps import MAX_GAP_FILL, nan_runs
+from gc_ocp.io._common import foot_markers
 from gc_ocp.trial import Trial
 
 FOOT_FIX_LEVER = 0.03
@@ -45,7 +46,6 @@ def require_stances(trial: Trial) -> None:
     contact was excluded and the fix (before any output is written)."""
     if trial.stances:
         return
-    from gc_ocp.errors import PlateError
 
     why = "; ".join(
         f"{e.side} on {trial.plates[e.plate].name} {e.t_on:.3f}-{e.t_off:.3f} s: {e.reason}"
@@ -86,7 +86,6 @@ def stance_gap_report(
     :func:`gc_ocp.io._common.foot_markers`). Markers never visible in the trial are not foot
     markers of this trial (absent, not a gap).
     """
-    from gc_ocp.io._common import foot_markers
 
     names = list(trial.marker_names)
     t = np.asarray(trial.marker_time)

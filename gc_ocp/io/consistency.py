@@ -32,9 +32,13 @@ import dataclasses
 import hashlib
 
 import numpy as np
+from scipy.spatial import ConvexHull
 
-from gc_ocp.errors import InputError, PlateError
+from gc_ocp.errors import InputError, MarkerError, PlateError
+from gc_ocp.io.checks import stride_body_weight
+from gc_ocp.io.estimates import estimate_belt_speed
 from gc_ocp.trial import ExcludedStance, Trial
+from gc_ocp.wrench import cop_from_wrench
 
 MASS_TOLERANCE = 0.20
 MASS_WARNING = 0.10
@@ -50,7 +54,6 @@ LOADED_FRACTION_BW = 0.2
 def _hull_distance(points_xy: np.ndarray, p: np.ndarray) -> float:
     """Signed distance [m] of ``p`` outside the convex hull of ``points_xy`` (negative inside;
     outside: the largest edge-normal distance, a lower bound of the Euclidean one)."""
-    from scipy.spatial import ConvexHull
 
     try:
         hull = ConvexHull(points_xy)
@@ -77,7 +80,6 @@ def duplicates(trials: list[Trial]) -> None:
 
 
 def body_weight(trial: Trial) -> list[str]:
-    from gc_ocp.io.checks import stride_body_weight
 
     check = stride_body_weight(trial)
     if check is None:
@@ -98,8 +100,6 @@ def body_weight(trial: Trial) -> list[str]:
 
 
 def belt(trial: Trial) -> tuple[Trial, list[str]]:
-    from gc_ocp.errors import MarkerError
-    from gc_ocp.io.estimates import estimate_belt_speed
 
     try:
         speed, _ = estimate_belt_speed(trial)
@@ -168,7 +168,6 @@ def _stance_problem(trial: Trial, foot, s) -> str | None:
     loaded = w[:, 2] > LOADED_FRACTION_BW * trial.body_weight
     if loaded.mean() < 0.5:
         return f"plate {plate.name} carries less than {LOADED_FRACTION_BW:.0%} BW in most of mid-stance"
-    from gc_ocp.wrench import cop_from_wrench
 
     cop = cop_from_wrench(w[:, :3], w[:, 3:], s.reference_point, plate.surface_height, 1.0)
     pos = foot.positions[mid]

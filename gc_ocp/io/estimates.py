@@ -7,6 +7,9 @@ import numpy as np
 
 from gc_ocp.errors import MarkerError
 from gc_ocp.io._common import foot_markers
+from gc_ocp.kinematics.filtering import lowpass
+from gc_ocp.kinematics.scaling import estimate_height
+from gc_ocp.model.markerset import MarkerSet, detect_markerset, load_markerset
 from gc_ocp.trial import Trial
 
 
@@ -27,9 +30,6 @@ def estimate_height_from_markers(
     static trial, which has no plates). Accuracy is a few per cent: pass the measured height when
     you have it. Returns (height, description).
     """
-    from gc_ocp.kinematics.filtering import lowpass
-    from gc_ocp.kinematics.scaling import estimate_height
-    from gc_ocp.model.markerset import MarkerSet, detect_markerset, load_markerset
 
     if markerset is None:
         markerset = detect_markerset(trial.marker_names)

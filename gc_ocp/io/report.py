@@ -4,16 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from gc_ocp.errors import GcOcpError
 from gc_ocp.gaps import MAX_GAP_FILL
 from gc_ocp.io._common import foot_markers
 from gc_ocp.io.checks import stride_body_weight
+from gc_ocp.model.markerset import detect_markerset
 from gc_ocp.trial import GRAVITY, Trial
 
 
 def _markerset_line(trial: Trial) -> str:
     """The recognised marker set (``gc_ocp.model.markerset.detect_markerset``), or why not."""
-    from gc_ocp.errors import GcOcpError
-    from gc_ocp.model.markerset import detect_markerset
 
     try:
         ms = detect_markerset(trial.marker_names)

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gc_ocp.errors import InputError
 from gc_ocp.foot import UNITS, TrialKinematics
 from gc_ocp.outputs import atomic_savefig, atomic_write, atomic_write_text
 from gc_ocp.trial import Trial
@@ -125,8 +126,6 @@ def write_kinematics(
 
         paths.append(atomic_write(out_dir / "sole_points.npz", w))
     else:
-        from gc_ocp.errors import InputError
-
         raise InputError(f'Unknown output format "{fmt}"; choose "csv" or "npz".')
     paths.append(
         atomic_write_text(

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import butter, filtfilt
 
+from gc_ocp.errors import InputError
 from gc_ocp.gaps import MAX_GAP_FILL, fill_short_gaps
 
 DEFAULT_CUTOFF_HZ = 6.0
@@ -27,8 +28,6 @@ def lowpass(
     ``x[:, j]``: a marker of ``(n, m, 3)`` markers); each remaining NaN-free run is filtered separately and NaNs stay NaN.
     """
     if not 0 < cutoff_hz < rate / 2:
-        from gc_ocp.errors import InputError
-
         raise InputError(
             f"cutoff_hz must be in (0, {rate / 2}) Hz for a {rate} Hz signal, but got {cutoff_hz}"
         )

@@ -39,6 +39,7 @@ from gc_ocp.kinematics.scaling import build_marker_model, estimate_height, regis
 from gc_ocp.model.anthropometry import FOOT_LENGTH_RATIO, FOOT_WIDTH_RATIO
 from gc_ocp.model.body import BodyModel
 from gc_ocp.model.markerset import MarkerSet, detect_markerset, load_markerset
+from gc_ocp.model.recognition import shipped_mapping
 from gc_ocp.model.urdf import POSTERIOR_FROM_HEEL, POSTERIOR_HALF_WIDTH
 from gc_ocp.trial import Trial
 
@@ -242,7 +243,6 @@ def fill_foot_gaps(
 def landmark_mapping(markerset: MarkerSet, trial: Trial) -> dict:
     """The label -> landmark -> segment mapping used for ``trial`` (plain data, see
     :meth:`gc_ocp.model.recognition.Recognition.to_json`)."""
-    from gc_ocp.model.recognition import shipped_mapping
 
     if markerset.recognition is not None:
         return markerset.recognition

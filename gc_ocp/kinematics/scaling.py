@@ -17,7 +17,9 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+import pinocchio as pin
 
+from gc_ocp.errors import MarkerError
 from gc_ocp.kinematics.ik import IKResult, MarkerModel, solve_ik
 from gc_ocp.model.anthropometry import ANKLE_HEIGHT_RATIO, anthropometry
 from gc_ocp.model.body import BodyModel
@@ -40,7 +42,6 @@ def estimate_height(
     ``H = z / (hip_height_ratio + z_nominal / reference_height)``; we take the median. Expect a few
     per cent error: pass the measured height whenever it is known.
     """
-    from gc_ocp.errors import MarkerError
 
     hh = hip_height_ratio()
     est = []
@@ -77,7 +78,6 @@ def build_marker_model(body: BodyModel, markerset: MarkerSet, names, height: flo
 
 def local_coordinates(mm: MarkerModel, q: np.ndarray, markers: np.ndarray) -> np.ndarray:
     """Each marker's position in its segment frame ``(n, m, 3)`` for poses ``q`` ``(n, nq)``."""
-    import pinocchio as pin
 
     data = mm.model.createData()
     seg_ids = [mm.body.frame_id(s) for s in mm.segments]

@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from gc_ocp.errors import InputError
+
 # name: (mass %, length mm, COM % from proximal, r_sag %, r_trans %, r_long %)
 _DE_LEVA = {
     "male": {
@@ -163,7 +165,6 @@ def anthropometry(height: float, mass: float, sex: str = "male") -> Anthropometr
     forearm = forearm + hand; thigh; shank; the foot split into hindfoot and toes
     (``TOES_MASS_FRACTION``). Segment masses sum to ``mass`` exactly.
     """
-    from gc_ocp.errors import InputError
 
     if sex not in _DE_LEVA:
         raise InputError(f'sex "{sex}" is not one of {list(_DE_LEVA)}')

@@ -15,6 +15,7 @@ import pinocchio as pin
 
 from gc_ocp.errors import ModelError
 from gc_ocp.foot import SEED_LAYOUT, UNITS
+from gc_ocp.model.urdf import SEED_SUBJECT, generate_urdf
 
 SIDE_SUFFIX = {"left": "l", "right": "r", "l": "l", "r": "r"}
 
@@ -70,7 +71,6 @@ class BodyModel:
     @classmethod
     def from_subject(cls, height: float, mass: float, sex: str = "male") -> BodyModel:
         """Anthropometric model (de Leva 1996) of a subject of ``height`` [m] and ``mass`` [kg]."""
-        from gc_ocp.model.urdf import generate_urdf
 
         return cls(
             pin.buildModelFromXML(generate_urdf(height, mass, sex=sex)),
@@ -82,7 +82,6 @@ class BodyModel:
     @classmethod
     def seed_subject(cls) -> BodyModel:
         """The seed report's subject (689 N, 1.70 m)."""
-        from gc_ocp.model.urdf import SEED_SUBJECT
 
         return cls.from_subject(SEED_SUBJECT["height"], SEED_SUBJECT["mass"])
 

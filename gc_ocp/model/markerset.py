@@ -16,8 +16,16 @@ try:
 except ModuleNotFoundError:  # Python 3.10: the tomli backport has the same API
     import tomli as tomllib
 
+import dataclasses
+import warnings
+
 from gc_ocp.errors import MarkerError
 from gc_ocp.model.markerdefs import FOOT_SEGMENTS, MarkerDef, MarkerSet
+from gc_ocp.model.recognition import (
+    markerset_from_recognition,
+    recognise_landmarks,
+    shipped_mapping,
+)
 
 __all__ = [
     "FOOT_SEGMENTS",
@@ -92,14 +100,6 @@ def detect_markerset(marker_names, markers=None, source="the trial") -> MarkerSe
     (naming ``source``, the markers found and what is missing) when a foot cannot be tracked.
     The mapping used is in the returned set's ``recognition``.
     """
-    import dataclasses
-    import warnings
-
-    from gc_ocp.model.recognition import (
-        markerset_from_recognition,
-        recognise_landmarks,
-        shipped_mapping,
-    )
 
     labels = [str(x) for x in marker_names]
     with warnings.catch_warnings():

@@ -15,6 +15,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from gc_ocp.kinematics import compute_kinematics as default_kin
+from gc_ocp.workflow.fitting import MARGIN, fit
+
 DEFAULT_CUTOFFS = (4.0, 6.0, 8.0)
 DEFAULT_MARGINS = (0.03, 0.06)
 
@@ -78,8 +81,6 @@ def sensitivity(
 ) -> SensitivityReport:
     """Refit ``trials`` (a list of :class:`~gc_ocp.trial.Trial`) once per marker cutoff [Hz] and
     once per stance margin [s]; the reference choice is the default (6 Hz, 0.03 s)."""
-    from gc_ocp.kinematics import compute_kinematics as default_kin
-    from gc_ocp.workflow.fitting import MARGIN, fit
 
     kin_fn = compute_kinematics or default_kin
     say = progress or (lambda s: None)
