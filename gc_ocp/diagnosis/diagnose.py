@@ -772,14 +772,24 @@ def confirm(
     other trials of the same subject (``[(Trial, TrialKinematics), ...]`` each). Keyword
     arguments go to :func:`confirm_stances`."""
     from gc_ocp.estimation.fit import fit_data
+    from gc_ocp.io.consistency import same_motion
+    from gc_ocp.stance import trial_names
 
-    _, train, _ = fit_data(trials, progress=progress)
-    _, test, _ = fit_data(new_trials, progress=progress)
-    clash = {st.label for st in train} & {st.label for st in test}
-    if clash:
+    # named together, so that a new trial is never taken for a diagnosed one because the two
+    # files share a name (walking1/markers.trc, walking2/markers.trc); the same file keeps its name
+    names = trial_names([t.source for t, _ in [*trials, *new_trials]])
+    _, train, _ = fit_data(trials, progress=progress, names=names[: len(trials)])
+    _, test, _ = fit_data(new_trials, progress=progress, names=names[len(trials) :])
+    clash = sorted({st.label for st in train} & {st.label for st in test})
+    same = same_motion([t for t, _ in trials], [t for t, _ in new_trials])
+    if clash or same:
+        what = [f"stances {clash} are in both the diagnosed and the new trials"] if clash else []
+        what += [
+            f"{b} holds the same motion as the diagnosed {a} (identical markers)" for a, b in same
+        ]
         raise ModelError(
-            f"Stances {sorted(clash)} are in both the diagnosed and the new trials: confirm on "
-            "trials the diagnosis did not use"
+            f"The new trials repeat diagnosed ones: {'; '.join(what)}. Confirm on trials the "
+            "diagnosis did not use."
         )
     return confirm_stances(train, test, selected, base, progress=progress, **kw)
 
