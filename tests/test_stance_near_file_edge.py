@@ -13,7 +13,9 @@ comes 60 ms (or 20 ms) after the first sample of the file.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+import re
 import warnings
 
 import numpy as np
@@ -137,3 +139,48 @@ def test_a_fixed_delay_beyond_a_stance_s_plate_signal_is_refused(cut60):
     build_estimation([edge], (law, TimeOffset(fixed={edge.trial: -b})))
     with pytest.raises(InputError, match=rf"fixed at -{(b + 0.005) * 1e3:.1f} ms.*allows \+-"):
         build_estimation([edge], (law, TimeOffset(fixed={edge.trial: -(b + 0.005)})))
+
+
+def test_diagnosis_evaluates_time_offset_with_the_reduced_bound(cut60):
+    """The diagnosis that stopped after several candidates now evaluates time_offset on this
+    trial: a ranked row with held-out figures, carrying the reduced-bound flag."""
+    from gc_ocp.diagnosis import diagnose
+
+    pairs, _ = cut60
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = diagnose(pairs, candidates=["time_offset"], max_effects=0, n_boot=100, workers=1)
+    [row] = d.ranking
+    assert "not_evaluable" not in row
+    assert (
+        row["heldout_rms_reduction_pct"] is not None and len(row["per_stance_reduction_pct"]) == 2
+    )
+    assert "time_offset_bound_reduced" in row["flags"]
+
+
+def test_a_candidate_that_cannot_be_evaluated_is_reported_and_the_others_go_on():
+    """Cut 20 ms before the heel strike, the stance's frames (30 ms margin) reach the first
+    plate sample: no bound remains, time_offset is not evaluable. On two worker processes the
+    diagnosis ranks damping, reports time_offset last with the message (row, note, summary,
+    JSON, report), and does not retry it."""
+    from gc_ocp.diagnosis import diagnose
+    from gc_ocp.diagnosis.report import report_html
+
+    pairs = _pairs(0.020)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = diagnose(pairs, candidates=["time_offset", "damping"], n_boot=100, workers=2)
+    first, last = d.rounds[0]
+    assert first["effect"] == "damping" and first["heldout_rms_reduction_pct"] is not None
+    assert last["effect"] == "time_offset" and not last["passes"]
+    assert "time_offset cannot be estimated" in last["not_evaluable"]
+    assert "test_small:right@0.407s" in last["not_evaluable"]
+    assert last["heldout_rms_reduction_pct"] is None and last["insample_rms_reduction_pct"] is None
+    # damping passes here and is added; a second round would only have time_offset to retry
+    assert d.selected == ["damping"] and len(d.rounds) == 1
+    assert any(n.startswith("time_offset is not evaluable") for n in d.notes)
+    assert re.search(r"\n +time_offset +not evaluable on these data", d.summary())
+    js = json.loads(json.dumps(d.to_json()))
+    assert js["ranking"][-1]["not_evaluable"] == last["not_evaluable"]
+    page = report_html(d)
+    assert "not evaluable on these data: time_offset cannot be estimated" in page
