@@ -133,7 +133,7 @@ class TimeOffset(Component):
         t, pt = np.asarray(stance.time, float), np.asarray(stance.plate_time, float)
         room = min(t[0] - pt[0], pt[-1] - t[-1])
         n = math.floor((room + _SLACK) / self.step) - (self.lobes - 1)
-        return float(min(self.bound, max(n, 0) * self.step))
+        return float(self.bound if n >= self.half - self.lobes else max(n, 0) * self.step)
 
     def trial_bound(self, trial: str, stances) -> tuple[float, str | None]:
         """``(bound [s], the stance that limits it or None)`` of ``trial`` over ``stances``: the
@@ -186,6 +186,8 @@ class TimeOffset(Component):
 
     # --- variables and per-frame inputs ---------------------------------------------------------
     def declare(self, variables, stances) -> None:
+        for st in stances:
+            _require_plate_signal(st)
         for trial in dict.fromkeys(st.trial for st in stances):
             if self._free(trial):
                 bound, limit = self.trial_bound(trial, stances)
@@ -208,14 +210,8 @@ class TimeOffset(Component):
     def data(self, stance) -> dict[str, np.ndarray]:
         """``plate_shift``: ``(T, 12 K)``, ``F(t + j h) - F(t)`` for ``j = -K..-1, 1..K`` (six
         columns each, in that order; ``F`` the low-passed plate signal)."""
+        _require_plate_signal(stance)
         pt, pw = stance.plate_time, stance.plate_wrench
-        if pt is None or pw is None:
-            raise InputError(
-                f"Stance {stance.label}: the time_offset effect resamples the force-plate signal, "
-                "but this stance carries none (plate_time/plate_wrench are None, e.g. a hand-made "
-                "StanceData); cut it from a trial with gc_ocp.stance.stance_data, or leave "
-                "time_offset out of the model."
-            )
         K, h = self.half, self.step
         t = np.asarray(stance.time, float)
         if pt.size < 16:
@@ -330,6 +326,16 @@ class TimeOffset(Component):
 
     def frozen(self, block: dict) -> TimeOffset:
         return replace(self, fixed={t: v["ms"] * 1e-3 for t, v in block.items()})
+
+
+def _require_plate_signal(stance) -> None:
+    if stance.plate_time is None or stance.plate_wrench is None:
+        raise InputError(
+            f"Stance {stance.label}: the time_offset effect resamples the force-plate signal, "
+            "but this stance carries none (plate_time/plate_wrench are None, e.g. a hand-made "
+            "StanceData); cut it from a trial with gc_ocp.stance.stance_data, or leave "
+            "time_offset out of the model."
+        )
 
 
 _SLACK = 1e-6
