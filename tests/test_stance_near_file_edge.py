@@ -1,7 +1,7 @@
 """A stance near the start of the recording (issue 21, part 0, bug 2).
 
 The clock-offset effect (``time_offset``) resamples the plate signal up to its bound (50 ms) plus
-its kernel (3 steps of 2.5 ms) beyond a stance's frames. A recording that begins inside that
+the reach of its interpolation kernel (steps of 2.5 ms) beyond a stance's frames. A recording that begins inside that
 reach used to stop the whole diagnosis with an input error. Now the trial's bound shrinks to
 what the plate signal allows (recorded in the result block, flagged), and a candidate that still
 cannot be evaluated is reported as such while the others are ranked.
@@ -76,8 +76,8 @@ def _room(st) -> float:
 
 def test_the_bound_is_the_largest_the_plate_signal_holds(cut60):
     """On the stance 60 ms after the file start the kernel at the reduced bound reads only plate
-    samples (every grid point with a non-zero weight lies inside the plate signal), and one more
-    step would read before the first sample. Stances far from the file's ends keep the full
+    samples (every grid point with a non-zero weight lies inside the plate signal), and half a
+    step more would read before the first sample. Stances far from the file's ends keep the full
     50 ms (the bound of existing data is unchanged)."""
     _, data = cut60
     comp = TimeOffset()
