@@ -199,13 +199,14 @@ def provenance(args: argparse.Namespace, pairs) -> dict:
     import platform
 
     from gc_ocp import __version__
+    from gc_ocp.stance import trial_names
 
     trials = []
-    for t, kin in pairs:
+    for (t, kin), name in zip(pairs, trial_names([t.source for t, _ in pairs]), strict=True):
         files = [p for p in (t.source, t.grf_source) if p is not None]
         trials.append(
             {
-                "name": t.name,
+                "name": name,  # as in the stance labels (name:side@t_on)
                 "files": [{"path": str(Path(p).resolve()), "sha256": _sha256(p)} for p in files],
                 "mass_kg": t.mass,
                 "mass_source": t.mass_source,

@@ -8,7 +8,10 @@ estimator (:mod:`gc_ocp.estimation`) all take it. Numeric, time-first, SI, ``lab
 
 from __future__ import annotations
 
+import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -126,12 +129,20 @@ plus an interpolation kernel."""
 
 
 def stance_data(
-    trial: Trial, kin: TrialKinematics, stance: Stance, margin: float = 0.0, min_frames: int = 1
+    trial: Trial,
+    kin: TrialKinematics,
+    stance: Stance,
+    margin: float = 0.0,
+    min_frames: int = 1,
+    name: str | None = None,
 ) -> StanceData:
     """Cut ``stance`` out of ``trial``: the frames of ``kin.feet[stance.side]`` within
     ``[t_on - margin, t_off + margin]`` [s] and the measured wrench on them. Frames with non-finite
     kinematics or plate data are dropped; fewer than ``min_frames`` left is an :class:`InputError`
-    naming the stance and the likely cause."""
+    naming the stance and the likely cause. ``name``: the trial's name in the label
+    (``name:side@t_on``) and in ``StanceData.trial`` (default ``trial.name``, the file's stem;
+    several trials of one fit are named by :func:`trial_names`)."""
+    name = trial.name if name is None else name
     if stance.side not in kin.feet:
         raise InputError(
             f"Stance {stance.label} is on the {stance.side} foot but the kinematics have feet {sorted(kin.feet)}"
@@ -165,14 +176,14 @@ def stance_data(
     finite = np.isfinite(pw).all(axis=1)
     return StanceData(
         side=stance.side,
-        label=f"{trial.name}:{stance.label}",
+        label=f"{name}:{stance.label}",
         foot=foot,
         measured=meas,
         reference_point=np.asarray(stance.reference_point, float),
         ground_height=float(trial.plates[stance.plate].surface_height),
         belt_velocity=np.asarray(trial.belt_velocity, float),
         in_contact=(foot.time >= stance.t_on - 1e-9) & (foot.time <= stance.t_off + 1e-9),
-        trial=trial.name,
+        trial=name,
         body_weight=trial.body_weight,
         height=height,
         plate_time=pt[finite],
@@ -181,10 +192,79 @@ def stance_data(
 
 
 def trial_stances(
-    trial: Trial, kin: TrialKinematics, margin: float = 0.0, min_frames: int = 1
+    trial: Trial,
+    kin: TrialKinematics,
+    margin: float = 0.0,
+    min_frames: int = 1,
+    name: str | None = None,
 ) -> list[StanceData]:
     """Every stance of ``trial`` (see :func:`stance_data`)."""
-    return [stance_data(trial, kin, s, margin, min_frames) for s in trial.stances]
+    return [stance_data(trial, kin, s, margin, min_frames, name) for s in trial.stances]
 
 
-__all__ = ["StanceData", "stance_data", "trial_stances"]
+def _path_parts(source: str | Path) -> tuple[str, ...]:
+    """The folders and stem of ``source`` as an absolute, normalised path (no drive or root):
+    ``("data", "walking1", "markers")`` for ``data/walking1/markers.trc``."""
+    p = Path(os.path.abspath(source))
+    return (*p.parent.parts[1:], p.stem)
+
+
+def trial_names(sources: Sequence[str | Path]) -> list[str]:
+    """The name of each trial file of ``sources`` (the trials of one subject): it starts the
+    labels of their stances (``name:side@t_on``) and keys their trial-scope variables (clock
+    offset, belt speed), so different files must get different names.
+
+    A file's name is its stem (``walk1`` for ``data/walk1.c3d``) when no other file of
+    ``sources`` has that stem: labels of distinctly named files are the same as ever. Files that
+    share a stem (one folder per trial: ``walking1/markers.trc``, ``walking2/markers.trc``) are
+    named by the shortest end of their path that tells each apart (``walking1/markers``,
+    ``walking2/markers``; folders joined by ``/``), or, when even the full paths only differ in
+    the extension, by the stem and the position in ``sources`` (``markers#2``). The same file
+    given twice keeps one name: it is the same trial (a check can then find it twice).
+
+    >>> trial_names(["a/walk1.c3d", "a/walk2.c3d"])
+    ['walk1', 'walk2']
+    >>> trial_names(["s/walking1/markers.trc", "s/walking2/markers.trc", "s/other.trc"])
+    ['walking1/markers', 'walking2/markers', 'other']
+    """
+    parts = [_path_parts(s) for s in sources]
+    keys = [os.path.normcase(os.path.abspath(s)) for s in sources]
+    names = []
+    for i, mine in enumerate(parts):
+        others = {
+            parts[j] for j in range(len(parts)) if parts[j][-1] == mine[-1] and keys[j] != keys[i]
+        }
+        name = None
+        for k in range(1, len(mine) + 1):
+            if all(o[-k:] != mine[-k:] for o in others):
+                name = "/".join(mine[-k:])
+                break
+        names.append(name if name is not None else f"{mine[-1]}#{i + 1}")
+    return names
+
+
+def fit_stances(
+    trials: Sequence[tuple[Trial, TrialKinematics]],
+    margin: float = 0.0,
+    min_frames: int = 1,
+    names: Sequence[str] | None = None,
+) -> list[StanceData]:
+    """Every stance of every trial of one fit (``[(Trial, TrialKinematics), ...]``, see
+    :func:`stance_data`), each trial named by :func:`trial_names` (or ``names``, one per trial,
+    e.g. names given to the trials of two fits together). Two trials of one fit with the same
+    name (one file given twice with different content, e.g. edited in memory) are told apart by
+    their position (``name#2``): a stance's label and a trial's variables never depend on file
+    names being distinct."""
+    if names is None:
+        names = trial_names([t.source for t, _ in trials])
+    if len(names) != len(trials):
+        raise InputError(f"Got {len(names)} trial names for {len(trials)} trials; give one each.")
+    names = [n if list(names).count(n) == 1 else f"{n}#{i + 1}" for i, n in enumerate(names)]
+    return [
+        st
+        for (trial, kin), name in zip(trials, names, strict=True)
+        for st in trial_stances(trial, kin, margin, min_frames, name)
+    ]
+
+
+__all__ = ["StanceData", "fit_stances", "stance_data", "trial_names", "trial_stances"]

@@ -51,7 +51,7 @@ from gc_ocp.diagnosis.compare import (
     weighted_residuals,
 )
 from gc_ocp.diagnosis.where import where
-from gc_ocp.errors import ModelError
+from gc_ocp.errors import InputError, ModelError
 from gc_ocp.estimation.components import (
     EFFECTS,
     REGISTRY,
@@ -203,6 +203,11 @@ class Diagnosis:
             f"ranking ({self._scored} reduction of the combined score, 95 % interval; in-sample):",
         ]
         for r in self.ranking:
+            if "not_evaluable" in r:
+                lines.append(
+                    f"       {r['effect']:<20} not evaluable on these data (see the notes)"
+                )
+                continue
             mark = "PASS" if r["passes"] else "    "
             conf = (
                 f"  confounded with {', '.join(r['confounded_with'])}"
@@ -252,7 +257,7 @@ class Diagnosis:
         """Held-out reduction per candidate with its 95 % interval and the threshold."""
         import matplotlib.pyplot as plt
 
-        r = self.ranking
+        r = [e for e in self.ranking if "not_evaluable" not in e]
         fig, ax = plt.subplots(figsize=(7.0, 0.35 * len(r) + 1.4))
         y = np.arange(len(r))[::-1]
         v = np.array([e["heldout_rms_reduction_pct"] for e in r])
@@ -304,6 +309,8 @@ class Diagnosis:
 
 def _row_text(r: dict) -> str:
     """One later-round row in a line: ``effect +x.x % [lo, hi]`` (or its in-sample screen)."""
+    if "not_evaluable" in r:
+        return f"{r['effect']} not evaluable"
     if r["heldout_rms_reduction_pct"] is None:
         return f"{r['effect']} in-sample {r['insample_rms_reduction_pct']:+.1f} % (screened)"
     lo, hi = r["heldout_rms_reduction_ci"]
@@ -355,6 +362,8 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
     base_r = weighted_residuals(parent)
     deltas = {}
     pd, pn = _terms(parent)
+    failed = [_not_evaluable_row(n, ev) for n, ev in evs.items() if isinstance(ev, NotEvaluable)]
+    evs = {n: ev for n, ev in evs.items() if not isinstance(ev, NotEvaluable)}
     for name, ev in evs.items():
         if ev.screened:
             rows.append(_screened_row(name, ev, parent))
@@ -415,7 +424,7 @@ def _rank(parent, evs: dict, threshold, n_boot, seed, rate) -> list[dict]:
         )
     )
     _flag_ties(rows, evs, n_boot, seed, rate)
-    return rows
+    return rows + failed  # the candidates that could not be evaluated last
 
 
 def _flag_alike(
@@ -456,6 +465,27 @@ def _screened_row(name: str, ev: Evaluation, parent: Evaluation) -> dict:
     }
 
 
+def _not_evaluable_row(name: str, failed: NotEvaluable) -> dict:
+    """The ranking row of a candidate that could not be evaluated on these data (its fit raised
+    an input or model error, in ``not_evaluable``): no figures, does not pass."""
+    return {
+        "effect": name,
+        "heldout_rms_reduction_pct": None,
+        "heldout_rms_reduction_ci": [None, None],
+        "heldout_superior_force_reduction_pct": None,
+        "insample_rms_reduction_pct": None,
+        "per_stance_reduction_pct": {},
+        "n_params": 0,
+        "passes": False,
+        "screened": False,
+        "inconclusive": False,
+        "gain_from_nuisance": None,
+        "confounded_with": [],
+        "flags": [],
+        "not_evaluable": failed.message,
+    }
+
+
 def _flag_ties(rows: list[dict], evs: dict, n_boot, seed, rate) -> None:
     """Passing candidates whose held-out scores do not differ significantly (the 95 % interval
     of their paired difference, the same block bootstrap, reaches 0) are named confounded with
@@ -470,6 +500,36 @@ def _flag_ties(rows: list[dict], evs: dict, n_boot, seed, rate) -> None:
                         x["confounded_with"].append(y["effect"])
 
 
+@dataclasses.dataclass
+class NotEvaluable:
+    """A candidate whose evaluation raised an input or model error (e.g. ``time_offset`` on a
+    trial whose recording starts inside a stance's margin): reported with the message, not
+    ranked; the other candidates go on."""
+
+    label: str
+    message: str
+    seconds: float = 0.0
+
+
+NOT_EVALUABLE_ERRORS = (InputError, ModelError)
+"""Errors that make one candidate not evaluable on the data, instead of stopping the diagnosis
+(a failed solve, or any other error, still stops it)."""
+
+
+def _evaluate_candidate(
+    stances, model, label, names, plan, parent, **kw
+) -> Evaluation | NotEvaluable:
+    """:func:`~gc_ocp.diagnosis.compare.evaluate`, or :class:`NotEvaluable` with the message when
+    the candidate cannot be evaluated on ``stances`` (:data:`NOT_EVALUABLE_ERRORS`)."""
+    t0 = time.perf_counter()
+    try:
+        return evaluate(stances, model, label, names, plan, parent, **kw)
+    except NOT_EVALUABLE_ERRORS as e:
+        say = kw.get("progress") or (lambda s: None)
+        say(f"  {label}: not evaluable on these data: {e}")
+        return NotEvaluable(label, str(e), time.perf_counter() - t0)
+
+
 _SHARED: dict = {}
 """What every task of a round reads (stances, fold plan, parent, weights, options, screen, the
 jobs), set before the worker processes are forked so that it is inherited, not pickled per task."""
@@ -478,15 +538,15 @@ jobs), set before the worker processes are forked so that it is inherited, not p
 def _task(name: str) -> Evaluation:
     sh = _SHARED
     label, model, names = sh["jobs"][name]
-    return evaluate(
+    return _evaluate_candidate(
         sh["stances"],
         model,
         label,
         names,
         sh["plan"],
         sh["parent"],
-        sh["weights"],
-        sh["options"],
+        weights=sh["weights"],
+        options=sh["options"],
         screen_pct=sh["screen"],
     )
 
@@ -506,7 +566,7 @@ def _evaluate_all(
     functions, and the results travel between processes."""
     if workers <= 1 or len(jobs) <= 1:
         return {
-            n: evaluate(
+            n: _evaluate_candidate(
                 stances,
                 model,
                 label,
@@ -540,7 +600,8 @@ def _evaluate_all(
             for fut in as_completed(futures):
                 ev = fut.result()
                 out[futures[fut]] = ev
-                say(f"  {ev.label}: {describe(ev)} ({ev.seconds:.1f} s)")
+                what = describe(ev) if isinstance(ev, Evaluation) else "not evaluable"
+                say(f"  {ev.label}: {what} ({ev.seconds:.1f} s)")
     finally:
         _SHARED.clear()
     return {n: out[n] for n in jobs}
@@ -623,7 +684,10 @@ def diagnose_stances(
             stances, jobs, plan, current, weights, options, workers, say, screen, hint
         )
         hint = {n: ev.seconds for n, ev in evs.items()}
-        evaluations.update({ev.label: ev for ev in evs.values()})
+        failed = {n: ev for n, ev in evs.items() if isinstance(ev, NotEvaluable)}
+        notes += [f"{n} is not evaluable on these data: {ev.message}" for n, ev in failed.items()]
+        remaining = [n for n in remaining if n not in failed]  # not retried in later rounds
+        evaluations.update({ev.label: ev for n, ev in evs.items() if n not in failed})
         rows = _rank(current, evs, threshold_pct, n_boot, seed, rate)
         rounds.append(rows)
         best = next((r for r in rows if r["passes"]), None)  # rows are sorted, best first
@@ -643,7 +707,7 @@ def diagnose_stances(
         later = {r["effect"]: r for r in rounds[k]}
         for r in ranking:
             e = r["effect"]
-            if e in later and r["passes"] and e != added:
+            if e in later and r["passes"] and e != added and "not_evaluable" not in later[e]:
                 g0, g1 = r["heldout_rms_reduction_pct"], later[e]["heldout_rms_reduction_pct"]
                 # screened (g1 None): its in-sample gain fell below the threshold: it stopped
                 # passing once the other effect was in the model
@@ -771,15 +835,25 @@ def confirm(
     """:func:`confirm_stances` on trials: ``trials`` those the diagnosis used, ``new_trials``
     other trials of the same subject (``[(Trial, TrialKinematics), ...]`` each). Keyword
     arguments go to :func:`confirm_stances`."""
+    from gc_ocp.io.consistency import same_motion
+    from gc_ocp.stance import trial_names
     from gc_ocp.workflow.fitting import fit_data
 
-    _, train, _ = fit_data(trials, progress=progress)
-    _, test, _ = fit_data(new_trials, progress=progress)
-    clash = {st.label for st in train} & {st.label for st in test}
-    if clash:
+    # named together, so that a new trial is never taken for a diagnosed one because the two
+    # files share a name (walking1/markers.trc, walking2/markers.trc); the same file keeps its name
+    names = trial_names([t.source for t, _ in [*trials, *new_trials]])
+    _, train, _ = fit_data(trials, progress=progress, names=names[: len(trials)])
+    _, test, _ = fit_data(new_trials, progress=progress, names=names[len(trials) :])
+    clash = sorted({st.label for st in train} & {st.label for st in test})
+    same = same_motion([t for t, _ in trials], [t for t, _ in new_trials])
+    if clash or same:
+        what = [f"stances {clash} are in both the diagnosed and the new trials"] if clash else []
+        what += [
+            f"{b} holds the same motion as the diagnosed {a} (identical markers)" for a, b in same
+        ]
         raise ModelError(
-            f"Stances {sorted(clash)} are in both the diagnosed and the new trials: confirm on "
-            "trials the diagnosis did not use"
+            f"The new trials repeat diagnosed ones: {'; '.join(what)}. Confirm on trials the "
+            "diagnosis did not use."
         )
     return confirm_stances(train, test, selected, base, progress=progress, **kw)
 

@@ -233,6 +233,8 @@ def _verdict(r: dict, threshold: float) -> str:
     """The decision rule's outcome for a ranking row, with the condition that failed."""
     if r["passes"]:
         return "pass"
+    if "not_evaluable" in r:
+        return f"not evaluable on these data: {r['not_evaluable']}"
     if r["heldout_rms_reduction_pct"] is None:
         return f"fail (in-sample below {threshold:g} %: not held out)"
     if r["heldout_rms_reduction_pct"] < threshold:

@@ -67,10 +67,21 @@ def _inside_polygon(corners_xy: np.ndarray, p: np.ndarray, margin: float) -> boo
     return _hull_distance(corners_xy, p) <= margin
 
 
+def _motion_hash(trial: Trial) -> str:
+    return hashlib.sha256(np.ascontiguousarray(np.nan_to_num(trial.markers)).tobytes()).hexdigest()
+
+
+def same_motion(trials: list[Trial], others: list[Trial]) -> list[tuple[str, str]]:
+    """``(source in trials, source in others)`` of every pair that holds the same motion
+    (identical markers): the same trial, whatever its file is called or where it lies."""
+    mine = {_motion_hash(t): str(t.source) for t in trials}
+    return [(mine[h], str(o.source)) for o in others if (h := _motion_hash(o)) in mine]
+
+
 def duplicates(trials: list[Trial]) -> None:
     seen: dict[str, str] = {}
     for t in trials:
-        h = hashlib.sha256(np.ascontiguousarray(np.nan_to_num(t.markers)).tobytes()).hexdigest()
+        h = _motion_hash(t)
         if h in seen:
             raise InputError(
                 f"{t.source} and {seen[h]} hold the same motion (identical markers): the same trial "
@@ -221,4 +232,4 @@ def check_for_fit(pairs: list) -> tuple[list, list[str]]:
     return out, notes
 
 
-__all__ = ["check_for_fit"]
+__all__ = ["check_for_fit", "same_motion"]

@@ -26,7 +26,7 @@ from gc_ocp.estimation.solve import IpoptOptions, solve
 from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
 from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.consistency import check_for_fit
-from gc_ocp.stance import StanceData, stance_data
+from gc_ocp.stance import StanceData, fit_stances
 from gc_ocp.trial import Trial
 
 MARGIN = 0.03
@@ -79,20 +79,19 @@ def fit_data(
     trials: list[tuple[Trial, TrialKinematics]],
     margin: float = MARGIN,
     progress: Callable[[str], None] | None = None,
+    names: list[str] | None = None,
 ) -> tuple[list, list[StanceData], list[str]]:
     """The checked trials (:func:`gc_ocp.io.consistency.check_for_fit`; a height estimated
     from the markers when the files gave none), every stance of them with ``margin`` unloaded
-    seconds each side, and the checks' notes (each also warned and reported to ``progress``)."""
+    seconds each side, and the checks' notes (each also warned and reported to ``progress``).
+    Stances are labelled ``trial:side@t_on`` with the trials named by
+    :func:`gc_ocp.stance.trial_names` (``names``: one per trial instead)."""
     say = progress or (lambda s: None)
     trials, notes = check_for_fit([(_with_height(t, k), k) for t, k in trials])
     for note in notes:
         warnings.warn(note, stacklevel=3)
         say(f"check: {note}")
-    data = [
-        stance_data(trial, kin, st, margin=margin, min_frames=5)
-        for trial, kin in trials
-        for st in trial.stances
-    ]
+    data = fit_stances(trials, margin=margin, min_frames=5, names=names)
     return trials, data, notes
 
 

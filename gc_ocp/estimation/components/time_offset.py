@@ -92,6 +92,16 @@ class TimeOffset(Component):
     above all, toe-off less); the model cannot shift its wrench in time otherwise (the pose
     correction can mimic ~1 ms of it at heel strike, hence its larger SE in the full model).
     A stance without a plate signal (hand-made ``StanceData``) is refused (:class:`InputError`).
+
+    Near the ends of a recording. A stance that starts (or ends) close to the start (end) of its
+    file has less plate signal around it than the kernel needs at +-``bound``. Each trial's
+    bound then shrinks to what the plate signal around every one of its stances allows
+    (:meth:`trial_bound`: a whole number of steps), the result block of that trial records it
+    (``bound_ms``, and ``bound_limited_by``: the stance) and the flag
+    ``time_offset_bound_reduced`` says so. A trial with no room at all (the frames reach the
+    first or last plate sample, less than ``lobes * step`` beyond them) cannot be estimated:
+    an :class:`InputError` naming the stance (a diagnosis reports the effect as not evaluable).
+    A fixed delay (a held-out stance of a fitted trial) must fit in its stance's plate signal.
     """
 
     sigma: float = 0.020
@@ -111,6 +121,42 @@ class TimeOffset(Component):
 
     def _free(self, trial: str) -> bool:
         return self.fixed is None or trial not in self.fixed
+
+    # --- how far the plate signal lets delta go ---------------------------------------------------
+    def stance_bound(self, stance) -> float:
+        """The largest bound [s] (at most :attr:`bound`, a whole number ``n`` of steps) for which
+        the kernel reads only the plate signal around ``stance``: at ``|delta| <= n h`` its
+        non-zero weights reach ``n + lobes - 1`` grid steps beyond the first and last frame
+        (the weight at ``lobes`` steps from ``delta / h`` is 0). 0: not one step."""
+        if stance.plate_time is None or np.size(stance.plate_time) == 0:
+            return 0.0
+        t, pt = np.asarray(stance.time, float), np.asarray(stance.plate_time, float)
+        room = min(t[0] - pt[0], pt[-1] - t[-1])
+        n = math.floor((room + _SLACK) / self.step) - (self.lobes - 1)
+        return float(self.bound if n >= self.half - self.lobes else max(n, 0) * self.step)
+
+    def trial_bound(self, trial: str, stances) -> tuple[float, str | None]:
+        """``(bound [s], the stance that limits it or None)`` of ``trial`` over ``stances``: the
+        smallest :meth:`stance_bound` of its stances (``None``: the full :attr:`bound`)."""
+        mine = [st for st in stances if st.trial == trial]
+        worst = min(mine, key=self.stance_bound)
+        b = self.stance_bound(worst)
+        return b, (worst.label if b < self.bound else None)
+
+    def _no_room(self, trial: str, stance) -> InputError:
+        t, pt = stance.time, stance.plate_time
+        plate = (
+            ""
+            if pt is None or np.size(pt) == 0
+            else f" and its plate signal [{pt[0]:.3f}, {pt[-1]:.3f}] s"
+        )
+        return InputError(
+            f"time_offset cannot be estimated for trial {trial}: stance {stance.label} has frames "
+            f"[{t[0]:.3f}, {t[-1]:.3f}] s{plate}, less than "
+            f"{self.lobes * self.step * 1e3:g} ms of plate samples beyond the frames on one "
+            "side (the recording starts or ends inside the stance's margin); leave time_offset "
+            "out, or drop that stance."
+        )
 
     # --- synthetic data -------------------------------------------------------------------------
     def observe(self, stance, wrench: np.ndarray):
@@ -140,9 +186,14 @@ class TimeOffset(Component):
 
     # --- variables and per-frame inputs ---------------------------------------------------------
     def declare(self, variables, stances) -> None:
+        for st in stances:
+            _require_plate_signal(st)
         for trial in dict.fromkeys(st.trial for st in stances):
             if self._free(trial):
-                variables.prior_variable((self.name, trial), 1, self.sigma, self.bound)
+                bound, limit = self.trial_bound(trial, stances)
+                if bound <= 0.0:
+                    raise self._no_room(trial, next(st for st in stances if st.label == limit))
+                variables.prior_variable((self.name, trial), 1, self.sigma, bound)
 
     def slot_sizes(self, layout) -> dict[str, int]:
         return {"time_offset": 1}
@@ -159,25 +210,32 @@ class TimeOffset(Component):
     def data(self, stance) -> dict[str, np.ndarray]:
         """``plate_shift``: ``(T, 12 K)``, ``F(t + j h) - F(t)`` for ``j = -K..-1, 1..K`` (six
         columns each, in that order; ``F`` the low-passed plate signal)."""
+        _require_plate_signal(stance)
         pt, pw = stance.plate_time, stance.plate_wrench
-        if pt is None or pw is None:
-            raise InputError(
-                f"Stance {stance.label}: the time_offset effect resamples the force-plate signal, "
-                "but this stance carries none (plate_time/plate_wrench are None, e.g. a hand-made "
-                "StanceData); cut it from a trial with gc_ocp.stance.stance_data, or leave "
-                "time_offset out of the model."
-            )
         K, h = self.half, self.step
         t = np.asarray(stance.time, float)
-        need0, need1 = t[0] - K * h, t[-1] + K * h
-        slack = 1e-6
-        if pt.size < 16 or pt[0] > need0 + slack or pt[-1] < need1 - slack:
+        if pt.size < 16:
             raise InputError(
-                f"Stance {stance.label}: the plate signal covers [{pt[0]:.3f}, {pt[-1]:.3f}] s but "
-                f"the time_offset effect (bound {self.bound * 1e3:g} ms, step {h * 1e3:g} ms, "
-                f"{self.lobes} lobes) needs [{need0:.3f}, {need1:.3f}] s; keep more plate "
-                "samples around the stance or lower the bound."
+                f"Stance {stance.label}: the plate signal around it has {pt.size} samples; the "
+                "time_offset effect needs at least 16 (a plate sampled below 100 Hz?)."
             )
+        allowed = self.stance_bound(stance)
+        if self._free(stance.trial):
+            # declare() bounds the trial's delta by ``allowed`` at most: the kernel gives the
+            # grid points beyond the plate signal (np.interp holds its end values) weight 0
+            if allowed <= 0.0:
+                raise self._no_room(stance.trial, stance)
+        else:
+            fixed = float(self.fixed[stance.trial])
+            if abs(fixed) > allowed + 1e-12:
+                raise InputError(
+                    f"Stance {stance.label}: its trial's clock offset is fixed at "
+                    f"{fixed * 1e3:+.1f} ms (e.g. fitted on the trial's other stances), but the "
+                    f"plate signal around it, [{pt[0]:.3f}, {pt[-1]:.3f}] s for frames "
+                    f"[{t[0]:.3f}, {t[-1]:.3f}] s, allows +-{allowed * 1e3:g} ms at most "
+                    f"(bound {self.bound * 1e3:g} ms, step {h * 1e3:g} ms, {self.lobes} lobes): "
+                    "the recording starts or ends close to this stance; not evaluable on it."
+                )
         ft, fw = self._lowpassed(pt, pw)
         js = np.concatenate([np.arange(-K, 0), np.arange(1, K + 1)])
         times = t[:, None] + js[None, :] * h  # (T, 2K)
@@ -215,7 +273,9 @@ class TimeOffset(Component):
     # --- results -----------------------------------------------------------------------------------
     def decode(self, ctx: DecodeContext) -> dict:
         """``{trial: {"ms": delta [ms], "se_ms": its standard error [ms]}}`` (plate late by
-        ``ms`` when positive; ``se_ms`` = 0 for a fixed trial)."""
+        ``ms`` when positive; ``se_ms`` = 0 for a fixed trial); for a trial whose bound the
+        plate signal reduced (:meth:`trial_bound`), also ``"bound_ms"`` and
+        ``"bound_limited_by"`` (the stance that limits it)."""
         out: dict = {}
         index = ctx.index()
         for st in ctx.stances:
@@ -224,6 +284,9 @@ class TimeOffset(Component):
             if (self.name, st.trial) in index:
                 v, s = ctx.values((self.name, st.trial))
                 out[st.trial] = {"ms": float(v[0]) * 1e3, "se_ms": float(s[0]) * 1e3}
+                bound, limit = self.trial_bound(st.trial, ctx.stances)
+                if limit is not None:
+                    out[st.trial].update(bound_ms=bound * 1e3, bound_limited_by=limit)
             else:
                 out[st.trial] = {
                     "ms": float((self.fixed or {}).get(st.trial, 0.0)) * 1e3,
@@ -231,8 +294,52 @@ class TimeOffset(Component):
                 }
         return out
 
+    def flags(self, block: dict, stances: list) -> list[dict]:
+        """``time_offset_bound_reduced``: a trial's bound was reduced to what the plate signal
+        around its stances allows (the message says whether delta ended at it: then the value
+        is not an estimate, the true offset may lie beyond)."""
+        from gc_ocp.estimation.flags import BOUND_FRACTION, flag
+
+        out = []
+        for trial, v in block.items():
+            if "bound_ms" not in v:
+                continue
+            b = v["bound_ms"]
+            at = abs(v["ms"]) >= b * (1.0 - BOUND_FRACTION)
+            out.append(
+                flag(
+                    "time_offset_bound_reduced",
+                    trial,
+                    f"clock offset of {trial}: bound reduced from +-{self.bound * 1e3:g} to "
+                    f"+-{b:g} ms, as far as the plate signal around stance "
+                    f"{v['bound_limited_by']} reaches (the recording starts or ends close to "
+                    "it)"
+                    + (
+                        f"; the estimate {v['ms']:+.1f} ms is at that bound: not an estimate, "
+                        "the offset may lie beyond"
+                        if at
+                        else ""
+                    ),
+                )
+            )
+        return out
+
     def frozen(self, block: dict) -> TimeOffset:
         return replace(self, fixed={t: v["ms"] * 1e-3 for t, v in block.items()})
+
+
+def _require_plate_signal(stance) -> None:
+    if stance.plate_time is None or stance.plate_wrench is None:
+        raise InputError(
+            f"Stance {stance.label}: the time_offset effect resamples the force-plate signal, "
+            "but this stance carries none (plate_time/plate_wrench are None, e.g. a hand-made "
+            "StanceData); cut it from a trial with gc_ocp.stance.stance_data, or leave "
+            "time_offset out of the model."
+        )
+
+
+_SLACK = 1e-6
+"""Tolerance [s] on the plate signal's extent (its sample times carry round-off)."""
 
 
 __all__ = ["TimeOffset", "interpolation_weights", "lanczos"]
