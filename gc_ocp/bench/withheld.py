@@ -407,6 +407,20 @@ def plan(
     return cases
 
 
+def kinematic_error(
+    effect: str, magnitude: str, base_model: tuple, realism: Realism = Realism()
+) -> tuple[float, float, float] | None:
+    """The kinematic error ``(marker noise [m], drift [m], drift [deg])`` through which the
+    fitter sees the foot in a case of ``effect`` at ``magnitude`` on ``base_model``: the
+    ``kinematic_correction`` effect's own; else the realism's when the base can register it (it
+    has the pose correction); else none (module doc)."""
+    if effect == "kinematic_correction":
+        return VALUES[effect][magnitude]
+    if any(c.name == "pose" for c in base_model):
+        return (realism.marker_noise, realism.drift_translation, realism.drift_rotation_deg)
+    return None
+
+
 def _case_seed(base: str, truth: str, magnitude: str, seed: int) -> int:
     """A seed per case, stable across runs and processes (no Python hash)."""
     key = f"{base}|{truth}|{magnitude}|{seed}".encode()
@@ -433,13 +447,7 @@ def run_case(
     stances = motion(base, truth_name, files)
     _, base_model_ = resolve_base(base)
     truth = truth_model(truth_name, mag, base_truth(base, files), stances, rng)
-    has_pose = any(c.name == "pose" for c in base_model_)
-    if truth_name == "kinematic_correction":
-        kin_err = VALUES[truth_name][mag]
-    elif has_pose:
-        kin_err = (realism.marker_noise, realism.drift_translation, realism.drift_rotation_deg)
-    else:
-        kin_err = None
+    kin_err = kinematic_error(truth_name, mag, base_model_, realism)
     data = generate(stances, truth, rng, realism, kin_err)
     t1 = time.perf_counter()
     with warnings.catch_warnings():
@@ -766,6 +774,7 @@ __all__ = [
     "confusion_figure",
     "drift",
     "generate",
+    "kinematic_error",
     "markdown",
     "merge",
     "motion",
