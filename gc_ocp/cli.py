@@ -299,7 +299,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
     landmarks = {"trials": [kin.info.get("landmarks") for _, kin in pairs]}
     try:
         try:
-            report = fit(pairs, model=model, holdout=args.holdout, progress=_progress)
+            start = None
+            if model is not None:  # the problem is not convex: the full model's optimum is one
+                # more start, so that adding effects cannot end above the model without them
+                _progress("fitting the full model first (its optimum starts the fit with effects)")
+                start = fit(pairs, holdout=args.holdout, progress=_progress).result
+            report = fit(pairs, model=model, holdout=args.holdout, progress=_progress, start=start)
         except SolveError as e:
             if e.result is not None:
                 out.text(
@@ -506,8 +511,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--effects",
         metavar="A,B,...",
         help="Comma-separated effects (docs/effects.md) fitted with the full model, e.g. "
-        "friction,time_offset; each adds its own block to fit.json and the summary. Default: "
-        "the full model alone.",
+        "friction,time_offset; each adds its own block to fit.json and the summary. The full "
+        "model is fitted first and its optimum is one more start. Default: the full model alone.",
     )
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
     p.set_defaults(func=cmd_fit)
