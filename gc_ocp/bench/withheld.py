@@ -10,7 +10,8 @@ matrix, top-1 accuracy, "none" correct-rejection rate; rewritten atomically afte
 so a partial run leaves a valid file) and ``confusion.png``.
 
 **Injected values** (physical; "moderate" is a typical value of the literature or of the fits
-of real walking, "strong" about twice it; :data:`VALUES`):
+of real walking, "strong" about twice it; :data:`VALUES`, made of each effect's own
+``benchmark_values``; the truth is the effect's ``inject``, :func:`truth_model`):
 
 =====================  =========================================  ==============================
 effect                 moderate                                   strong
