@@ -340,7 +340,9 @@ def cmd_fit(args: argparse.Namespace) -> int:
                     t, markerset=args.markerset, static=static, cutoff_hz=cutoff_hz
                 )
 
-            sens = sensitivity([t for t, _ in pairs], compute_kinematics=kin, progress=_progress)
+            sens = sensitivity(
+                [t for t, _ in pairs], model=model, compute_kinematics=kin, progress=_progress
+            )
             print(
                 "sensitivity of the headline parameters to processing choices:\n" + sens.summary()
             )
