@@ -184,8 +184,9 @@ def motion(base: str, effect: str = NONE, files: tuple[str, ...] | None = None) 
 
 def _nominal_units(effect: str) -> tuple[str, ...]:
     """The sole units the truth keeps at nominal for ``effect`` (its declared
-    ``benchmark_nominal_units``; none for "none")."""
-    return () if effect == NONE else REGISTRY[effect].benchmark_nominal_units
+    ``benchmark_nominal_units``; none for "none" or a name that is not registered)."""
+    cls = REGISTRY.get(effect)
+    return () if cls is None else cls.benchmark_nominal_units
 
 
 def _at_nominal(component, units: tuple[str, ...], layout):
