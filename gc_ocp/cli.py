@@ -246,6 +246,41 @@ def provenance(args: argparse.Namespace, pairs) -> dict:
     }
 
 
+def _effect_list(text: str, option: str = "--effects") -> list[str]:
+    """The comma-separated effect names of ``option``, each checked against the effect library
+    (:data:`gc_ocp.estimation.components.EFFECTS`)."""
+    from gc_ocp.estimation.components import EFFECTS
+
+    effects = [e.strip() for e in text.split(",") if e.strip()]
+    unknown = [e for e in effects if e not in EFFECTS]
+    if unknown or not effects:
+        what = f"unknown effect(s) {', '.join(unknown)}" if unknown else "no effect given"
+        raise InputError(
+            f"{option} {text!r}: {what}; choose from {', '.join(EFFECTS)} (comma-separated)."
+        )
+    return effects
+
+
+def fit_model(effects: list[str] | None) -> tuple | None:
+    """``gc-ocp fit``'s model: :func:`~gc_ocp.estimation.components.full_model` plus the
+    registered ``effects`` (None: the full model itself); an effect the full model already has
+    is refused (it would estimate the same physics twice)."""
+    from gc_ocp.estimation.components import REGISTRY, full_model, model_from_names
+
+    if effects is None:
+        return None
+    base = full_model()
+    have = [e for e in effects if REGISTRY[e].present_in(base)]
+    if have:
+        free = [e for e in REGISTRY if REGISTRY[e].candidate and not REGISTRY[e].present_in(base)]
+        raise InputError(
+            f"--effects: {', '.join(have)} already in the fitted model (gc-ocp fit fits the full "
+            f"model: contact law with n, c, mu; sole, pose and belt corrections); choose from "
+            f"{', '.join(free)}."
+        )
+    return model_from_names(effects, base=base)
+
+
 def cmd_fit(args: argparse.Namespace) -> int:
     from gc_ocp.estimation.plots import plot_fit, plot_pose_corrections, plot_sole_fit
     from gc_ocp.io.checks import require_stances
@@ -253,6 +288,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from gc_ocp.workflow.fitting import fit
 
     check_writable(args.out)  # before any computation
+    model = fit_model(None if args.effects is None else _effect_list(args.effects))
     trials = _load(args)
     for t in trials:
         require_stances(t)
@@ -264,7 +300,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
     landmarks = {"trials": [kin.info.get("landmarks") for _, kin in pairs]}
     try:
         try:
-            report = fit(pairs, holdout=args.holdout, progress=_progress)
+            start = None
+            if model is not None:  # the problem is not convex: the full model's optimum is one
+                # more start, so that adding effects cannot end above the model without them
+                _progress("fitting the full model first (its optimum starts the fit with effects)")
+                start = fit(pairs, holdout=args.holdout, progress=_progress).result
+            report = fit(pairs, model=model, holdout=args.holdout, progress=_progress, start=start)
         except SolveError as e:
             if e.result is not None:
                 out.text(
@@ -300,7 +341,9 @@ def cmd_fit(args: argparse.Namespace) -> int:
                     t, markerset=args.markerset, static=static, cutoff_hz=cutoff_hz
                 )
 
-            sens = sensitivity([t for t, _ in pairs], compute_kinematics=kin, progress=_progress)
+            sens = sensitivity(
+                [t for t, _ in pairs], model=model, compute_kinematics=kin, progress=_progress
+            )
             print(
                 "sensitivity of the headline parameters to processing choices:\n" + sens.summary()
             )
@@ -335,18 +378,8 @@ def _effects(args: argparse.Namespace) -> list[str] | None:
     """``--effects a,b`` checked against the effect library and the base (before any work)."""
     from gc_ocp.diagnosis import candidate_names
     from gc_ocp.diagnosis.diagnose import resolve_base
-    from gc_ocp.estimation.components import EFFECTS
 
-    effects = None
-    if args.effects is not None:
-        effects = [e.strip() for e in args.effects.split(",") if e.strip()]
-        unknown = [e for e in effects if e not in EFFECTS]
-        if unknown or not effects:
-            what = f"unknown effect(s) {', '.join(unknown)}" if unknown else "no effect given"
-            raise InputError(
-                f"--effects {args.effects!r}: {what}; choose from {', '.join(EFFECTS)} "
-                "(comma-separated)."
-            )
+    effects = None if args.effects is None else _effect_list(args.effects)
     _, base = resolve_base(args.base)
     if not candidate_names(base, effects):
         raise InputError(
@@ -389,10 +422,12 @@ def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
     from gc_ocp.bench.withheld import report, run_benchmark
 
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
+    candidates = None if args.candidates is None else _effect_list(args.candidates, "--candidates")
     res = run_benchmark(
         args.out,
         base=args.base,
         effects=effects,
+        candidates=candidates,
         seeds=args.seeds,
         magnitudes=args.magnitude or ("moderate", "strong"),
         resume=args.resume,
@@ -475,6 +510,13 @@ def build_parser() -> argparse.ArgumentParser:
         "far the headline parameters move, in units of their SE (sensitivity.json/.md).",
     )
     p.add_argument("--holdout", help='Stance to hold out, e.g. "right@0.407s" (see `gc-ocp info`).')
+    p.add_argument(
+        "--effects",
+        metavar="A,B,...",
+        help="Comma-separated effects (docs/effects.md) fitted with the full model, e.g. "
+        "friction,time_offset; each adds its own block to fit.json and the summary. The full "
+        "model is fitted first and its optimum is one more start. Default: the full model alone.",
+    )
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
     p.set_defaults(func=cmd_fit)
 
@@ -528,6 +570,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--effects", help='Comma-separated truths (effects and/or "none"); default all candidates.'
+    )
+    p.add_argument(
+        "--candidates",
+        metavar="A,B,...",
+        help="Comma-separated effects the blind diagnosis may name (default: every effect the "
+        "base does not have); fewer candidates make a case faster.",
     )
     p.add_argument(
         "--first-seed",

@@ -10,7 +10,7 @@ from dataclasses import dataclass, replace
 
 import casadi as ca
 
-from gc_ocp.estimation.components import Component
+from gc_ocp.estimation.components import Component, SummaryRow
 
 
 @dataclass(frozen=True)
@@ -49,6 +49,10 @@ class GroundShift(Component):
                 v, s = ctx.values((self.name, side))
                 out[side] = {"mm": float(v[0]) * 1e3, "se_mm": float(s[0]) * 1e3}
         return out
+
+    @classmethod
+    def describe(cls, block: dict) -> list[SummaryRow]:
+        return [SummaryRow(f"{side} shift", v["mm"], v["se_mm"], "mm") for side, v in block.items()]
 
     def frozen(self, block: dict) -> GroundShift:
         return replace(self, fixed={s: v["mm"] * 1e-3 for s, v in block.items()})

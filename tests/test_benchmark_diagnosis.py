@@ -5,6 +5,7 @@ cheapest fits: the law alone). The full benchmark is ``gc-ocp benchmark-diagnosi
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -12,6 +13,8 @@ import pytest
 
 from gc_ocp.bench import withheld as benchmark
 from gc_ocp.errors import InputError
+
+import withheld_reference as reference  # isort: skip (a test helper beside this file)
 
 
 def test_plan_covers_every_truth_and_rejects_unknown_names():
@@ -50,6 +53,51 @@ def test_generator_thresholds_the_plate_and_drifts_the_foot():
         assert low.any() and np.all(d.measured[low] == 0.0)
         moved = np.linalg.norm(d.foot.positions - st.foot.positions, axis=2)
         assert 1e-4 < np.median(moved) < 1e-2  # [m]
+
+
+def _same(a, b) -> bool:
+    """Exact equality of truths: components field by field, arrays bit for bit."""
+    if dataclasses.is_dataclass(a):
+        return type(a) is type(b) and all(
+            _same(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a)
+        )
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(map(_same, a, b))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.asarray(a).dtype == np.asarray(b).dtype and np.array_equal(a, b)
+    return type(a) is type(b) and a == b
+
+
+@pytest.mark.parametrize("base", ["seed", "registered"])
+def test_injected_truths_are_those_of_the_former_if_chain(base):
+    """Every effect (and "none") at both magnitudes: the same components with the same fixed
+    values, the same true motion, the same kinematic error and the same random draws as the
+    benchmark built before the effects declared their injection (``withheld_reference``)."""
+    assert benchmark.VALUES == reference.VALUES
+    assert list(benchmark.VALUES) == list(reference.VALUES)  # the order of confusion.json
+    _, base_model_ = benchmark.resolve_base(base)
+    frozen = benchmark.base_truth(base)
+    for effect in [*reference.EFFECTS, "none"]:
+        stances = benchmark.motion(base, effect)
+        old_stances = reference.motion(base, effect)
+        for st, old in zip(stances, old_stances, strict=True):
+            assert np.array_equal(st.foot.points_local, old.foot.points_local), effect
+        for mag in benchmark.MAGNITUDES:
+            rng, old_rng = np.random.default_rng(11), np.random.default_rng(11)
+            truth = benchmark.truth_model(effect, mag, frozen, stances, rng)
+            old = reference.truth_model(effect, mag, frozen, stances, old_rng)
+            assert _same(truth, old), (effect, mag)
+            assert rng.bit_generator.state == old_rng.bit_generator.state, (effect, mag)
+            realism = benchmark.Realism()
+            assert benchmark.kinematic_error(effect, mag, base_model_, realism) == (
+                reference.kinematic_error(effect, mag, base_model_, realism)
+            ), (effect, mag)
+    assert not _same(  # the comparison can fail: another draw gives other offsets
+        benchmark.truth_model("sole_geometry", "strong", frozen, stances, np.random.default_rng(1)),
+        benchmark.truth_model("sole_geometry", "strong", frozen, stances, np.random.default_rng(2)),
+    )
 
 
 @pytest.mark.slow

@@ -165,6 +165,42 @@ def test_fit_outputs_are_one_consistent_set(tmp_path):
     assert not list(tmp_path.glob(".fit.*"))  # no staging folder left
 
 
+def test_fit_with_an_effect_shows_its_block(tmp_path, capsys):
+    """``fit --effects friction``: the full model plus the Stribeck friction; its block is in
+    fit.json, its parameters in the printed summary, the option in the provenance."""
+    import json
+
+    from gc_ocp.cli import main
+
+    out = tmp_path / "fit"
+    assert main(["fit", "--effects", "friction", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    d = json.loads((out / "fit.json").read_text())
+    assert d["components"]["friction"] == "StribeckFriction"
+    assert d["provenance"]["options"]["effects"] == "friction"
+    b = d["blocks"]["friction"]
+    assert f"friction mu_s - mu_d = {b['static_excess']:.4g}" in printed, printed
+    assert f"friction b = {b['viscous']:.4g}" in printed
+
+
+@pytest.mark.parametrize(
+    "effects, needle",
+    [
+        ("friction,wobble", "unknown effect(s) wobble; choose from damping"),
+        ("", "no effect given"),
+        ("damping", "damping already in the fitted model"),
+    ],
+)
+def test_fit_bad_effects_exit_2_before_any_work(tmp_path, capsys, effects, needle):
+    from gc_ocp.cli import main
+
+    out = tmp_path / "fit"
+    assert main(["fit", "--effects", effects, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err and "choose from" in err, err
+    assert "solving" not in err and not out.exists()
+
+
 def test_unusable_out_fails_before_any_computation(tmp_path, capsys):
     from gc_ocp.cli import main
 

@@ -161,3 +161,109 @@ def test_throwaway_component_is_fitted():
         # noiseless: the shift is recovered to a small fraction of a millimetre
         assert res.blocks["ground_shift"][side]["mm"] == pytest.approx(4.0, abs=0.1), res.blocks
     assert res.components["ground_shift"] == "GroundShift"
+
+
+SHOWN_BY_THE_SUMMARY_ITSELF = {"contact", "belt_speed", "sole_geometry", "kinematic_correction"}
+"""Blocks laid out per side by ``EstimationResult.summary`` itself (no rows of their own)."""
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_describe_shows_the_block_in_the_summary_and_after_json(stances, name):
+    """Every component's rows (``describe``) are typed, read the decoded block only (the same
+    rows from a result read back from JSON) and appear in the summary; every other component
+    (an effect's own parameters) has rows."""
+    import json
+
+    from gc_ocp.estimation import EstimationResult, SummaryRow
+
+    model = _model(name)
+    pb = build_estimation(stances, model)
+    x = np.clip(pb.x0 + 0.3 * np.random.default_rng(2).normal(size=pb.x0.size), pb.lbx, pb.ubx)
+    res = result_at(pb, x)
+    own = model[-1].name
+    rows = type(model[-1]).describe(res.blocks[own])
+    if name in SHOWN_BY_THE_SUMMARY_ITSELF:
+        assert rows == [] and own not in res.block_rows()
+        return
+    assert rows, name
+    for r in rows:
+        assert isinstance(r, SummaryRow) and isinstance(r.label, str) and isinstance(r.unit, str)
+        assert np.isfinite(r.value) and (np.isnan(r.se) or r.se >= 0), r
+    assert res.block_rows()[own] == rows
+    text = res.summary()
+    assert all(f"{own} {r.text()}" in text for r in rows), text
+    back = EstimationResult.from_json(json.loads(json.dumps(res.to_json())))
+    assert back.block_rows() == res.block_rows()
+
+
+def test_describe_reads_the_values_of_the_block():
+    """The rows carry the block's numbers in the stated units (damping c in s/m; a ground
+    offset's dz in mm and tilts in degrees from the block's SI values)."""
+    from gc_ocp.estimation.components import Damping, GroundOffset
+
+    assert Damping.describe({"c": 0.7, "c_se": 0.05}) == [("c", 0.7, 0.05, "s/m")]
+    block = {
+        "s1": {
+            "dz": 0.002, "dz_se": 0.001, "tilt_x": 0.01, "tilt_x_se": 0.002, "tilt_y": -0.01,
+            "tilt_y_se": 0.004, "dz_mm": 2.0, "tilt_x_deg": np.rad2deg(0.01),
+            "tilt_y_deg": np.rad2deg(-0.01),
+        }
+    }  # fmt: skip
+    rows = GroundOffset.describe(block)
+    assert [r.label for r in rows] == ["s1 dz", "s1 tilt_x", "s1 tilt_y"]
+    assert rows[0][1:] == (2.0, 1.0, "mm")
+    assert rows[2].value == pytest.approx(-0.5729578, rel=1e-6)  # -0.01 rad in deg
+    assert rows[2].se == pytest.approx(0.2291831, rel=1e-6)  # 0.004 rad in deg
+
+
+def test_effects_are_the_candidates_in_registry_order():
+    """``EFFECTS`` is derived from the registry (``candidate = True``) and keeps the order the
+    diagnosis's figures were made with."""
+    from gc_ocp.estimation import EFFECTS
+    from gc_ocp.estimation.components import candidate_effects
+
+    assert EFFECTS == (
+        "damping",
+        "stiffness_exponent",
+        "sole_geometry",
+        "kinematic_correction",
+        "contact_density",
+        "toe_joint",
+        "ground_offset",
+        "time_offset",
+        "friction",
+    )
+    assert candidate_effects() == EFFECTS  # ground_shift (registered above) is no candidate
+    assert not REGISTRY["contact"].candidate and not REGISTRY["belt_speed"].candidate
+
+
+def test_components_change_others_through_their_hooks():
+    """Damping, stiffness exponent and contact density change the law and the sole through the
+    hooks of the changed component (no-ops elsewhere); the results are the former rewrites."""
+    from gc_ocp.errors import ModelError
+    from gc_ocp.estimation import full_model
+    from gc_ocp.estimation.components import (
+        ContactDensity,
+        Damping,
+        PoseCorrection,
+        SoleCorrection,
+        StiffnessExponent,
+    )
+    from gc_ocp.estimation.components.contact_density import DenseSoleCorrection
+
+    law, sole, pose, belt = full_model()
+    assert law.law_estimates("c") and law.law_estimates("n")
+    assert not pose.law_estimates("c") and pose.with_law_fixed("c", 0.0) is pose
+    assert law.for_layout(*ContactDensity().design()[::-1]) is law
+    with pytest.raises(ModelError, match="Unknown contact-law parameter"):
+        law.with_law_fixed("q", 1.0)
+    assert Damping().configure(full_model())[0] == dataclasses.replace(law, c=Param("fixed", 0.0))
+    assert StiffnessExponent().configure(full_model())[0].n == Param("fixed", 1.0)
+    assert Damping.present_in(full_model()) and StiffnessExponent.present_in(full_model())
+    W, layout = ContactDensity().design()
+    dense_law, dense_sole, *rest = ContactDensity().configure(full_model())
+    assert dense_law.k == Param("fixed", 1.0) and rest == [pose, belt]
+    assert dense_sole == DenseSoleCorrection(W=tuple(map(tuple, W)), sigma=sole.sigma)
+    assert dense_sole.for_layout(layout, W) is dense_sole  # already dense
+    assert type(SoleCorrection().for_layout(layout, W)) is DenseSoleCorrection
+    assert PoseCorrection().for_layout(layout, W) == PoseCorrection()

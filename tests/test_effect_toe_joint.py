@@ -60,10 +60,10 @@ def _base_truth():
 
 def _true_toes(stances) -> dict:
     """Spline coefficients [rad] of phi(t): 0 until 55 % of the stance, then a smooth step to
-    +15 deg at toe-off (the benchmark's definition, ``benchmark._toe_angles``)."""
-    from gc_ocp.bench.withheld import _toe_angles
+    +15 deg at toe-off (the benchmark's definition, ``toe_joint.smooth_step_angles``)."""
+    from gc_ocp.estimation.components.toe_joint import smooth_step_angles
 
-    return _toe_angles(stances, PEAK_DEG)
+    return smooth_step_angles(stances, PEAK_DEG)
 
 
 # --- exactness ------------------------------------------------------------------------------

@@ -10,7 +10,8 @@ matrix, top-1 accuracy, "none" correct-rejection rate; rewritten atomically afte
 so a partial run leaves a valid file) and ``confusion.png``.
 
 **Injected values** (physical; "moderate" is a typical value of the literature or of the fits
-of real walking, "strong" about twice it; :data:`VALUES`):
+of real walking, "strong" about twice it; :data:`VALUES`, made of each effect's own
+``benchmark_values``; the truth is the effect's ``inject``, :func:`truth_model`):
 
 =====================  =========================================  ==============================
 effect                 moderate                                   strong
@@ -83,26 +84,19 @@ import numpy as np
 
 from gc_ocp.diagnosis.diagnose import candidate_names, diagnose_stances, resolve_base
 from gc_ocp.errors import InputError
-from gc_ocp.estimation.components import EFFECTS
+from gc_ocp.estimation.components import EFFECTS, REGISTRY
 from gc_ocp.stance import StanceData
 
 MAGNITUDES = ("moderate", "strong")
 
 VALUES: dict[str, dict[str, object]] = {
-    "damping": {"moderate": 0.5, "strong": 1.0},  # c [s/m]
-    "stiffness_exponent": {"moderate": 1.25, "strong": 1.5},  # n [-]
-    "sole_geometry": {"moderate": 2e-3, "strong": 4e-3},  # half-range of U per axis [m]
-    "kinematic_correction": {  # marker noise [m], drift [m], drift [deg]
-        "moderate": (0.5e-3, 2e-3, 0.5),
-        "strong": (1.0e-3, 4e-3, 1.0),
-    },
-    "contact_density": {"moderate": 2.0, "strong": 3.0},  # heel/toe stiffness ratio
-    "toe_joint": {"moderate": 10.0, "strong": 15.0},  # toe dorsiflexion at toe-off [deg]
-    "ground_offset": {"moderate": (2e-3, 0.5), "strong": (4e-3, 1.0)},  # [m], [deg]
-    "time_offset": {"moderate": 0.010, "strong": 0.020},  # plate late [s]
-    "friction": {"moderate": (0.15, 0.4), "strong": (0.3, 0.75)},  # mu_s - mu_d, b [s/m]
+    name: REGISTRY[name].benchmark_values
+    for name in EFFECTS
+    if REGISTRY[name].benchmark_values is not None
 }
-"""Injected value per effect and magnitude (module doc)."""
+"""Injected value per effect and magnitude (module doc): each effect's own
+``benchmark_values`` (:class:`~gc_ocp.estimation.components.Component`), in :data:`EFFECTS`
+order."""
 
 NONE = "none"
 
@@ -168,8 +162,9 @@ def base_truth(base: str, files: tuple[str, ...] | None = None) -> tuple:
 def motion(base: str, effect: str = NONE, files: tuple[str, ...] | None = None) -> list[StanceData]:
     """The true motion of the cases: the stances of the motion source (``files``; None: the
     bundled trial). For the ``seed`` base the sole
-    points are the registered fit's (nominal + fitted offsets; TT at its nominal point for
-    ``toe_joint``, see :func:`truth_model`): a bare law on the nominal points of real kinematics
+    points are the registered fit's (nominal + fitted offsets; the units an effect declares in
+    ``benchmark_nominal_units`` at their nominal point, e.g. TT for ``toe_joint``, see
+    :func:`truth_model`): a bare law on the nominal points of real kinematics
     leaves heel units of a stance that never touch the ground, so a truth fitted that way has
     per-unit stiffnesses no other stance can predict, and every held-out score is dominated by
     that, not by the effect."""
@@ -177,13 +172,35 @@ def motion(base: str, effect: str = NONE, files: tuple[str, ...] | None = None) 
     if base != "seed":
         return stances
     sole = next(c for c in _source(files)[1] if c.name == "sole")
+    nominal = _nominal_units(effect)
     out = []
     for st in stances:
         off = np.array(sole.fixed[st.side], float)
-        if effect == "toe_joint":
-            off[list(st.layout.units).index("TT")] = 0.0
+        for u in nominal:
+            off[list(st.layout.units).index(u)] = 0.0
         out.append(st.with_foot(st.foot.with_points(st.foot.points_local + off)))
     return out
+
+
+def _nominal_units(effect: str) -> tuple[str, ...]:
+    """The sole units the truth keeps at nominal for ``effect`` (its declared
+    ``benchmark_nominal_units``; none for "none" or a name that is not registered)."""
+    cls = REGISTRY.get(effect)
+    return () if cls is None else cls.benchmark_nominal_units
+
+
+def _at_nominal(component, units: tuple[str, ...], layout):
+    """A frozen sole correction (block name ``"sole"``) with the offsets of ``units`` at zero;
+    any other component unchanged."""
+    if not units or component.name != "sole":
+        return component
+    fixed = {}
+    for side, o in component.fixed.items():
+        o = np.array(o, float)
+        for u in units:
+            o[list(layout.units).index(u)] = 0.0
+        fixed[side] = o
+    return dataclasses.replace(component, fixed=fixed)
 
 
 def _law(truth: tuple):
@@ -194,100 +211,24 @@ def _replace_law(truth: tuple, law) -> tuple:
     return tuple(law if c.name == "contact" else c for c in truth)
 
 
-def _toe_angles(stances, peak_deg: float) -> dict:
-    """Spline coefficients [rad] of a toe angle: 0 until 55 % of the stance, then a smooth step
-    to ``peak_deg`` at toe-off (as ``tests/test_effect_toe_joint.py``)."""
-    from gc_ocp.estimation.components.toe_joint import ToeJoint
-
-    tj, fixed = ToeJoint(drive="spline"), {}
-    for st in stances:
-        t = st.time
-        t_on, t_off = t[st.in_contact][[0, -1]]
-        t_a = t_on + 0.55 * (t_off - t_on)
-        s = np.clip((t - t_a) / (t_off - t_a), 0, 1)
-        B, _ = tj.basis(t)
-        fixed[st.label] = np.linalg.lstsq(B, np.deg2rad(peak_deg) * s * s * (3 - 2 * s))[0]
-    return fixed
-
-
 def truth_model(effect: str, magnitude: str, base: tuple, stances, rng) -> tuple:
-    """``base`` (a frozen base fit) plus ``effect`` at ``magnitude`` (:data:`VALUES`); random
-    signs and patterns from ``rng``. ``kinematic_correction`` and ``none`` return ``base``
-    (the kinematic error is applied to the data, :func:`generate`)."""
-    from gc_ocp.estimation.components import (
-        ContactDensity,
-        Damping,
-        GroundOffset,
-        Param,
-        SoleCorrection,
-        StiffnessExponent,
-        StribeckFriction,
-        TimeOffset,
-        ToeJoint,
-    )
-
-    if effect in (NONE, "kinematic_correction"):
+    """``base`` (a frozen base fit) plus ``effect`` at ``magnitude`` (:data:`VALUES`), as the
+    effect's class injects it (``Component.inject``; random signs and patterns from ``rng``),
+    after the sole units it declares in ``benchmark_nominal_units`` are reset to nominal.
+    ``none`` returns ``base``; so does an effect of the data (``kinematic_correction``: the
+    kinematic error is applied to the data, :func:`kinematic_error`, :func:`generate`)."""
+    if effect == NONE:
         return base
-    v = VALUES[effect][magnitude]
-    law = _law(base)
-    sides = sorted({st.side for st in stances})
-    if effect == "damping":
-        return (*base, Damping(fixed=float(v)))
-    if effect == "stiffness_exponent":
-        # k rescaled per unit to keep the force at the 5 mm reference depth
-        d = law.reference_depth
-        k = {s: {u: kv * d ** (1 - v) for u, kv in ks.items()} for s, ks in law.k.value.items()}
-        law = dataclasses.replace(law, k=Param("fixed", k))
-        return (*_replace_law(base, law), StiffnessExponent(fixed=float(v)))
-    if effect == "sole_geometry":
-        offsets = {s: rng.uniform(-v, v, (5, 3)) for s in sides}
-        have = next((c for c in base if c.name == "sole"), None)
-        if have is not None:
-            offsets = {s: np.asarray(have.fixed[s]) + offsets[s] for s in sides}
-            return tuple(SoleCorrection(fixed=offsets) if c is have else c for c in base)
-        return (*base, SoleCorrection(fixed=offsets))
-    if effect == "contact_density":
-        theta = {
-            s: [
-                float(np.log(np.median(list(law.k.value[s].values())) * 5 / 16)),
-                -np.log(v) / 2,
-                0.0,
-                0.0,
-            ]
-            for s in sides
-        }
-        return (*base, ContactDensity(fixed=theta))
-    if effect == "toe_joint":
-        # TT at its nominal point, the other units as fitted: the base fit moves TT 20-25 mm
-        # back, nearly under the MTP axis, where a hinge barely changes its depth (see
-        # tests/test_effect_toe_joint.py, which zeroes the whole sole)
-        def nominal_tt(c):
-            fixed = {}
-            for side, o in c.fixed.items():
-                o = np.array(o, float)
-                o[list(stances[0].layout.units).index("TT")] = 0.0
-                fixed[side] = o
-            return dataclasses.replace(c, fixed=fixed)
-
-        base = tuple(nominal_tt(c) if c.name == "sole" else c for c in base)
-        return (*base, ToeJoint(drive="spline", fixed=_toe_angles(stances, float(v))))
-    if effect == "ground_offset":
-        dz, tilt = v
-        fixed = {
-            st.label: (
-                dz * rng.choice([-1.0, 1.0]),
-                np.deg2rad(tilt) * rng.choice([-1.0, 1.0]),
-                np.deg2rad(tilt) * rng.choice([-1.0, 1.0]),
-            )
-            for st in stances
-        }
-        return (*base, GroundOffset(fixed=fixed))
-    if effect == "time_offset":
-        return (*base, TimeOffset(fixed={st.trial: float(v) for st in stances}))
-    if effect == "friction":
-        excess, viscous = v
-        return (*base, StribeckFriction(fixed={"static_excess": excess, "viscous": viscous}))
-    raise InputError(f'Unknown effect "{effect}"; choose from {[*EFFECTS, NONE]}')
+    if effect not in VALUES:
+        why = "declares no benchmark_values" if effect in REGISTRY else "is not a registered effect"
+        raise InputError(
+            f'Effect "{effect}" {why}: the benchmark cannot inject it; choose from '
+            f"{[*VALUES, NONE]}"
+        )
+    cls = REGISTRY[effect]
+    units = cls.benchmark_nominal_units
+    base = tuple(_at_nominal(c, units, stances[0].layout) for c in base)
+    return cls.inject(base, VALUES[effect][magnitude], list(stances), rng)
 
 
 # --- the data ----------------------------------------------------------------------------------
@@ -388,12 +329,13 @@ def plan(
     run covers every truth). "none" has no magnitude: it gets one case per (magnitude, seed)
     with distinct seeds, as many as any effect."""
     _, model = resolve_base(base)
-    cands = candidate_names(model)
+    cands = [e for e in candidate_names(model) if e in VALUES]  # those it can inject
     truths = [*cands, NONE] if effects is None else list(effects)
     bad = [e for e in truths if e != NONE and e not in cands]
     if bad:
         raise InputError(
-            f"Effect(s) {bad} are not candidates on base '{base}'; choose from {[*cands, NONE]}"
+            f"Effect(s) {bad} are not candidates on base '{base}' that the benchmark can inject "
+            f"(benchmark_values); choose from {[*cands, NONE]}"
         )
     bad = [m for m in magnitudes if m not in MAGNITUDES]
     if bad:
@@ -405,6 +347,23 @@ def plan(
                 s = seed if e != NONE else seed * len(magnitudes) + j
                 cases.append({"truth": e, "magnitude": mag if e != NONE else "-", "seed": s})
     return cases
+
+
+def kinematic_error(
+    effect: str, magnitude: str, base_model: tuple, realism: Realism = Realism()
+) -> tuple[float, float, float] | None:
+    """The kinematic error ``(marker noise [m], drift [m], drift [deg])`` through which the
+    fitter sees the foot in a case of ``effect`` at ``magnitude`` on ``base_model``: the effect's
+    own when it is an effect of the data (``Component.benchmark_kinematic_error``, e.g.
+    ``kinematic_correction``); else the realism's when the base can register it (it has the
+    pose correction); else none (module doc)."""
+    if effect in VALUES:
+        own = REGISTRY[effect].benchmark_kinematic_error(VALUES[effect][magnitude])
+        if own is not None:
+            return own
+    if any(c.name == "pose" for c in base_model):
+        return (realism.marker_noise, realism.drift_translation, realism.drift_rotation_deg)
+    return None
 
 
 def _case_seed(base: str, truth: str, magnitude: str, seed: int) -> int:
@@ -433,13 +392,7 @@ def run_case(
     stances = motion(base, truth_name, files)
     _, base_model_ = resolve_base(base)
     truth = truth_model(truth_name, mag, base_truth(base, files), stances, rng)
-    has_pose = any(c.name == "pose" for c in base_model_)
-    if truth_name == "kinematic_correction":
-        kin_err = VALUES[truth_name][mag]
-    elif has_pose:
-        kin_err = (realism.marker_noise, realism.drift_translation, realism.drift_rotation_deg)
-    else:
-        kin_err = None
+    kin_err = kinematic_error(truth_name, mag, base_model_, realism)
     data = generate(stances, truth, rng, realism, kin_err)
     t1 = time.perf_counter()
     with warnings.catch_warnings():
@@ -766,6 +719,7 @@ __all__ = [
     "confusion_figure",
     "drift",
     "generate",
+    "kinematic_error",
     "markdown",
     "merge",
     "motion",

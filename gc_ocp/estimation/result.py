@@ -95,6 +95,20 @@ class EstimationResult:
     def spec(self, key: tuple) -> VariableSpec:
         return next(s for s in self.variables if s.key == tuple(key))
 
+    def block_rows(self) -> dict[str, list]:
+        """``{block name: [SummaryRow(label, value, se, unit), ...]}`` of every component block
+        that its component describes (``Component.describe``: an effect's own parameters, e.g.
+        damping's ``c``), in model order; blocks without rows are left out. Works on a result
+        read back from ``fit.json`` (the class is found by the name in :attr:`components`)."""
+        from gc_ocp.estimation.components import describe_block
+
+        out = {}
+        for name, class_name in self.components.items():
+            rows = describe_block(class_name, self.blocks.get(name, {}))
+            if rows:
+                out[name] = rows
+        return out
+
     # --- text ---------------------------------------------------------------------------------
     def summary(self) -> str:
         lines = [
@@ -134,6 +148,8 @@ class EstimationResult:
         for k, v in shared.items():
             if not k.endswith("_se"):
                 lines.append(f"shared {k} = {v:.4g} ± {shared.get(k + '_se', float('nan')):.2g}")
+        for name, rows in self.block_rows().items():
+            lines += [f"{name} {r.text()}" for r in rows]
         if self.flags:
             lines.append(f"FLAGS ({len(self.flags)}): what not to take at face value")
             lines += [f"  ! {f['message']}" for f in self.flags]

@@ -7,13 +7,16 @@ A model is a tuple of components (see :mod:`.base` for the protocol). Presets:
 
 :data:`REGISTRY` maps a component's name to its class: the vocabulary of model names
 (``model_from_names(["damping"], base=base_model())``). A new component is one file in this folder
-plus one line here.
+plus one line in :data:`REGISTRY` (an effect's class says it is a diagnosis candidate and how the
+benchmark injects it, :mod:`.base`); :data:`EFFECTS` is derived from it.
 """
 
 from __future__ import annotations
 
+import importlib
+
 from gc_ocp.errors import ModelError
-from gc_ocp.estimation.components.base import Component, DecodeContext, Scope
+from gc_ocp.estimation.components.base import Component, DecodeContext, Scope, SummaryRow
 from gc_ocp.estimation.components.belt import BeltSpeed
 from gc_ocp.estimation.components.contact import ContactLaw, Param
 from gc_ocp.estimation.components.contact_density import ContactDensity
@@ -28,42 +31,84 @@ from gc_ocp.estimation.components.toe_joint import ToeJoint
 
 REGISTRY: dict[str, type[Component]] = {
     "contact": ContactLaw,
-    "sole_geometry": SoleCorrection,
-    "kinematic_correction": PoseCorrection,
     "belt_speed": BeltSpeed,
-    "time_offset": TimeOffset,
+    # the candidate effects, in the diagnosis's order (its figures list them so)
     "damping": Damping,
     "stiffness_exponent": StiffnessExponent,
-    "ground_offset": GroundOffset,
-    "friction": StribeckFriction,
-    "toe_joint": ToeJoint,
+    "sole_geometry": SoleCorrection,
+    "kinematic_correction": PoseCorrection,
     "contact_density": ContactDensity,
+    "toe_joint": ToeJoint,
+    "ground_offset": GroundOffset,
+    "time_offset": TimeOffset,
+    "friction": StribeckFriction,
 }
 """Component classes by name: the vocabulary of model configurations and of the diagnosis
 (``docs/effects.md``). A component instance's ``name`` keys its variables and its result block
-(``"sole"``, ``"pose"``, ``"belt"`` for the three corrections that predate the vocabulary)."""
-
-EFFECTS: tuple[str, ...] = (
-    "damping",
-    "stiffness_exponent",
-    "sole_geometry",
-    "kinematic_correction",
-    "contact_density",
-    "toe_joint",
-    "ground_offset",
-    "time_offset",
-    "friction",
-)
-"""The candidate model extensions of the diagnosis, by registry name."""
+(``"sole"``, ``"pose"``, ``"belt"`` for the three corrections that predate the vocabulary).
+Its order is the order of :data:`EFFECTS`."""
 
 
-def register(name: str, cls: type[Component]) -> None:
-    """Add a component class to :data:`REGISTRY` under ``name``."""
+def register(name: str, cls: type[Component] | str) -> type[Component]:
+    """Add a component class to :data:`REGISTRY` under ``name`` (last in its order) and derive
+    :data:`EFFECTS` again; returns the class.
+
+    ``cls`` may be given as ``"module:Class"`` (imported now), so that a component file of this
+    folder is registered by one line at the end of this module::
+
+        register("ground_tilt", "gc_ocp.estimation.components.ground_tilt:GroundTilt")
+
+    A module that imported :data:`EFFECTS` before a run-time registration keeps the tuple it
+    imported: name a component registered from user code in ``candidates=`` (the diagnosis
+    accepts any registered name)."""
+    global EFFECTS
+    if isinstance(cls, str):
+        module, _, attr = cls.partition(":")
+        if not attr:
+            raise ModelError(f'register("{name}", "{cls}"): give the class as "module:Class"')
+        cls = getattr(importlib.import_module(module), attr)
+    if not (isinstance(cls, type) and issubclass(cls, Component)):
+        raise ModelError(
+            f'register("{name}", ...): a Component subclass is needed, but got {cls!r}'
+        )
     if name in REGISTRY and REGISTRY[name] is not cls:
         raise ModelError(
             f'A component named "{name}" is already registered ({REGISTRY[name].__name__})'
         )
     REGISTRY[name] = cls
+    EFFECTS = candidate_effects()
+    return cls
+
+
+def candidate_effects() -> tuple[str, ...]:
+    """The registered names whose class is a diagnosis candidate (``Component.candidate``), in
+    registry order: :data:`EFFECTS` as the registry stands now (it also lists components
+    registered at run time by :func:`register`)."""
+    return tuple(name for name, cls in REGISTRY.items() if cls.candidate)
+
+
+def component_class(class_name: str) -> type[Component] | None:
+    """The component class called ``class_name`` (a result's ``components`` value): a registered
+    class, else any imported subclass of :class:`Component` (e.g. ``DenseSoleCorrection``, which
+    the contact density puts in the model); None when none is imported."""
+    for cls in REGISTRY.values():
+        if cls.__name__ == class_name:
+            return cls
+    todo = list(Component.__subclasses__())
+    while todo:
+        cls = todo.pop(0)
+        if cls.__name__ == class_name:
+            return cls
+        todo += cls.__subclasses__()
+    return None
+
+
+def describe_block(class_name: str, block: dict) -> list[SummaryRow]:
+    """The rows (:class:`SummaryRow`: label, value, se, unit) of a result block of the component
+    class ``class_name`` (``Component.describe``); none when that class is not imported or shows
+    no rows of its own."""
+    cls = component_class(class_name)
+    return [] if cls is None else list(cls.describe(block))
 
 
 def model_from_names(names, base: tuple = ()) -> tuple[Component, ...]:
@@ -104,12 +149,20 @@ def full_model() -> tuple[Component, ...]:
     return (ContactLaw(), SoleCorrection(), PoseCorrection(), BeltSpeed())
 
 
+EFFECTS: tuple[str, ...] = candidate_effects()
+"""The candidate model extensions of the diagnosis, by registry name: every registered class
+with ``candidate = True``, in :data:`REGISTRY` order (derived again by :func:`register`)."""
+
+
 __all__ = [
     "EFFECTS",
     "REGISTRY",
     "BeltSpeed",
     "bare_seed_model",
     "base_model",
+    "candidate_effects",
+    "component_class",
+    "describe_block",
     "Component",
     "ContactLaw",
     "DecodeContext",
@@ -117,6 +170,7 @@ __all__ = [
     "PoseCorrection",
     "Scope",
     "SoleCorrection",
+    "SummaryRow",
     "full_model",
     "model_from_names",
     "register",

@@ -12,16 +12,33 @@ A model is a tuple of components. Each component
 * decodes its own block of the result (:meth:`decode`, plain data keyed by :attr:`name`);
 * returns itself with its values fixed at a result's block for a held-out evaluation
   (:meth:`frozen`; ``scope`` says what a held-out stance re-estimates);
-* states what it does to the per-frame function (:meth:`signature`, part of the cache key).
+* states what it does to the per-frame function (:meth:`signature`, part of the cache key);
+* says how its block reads (:meth:`describe`: rows of label, value, SE, unit; used by
+  ``EstimationResult.summary`` and the report for every block that has rows).
 
-The problem builder knows no component by type: a new effect is one new file with one class,
-plus one line in :data:`gc_ocp.estimation.components.REGISTRY`.
+A component that is a candidate effect of the diagnosis also says so and how the withheld-effect
+benchmark (:mod:`gc_ocp.bench.withheld`) injects it into a truth:
+
+* :attr:`candidate` (True: in :data:`~gc_ocp.estimation.components.EFFECTS`, offered by the
+  diagnosis, ``--effects``);
+* :attr:`benchmark_values` (``{"moderate": v, "strong": v}``) and :meth:`inject` (a frozen base
+  plus the effect at ``v``); an effect of the *data* rather than of the model (a kinematic
+  error) says so with :meth:`benchmark_kinematic_error` instead; units whose fitted sole
+  offsets the truth must leave at nominal: :attr:`benchmark_nominal_units`.
+
+A component that changes another one asks it through a hook of the component being changed
+(no-op by default), never by its type: :meth:`law_estimates` / :meth:`with_law_fixed` (the
+contact law's own parameters, e.g. damping owns ``c``), :meth:`for_layout` (a denser sole).
+
+The problem builder, the diagnosis and the benchmark know no component by type: a new effect is
+one new file with one class, plus one line in :data:`gc_ocp.estimation.components.REGISTRY`
+(``docs/effects.md``).
 """
 
 from __future__ import annotations
 
 from dataclasses import astuple, dataclass
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal, NamedTuple
 
 import numpy as np
 
@@ -34,6 +51,24 @@ if TYPE_CHECKING:  # pragma: no cover
     from gc_ocp.stance import StanceData
 
 Scope = Literal["global", "trial", "stance"]
+
+
+class SummaryRow(NamedTuple):
+    """One line of a component's block as it is shown (:meth:`Component.describe`).
+
+    label: what it is (``"c"``, ``"left onset"``, ``"test_small:right@0.407s dz"``); value and
+    se: in ``unit`` (se 0 for a fixed value, NaN when unknown); unit: ``"s/m"``, ``"mm"``,
+    ``"deg"``, ``"-"`` (dimensionless)."""
+
+    label: str
+    value: float
+    se: float
+    unit: str
+
+    def text(self) -> str:
+        """``"label = value ± se unit"`` (4 and 2 significant digits)."""
+        unit = "" if self.unit in ("", "-") else f" {self.unit}"
+        return f"{self.label} = {self.value:.4g} ± {self.se:.2g}{unit}"
 
 
 @dataclass
@@ -88,6 +123,39 @@ class Component:
     neutral_at_zero: bool = False
     """True when all its decision variables at zero leave the model as if it were absent."""
 
+    # --- as a candidate effect of the diagnosis and of the withheld-effect benchmark ------------
+    candidate: ClassVar[bool] = False
+    """True when the diagnosis offers it as a candidate effect: its registered name is then in
+    :data:`~gc_ocp.estimation.components.EFFECTS` (in registry order) and accepted by
+    ``--effects``."""
+
+    benchmark_values: ClassVar[dict[str, Any] | None] = None
+    """The withheld-effect benchmark's injected value per magnitude, ``{"moderate": v,
+    "strong": v}`` (physical units, the effect's own; ``gc_ocp.bench.withheld.VALUES`` is made of
+    these), given to :meth:`inject`. None: the benchmark cannot inject it."""
+
+    benchmark_nominal_units: ClassVar[tuple[str, ...]] = ()
+    """Sole units the benchmark's truth keeps at their nominal point when this effect is
+    injected (the base fit's offsets of these units are reset to zero), e.g. the toe tip under a
+    toe joint."""
+
+    @classmethod
+    def inject(cls, base: tuple, value: Any, stances: list, rng: np.random.Generator) -> tuple:
+        """The withheld-effect benchmark's truth: ``base`` (a frozen base fit) plus this effect
+        at ``value`` (one of :attr:`benchmark_values`) on ``stances`` (the true motion); random
+        signs or patterns drawn from ``rng``. Default: refused (no injection declared)."""
+        raise ModelError(
+            f"{cls.__name__} declares no benchmark injection (benchmark_values and inject)"
+        )
+
+    @classmethod
+    def benchmark_kinematic_error(cls, value: Any) -> tuple[float, float, float] | None:
+        """For an effect of the *data* rather than of the model: the kinematic error
+        ``(marker noise [m], drift [m], drift [deg])`` through which the benchmark's fitter sees
+        the foot when this effect at ``value`` is the truth (it replaces the realism's). Default
+        None: the effect is in the truth model (:meth:`inject`)."""
+        return None
+
     # --- configuration ------------------------------------------------------------------------
     @classmethod
     def present_in(cls, model: tuple) -> bool:
@@ -103,8 +171,28 @@ class Component:
 
     def configure(self, model: tuple) -> tuple:
         """The model this component needs around it (e.g. a damping effect fixes the contact
-        law's own damping at zero, so that it is not estimated twice). Default: unchanged."""
+        law's own damping at zero, so that it is not estimated twice), asked of the other
+        components through their hooks (:meth:`with_law_fixed`, :meth:`for_layout`), never by
+        their type. Default: unchanged."""
         return model
+
+    # --- hooks other components call (no-ops unless the component has what is asked for) -------
+    def law_estimates(self, param: str) -> bool:
+        """True when this component is a contact law that estimates its own parameter ``param``
+        (``"k"``, ``"n"``, ``"c"``, ``"mu"``). Default: False."""
+        return False
+
+    def with_law_fixed(self, param: str, value: float | dict) -> Component:
+        """This component with the contact-law parameter ``param`` fixed at ``value`` (SI; a
+        float or per side/unit dict), if it is a contact law. Default: unchanged."""
+        return self
+
+    def for_layout(self, layout: SoleLayout, weights: np.ndarray) -> Component:
+        """This component for a sole of the units ``layout``, each a convex combination
+        (``weights``, ``(m, n_nominal)``, rows sum to 1) of the nominal units, if it depends on
+        the nominal units (the sole correction moves the dense units by the same weights).
+        Default: unchanged."""
+        return self
 
     def prepare(self, stances: list[StanceData]) -> list[StanceData]:
         """The stances this component's model is fitted on (e.g. a denser sole layout).
@@ -156,6 +244,14 @@ class Component:
         """This component's block of the result (plain data: dicts, lists, floats)."""
         return {}
 
+    @classmethod
+    def describe(cls, block: dict) -> list[SummaryRow]:
+        """Rows of ``block`` (this component's decoded block) to show: its own parameters with
+        standard errors and units. Reads the block only (a result read back from ``fit.json``
+        is described the same way). Default: none (the contact law, sole, pose and belt blocks are
+        laid out per side by ``EstimationResult.summary`` itself)."""
+        return []
+
     def flags(self, block: dict, stances: list) -> list[dict]:
         """Plausibility flags of this component's block (``gc_ocp.estimation.flags.flag``)."""
         return []
@@ -179,4 +275,4 @@ class Component:
         return type(self).with_prior_scale is not Component.with_prior_scale
 
 
-__all__ = ["Component", "DecodeContext", "Scope"]
+__all__ = ["Component", "DecodeContext", "Scope", "SummaryRow"]

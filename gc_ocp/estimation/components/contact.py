@@ -117,6 +117,17 @@ class ContactLaw(Component):
             mu=Param("shared", 0.5, 0.0, 1.5),
         )
 
+    def law_estimates(self, param: str) -> bool:
+        """True when ``param`` (``"k"``, ``"n"``, ``"c"``, ``"mu"``) is estimated (not fixed)."""
+        return getattr(self, param).scope != "fixed"
+
+    def with_law_fixed(self, param: str, value: float | dict) -> ContactLaw:
+        """The law with ``param`` fixed at ``value`` (an effect that owns it, e.g. damping's
+        ``c``, or a stiffness field's ``k`` = 1)."""
+        if param not in PARAMS:
+            raise ModelError(f'Unknown contact-law parameter "{param}"; choose from {PARAMS}')
+        return replace(self, **{param: Param("fixed", value)})
+
     def __post_init__(self) -> None:
         for pname in ("n", "c", "mu"):
             if getattr(self, pname).scope == "unit":

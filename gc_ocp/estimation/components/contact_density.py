@@ -8,9 +8,8 @@ import casadi as ca
 import numpy as np
 
 from gc_ocp.errors import ModelError
-from gc_ocp.estimation.components.base import Component, DecodeContext
-from gc_ocp.estimation.components.contact import ContactLaw, Param, _layouts
-from gc_ocp.estimation.components.sole import SoleCorrection
+from gc_ocp.estimation.components.base import Component, DecodeContext, SummaryRow
+from gc_ocp.estimation.components.contact import _layouts
 from gc_ocp.foot import SEED_LAYOUT, SoleLayout
 from gc_ocp.trial import SIDES
 
@@ -109,7 +108,8 @@ class DenseSoleCorrection(Component):
     unit, in its parent frame, N(0, sigma^2), +-bound [m]); each dense unit moves by the same
     interpolation weights that place it (:func:`dense_design`), so the dense sole is the nominal
     outline, corrected. Result block as :class:`SoleCorrection`'s (nominal units), so that
-    ``SoleCorrection.frozen`` reads it. Built by :meth:`ContactDensity.configure`.
+    ``SoleCorrection.frozen`` reads it. Built by :meth:`SoleCorrection.for_layout` when
+    :meth:`ContactDensity.configure` asks for the dense sole.
     """
 
     W: tuple = ()
@@ -175,8 +175,9 @@ class ContactDensity(Component):
     hindfoot, TT on the toes) are replaced by :func:`dense_design`'s units (default 16: a 4 x 3
     hindfoot grid, 3 toe units half way to TT, and TT), interpolated inside their polygon; toes
     units are expressed in the toes frame. The sole correction then moves the nominal points and
-    the dense units follow by the same weights (:class:`DenseSoleCorrection` replaces
-    :class:`SoleCorrection` in :meth:`configure`: 15 variables per foot, not 3 per dense unit).
+    the dense units follow by the same weights (:meth:`configure` asks every component for the
+    dense sole, :meth:`Component.for_layout`; the sole correction becomes
+    :class:`DenseSoleCorrection`: 15 variables per foot, not 3 per dense unit).
 
     Stiffness field: ``log k_i = sum_j theta_j b_j(xi_i, eta_i)`` with the basis
     :data:`BASIS` = (1, xi, eta, xi^2) over normalised foot coordinates (:func:`field_basis`);
@@ -201,6 +202,26 @@ class ContactDensity(Component):
     bound_shape: float = 4.0
     fixed: dict | None = None
     name: str = "contact_density"
+    candidate = True
+    benchmark_values = {"moderate": 2.0, "strong": 3.0}  # heel/toe stiffness ratio [-]
+
+    @classmethod
+    def inject(cls, base, value, stances, rng) -> tuple:
+        """The base plus a field with the heel ``value`` times stiffer than the toe (``theta_xi
+        = -ln(value) / 2``), centred on the base law's median unit stiffness spread over the
+        16 units (``x 5/16``), no lateral or quadratic term."""
+        law = next(c for c in base if c.name == "contact")
+        sides = sorted({st.side for st in stances})
+        theta = {
+            s: [
+                float(np.log(np.median(list(law.k.value[s].values())) * 5 / 16)),
+                -np.log(value) / 2,
+                0.0,
+                0.0,
+            ]
+            for s in sides
+        }
+        return (*base, cls(fixed=theta))
 
     def __post_init__(self) -> None:
         if self.n_lat != 3:
@@ -210,17 +231,11 @@ class ContactDensity(Component):
         return dense_design(self.n_long, self.n_lat, tuple(self.toe_rows))
 
     def configure(self, model: tuple) -> tuple:
-        W, _ = self.design()
-        out = []
-        for c in model:
-            if isinstance(c, ContactLaw):
-                c = replace(c, k=Param("fixed", 1.0))
-            elif type(c) is SoleCorrection:
-                c = DenseSoleCorrection(
-                    W=tuple(map(tuple, W)), sigma=c.sigma, bound=c.bound, fixed=c.fixed, name=c.name
-                )
-            out.append(c)
-        return tuple(out)
+        """The contact law's own k fixed at 1 N/m^n (the field gives ``log k``) and every
+        component that follows the nominal units carried to the dense sole (the sole correction
+        becomes :class:`DenseSoleCorrection`), through their hooks."""
+        W, layout = self.design()
+        return tuple(c.with_law_fixed("k", 1.0).for_layout(layout, W) for c in model)
 
     def prepare(self, stances):
         W, layout = self.design()
@@ -298,6 +313,22 @@ class ContactDensity(Component):
                 "heel_to_toe": float(np.exp(-2 * th[1])),
             }
         return out
+
+    @classmethod
+    def describe(cls, block: dict) -> list[SummaryRow]:
+        """Per side: the field's coefficients (``theta[1]`` = log k [N/m^n] at the centre) and
+        the heel-to-toe stiffness ratio (its SE by the delta method from ``theta[xi]``'s)."""
+        rows = []
+        for side, e in block.items():
+            for b, v, se in zip(e["basis"], e["theta"], e["theta_se"], strict=True):
+                rows.append(
+                    SummaryRow(f"{side} theta[{b}]", v, se, "ln N/m^n" if b == "1" else "-")
+                )
+            ratio = e["heel_to_toe"]
+            rows.append(
+                SummaryRow(f"{side} heel/toe stiffness", ratio, 2 * ratio * e["theta_se"][1], "-")
+            )
+        return rows
 
     def frozen(self, block: dict) -> ContactDensity:
         return replace(self, fixed={s: list(v["theta"]) for s, v in block.items()})

@@ -6,8 +6,7 @@ from dataclasses import dataclass, replace
 
 import casadi as ca
 
-from gc_ocp.estimation.components.base import Component, DecodeContext
-from gc_ocp.estimation.components.contact import ContactLaw, Param
+from gc_ocp.estimation.components.base import Component, DecodeContext, SummaryRow
 from gc_ocp.trial import SIDES
 
 
@@ -53,20 +52,23 @@ class Damping(Component):
     prior_sigma: float | None = None
     fixed: float | dict | None = None
     name: str = "damping"
+    candidate = True
+    benchmark_values = {"moderate": 0.5, "strong": 1.0}  # c [s/m]
+
+    @classmethod
+    def inject(cls, base, value, stances, rng) -> tuple:
+        """The base plus a shared ``c = value`` [s/m]."""
+        return (*base, cls(fixed=float(value)))
 
     # --- configuration ------------------------------------------------------------------------
     @classmethod
     def present_in(cls, model: tuple) -> bool:
         """Also present when the model's contact law estimates its own ``c`` (``full_model``)."""
-        return super().present_in(model) or any(
-            isinstance(c, ContactLaw) and c.c.scope != "fixed" for c in model
-        )
+        return super().present_in(model) or any(c.law_estimates("c") for c in model)
 
     def configure(self, model: tuple) -> tuple:
         """The contact law's own damping fixed at 0: this component gives the whole of ``c``."""
-        return tuple(
-            replace(c, c=Param("fixed", 0.0)) if isinstance(c, ContactLaw) else c for c in model
-        )
+        return tuple(c.with_law_fixed("c", 0.0) for c in model)
 
     # --- variables ----------------------------------------------------------------------------
     def _key(self, side: str) -> tuple:
@@ -114,6 +116,15 @@ class Damping(Component):
         if self.per_foot:
             return {"c": val, "c_se": se}
         return {"c": val[SIDES[0]], "c_se": se[SIDES[0]]}
+
+    @classmethod
+    def describe(cls, block: dict) -> list[SummaryRow]:
+        """``c`` [s/m] (per foot: one row per side)."""
+        if isinstance(block["c"], dict):
+            return [
+                SummaryRow(f"c ({s})", v, block["c_se"][s], "s/m") for s, v in block["c"].items()
+            ]
+        return [SummaryRow("c", block["c"], block["c_se"], "s/m")]
 
     def frozen(self, block: dict) -> Damping:
         c = block["c"]

@@ -7,7 +7,7 @@ from dataclasses import dataclass, replace
 import casadi as ca
 
 from gc_ocp.contact.laws import friction_force_function
-from gc_ocp.estimation.components.base import Component, DecodeContext
+from gc_ocp.estimation.components.base import Component, DecodeContext, SummaryRow
 
 SLOTS = ("friction_dmu", "friction_b")
 ENTRIES = ("static_excess", "viscous")
@@ -68,6 +68,14 @@ class StribeckFriction(Component):
     fixed: dict | None = None
     name: str = "friction"
     neutral_at_zero = True
+    candidate = True
+    benchmark_values = {"moderate": (0.15, 0.4), "strong": (0.3, 0.75)}  # mu_s - mu_d, b [s/m]
+
+    @classmethod
+    def inject(cls, base, value, stances, rng) -> tuple:
+        """The base plus ``value = (mu_s - mu_d, b [s/m])``."""
+        excess, viscous = value
+        return (*base, cls(fixed={"static_excess": excess, "viscous": viscous}))
 
     def declare(self, variables, stances) -> None:
         if self.fixed is None:
@@ -112,6 +120,13 @@ class StribeckFriction(Component):
             else:
                 out[e], out[e + "_se"] = float(self.fixed[e]), 0.0
         return out
+
+    @classmethod
+    def describe(cls, block: dict) -> list[SummaryRow]:
+        return [
+            SummaryRow("mu_s - mu_d", block["static_excess"], block["static_excess_se"], "-"),
+            SummaryRow("b", block["viscous"], block["viscous_se"], "s/m"),
+        ]
 
     def frozen(self, block: dict) -> StribeckFriction:
         return replace(self, fixed={e: float(block[e]) for e in ENTRIES})

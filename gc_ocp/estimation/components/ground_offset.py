@@ -7,7 +7,12 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
-from gc_ocp.estimation.components.base import Component, DecodeContext, unique_labels
+from gc_ocp.estimation.components.base import (
+    Component,
+    DecodeContext,
+    SummaryRow,
+    unique_labels,
+)
 
 SLOT = "ground_offset"
 ENTRIES = ("dz", "tilt_x", "tilt_y")
@@ -70,6 +75,23 @@ class GroundOffset(Component):
     name: str = "ground_offset"
     scope = "stance"
     neutral_at_zero = True
+    candidate = True
+    benchmark_values = {"moderate": (2e-3, 0.5), "strong": (4e-3, 1.0)}  # dz [m], tilts [deg]
+
+    @classmethod
+    def inject(cls, base, value, stances, rng) -> tuple:
+        """The base plus, under every stance, ``dz`` and both tilts at ``value = (dz [m], tilt
+        [deg])`` with random signs (three draws per stance, in stance order)."""
+        dz, tilt = value
+        fixed = {
+            st.label: (
+                dz * rng.choice([-1.0, 1.0]),
+                np.deg2rad(tilt) * rng.choice([-1.0, 1.0]),
+                np.deg2rad(tilt) * rng.choice([-1.0, 1.0]),
+            )
+            for st in stances
+        }
+        return (*base, cls(fixed=fixed))
 
     def _sigmas(self) -> np.ndarray:
         return np.array([self.sigma_mm * 1e-3, *2 * [np.deg2rad(self.sigma_deg)]])
@@ -125,6 +147,20 @@ class GroundOffset(Component):
             e["tilt_x_deg"], e["tilt_y_deg"] = float(np.rad2deg(v[1])), float(np.rad2deg(v[2]))
             out[st.label] = e
         return out
+
+    @classmethod
+    def describe(cls, block: dict) -> list[SummaryRow]:
+        """Per stance: ``dz`` [mm], ``tilt_x``, ``tilt_y`` [deg]."""
+        rows = []
+        for label, e in block.items():
+            rows.append(SummaryRow(f"{label} dz", e["dz_mm"], e["dz_se"] * 1e3, "mm"))
+            for k in ("tilt_x", "tilt_y"):
+                rows.append(
+                    SummaryRow(
+                        f"{label} {k}", e[k + "_deg"], float(np.rad2deg(e[k + "_se"])), "deg"
+                    )
+                )
+        return rows
 
     def frozen(self, block: dict) -> GroundOffset:
         """Offsets fixed at ``block`` for its stances (others, e.g. a held-out one, stay free)."""

@@ -57,6 +57,10 @@ class PoseCorrection(Component):
     default: independent coefficients). The coefficients are then ``sigma * L z`` with ``L L^T``
     the Toeplitz correlation matrix and ``z ~ N(0, I)`` the decision variables (still linear).
     Scope ``"stance"``: a held-out stance re-estimates it. Neutral value: zero (no effect).
+
+    As the candidate effect ``kinematic_correction`` (against the bare seed base) it is an error
+    of the *data*: the benchmark's fitter sees the foot through marker noise and a soft-tissue
+    drift (:meth:`benchmark_kinematic_error`), the truth model is the base itself.
     """
 
     sigma_mm: float | tuple[float, float, float] = 2.0
@@ -67,6 +71,21 @@ class PoseCorrection(Component):
     name: str = "pose"
     scope = "stance"
     neutral_at_zero = True
+    candidate = True
+    benchmark_values = {  # marker noise [m], drift [m], drift [deg]
+        "moderate": (0.5e-3, 2e-3, 0.5),
+        "strong": (1.0e-3, 4e-3, 1.0),
+    }
+
+    @classmethod
+    def inject(cls, base, value, stances, rng) -> tuple:
+        """The base itself: the effect is in the data (:meth:`benchmark_kinematic_error`)."""
+        return base
+
+    @classmethod
+    def benchmark_kinematic_error(cls, value) -> tuple[float, float, float]:
+        """``value`` = (marker noise [m], drift [m], drift [deg]) is the kinematic error."""
+        return value
 
     def with_prior_scale(self, factor: float) -> PoseCorrection:
         """The same component with its prior widths multiplied by ``factor`` (bounds follow)."""

@@ -20,6 +20,10 @@ class SoleCorrection(Component):
     sole from skin markers over heel and metatarsals) and bounds +-bound [m].
     ``fixed``: ``{side: (m, 3) array [m]}`` to apply known corrections without estimating them.
     Neutral value: zero offsets (no effect).
+
+    As the candidate effect ``sole_geometry`` (against the bare seed base): the benchmark adds
+    offsets drawn from U(-v, v) per axis and unit (``v`` = 2 mm moderate, 4 mm strong) to the
+    base's fitted offsets (or applies them alone to a base without a sole correction).
     """
 
     sigma: float = 0.005
@@ -27,6 +31,33 @@ class SoleCorrection(Component):
     fixed: dict | None = None
     name: str = "sole"
     neutral_at_zero = True
+    candidate = True
+    benchmark_values = {"moderate": 2e-3, "strong": 4e-3}  # half-range of U per axis [m]
+
+    @classmethod
+    def inject(cls, base, value, stances, rng) -> tuple:
+        """Offsets U(-value, value) per axis and unit (one draw per side, sides sorted), added to
+        the fitted offsets of a base sole correction (or a new one)."""
+        sides = sorted({st.side for st in stances})
+        offsets = {s: rng.uniform(-value, value, (stances[0].layout.n, 3)) for s in sides}
+        have = next((c for c in base if isinstance(c, cls)), None)
+        if have is not None:
+            offsets = {s: np.asarray(have.fixed[s]) + offsets[s] for s in sides}
+            return tuple(cls(fixed=offsets) if c is have else c for c in base)
+        return (*base, cls(fixed=offsets))
+
+    def for_layout(self, layout, weights):
+        """The same correction (variables, prior, bounds, fixed values) of the nominal units,
+        carried to a dense sole whose units interpolate them by ``weights``."""
+        from gc_ocp.estimation.components.contact_density import DenseSoleCorrection
+
+        return DenseSoleCorrection(
+            W=tuple(map(tuple, weights)),
+            sigma=self.sigma,
+            bound=self.bound,
+            fixed=self.fixed,
+            name=self.name,
+        )
 
     def with_prior_scale(self, factor: float) -> SoleCorrection:
         """The same component with its prior width multiplied by ``factor`` (the bound is kept)."""

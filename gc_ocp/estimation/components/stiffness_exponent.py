@@ -7,8 +7,7 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
-from gc_ocp.estimation.components.base import Component, DecodeContext
-from gc_ocp.estimation.components.contact import ContactLaw, Param
+from gc_ocp.estimation.components.base import Component, DecodeContext, SummaryRow
 
 
 @dataclass(frozen=True)
@@ -58,20 +57,27 @@ class StiffnessExponent(Component):
     fixed: float | None = None
     pivot_depth: float = 0.005
     name: str = "stiffness_exponent"
+    candidate = True
+    benchmark_values = {"moderate": 1.25, "strong": 1.5}  # n [-]
+
+    @classmethod
+    def inject(cls, base, value, stances, rng) -> tuple:
+        """The base plus ``n = value``, the base law's per-unit k rescaled to keep each unit's
+        force at the law's reference depth (5 mm)."""
+        law = next(c for c in base if c.name == "contact")
+        d = law.reference_depth
+        k = {s: {u: kv * d ** (1 - value) for u, kv in ks.items()} for s, ks in law.k.value.items()}
+        return (*(c.with_law_fixed("k", k) for c in base), cls(fixed=float(value)))
 
     # --- configuration ------------------------------------------------------------------------
     @classmethod
     def present_in(cls, model: tuple) -> bool:
         """Also present when the model's contact law estimates its own ``n`` (``full_model``)."""
-        return super().present_in(model) or any(
-            isinstance(c, ContactLaw) and c.n.scope != "fixed" for c in model
-        )
+        return super().present_in(model) or any(c.law_estimates("n") for c in model)
 
     def configure(self, model: tuple) -> tuple:
         """The contact law's own exponent fixed at 1: this component gives ``n - 1``."""
-        return tuple(
-            replace(c, n=Param("fixed", 1.0)) if isinstance(c, ContactLaw) else c for c in model
-        )
+        return tuple(c.with_law_fixed("n", 1.0) for c in model)
 
     # --- variables ----------------------------------------------------------------------------
     @property
@@ -110,6 +116,10 @@ class StiffnessExponent(Component):
             return {"n": float(self.fixed), "n_se": 0.0}
         v, s = ctx.values(self._key)
         return {"n": 1.0 + float(v[0]), "n_se": float(s[0])}
+
+    @classmethod
+    def describe(cls, block: dict) -> list[SummaryRow]:
+        return [SummaryRow("n", block["n"], block["n_se"], "-")]
 
     def frozen(self, block: dict) -> StiffnessExponent:
         return replace(self, fixed=float(block["n"]))

@@ -9,7 +9,7 @@ import casadi as ca
 import numpy as np
 
 from gc_ocp.errors import InputError
-from gc_ocp.estimation.components.base import Component, DecodeContext
+from gc_ocp.estimation.components.base import Component, DecodeContext, SummaryRow
 
 
 def lanczos(x, a: int = 3):
@@ -113,6 +113,20 @@ class TimeOffset(Component):
     name: str = "time_offset"
     scope = "trial"
     neutral_at_zero = True
+    candidate = True
+    benchmark_values = {"moderate": 0.010, "strong": 0.020}  # plate late [s]
+
+    @classmethod
+    def inject(cls, base, value, stances, rng) -> tuple:
+        """The base plus the plate of every trial ``value`` [s] late."""
+        return (*base, cls(fixed={st.trial: float(value) for st in stances}))
+
+    @classmethod
+    def describe(cls, block: dict) -> list[SummaryRow]:
+        """Per trial: the plate's delay [ms] (positive: plate late)."""
+        return [
+            SummaryRow(f"{trial} delay", v["ms"], v["se_ms"], "ms") for trial, v in block.items()
+        ]
 
     @property
     def half(self) -> int:

@@ -9,7 +9,12 @@ import casadi as ca
 import numpy as np
 
 from gc_ocp.errors import ModelError
-from gc_ocp.estimation.components.base import Component, DecodeContext, unique_labels
+from gc_ocp.estimation.components.base import (
+    Component,
+    DecodeContext,
+    SummaryRow,
+    unique_labels,
+)
 from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.frame import Segment
 from gc_ocp.trial import SIDES
@@ -177,6 +182,18 @@ class ToeJoint(Component):
     pitch_fixed: dict | None = None
     name: str = "toe_joint"
     neutral_at_zero = True
+    candidate = True
+    benchmark_values = {"moderate": 10.0, "strong": 15.0}  # toe dorsiflexion at toe-off [deg]
+    # TT at its nominal point in the truth, the other units as fitted: the base fit moves TT
+    # 20-25 mm back, nearly under the MTP axis, where a hinge barely changes its depth (see
+    # tests/test_effect_toe_joint.py, which zeroes the whole sole)
+    benchmark_nominal_units = ("TT",)
+
+    @classmethod
+    def inject(cls, base, value, stances, rng) -> tuple:
+        """The base plus a spline-driven toe angle per stance: 0 until 55 % of the contact,
+        then a smooth step to ``value`` [deg] at toe-off (:func:`smooth_step_angles`)."""
+        return (*base, cls(drive="spline", fixed=smooth_step_angles(stances, float(value))))
 
     def __post_init__(self) -> None:
         if self.drive not in DRIVES:
@@ -385,6 +402,20 @@ class ToeJoint(Component):
             "max_deg": peak,
         }
 
+    @classmethod
+    def describe(cls, block: dict) -> list[SummaryRow]:
+        """Pitch drive: ``gain`` [-] and the onset per side [deg above the stance's foot flat].
+        Spline drive: each stance's largest toe angle [deg] (its SE is in the block, per frame)."""
+        if block["drive"] == "pitch":
+            rows = [SummaryRow("gain", block["gain"], block["gain_se"], "-")]
+            for side, v in block["onset_deg"].items():
+                rows.append(SummaryRow(f"{side} onset", v, block["onset_se_deg"][side], "deg"))
+            return rows
+        return [
+            SummaryRow(f"{label} largest angle", v, float("nan"), "deg")
+            for label, v in block["max_deg"].items()
+        ]
+
     def frozen(self, block: dict) -> ToeJoint:
         """Spline: itself (scope ``"stance"``: the toe angle is re-estimated on a held-out stance,
         as the pose correction is). Pitch: gain and onsets fixed at ``block`` (scope
@@ -398,4 +429,26 @@ class ToeJoint(Component):
         return replace(self, pitch_fixed=fixed)
 
 
-__all__ = ["ToeJoint", "hindfoot_pitch", "hinged_toes", "mtp_axis", "pitch_drive"]
+def smooth_step_angles(stances, peak_deg: float) -> dict:
+    """``{stance label: spline coefficients [rad]}`` of a toe angle that is 0 until 55 % of the
+    stance's contact, then rises in a smooth step (``3 s^2 - 2 s^3``) to ``peak_deg`` at toe-off
+    (the withheld-effect benchmark's toe joint, and ``tests/test_effect_toe_joint.py``'s)."""
+    tj, fixed = ToeJoint(drive="spline"), {}
+    for st in stances:
+        t = st.time
+        t_on, t_off = t[st.in_contact][[0, -1]]
+        t_a = t_on + 0.55 * (t_off - t_on)
+        s = np.clip((t - t_a) / (t_off - t_a), 0, 1)
+        B, _ = tj.basis(t)
+        fixed[st.label] = np.linalg.lstsq(B, np.deg2rad(peak_deg) * s * s * (3 - 2 * s))[0]
+    return fixed
+
+
+__all__ = [
+    "ToeJoint",
+    "hindfoot_pitch",
+    "hinged_toes",
+    "mtp_axis",
+    "pitch_drive",
+    "smooth_step_angles",
+]
