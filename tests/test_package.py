@@ -155,3 +155,13 @@ def test_no_import_cycle():
     assert len(graph) > 30  # the graph was read, function-level and relative imports included
     assert "gc_ocp.estimation.frame" in graph["gc_ocp.estimation.problem"]
     assert not cycles, cycles
+
+
+def test_shipped_marker_sets_are_files_of_the_package():
+    """Not a symlink out of the package: a copied or installed tree without the link's target
+    would silently fall back to landmark recognition (a different fit)."""
+    from gc_ocp.model.markerset import MARKERSET_DIR, available_markersets
+
+    assert MARKERSET_DIR.is_dir() and not MARKERSET_DIR.is_symlink()
+    assert MARKERSET_DIR.resolve().is_relative_to(ROOT)
+    assert available_markersets() == ["gait2392", "plugingait", "rajagopal"]

@@ -1,7 +1,7 @@
 """Marker sets: which skin marker sits on which model segment, where, and how much it weighs.
 
 A marker set is a TOML file (format in ``docs/markersets.md``); the shipped ones live in
-``models/markersets`` (installed as ``gc_ocp/data/markersets``): ``plugingait``, ``rajagopal``,
+``gc_ocp/data/markersets``: ``plugingait``, ``rajagopal``,
 ``gait2392``.
 """
 
