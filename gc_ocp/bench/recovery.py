@@ -22,12 +22,19 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
+from gc_ocp.estimation.components import base_model
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.stance import StanceData
+from gc_ocp.estimation.solve import solve
+from gc_ocp.estimation.starts import estimate, frozen_model, with_lls_start
+from gc_ocp.estimation.synthetic import noisy_pose, plate_signal
+from gc_ocp.io import load_trial
+from gc_ocp.kinematics import compute_kinematics
+from gc_ocp.stance import StanceData, trial_stances
 
 PLATE_NOISE_PCT_BW = 0.5
 TORQUE_NOISE_LENGTH = 0.02  # [m]
@@ -35,8 +42,6 @@ TORQUE_NOISE_LENGTH = 0.02  # [m]
 
 @functools.cache
 def _bundled():
-    from gc_ocp.io import load_trial
-    from gc_ocp.kinematics import compute_kinematics
 
     t = load_trial()
     return t, compute_kinematics(t)
@@ -44,7 +49,6 @@ def _bundled():
 
 def real_motion(trial=None, kinematics=None, margin: float = 0.03) -> list[StanceData]:
     """Stances (recorded kinematics and plate data) of ``trial`` (default: the bundled example)."""
-    from gc_ocp.stance import trial_stances
 
     if trial is None:
         trial, kinematics = _bundled()
@@ -53,7 +57,6 @@ def real_motion(trial=None, kinematics=None, margin: float = 0.03) -> list[Stanc
 
 def fit_model(stances: Sequence[StanceData], model: tuple, weights: Weights | None = None, x0=None):
     """One Ipopt solve of ``model`` on ``stances`` (no restarts): a :class:`EstimationResult`."""
-    from gc_ocp.estimation.solve import solve
 
     pb = build_estimation(list(stances), model, weights)
     return solve(pb, x0=None if x0 is None else x0(pb))
@@ -63,7 +66,6 @@ def truth_from_fit(stances: Sequence[StanceData], base: tuple) -> tuple:
     """The base model fitted to ``stances`` (initialised from the seed's LLS as ``fit`` does),
     every component frozen at its fitted block except the stance-scope ones (pose correction),
     which the truth leaves at zero: the recorded kinematics are the truth's motion."""
-    from gc_ocp.estimation.starts import estimate, frozen_model, with_lls_start
 
     model = with_lls_start(base, list(stances))
     res = estimate(list(stances), model)
@@ -72,7 +74,6 @@ def truth_from_fit(stances: Sequence[StanceData], base: tuple) -> tuple:
 
 @functools.cache
 def _bundled_base_truth() -> tuple[tuple[StanceData, ...], tuple]:
-    from gc_ocp.estimation.components import base_model
 
     stances = tuple(real_motion())
     return stances, truth_from_fit(list(stances), base_model())
@@ -99,7 +100,6 @@ def simulate(
     ``marker_noise`` [m] > 0 the foot kinematics the fitter sees are re-estimated from noisy
     virtual markers. Each truth component may change how the plate records the wrench
     (:meth:`Component.observe`, e.g. a clock offset)."""
-    from gc_ocp.estimation.synthetic import noisy_pose, plate_signal
 
     stances = list(stances)
     pb = build_estimation(stances, truth)
@@ -127,7 +127,6 @@ def simulate(
 
 
 def _with_plate_signal(st: StanceData, time: np.ndarray, wrench: np.ndarray) -> StanceData:
-    from dataclasses import replace
 
     return replace(st, plate_time=np.asarray(time, float), plate_wrench=np.asarray(wrench, float))
 

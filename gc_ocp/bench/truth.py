@@ -1,0 +1,245 @@
+"""The withheld-effect benchmark's truth and data: a base fitted to real motion, an effect
+injected into it (each effect's own ``inject`` and ``benchmark_values``), and the plate and
+marker data that truth produces with the lab realism the fitter does not know (:class:`Realism`).
+The protocol is described in :mod:`gc_ocp.bench.withheld`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from collections.abc import Sequence
+
+import numpy as np
+
+from gc_ocp.bench.recovery import bundled_base_truth, simulate, truth_from_fit
+from gc_ocp.diagnosis.diagnose import resolve_base
+from gc_ocp.errors import InputError
+from gc_ocp.estimation.components import EFFECTS, REGISTRY, base_model
+from gc_ocp.estimation.synthetic import noisy_pose, with_pose_error
+from gc_ocp.io import load_trial
+from gc_ocp.kinematics import compute_kinematics
+from gc_ocp.stance import StanceData
+from gc_ocp.workflow.fitting import fit_data
+
+MAGNITUDES = ("moderate", "strong")
+
+VALUES: dict[str, dict[str, object]] = {
+    name: REGISTRY[name].benchmark_values
+    for name in EFFECTS
+    if REGISTRY[name].benchmark_values is not None
+}
+"""Injected value per effect and magnitude (module doc): each effect's own
+``benchmark_values`` (:class:`~gc_ocp.estimation.components.Component`), in :data:`EFFECTS`
+order."""
+
+NONE = "none"
+
+
+@dataclasses.dataclass(frozen=True)
+class Realism:
+    """What the truth generator does that the fitter does not know (module doc).
+
+    marker_noise: iid noise per virtual marker [m] (before the 6 Hz low-pass);
+    drift_translation / drift_rotation_deg: RMS per axis of the per-stance soft-tissue drift
+    [m], [deg]; plate_noise_pct_bw: white plate noise [% BW]; force_threshold: vertical force
+    [N] below which the plate wrench is set to zero; stride_variation: the drift's change from
+    stance to stance, relative to its size (:func:`drift`); truth_depth_smoothing /
+    truth_slip_smoothing: the truth law's smoothing [m], [m/s] (None: the fitter's)."""
+
+    marker_noise: float = 0.5e-3
+    drift_translation: float = 2e-3
+    drift_rotation_deg: float = 0.5
+    plate_noise_pct_bw: float = 0.5
+    force_threshold: float = 20.0
+    stride_variation: float = 0.25
+    truth_depth_smoothing: float | None = None
+    truth_slip_smoothing: float | None = None
+
+
+DEFAULT_REALISM = Realism()
+"""The realism of every case unless a run says otherwise (an immutable default argument)."""
+
+
+# --- the truth ---------------------------------------------------------------------------------
+
+
+@functools.cache
+def _source(files: tuple[str, ...] | None) -> tuple[tuple[StanceData, ...], tuple]:
+    """``(stances, registered truth)`` of the motion source: the bundled trial (``None``, the
+    shared truth of the tests, :func:`~gc_ocp.bench.recovery.bundled_base_truth`) or the
+    trials ``files`` of one subject, loaded as ``gc-ocp`` loads them, with the registered base
+    fitted to all their stances and frozen (fitted once per process)."""
+
+    if files is None:
+        stances, truth = bundled_base_truth()
+        return tuple(stances), truth
+
+    pairs = []
+    for f in files:
+        t = load_trial(f)
+        pairs.append((t, compute_kinematics(t)))
+    _, stances, _ = fit_data(pairs)
+    return tuple(stances), truth_from_fit(stances, base_model())
+
+
+def base_truth(base: str, files: tuple[str, ...] | None = None) -> tuple:
+    """The frozen truth of ``base``: the registered base fitted to the real stances of the
+    motion source (``files``: trials of one subject; None: the bundled trial) (law, sole offsets,
+    belt); for the bare ``seed`` base its law alone, the fitted sole offsets being baked into
+    the motion's sole points (:func:`motion`)."""
+    resolve_base(base)
+    truth = _source(files)[1]
+    return (_law(truth),) if base == "seed" else truth
+
+
+def motion(base: str, effect: str = NONE, files: tuple[str, ...] | None = None) -> list[StanceData]:
+    """The true motion of the cases: the stances of the motion source (``files``; None: the
+    bundled trial). For the ``seed`` base the sole
+    points are the registered fit's (nominal + fitted offsets; the units an effect declares in
+    ``benchmark_nominal_units`` at their nominal point, e.g. TT for ``toe_joint``, see
+    :func:`truth_model`): a bare law on the nominal points of real kinematics
+    leaves heel units of a stance that never touch the ground, so a truth fitted that way has
+    per-unit stiffnesses no other stance can predict, and every held-out score is dominated by
+    that, not by the effect."""
+    stances = list(_source(files)[0])
+    if base != "seed":
+        return stances
+    sole = next(c for c in _source(files)[1] if c.name == "sole")
+    nominal = _nominal_units(effect)
+    out = []
+    for st in stances:
+        off = np.array(sole.fixed[st.side], float)
+        for u in nominal:
+            off[list(st.layout.units).index(u)] = 0.0
+        out.append(st.with_foot(st.foot.with_points(st.foot.points_local + off)))
+    return out
+
+
+def _nominal_units(effect: str) -> tuple[str, ...]:
+    """The sole units the truth keeps at nominal for ``effect`` (its declared
+    ``benchmark_nominal_units``; none for "none" or a name that is not registered)."""
+    cls = REGISTRY.get(effect)
+    return () if cls is None else cls.benchmark_nominal_units
+
+
+def _at_nominal(component, units: tuple[str, ...], layout):
+    """A frozen sole correction (block name ``"sole"``) with the offsets of ``units`` at zero;
+    any other component unchanged."""
+    if not units or component.name != "sole":
+        return component
+    fixed = {}
+    for side, o in component.fixed.items():
+        o = np.array(o, float)
+        for u in units:
+            o[list(layout.units).index(u)] = 0.0
+        fixed[side] = o
+    return dataclasses.replace(component, fixed=fixed)
+
+
+def _law(truth: tuple):
+    return next(c for c in truth if c.name == "contact")
+
+
+def _replace_law(truth: tuple, law) -> tuple:
+    return tuple(law if c.name == "contact" else c for c in truth)
+
+
+def truth_model(effect: str, magnitude: str, base: tuple, stances, rng) -> tuple:
+    """``base`` (a frozen base fit) plus ``effect`` at ``magnitude`` (:data:`VALUES`), as the
+    effect's class injects it (``Component.inject``; random signs and patterns from ``rng``),
+    after the sole units it declares in ``benchmark_nominal_units`` are reset to nominal.
+    ``none`` returns ``base``; so does an effect of the data (``kinematic_correction``: the
+    kinematic error is applied to the data, :func:`kinematic_error`, :func:`generate`)."""
+    if effect == NONE:
+        return base
+    if effect not in VALUES:
+        why = "declares no benchmark_values" if effect in REGISTRY else "is not a registered effect"
+        raise InputError(
+            f'Effect "{effect}" {why}: the benchmark cannot inject it; choose from '
+            f"{[*VALUES, NONE]}"
+        )
+    cls = REGISTRY[effect]
+    units = cls.benchmark_nominal_units
+    base = tuple(_at_nominal(c, units, stances[0].layout) for c in base)
+    return cls.inject(base, VALUES[effect][magnitude], list(stances), rng)
+
+
+# --- the data ----------------------------------------------------------------------------------
+
+
+def drift(
+    stances: Sequence[StanceData],
+    translation: float,
+    rotation_deg: float,
+    rng,
+    stride_variation: float = 0.25,
+) -> list[StanceData]:
+    """``stances`` with a slow rigid soft-tissue drift of the foot: per axis an offset plus a
+    linear trend over the stance, RMS ~``translation`` [m] and ``rotation_deg`` per axis. The
+    pattern is the foot's (soft-tissue artefacts repeat from stride to stride of a subject and
+    task, Leardini et al. 2005), and each stance varies it by ``stride_variation`` of its size."""
+
+    def coefficients(sd):
+        return rng.normal(0.0, sd / np.sqrt(2), (2, 3))
+
+    pattern = {
+        side: (coefficients(translation), coefficients(np.deg2rad(rotation_deg)))
+        for side in sorted({st.side for st in stances})
+    }
+    out = []
+    for st in stances:
+        t = st.time
+        s = (2 * (t - t[0]) / (t[-1] - t[0]) - 1)[:, None] * np.sqrt(3)  # unit RMS over stance
+        tr, rot = pattern[st.side]
+        tr = tr + stride_variation * coefficients(translation)
+        rot = rot + stride_variation * coefficients(np.deg2rad(rotation_deg))
+        out.append(st.with_foot(with_pose_error(st.foot, rot[0] + rot[1] * s, tr[0] + tr[1] * s)))
+    return out
+
+
+def _thresholded(st: StanceData, threshold: float) -> StanceData:
+    """The plate wrench zeroed where its vertical force is below ``threshold`` [N]."""
+
+    def cut(w):
+        w = np.array(w, float)
+        w[w[:, 2] < threshold] = 0.0
+        return w
+
+    st = st.with_measured(cut(st.measured))
+    if st.plate_wrench is not None:
+        st = dataclasses.replace(st, plate_wrench=cut(st.plate_wrench))
+    return st
+
+
+def generate(
+    stances: Sequence[StanceData],
+    truth: tuple,
+    rng: np.random.Generator,
+    realism: Realism = DEFAULT_REALISM,
+    kinematic_error: tuple[float, float, float] | None = None,
+) -> list[StanceData]:
+    """What the fitter gets: the plate data ``truth`` predicts on ``stances`` (the true motion),
+    with plate noise and thresholding, and the foot kinematics seen through ``kinematic_error``
+    = (marker noise [m], drift [m], drift [deg]) (None: exact kinematics)."""
+
+    law = _law(truth)
+    changes = {
+        k: v
+        for k, v in (
+            ("depth_smoothing", realism.truth_depth_smoothing),
+            ("slip_smoothing", realism.truth_slip_smoothing),
+        )
+        if v is not None
+    }
+    if changes:
+        truth = _replace_law(truth, dataclasses.replace(law, **changes))
+    data = simulate(list(stances), truth, rng, plate_noise_pct_bw=realism.plate_noise_pct_bw)
+    data = [_thresholded(st, realism.force_threshold) for st in data]
+    if kinematic_error is None:
+        return data
+    noise, d_m, d_deg = kinematic_error
+    data = drift(data, d_m, d_deg, rng, realism.stride_variation)
+    if noise > 0:
+        data = [st.with_foot(noisy_pose(st.foot, noise, rng)) for st in data]
+    return data

@@ -1,0 +1,217 @@
+"""Command-line interface: ``gc-ocp SUBCOMMAND ...``.
+
+Every subcommand prints a one-line error (no traceback) and exits with status 2 on bad input
+(any :class:`gc_ocp.errors.GcOcpError`), and exits 1 when a numerical solve fails. Any other
+exception is a bug: one line ``internal error: <type>: <message> (please report with the command
+line)`` and exit status 3. Set the environment variable ``GC_OCP_DEBUG=1`` to also print the
+traceback.
+
+Layout: :mod:`.common` (trial arguments, loading, provenance), :mod:`.commands` (one function per
+subcommand); this module builds the parser and runs a command.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import traceback
+import warnings
+from pathlib import Path
+
+from gc_ocp.cli.commands import (
+    cmd_benchmark_diagnosis,
+    cmd_diagnose,
+    cmd_fit,
+    cmd_info,
+    cmd_kinematics,
+    cmd_reproduce_seed,
+)
+from gc_ocp.cli.common import _add_trial_args
+from gc_ocp.errors import GcOcpError, SolveError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="gc-ocp",
+        description="Estimate foot-ground contact models of human walking from motion capture and "
+        "force plates, and diagnose where the model still disagrees with the plates.",
+    )
+    from gc_ocp import __version__
+
+    parser.add_argument("--version", action="version", version=f"gc-ocp {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser(
+        "info",
+        help="Print rates, markers, plates, stances and body weight of a trial.",
+        description="Load a trial and print what was found: marker and analog rates, "
+        "markers, force plates, detected stances (foot, plate, window) and excluded "
+        "ones with the reason, body weight and its check against the plates.",
+    )
+    _add_trial_args(p, with_static=False)
+    p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser(
+        "kinematics",
+        help="Inverse kinematics and sole-point trajectories.",
+        description="Scale the 27-DOF body model, run per-frame inverse kinematics "
+        "(Pinocchio, Levenberg-Marquardt) and write the five sole points' lab "
+        "positions and velocities per foot plus a figure of marker residuals and "
+        "sole-point heights with stances shaded.",
+    )
+    _add_trial_args(p)
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
+    p.add_argument(
+        "--format", choices=("csv", "npz"), default="csv", help="Trajectory file format."
+    )
+    p.set_defaults(func=cmd_kinematics)
+
+    p = sub.add_parser(
+        "reproduce-seed",
+        help="The seed report's five applications (Tables 1 and 2).",
+        description="Linear least squares for k (n=1, c=0) on four synthetic data sets "
+        "driven by the trial's motion and on the trial's real ground reactions; "
+        "writes table1/table2 as JSON and Markdown beside the seed's values.",
+    )
+    _add_trial_args(p)
+    p.add_argument(
+        "--seeds", type=int, default=20, help="Noise draws for the noisy rows (default 20)."
+    )
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
+    p.set_defaults(func=cmd_reproduce_seed)
+
+    p = sub.add_parser(
+        "fit",
+        help="Joint kinematics-contact estimation (CasADi + Ipopt).",
+        description="Co-estimate per-unit stiffness, shared exponent, damping and "
+        "friction, sole-point corrections and smooth foot-pose corrections against "
+        "the measured wrenches of every stance (and, on a treadmill, the belt speed); "
+        "writes DIR/fit.json and fit_wrench.png, fit_sole.png, "
+        "fit_pose_corrections.png. With --holdout, the named stance is left out of "
+        "the fit and evaluated with the contact parameters fixed (only the pose "
+        "correction re-estimated; heldout_wrench.png). Exit status 1 if Ipopt does "
+        "not converge (the result is written to fit_failed.json), 2 on bad input.",
+    )
+    _add_trial_args(p)
+    p.add_argument(
+        "--sensitivity",
+        action="store_true",
+        help="Also refit with other marker cutoffs (4, 8 Hz) and stance margins (60 ms) and report how "
+        "far the headline parameters move, in units of their SE (sensitivity.json/.md).",
+    )
+    p.add_argument("--holdout", help='Stance to hold out, e.g. "right@0.407s" (see `gc-ocp info`).')
+    p.add_argument(
+        "--effects",
+        metavar="A,B,...",
+        help="Comma-separated effects (docs/effects.md) fitted with the full model, e.g. "
+        "friction,time_offset; each adds its own block to fit.json and the summary. The full "
+        "model is fitted first and its optimum is one more start. Default: the full model alone.",
+    )
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
+    p.set_defaults(func=cmd_fit)
+
+    p = sub.add_parser(
+        "diagnose",
+        help="Where the model disagrees with the plates, which effect causes it, how far it "
+        "shrinks.",
+        description="Fit the base model on the trials of one subject, score it on held-out "
+        "stances (leave one stance out), add each candidate effect alone and rank them by the "
+        "held-out reduction (95 % bootstrap interval), add the best passing one and re-rank "
+        "(forward selection). Writes DIR/diagnosis.json, DIR/report.html (one self-contained "
+        "page) and the figures as PNG. Exit status 1 if a solve fails, 2 on bad input.",
+    )
+    _add_trial_args(p)
+    p.add_argument(
+        "--base",
+        choices=("seed", "registered", "full"),
+        default="registered",
+        help="Model the effects are added to: seed (the seed's law alone), registered (default: "
+        "+ friction, sole and pose registration, belt speed), full (+ damping, stiffness "
+        "exponent).",
+    )
+    p.add_argument(
+        "--effects",
+        metavar="A,B,...",
+        help="Comma-separated candidate effects (docs/effects.md), e.g. damping,friction. "
+        "Default: every effect the base does not have.",
+    )
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
+    p.set_defaults(func=cmd_diagnose)
+
+    p = sub.add_parser(
+        "benchmark-diagnosis",
+        help="Withheld-effect benchmark: does the diagnosis find an effect it is not told of?",
+        description="Generate plate data on the bundled trial's real motion from a truth (the "
+        "base fitted to it, frozen) plus one effect (or none) at a known value, with marker "
+        "noise, soft-tissue drift, plate noise and a 20 N threshold; diagnose blind "
+        "(max_effects=1) and compare the top-1 answer with the truth. Writes "
+        "DIR/confusion.json (after every case; --resume continues it) and confusion.png.",
+    )
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
+    p.add_argument("--seeds", type=int, default=3, help="Noise draws per effect and magnitude.")
+    p.add_argument(
+        "--magnitude",
+        action="append",
+        choices=("moderate", "strong"),
+        help="Magnitude of the injected effect (repeatable; default both).",
+    )
+    p.add_argument(
+        "--base", choices=("registered", "seed"), default="registered", help="Diagnosis base."
+    )
+    p.add_argument(
+        "--effects", help='Comma-separated truths (effects and/or "none"); default all candidates.'
+    )
+    p.add_argument(
+        "--candidates",
+        metavar="A,B,...",
+        help="Comma-separated effects the blind diagnosis may name (default: every effect the "
+        "base does not have); fewer candidates make a case faster.",
+    )
+    p.add_argument(
+        "--first-seed",
+        type=int,
+        default=0,
+        dest="first_seed",
+        help="First noise draw (runs of other seeds can be merged; default 0).",
+    )
+    p.add_argument("--resume", action="store_true", help="Keep the cases of an earlier run.")
+    p.add_argument(
+        "--trial",
+        action="append",
+        type=Path,
+        metavar="FILE",
+        help="A trial whose real motion the cases use (repeatable: trials of one subject; "
+        "default: the bundled example). More stances per foot give more held-out folds.",
+    )
+    p.set_defaults(func=cmd_benchmark_diagnosis)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    warnings.simplefilter("default")
+    warnings.formatwarning = lambda msg, cat, *a, **k: f"warning: {msg}\n"
+    try:
+        return int(args.func(args) or 0)
+    except SolveError as e:
+        return _fail(args, f"solve failed: {e}", 1)
+    except GcOcpError as e:
+        return _fail(args, f"error: {e}", 2)
+    except FileNotFoundError as e:
+        return _fail(args, f"error: file not found: {e.filename}; check the path.", 2)
+    except Exception as e:  # last resort: not bad input but a bug
+        return _fail(
+            args,
+            f"internal error: {type(e).__name__}: {e} (please report with the command line)",
+            3,
+        )
+
+
+def _fail(args: argparse.Namespace, message: str, status: int) -> int:
+    """Print ``message`` as one line on stderr (the traceback too if ``GC_OCP_DEBUG=1``)."""
+    if os.environ.get("GC_OCP_DEBUG") == "1":
+        traceback.print_exc()
+    print(f"gc-ocp {args.command}: {' '.join(message.split())}", file=sys.stderr)
+    return status

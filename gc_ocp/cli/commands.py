@@ -1,0 +1,261 @@
+"""The subcommands: one ``cmd_*`` function each, ``args`` in, exit status out (errors are raised
+and turned into one line and a status by :func:`gc_ocp.cli.main`)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from gc_ocp.cli.common import (
+    _effect_list,
+    _kinematics,
+    _load,
+    _print_landmarks,
+    _progress,
+    provenance,
+)
+from gc_ocp.errors import InputError, SolveError
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    from gc_ocp.io import describe_trial
+
+    for trial in _load(args):
+        print(describe_trial(trial))
+        print()
+    return 0
+
+
+def cmd_kinematics(args: argparse.Namespace) -> int:
+    from gc_ocp.kinematics.export import write_kinematics
+
+    trials = _load(args)
+    names = [t.name for t in trials]
+    for i, trial in enumerate(trials):
+        kin = _kinematics(trial, args)
+        _print_landmarks(kin)
+        sub = trial.name if names.count(trial.name) == 1 else f"{i + 1}_{trial.name}"
+        out = args.out if len(trials) == 1 else args.out / sub  # one folder per trial
+        paths = write_kinematics(trial, kin, out, fmt=args.format)
+        for p in paths:
+            print(f"wrote {p}")
+    return 0
+
+
+def cmd_reproduce_seed(args: argparse.Namespace) -> int:
+    from gc_ocp.contact.seed_study import reproduce_seed, table1_markdown, table2_markdown
+
+    trials = _load(args)
+    if len(trials) != 1:
+        raise InputError(
+            f"reproduce-seed takes one trial, but got {len(trials)}; run it once per trial."
+        )
+    [trial] = trials
+    kin = _kinematics(trial, args)
+    res = reproduce_seed(
+        trial,
+        kin,
+        seeds=args.seeds,
+        out_dir=args.out,
+        progress=lambda done, total, label: _progress(f"[{done}/{total}] {label}"),
+    )
+    for note in res["notes"]:
+        _progress(f"note: {note}")
+    print(table1_markdown(res["table1"]))
+    print(table2_markdown(res["table2"]))
+    print(f"wrote table1.json, table1.md, table2.json, table2.md to {args.out}")
+    return 0
+
+
+FIT_OUTPUTS = (
+    "fit.json",
+    "landmarks.json",
+    "fit_failed.json",
+    "fit_wrench.png",
+    "fit_sole.png",
+    "fit_pose_corrections.png",
+    "heldout_wrench.png",
+    "sensitivity.json",
+    "sensitivity.md",
+)
+"""Every file ``gc-ocp fit`` may write: a run replaces the whole set (stale ones are removed)."""
+
+
+def fit_model(effects: list[str] | None) -> tuple | None:
+    """``gc-ocp fit``'s model: :func:`~gc_ocp.estimation.components.full_model` plus the
+    registered ``effects`` (None: the full model itself); an effect the full model already has
+    is refused (it would estimate the same physics twice)."""
+    from gc_ocp.estimation.components import REGISTRY, full_model, model_from_names
+
+    if effects is None:
+        return None
+    base = full_model()
+    have = [e for e in effects if REGISTRY[e].present_in(base)]
+    if have:
+        free = [e for e in REGISTRY if REGISTRY[e].candidate and not REGISTRY[e].present_in(base)]
+        raise InputError(
+            f"--effects: {', '.join(have)} already in the fitted model (gc-ocp fit fits the full "
+            f"model: contact law with n, c, mu; sole, pose and belt corrections); choose from "
+            f"{', '.join(free)}."
+        )
+    return model_from_names(effects, base=base)
+
+
+def cmd_fit(args: argparse.Namespace) -> int:
+    from gc_ocp.estimation.plots import plot_fit, plot_pose_corrections, plot_sole_fit
+    from gc_ocp.io.checks import require_stances
+    from gc_ocp.outputs import OutputSet, check_writable
+    from gc_ocp.workflow.fitting import fit
+
+    check_writable(args.out)  # before any computation
+    model = fit_model(None if args.effects is None else _effect_list(args.effects))
+    trials = _load(args)
+    for t in trials:
+        require_stances(t)
+    pairs = [(t, _kinematics(t, args)) for t in trials]
+    for _, kin in pairs:
+        _print_landmarks(kin)
+    prov = provenance(args, pairs)
+    out = OutputSet(args.out, FIT_OUTPUTS)
+    landmarks = {"trials": [kin.info.get("landmarks") for _, kin in pairs]}
+    try:
+        try:
+            start = None
+            if model is not None:  # the problem is not convex: the full model's optimum is one
+                # more start, so that adding effects cannot end above the model without them
+                _progress("fitting the full model first (its optimum starts the fit with effects)")
+                start = fit(pairs, holdout=args.holdout, progress=_progress).result
+            report = fit(pairs, model=model, holdout=args.holdout, progress=_progress, start=start)
+        except SolveError as e:
+            if e.result is not None:
+                out.text(
+                    "fit_failed.json",
+                    json.dumps({**e.result.to_json(), "provenance": prov}, indent=2),
+                )
+                out.commit()
+                print(
+                    f"wrote the non-converged result to {args.out / 'fit_failed.json'}",
+                    file=sys.stderr,
+                )
+            raise
+        print(report.summary())
+        figs = {
+            "fit_wrench.png": plot_fit(report.result),
+            "fit_sole.png": plot_sole_fit(report.result),
+            "fit_pose_corrections.png": plot_pose_corrections(report.result),
+        }
+        if report.heldout is not None:
+            figs["heldout_wrench.png"] = plot_fit(
+                report.heldout, title=f"held-out {report.heldout_label}"
+            )
+        out.text("fit.json", json.dumps({**report.to_json(), "provenance": prov}, indent=2))
+        out.text("landmarks.json", json.dumps(landmarks, indent=2))
+        if args.sensitivity:
+            from gc_ocp.io import load_static
+            from gc_ocp.kinematics import compute_kinematics
+            from gc_ocp.workflow.sensitivity import sensitivity
+
+            def kin(t, cutoff_hz):
+                static = load_static(args.static, t) if args.static is not None else None
+                return compute_kinematics(
+                    t, markerset=args.markerset, static=static, cutoff_hz=cutoff_hz
+                )
+
+            sens = sensitivity(
+                [t for t, _ in pairs], model=model, compute_kinematics=kin, progress=_progress
+            )
+            print(
+                "sensitivity of the headline parameters to processing choices:\n" + sens.summary()
+            )
+            out.text("sensitivity.json", json.dumps(sens.to_json(), indent=2))
+            out.text("sensitivity.md", sens.summary() + "\n")
+        for name, fig in figs.items():
+            out.figure(name, fig, dpi=100)
+        written = out.commit()
+    finally:
+        out.discard()
+    n_flags = len(report.result.flags) + (len(report.heldout.flags) if report.heldout else 0)
+    print(
+        f"wrote {len(written)} files to {args.out} (fit.json and {len(figs)} figures); {n_flags} flags"
+    )
+    return 0
+
+
+DIAGNOSE_FIGURES = {
+    "heatmap": "where_heatmap.png",
+    "heatmap_final": "where_heatmap_final.png",
+    "residuals": "where_residuals.png",
+    "ranking": "ranking.png",
+    "waterfall": "waterfall.png",
+}
+"""The report's figures (:func:`gc_ocp.diagnosis.report.report_pngs`) and their file names."""
+
+DIAGNOSE_OUTPUTS = ("diagnosis.json", "final_fit.json", "report.html", *DIAGNOSE_FIGURES.values())
+"""Every file ``gc-ocp diagnose`` may write (one set, replaced as a whole)."""
+
+
+def _effects(args: argparse.Namespace) -> list[str] | None:
+    """``--effects a,b`` checked against the effect library and the base (before any work)."""
+    from gc_ocp.diagnosis import candidate_names
+    from gc_ocp.diagnosis.diagnose import resolve_base
+
+    effects = None if args.effects is None else _effect_list(args.effects)
+    _, base = resolve_base(args.base)
+    if not candidate_names(base, effects):
+        raise InputError(
+            f"--effects {args.effects}: every effect is already in the base '{args.base}'; "
+            "choose other effects or a smaller --base (seed, registered)."
+        )
+    return effects
+
+
+def cmd_diagnose(args: argparse.Namespace) -> int:
+    from gc_ocp.diagnosis import diagnose
+    from gc_ocp.diagnosis.report import report_html, report_pngs
+    from gc_ocp.outputs import OutputSet, atomic_write, check_writable
+
+    check_writable(args.out)  # before any computation
+    effects = _effects(args)
+    trials = _load(args)
+    pairs = [(t, _kinematics(t, args)) for t in trials]
+    prov = provenance(args, pairs)
+    d = diagnose(pairs, base=args.base, candidates=effects, progress=_progress)
+    print(d.summary())
+    pngs = report_pngs(d)
+    out = OutputSet(args.out, DIAGNOSE_OUTPUTS)
+    try:
+        out.text("diagnosis.json", json.dumps({**d.to_json(), "provenance": prov}, indent=2))
+        final = d.final_evaluation.full  # the selected model on all stances, as fit.json has it
+        out.text("final_fit.json", json.dumps({**final.to_json(), "provenance": prov}, indent=2))
+        out.text("report.html", report_html(d, provenance=prov, pngs=pngs))
+        for key, png in pngs.items():
+            atomic_write(out.path(DIAGNOSE_FIGURES[key]), lambda tmp, png=png: tmp.write_bytes(png))
+        written = out.commit()
+    finally:
+        out.discard()
+    print(f"wrote {len(written)} files to {args.out}; open {args.out / 'report.html'} in a browser")
+    return 0
+
+
+def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
+    """The withheld-effect benchmark of the diagnosis (``gc_ocp.bench.withheld``)."""
+    from gc_ocp.bench.withheld import report, run_benchmark
+
+    effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
+    candidates = None if args.candidates is None else _effect_list(args.candidates, "--candidates")
+    res = run_benchmark(
+        args.out,
+        base=args.base,
+        effects=effects,
+        candidates=candidates,
+        seeds=args.seeds,
+        magnitudes=args.magnitude or ("moderate", "strong"),
+        resume=args.resume,
+        progress=_progress,
+        first_seed=args.first_seed,
+        files=args.trial or None,
+    )
+    print(report(res))
+    print(f"wrote {args.out / 'confusion.json'} and {args.out / 'confusion.png'}")
+    return 0
