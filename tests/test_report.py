@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 import warnings
+from html.parser import HTMLParser
+from pathlib import Path
 
 import pytest
 
@@ -194,3 +197,83 @@ def test_effect_block_values_carry_their_standard_errors():
         )
     )
     assert rows == {"trial / ms": "10.4 ± 0.8", "c": "1.9 ± 0.13", "n": "1 (fixed)"}
+
+
+# --- the page and the JSON against those of the f-string renderer (tests/report_fixtures) ---------
+FIXTURES = Path(__file__).parent / "report_fixtures"
+CASES = sorted(p.name for p in FIXTURES.iterdir() if (p / "diagnosis.json").exists())
+
+
+class _Page(HTMLParser):
+    """What a reader of a page gets: its visible text (outside ``<style>``; each image by its
+    alt text) and its markup (each start tag with its attributes, image data cut)."""
+
+    def __init__(self, page: str):
+        super().__init__(convert_charrefs=True)
+        self.text: list[str] = []
+        self.tags: list[tuple] = []
+        self._style = False
+        self.feed(page)
+        self.close()
+
+    def handle_starttag(self, tag, attrs):
+        attrs = [(k, "data:" if k == "src" else v) for k, v in attrs]
+        self.tags.append((tag, tuple(sorted(attrs, key=lambda a: a[0]))))
+        self._style = tag == "style"
+        if tag == "img":
+            self.text.append(f"[image: {dict(attrs).get('alt')}]")
+
+    def handle_endtag(self, tag):
+        self.tags.append(("/" + tag,))
+        self._style = False
+
+    def handle_data(self, data):
+        if not self._style:
+            self.text.append(data)
+
+    @property
+    def visible(self) -> str:
+        """The text with its whitespace normalised (one space between words)."""
+        return " ".join(" ".join(self.text).split())
+
+
+def _fixture(case: str):
+    from gc_ocp.diagnosis import Diagnosis
+    from gc_ocp.estimation.result import EstimationResult
+
+    folder = FIXTURES / case
+    text = (folder / "diagnosis.json").read_text()
+    js = json.loads(text)
+    final = EstimationResult.from_json(folder / "final_fit.json")
+    return folder, text, js, Diagnosis.from_json(js), final
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_report_page_reads_as_before(case):
+    """The page of a diagnosis read back from the CLI's ``diagnosis.json`` (+ its
+    ``final_fit.json``) shows the text, numbers and markup of the page that run wrote (made by
+    the f-string renderer the template replaced; images cut): the same visible text, whitespace
+    normalised, and the same tags with the same attributes."""
+    from gc_ocp.diagnosis.report import report_html
+
+    folder, _, js, d, final = _fixture(case)
+    pngs = dict.fromkeys(("heatmap", "residuals", "ranking", "waterfall"), b"\x89PNG")
+    if d.selected:
+        pngs["heatmap_final"] = b"\x89PNG"
+    new = _Page(report_html(d, provenance=js["provenance"], pngs=pngs, final=final))
+    old = _Page((folder / "report.html").read_text(encoding="utf-8"))
+    assert len(old.visible) > 3000 and "Provenance" in old.visible
+    assert new.visible == old.visible
+    assert new.tags == old.tags
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_diagnosis_json_is_written_back_byte_for_byte(case):
+    """``Diagnosis.from_json`` then ``to_json`` gives the CLI's ``diagnosis.json`` back, byte for
+    byte (keys, their order, every value): the JSON is written from the result's fields alone."""
+    from gc_ocp.diagnosis import Diagnosis
+
+    _, text, js, d, _ = _fixture(case)
+    again = json.dumps({**d.to_json(), "provenance": js["provenance"]}, indent=2)
+    assert again == text
+    assert Diagnosis.from_json(json.loads(again)).summary() == d.summary()

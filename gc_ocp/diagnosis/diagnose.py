@@ -159,14 +159,14 @@ class Diagnosis:
 
     def to_json(self) -> dict:
         """``diagnosis.json`` (schema in ``docs/diagnosis.md``)."""
-        b = self.base_evaluation
+        b = self.waterfall[0]  # the base's step: its held-out numbers
         return {
             "base": {
                 "name": self.base,
                 "model": self.base_components,
-                "heldout_rms": heldout_quality(b),
-                "heldout_superior_force_pct_bw": superior_rms(b),
-                "score": score(b),
+                "heldout_rms": b["heldout_rms"],
+                "heldout_superior_force_pct_bw": b["heldout_superior_force_pct_bw"],
+                "score": b["score"],
             },
             "candidates": self.candidates,
             "ranking": self.ranking,
@@ -186,6 +186,31 @@ class Diagnosis:
             "notes": self.notes,
             "seconds": self.seconds,
         }
+
+    @classmethod
+    def from_json(cls, d: dict) -> Diagnosis:
+        """The diagnosis written by :meth:`to_json` (``diagnosis.json``), without its
+        evaluations (the fits): enough for its summary, JSON, report page (given the final
+        fit) and the figures that need no fit (ranking, waterfall, heat maps)."""
+        selected = list(d["selected"])
+        waterfall = [
+            {"label": "+".join(["base", *selected[:k]]), **w} for k, w in enumerate(d["waterfall"])
+        ]
+        return cls(
+            base=d["base"]["name"],
+            base_components=list(d["base"]["model"]),
+            candidates=list(d["candidates"]),
+            ranking=[dict(r) for r in d["ranking"]],
+            rounds=[[dict(r) for r in rows] for rows in d["rounds"]],
+            selected=selected,
+            waterfall=waterfall,
+            where=d["where"],
+            folds=d["folds"],
+            seconds=d["seconds"],
+            threshold_pct=d["threshold_pct"],
+            notes=list(d["notes"]),
+            max_effects=d["max_effects"],
+        )
 
     @property
     def _scored(self) -> str:

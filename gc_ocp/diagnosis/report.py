@@ -597,16 +597,22 @@ def _provenance(prov: dict | None, d) -> str:
 
 
 # --- the page --------------------------------------------------------------------------------
-def report_html(diagnosis, provenance: dict | None = None, pngs: dict | None = None) -> str:
+def report_html(
+    diagnosis, provenance: dict | None = None, pngs: dict | None = None, final=None
+) -> str:
     """The report of ``diagnosis`` (a :class:`~gc_ocp.diagnosis.Diagnosis`) as one
     self-contained HTML page (module doc). provenance: what the CLI records in
     ``diagnosis.json`` (inputs, options, date); pngs: :func:`report_pngs` of the diagnosis
-    when already rendered (otherwise they are rendered here)."""
-    return _page(diagnosis, provenance, report_pngs(diagnosis) if pngs is None else pngs)
+    when already rendered (otherwise they are rendered here); final: the final model's fit on
+    all stances (default: the diagnosis's own, ``final_evaluation.full``; give it for a
+    diagnosis read back from JSON, with ``final_fit.json``)."""
+    figs = report_pngs(diagnosis) if pngs is None else pngs
+    return _page(
+        diagnosis, provenance, figs, diagnosis.final_evaluation.full if final is None else final
+    )
 
 
-def _page(d, prov: dict | None, figs: dict) -> str:
-    final = d.final_evaluation
+def _page(d, prov: dict | None, figs: dict, res) -> str:
     wf = d.waterfall
     base_sup, final_sup = (
         wf[0]["heldout_superior_force_pct_bw"],
@@ -722,7 +728,6 @@ def _page(d, prov: dict | None, figs: dict) -> str:
             )
         )
     # 4. final model
-    res = final.full
     flags = list(res.flags)
     parts += [
         "<h2>4. The final model</h2>",
