@@ -197,17 +197,17 @@ def _where_text(where: dict) -> str:
     )
 
 
-def confounded_groups(ranking: list[dict]) -> list[list[str]]:
+def confounded_groups(ranking: list) -> list[list[str]]:
     """The candidate effects flagged as confounded with each other, as groups in which every
     two are flagged (so a group can be read as "any one of these"; an effect may sit in two
     groups), each group and the groups in ranking order. A confounding with a part of the base
     (its per-stance nuisance) is not a group: :func:`_nuisance_text` says it."""
-    order = [r["effect"] for r in ranking]
+    order = [r.effect for r in ranking]
     linked = set()
     for r in ranking:
-        for other in r.get("confounded_with", []):
-            if other in order and other != r["effect"]:
-                linked.add(frozenset((r["effect"], other)))
+        for other in r.confounded_with:
+            if other in order and other != r.effect:
+                linked.add(frozenset((r.effect, other)))
     edges = sorted(linked, key=lambda e: sorted(order.index(x) for x in e))
     groups: list[list[str]] = []
     covered: set = set()
@@ -231,18 +231,18 @@ def _and(names: list[str]) -> str:
 
 def _verdict(r: dict, threshold: float) -> str:
     """The decision rule's outcome for a ranking row, with the condition that failed."""
-    if r["passes"]:
+    if r.passes:
         return "pass"
-    if r["heldout_rms_reduction_pct"] is None:
+    if r.heldout_rms_reduction_pct is None:
         return f"fail (in-sample below {threshold:g} %: not held out)"
-    if r["heldout_rms_reduction_pct"] < threshold:
+    if r.heldout_rms_reduction_pct < threshold:
         return f"fail (below {threshold:g} %)"
-    if r["heldout_rms_reduction_ci"][0] <= 0.0:
+    if r.heldout_rms_reduction_ci[0] <= 0.0:
         return "fail (interval reaches 0)"
     return f"fail (in-sample below {threshold:g} %)"
 
 
-def _ranking_table(rows: list[dict], threshold: float) -> str:
+def _ranking_table(rows: list, threshold: float) -> str:
     head = (
         "<tr><th>#</th><th class=l>effect</th><th>held-out reduction [%]</th>"
         "<th>95 % interval [%]</th><th>in-sample reduction [%]</th><th>parameters added</th>"
@@ -250,38 +250,38 @@ def _ranking_table(rows: list[dict], threshold: float) -> str:
     )
     body = []
     for i, r in enumerate(rows, 1):
-        lo, hi = r["heldout_rms_reduction_ci"]
-        flags = sorted(set(r.get("flags", [])))
+        lo, hi = r.heldout_rms_reduction_ci
+        flags = sorted(set(r.flags))
         body.append(
-            f'<tr class="{"pass" if r["passes"] else "fail"}"><td>{i}</td>'
-            f"<td class=l><b>{_e(r['effect'])}</b></td>"
-            f"<td>{_num(r['heldout_rms_reduction_pct'], '+.1f')}</td>"
+            f'<tr class="{"pass" if r.passes else "fail"}"><td>{i}</td>'
+            f"<td class=l><b>{_e(r.effect)}</b></td>"
+            f"<td>{_num(r.heldout_rms_reduction_pct, '+.1f')}</td>"
             f"<td>[{_num(lo, '+.1f')}, {_num(hi, '+.1f')}]</td>"
-            f"<td>{_num(r['insample_rms_reduction_pct'], '+.1f')}</td>"
-            f"<td>{int(r['n_params'])}</td><td class=l>{_e(_verdict(r, threshold))}</td>"
-            f"<td class=l>{_e(', '.join(r['confounded_with']) or '–')}</td>"
+            f"<td>{_num(r.insample_rms_reduction_pct, '+.1f')}</td>"
+            f"<td>{int(r.n_params)}</td><td class=l>{_e(_verdict(r, threshold))}</td>"
+            f"<td class=l>{_e(', '.join(r.confounded_with) or '–')}</td>"
             f"<td class=l>{_e(', '.join(flags) or '–')}</td></tr>"
         )
     return "<table>" + head + "".join(body) + "</table>"
 
 
-def _nuisance_text(ranking: list[dict]) -> list[str]:
+def _nuisance_text(ranking: list) -> list[str]:
     """Effects confounded with a part of the base (not a candidate): the base's per-stance
     nuisance, when the effect's held-out gain comes mostly from a cheaper nuisance."""
-    names = {r["effect"] for r in ranking}
+    names = {r.effect for r in ranking}
     items = []
     for r in ranking:
-        parts = [c for c in r.get("confounded_with", []) if c not in names]
+        parts = [c for c in r.confounded_with if c not in names]
         if not parts:
             continue
-        share = r.get("gain_from_nuisance")
+        share = r.gain_from_nuisance
         why = (
             f"{100 * share:.0f} % of its held-out gain"
             if share is not None
             else "its held-out gain"
         )
         items.append(
-            f"<b>{_e(r['effect'])}</b> and the base's {_and(parts)} (the per-stance correction "
+            f"<b>{_e(r.effect)}</b> and the base's {_and(parts)} (the per-stance correction "
             "the base already has) explain the same part of the gap: the data cannot tell them "
             f"apart ({why} comes from the correction moving less, not from a better fit of the "
             "plates)."
@@ -289,7 +289,7 @@ def _nuisance_text(ranking: list[dict]) -> list[str]:
     return items
 
 
-def _confounding_text(ranking: list[dict], selected: list[str]) -> str:
+def _confounding_text(ranking: list, selected: list[str]) -> str:
     groups = confounded_groups(ranking)
     nuisance = _nuisance_text(ranking)
     if not groups and not nuisance:
@@ -311,17 +311,17 @@ def _confounding_text(ranking: list[dict], selected: list[str]) -> str:
                 f" The selection added {_e(chosen[0])}; read it as "
                 f"&ldquo;{_e(chosen[0])} or {_e(others)}&rdquo;."
             )
-        elif not chosen and not any(r["passes"] for r in ranking if r["effect"] in g):
+        elif not chosen and not any(r.passes for r in ranking if r.effect in g):
             s += " None of them passes on its own."
         items.append(f"<li>{s}</li>")
     items += [f"<li>{s}</li>" for s in nuisance]
     return '<div class="warn"><b>Ambiguous effects.</b><ul>' + "".join(items) + "</ul></div>"
 
 
-def _waterfall_table(waterfall: list[dict]) -> str:
-    sides = list(waterfall[0]["heldout_rms"]) if waterfall else []
+def _waterfall_table(waterfall: list) -> str:
+    sides = list(waterfall[0].heldout_rms) if waterfall else []
     head = "<tr><th class=l>foot</th><th class=l>channel</th>" + "".join(
-        f"<th>{_e(w['model'])}</th>" for w in waterfall
+        f"<th>{_e(w.model)}</th>" for w in waterfall
     )
     head += "<th>change [%]</th></tr>" if len(waterfall) > 1 else "</tr>"
 
@@ -333,7 +333,7 @@ def _waterfall_table(waterfall: list[dict]) -> str:
         return f"<td>{'0' if pct in ('+0', '-0') else pct}</td>"
 
     rows = []
-    sup = [w["heldout_superior_force_pct_bw"] for w in waterfall]
+    sup = [w.heldout_superior_force_pct_bw for w in waterfall]
     rows.append(
         "<tr><td class=l>both</td><td class=l>superior force [% BW]</td>"
         + "".join(f"<td><b>{_num(v)}</b></td>" for v in sup)
@@ -342,7 +342,7 @@ def _waterfall_table(waterfall: list[dict]) -> str:
     )
     for side in sides:
         for key in CHANNEL_KEYS:
-            vals = [w["heldout_rms"].get(side, {}).get(key, float("nan")) for w in waterfall]
+            vals = [w.heldout_rms.get(side, {}).get(key, float("nan")) for w in waterfall]
             rows.append(
                 f"<tr><td class=l>{_e(side)}</td><td class=l>{_e(_short(key))} [{_unit(key)}]</td>"
                 + "".join(f"<td>{_num(v)}</td>" for v in vals)
@@ -486,9 +486,9 @@ def _effect_blocks(res) -> str:
 
 def _method(d) -> str:
     """The decision rule, the interval and the confounding criteria as the code applies them
-    (every number from the constants of :mod:`.diagnose` and :mod:`.compare`)."""
+    (every number from the constants of :mod:`.selection` and :mod:`.compare`)."""
     from gc_ocp.diagnosis.compare import BLOCK_SECONDS, MIN_CLUSTERS, resamples_stances
-    from gc_ocp.diagnosis.diagnose import (
+    from gc_ocp.diagnosis.selection import (
         COMPARABLE_FRACTION,
         CONFOUND_COSINE,
         NON_ADDITIVE_FRACTION,
@@ -615,17 +615,17 @@ def report_html(
 def _page(d, prov: dict | None, figs: dict, res) -> str:
     wf = d.waterfall
     base_sup, final_sup = (
-        wf[0]["heldout_superior_force_pct_bw"],
-        wf[-1]["heldout_superior_force_pct_bw"],
+        wf[0].heldout_superior_force_pct_bw,
+        wf[-1].heldout_superior_force_pct_bw,
     )
     held = "held-out" if d.folds.get("n") else "in-sample"
     if d.selected:
         steps = []
         for k, name in enumerate(d.selected):
-            r = next(x for x in d.rounds[k] if x["effect"] == name)
-            lo, hi = r["heldout_rms_reduction_ci"]
+            r = next(x for x in d.rounds[k] if x.effect == name)
+            lo, hi = r.heldout_rms_reduction_ci
             steps.append(
-                f"<b>{_e(name)}</b> ({_num(r['heldout_rms_reduction_pct'], '.1f')} % "
+                f"<b>{_e(name)}</b> ({_num(r.heldout_rms_reduction_pct, '.1f')} % "
                 f"[{_num(lo, '.1f')}, {_num(hi, '.1f')}])"
             )
         verdict = (
@@ -736,7 +736,7 @@ def _page(d, prov: dict | None, figs: dict, res) -> str:
         f"stances: Ipopt {_e(res.status)}, {res.iterations} iterations; {res.n_data} residuals, "
         f"{res.n_free} free variables ({res.n_param} physical parameters).</p>",
         "<h3>Fit quality (RMS)</h3>",
-        _rms_table(res, wf[-1]["heldout_rms"] if d.folds.get("n") else None),
+        _rms_table(res, wf[-1].heldout_rms if d.folds.get("n") else None),
         _contact_tables(res.params),
         _sole_table(res.blocks.get("sole", {})),
     ]
@@ -785,7 +785,7 @@ def write_report(
     return atomic_write_text(path, report_html(diagnosis, provenance, pngs))
 
 
-__all__ = [
+__all__ = (
     "CHANNEL_KEYS",
     "confounded_groups",
     "report_figures",
@@ -793,4 +793,4 @@ __all__ = [
     "report_pngs",
     "worst_cells",
     "write_report",
-]
+)
