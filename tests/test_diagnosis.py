@@ -262,16 +262,22 @@ def test_confirmation_on_an_unseen_stance_shrinks_the_gap_of_a_true_effect(bundl
 
 
 def test_parallel_rounds_give_the_serial_answer(bundled):
-    """The parallel rounds (one task per candidate, on forked processes) compute the same fits
-    as the serial ones: the same rankings in every round, to round-off, and the same selection;
-    later rounds screen the same candidates."""
+    """The parallel rounds (one task per candidate, on processes *spawned*, which inherit
+    nothing: every input travels as an argument) compute the same fits as the serial ones: the
+    same rankings in every round, to round-off, and the same selection; later rounds screen the
+    same candidates."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
     stances, truth = bundled
     data = simulate(stances, (*truth, Damping(fixed=1.0)), np.random.default_rng(1))
     kw = {"candidates": ["damping", "stiffness_exponent"], "n_boot": 100}
+    spawn = multiprocessing.get_context("spawn")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         serial = diagnose_stances(data, workers=1, **kw)
-        parallel = diagnose_stances(data, workers=2, **kw)
+        with ProcessPoolExecutor(2, mp_context=spawn) as pool:
+            parallel = diagnose_stances(data, executor=pool, **kw)
     assert parallel.selected == serial.selected
     assert len(parallel.rounds) == len(serial.rounds) >= 2
     for rs, rp in zip(serial.rounds, parallel.rounds, strict=True):

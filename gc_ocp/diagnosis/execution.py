@@ -7,11 +7,16 @@ A task is :func:`run_job`, a pure function of two picklable plain-data arguments
 :class:`~gc_ocp.diagnosis.compare.Evaluation` and the warnings the fits raised, which
 :func:`evaluate_round` raises again in the calling process (under its filters, as if the fits
 had run there). Nothing travels through module globals and no start method is assumed, so the
-executor may be a local process pool (:func:`candidate_executor`: ``spawn``ed processes), the
-caller's own one, or a cluster's (``dask.distributed.Client(...).get_executor()``).
+executor may be a local process pool (:func:`candidate_executor`), the caller's own one (any
+start method: ``tests/test_diagnosis.py`` runs a diagnosis on ``spawn``ed processes), or a
+cluster's (``dask.distributed.Client(...).get_executor()``).
 
-A worker process loads the compiled per-frame functions of a model from the disk cache the
-first time it fits that model (``estimation/compiled.py``), and keeps them for the next tasks.
+A worker process derives a model's per-frame functions and loads them compiled from the disk
+cache the first time it fits that model (``estimation/compiled.py``), and keeps them for its
+next tasks. The local pool uses the platform's default start method: ``fork`` on Linux (up to
+Python 3.13), whose workers start with the parent's functions already loaded; with ``spawn``
+each worker imports gc_ocp and derives them again, which cost a full diagnosis of the bundled
+trial a few seconds more (``docs/diagnosis.md``, *Speed*).
 
 One task per *fit* (a candidate's folds spread over the processes) was tried and measured
 slower than one task per candidate (bundled trial 63.6 s against 49.5 s; three BTS trials
@@ -135,8 +140,8 @@ def candidate_executor(
 ) -> Iterator[Executor | None]:
     """The executor of a diagnosis's rounds, for the ``with`` block: ``executor`` when given
     (the caller's; not shut down here); ``None`` (in this process) with ``workers=1``;
-    otherwise a pool of ``workers`` (default :func:`default_workers`) ``spawn``ed processes,
-    started at the first task and shut down at the end of the block."""
+    otherwise a pool of ``workers`` (default :func:`default_workers`) processes, started at the
+    first task and shut down at the end of the block."""
     if executor is not None:
         yield executor
         return
@@ -144,10 +149,9 @@ def candidate_executor(
     if n <= 1:
         yield None
         return
-    import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    with ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn")) as pool:
+    with ProcessPoolExecutor(n) as pool:
         yield pool
 
 
