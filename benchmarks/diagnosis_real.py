@@ -144,7 +144,7 @@ def confirm(stances, holdout: int, candidates, say) -> dict:
         "selected": d.selected,
         "ranking": [
             {
-                k: r[k]
+                k: r.to_json()[k]
                 for k in (
                     "effect",
                     "heldout_rms_reduction_pct",

@@ -156,7 +156,8 @@ def _fake_evaluation(frame_costs: list[np.ndarray]):
 def test_tied_candidates_are_named_confounded():
     """Two passing candidates whose paired held-out difference is within the bootstrap noise
     are named confounded with each other; a clearly better one is not tied to a worse one."""
-    from gc_ocp.diagnosis.diagnose import _flag_ties
+    from gc_ocp.diagnosis.result import RankRow
+    from gc_ocp.diagnosis.selection import flag_ties
 
     rng = np.random.default_rng(0)
     base = [np.full(60, 1.0) for _ in range(3)]
@@ -164,7 +165,10 @@ def test_tied_candidates_are_named_confounded():
     b = [c * 0.8 * (1 + 0.02 * rng.standard_normal(c.size)) for c in base]  # same as a
     w = [c * 0.95 for c in base]  # passes too, clearly worse than a and b
     evs = {n: _fake_evaluation(v) for n, v in {"a": a, "b": b, "w": w}.items()}
-    rows = [{"effect": n, "passes": True, "confounded_with": []} for n in ("a", "b", "w")]
-    _flag_ties(rows, evs, 500, 0, 100.0)
-    by = {r["effect"]: r["confounded_with"] for r in rows}
-    assert by == {"a": ["b"], "b": ["a"], "w": []}
+    rows = [
+        RankRow(n, 1.0, (0.5, 1.5), 1.0, 1.0, {}, 1, True, False, False, None, (), ())
+        for n in ("a", "b", "w")
+    ]
+    rows = flag_ties(rows, evs, 500, 0, 100.0)
+    by = {r.effect: r.confounded_with for r in rows}
+    assert by == {"a": ("b",), "b": ("a",), "w": ()}

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import pickle
 import warnings
+from concurrent.futures import Executor, Future
 
 import numpy as np
 import pytest
@@ -20,8 +22,9 @@ from gc_ocp.diagnosis.compare import (
     reduction,
     score,
 )
-from gc_ocp.diagnosis.diagnose import CONFOUND_COSINE, _flag_alike, _rank
 from gc_ocp.diagnosis.phases import PERRY_STANCE_FRACTIONS, phase_index
+from gc_ocp.diagnosis.result import RankRow
+from gc_ocp.diagnosis.selection import CONFOUND_COSINE, flag_alike, rank
 from gc_ocp.estimation.components import base_model, model_from_names
 from gc_ocp.estimation.components.damping import Damping
 from gc_ocp.estimation.problem import build_estimation
@@ -101,9 +104,16 @@ def test_fold_plan_holds_out_only_feet_with_another_stance():
     assert fold_plan([S("right"), S("left")]) == []
 
 
+def _row(effect: str, gain: float = 0.0) -> RankRow:
+    """A ranking row whose held-out and in-sample reductions are ``gain`` [%]."""
+    return RankRow(
+        effect, gain, (gain - 1.0, gain + 1.0), gain, gain, {}, 1, False, False, False, None, (), ()
+    )
+
+
 def test_alike_residual_changes_are_named_confounded_only_when_both_gain():
     rows = [
-        {"effect": e, "gain": g, "confounded_with": []}
+        _row(e, g)
         for e, g in (("sole", 70.0), ("pose", 68.0), ("friction", 30.0), ("damping", 1.0))
     ]
     rng = np.random.default_rng(0)
@@ -114,20 +124,19 @@ def test_alike_residual_changes_are_named_confounded_only_when_both_gain():
         "friction": rng.normal(size=400),  # unrelated: cosine ~ 1/sqrt(400)
         "damping": shared,  # alike, but its gain is under the threshold
     }
-    _flag_alike(rows, deltas, lambda r: r["gain"] >= 2.0)
-    named = {r["effect"]: r["confounded_with"] for r in rows}
-    assert named == {"sole": ["pose"], "pose": ["sole"], "friction": [], "damping": []}
+    rows = flag_alike(rows, deltas, lambda r: r.heldout_rms_reduction_pct >= 2.0)
+    named = {r.effect: r.confounded_with for r in rows}
+    assert named == {"sole": ("pose",), "pose": ("sole",), "friction": (), "damping": ()}
     # a pair just under the cosine is not named: vectors at an angle whose cosine is below it
     a = np.array([1.0, 0.0])
     b = np.array([CONFOUND_COSINE - 0.01, np.sqrt(1 - (CONFOUND_COSINE - 0.01) ** 2)])
-    pair = [{"effect": "a", "confounded_with": []}, {"effect": "b", "confounded_with": []}]
-    _flag_alike(pair, {"a": a, "b": b}, lambda r: True)
-    assert pair[0]["confounded_with"] == [] and pair[1]["confounded_with"] == []
+    pair = flag_alike([_row("a"), _row("b")], {"a": a, "b": b}, lambda r: True)
+    assert pair[0].confounded_with == () and pair[1].confounded_with == ()
     # in-sample: alike but one a sliver of the other is not named; comparable sizes are
-    small = [{"effect": e, "confounded_with": []} for e in ("big", "sliver", "peer")]
+    small = [_row(e) for e in ("big", "sliver", "peer")]
     sizes = {"big": shared, "sliver": 0.2 * shared, "peer": 0.8 * shared}
-    _flag_alike(small, sizes, lambda r: True, comparable=True)
-    assert [r["confounded_with"] for r in small] == [["peer"], [], ["big"]]
+    small = flag_alike(small, sizes, lambda r: True, comparable=True)
+    assert [r.confounded_with for r in small] == [("peer",), (), ("big",)]
 
 
 @pytest.fixture(scope="module")
@@ -194,10 +203,10 @@ def test_fold_fits_nest_and_a_screened_candidate_is_not_held_out(base_eval):
         data, model, "base+damping", ("damping",), plan, parent=parent, screen_pct=gain + 1.0
     )
     assert screened.screened and screened.folds == []
-    (row,) = _rank(parent, {"damping": screened}, 2.0, 50, 0, 100.0)
-    assert row["screened"] and not row["passes"]
-    assert row["heldout_rms_reduction_pct"] is None
-    assert row["insample_rms_reduction_pct"] == pytest.approx(gain)
+    (row,) = rank(parent, {"damping": screened}, 2.0, 50, 0, 100.0)
+    assert row.screened and not row.passes
+    assert row.heldout_rms_reduction_pct is None
+    assert row.insample_rms_reduction_pct == pytest.approx(gain)
 
 
 def test_an_injected_damping_is_found_and_nothing_on_the_base_truth(bundled):
@@ -226,7 +235,7 @@ def test_an_injected_damping_is_found_and_nothing_on_the_base_truth(bundled):
     assert d_eff.selected == ["damping"], d_eff.summary()
     assert d_none.selected == [], d_none.summary()
     top = d_eff.ranking[0]
-    assert top["effect"] == "damping" and top["heldout_rms_reduction_ci"][0] > 0
+    assert top.effect == "damping" and top.heldout_rms_reduction_ci[0] > 0
     js = d_eff.to_json()
     assert set(js["base"]["heldout_rms"]["right"]) == {*TABLE_KEYS.values(), "cop_mm"}
     assert [w["model"] for w in js["waterfall"]] == ["base", "+damping"]
@@ -253,24 +262,160 @@ def test_confirmation_on_an_unseen_stance_shrinks_the_gap_of_a_true_effect(bundl
 
 
 def test_parallel_rounds_give_the_serial_answer(bundled):
-    """The parallel rounds (one task per candidate, on forked processes) compute the same fits
-    as the serial ones: the same rankings in every round, to round-off, and the same selection;
-    later rounds screen the same candidates."""
+    """The parallel rounds (one task per candidate, on processes *spawned*, which inherit
+    nothing: every input travels as an argument) compute the same fits as the serial ones: the
+    same rankings in every round, to round-off, and the same selection; later rounds screen the
+    same candidates."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
     stances, truth = bundled
     data = simulate(stances, (*truth, Damping(fixed=1.0)), np.random.default_rng(1))
     kw = {"candidates": ["damping", "stiffness_exponent"], "n_boot": 100}
+    spawn = multiprocessing.get_context("spawn")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         serial = diagnose_stances(data, workers=1, **kw)
-        parallel = diagnose_stances(data, workers=2, **kw)
+        with ProcessPoolExecutor(2, mp_context=spawn) as pool:
+            parallel = diagnose_stances(data, executor=pool, **kw)
     assert parallel.selected == serial.selected
     assert len(parallel.rounds) == len(serial.rounds) >= 2
     for rs, rp in zip(serial.rounds, parallel.rounds, strict=True):
-        assert [r["effect"] for r in rp] == [r["effect"] for r in rs]
+        assert [r.effect for r in rp] == [r.effect for r in rs]
         for a, b in zip(rs, rp, strict=True):
-            assert a["screened"] == b["screened"]
+            assert a.screened == b.screened
             for key in ("heldout_rms_reduction_pct", "insample_rms_reduction_pct"):
-                if a[key] is None:
-                    assert b[key] is None
+                va, vb = getattr(a, key), getattr(b, key)
+                if va is None:
+                    assert vb is None
                 else:  # the same solves on the same inputs: equal to Ipopt's round-off
-                    assert b[key] == pytest.approx(a[key], abs=1e-6)
+                    assert vb == pytest.approx(va, abs=1e-6)
+
+
+# --- execution: tasks as pure functions of plain data, on any executor; no module state -------
+class _PicklingExecutor(Executor):
+    """Runs each task at once in this process, its function, arguments and result sent through
+    pickle (as a process pool or a cluster sends them); records the order of submission."""
+
+    def __init__(self):
+        self.submitted: list[str] = []
+
+    def submit(self, fn, /, *args, **kwargs):
+        fn, args, kwargs = pickle.loads(pickle.dumps((fn, args, kwargs)))
+        self.submitted.append(args[0].name)
+        fut = Future()
+        fut.set_result(pickle.loads(pickle.dumps(fn(*args, **kwargs))))
+        return fut
+
+
+def test_a_round_runs_on_any_executor_the_dearest_first(monkeypatch):
+    """``evaluate_round`` hands each job to the executor as a picklable task (function, job and
+    round inputs through pickle), the dearest first by the hint, returns the evaluations in the
+    order of the jobs, reports each, and raises the tasks' warnings again in the caller."""
+    from types import SimpleNamespace
+
+    from gc_ocp.diagnosis import execution
+
+    def fake_evaluate(stances, model, label, names, plan, parent, **kw):
+        warnings.warn(f"note from {label}", UserWarning, stacklevel=1)
+        full = SimpleNamespace(objective=float(len(names)))
+        return SimpleNamespace(label=label, screened=True, full=full, seconds=0.5, kw=kw)
+
+    monkeypatch.setattr(execution, "evaluate", fake_evaluate)
+    jobs = [execution.Job(n, f"base+{n}", (), (n,)) for n in ("a", "b", "c")]
+    inputs = execution.RoundInputs(("stance",), (0,), parent=None, screen_pct=2.0)
+    ex, said = _PicklingExecutor(), []
+    with pytest.warns(UserWarning) as caught:
+        evs = execution.evaluate_round(jobs, inputs, ex, said.append, {"b": 9.0, "c": 3.0})
+    assert ex.submitted == ["b", "c", "a"]  # dearest first; no hint: last
+    assert list(evs) == ["a", "b", "c"] and [e.label for e in evs.values()] == [
+        "base+a",
+        "base+b",
+        "base+c",
+    ]
+    assert evs["a"].kw["screen_pct"] == 2.0 and evs["a"].kw["progress"] is None
+    assert sorted(str(w.message) for w in caught) == [f"note from base+{n}" for n in "abc"]
+    assert sorted(said) == [  # as they complete
+        f"  base+{n}: in-sample J = 1.0 (screened: not held out) (0.5 s)" for n in "abc"
+    ]
+
+
+def test_the_diagnosis_executor_is_the_callers_or_a_pool_it_closes():
+    """``candidate_executor``: the caller's executor as is (left open), none for one worker,
+    else a process pool whose workers are other processes, shut down after the block."""
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    from gc_ocp.diagnosis.execution import candidate_executor
+
+    mine = _PicklingExecutor()
+    with candidate_executor(workers=4, executor=mine) as ex:
+        assert ex is mine
+    with candidate_executor(workers=1) as ex:
+        assert ex is None
+    with candidate_executor(workers=2) as ex:
+        assert isinstance(ex, ProcessPoolExecutor)
+        assert ex.submit(os.getpid).result() != os.getpid()
+    with pytest.raises(RuntimeError):
+        ex.submit(os.getpid)  # shut down
+
+
+def _module_state(mod, source: str) -> list[str]:
+    """Module-level mutable state of ``mod``: names its ``source`` assigns at module level whose
+    value is a mutable container, functions with a cache, and ``global`` statements."""
+    import ast
+    from collections.abc import MutableMapping, MutableSequence, MutableSet
+
+    tree = ast.parse(source)
+    assigned = set()
+    for node in tree.body:
+        if isinstance(node, ast.Assign):
+            targets = node.targets
+        elif isinstance(node, (ast.AnnAssign, ast.AugAssign)):
+            targets = [node.target]
+        else:
+            continue
+        assigned |= {n.id for t in targets for n in ast.walk(t) if isinstance(n, ast.Name)}
+    mutable = (MutableMapping, MutableSequence, MutableSet, bytearray)
+    values = {n: getattr(mod, n) for n in sorted(assigned)}
+    found = [f"{n} = {type(v).__name__}" for n, v in values.items() if isinstance(v, mutable)]
+    found += [
+        f"{n}: cached"
+        for n, v in vars(mod).items()
+        if hasattr(v, "cache_info") and getattr(v, "__module__", None) == mod.__name__
+    ]
+    found += [f"global {', '.join(n.names)}" for n in ast.walk(tree) if isinstance(n, ast.Global)]
+    return found
+
+
+def test_the_diagnosis_keeps_no_module_state():
+    """No module of ``gc_ocp.diagnosis`` keeps mutable state at module level: tasks get their
+    inputs as arguments, constants are tuples or read-only mappings, nothing is cached in a
+    module (checked on every name a module assigns, its functions and ``global`` statements;
+    the checker itself on a module that breaks each rule)."""
+    import importlib
+    import pkgutil
+    import types
+    from pathlib import Path
+
+    import gc_ocp.diagnosis as pkg
+
+    bad_source = (
+        "import functools\nA = {}\nB: list = []\nC = (1, 2)\n"
+        "@functools.cache\ndef f(x):\n    return x\n"
+        "def g():\n    global A\n"
+    )
+    bad = types.ModuleType("bad")
+    exec(compile(bad_source, "bad", "exec"), bad.__dict__)
+    assert _module_state(bad, bad_source) == ["A = dict", "B = list", "f: cached", "global A"]
+
+    checked = []
+    for info in pkgutil.iter_modules(pkg.__path__):
+        if info.name == "benchmark":  # moves to gc_ocp/bench (issue 21): not the diagnosis's
+            continue
+        mod = importlib.import_module(f"gc_ocp.diagnosis.{info.name}")
+        assert _module_state(mod, Path(mod.__file__).read_text()) == [], info.name
+        checked.append(info.name)
+    init = Path(pkg.__file__).read_text()
+    assert _module_state(pkg, init) == []
+    assert {"diagnose", "execution", "selection", "result", "confirm", "report"} <= set(checked)

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 import warnings
+from html.parser import HTMLParser
+from pathlib import Path
 
 import pytest
 
@@ -48,11 +51,11 @@ def test_report_is_self_contained(page):
 
 def test_report_names_every_ranked_effect_and_its_numbers(diagnosis, page):
     for r in diagnosis.ranking:
-        assert f"<b>{r['effect']}</b>" in page
-        assert f"{r['heldout_rms_reduction_pct']:+.1f}" in page
-        lo, hi = r["heldout_rms_reduction_ci"]
+        assert f"<b>{r.effect}</b>" in page
+        assert f"{r.heldout_rms_reduction_pct:+.1f}" in page
+        lo, hi = r.heldout_rms_reduction_ci
         assert f"[{lo:+.1f}, {hi:+.1f}]" in page
-        assert f"{r['insample_rms_reduction_pct']:+.1f}" in page
+        assert f"{r.insample_rms_reduction_pct:+.1f}" in page
     for heading in (
         "Where the gap is",
         "Which effect explains it",
@@ -71,22 +74,24 @@ def test_report_says_when_effects_are_confounded(diagnosis):
     from gc_ocp.diagnosis.report import confounded_groups, report_html
 
     r = diagnosis.ranking[0]
-    twin = {**r, "effect": "ground_offset", "confounded_with": [r["effect"]]}
-    ranking = [{**r, "confounded_with": ["ground_offset"]}, twin]
-    assert confounded_groups(ranking) == [[r["effect"], "ground_offset"]]
+    twin = dataclasses.replace(r, effect="ground_offset", confounded_with=(r.effect,))
+    ranking = [dataclasses.replace(r, confounded_with=("ground_offset",)), twin]
+    assert confounded_groups(ranking) == [[r.effect, "ground_offset"]]
     d = dataclasses.replace(diagnosis, ranking=ranking, rounds=[ranking])
     page = report_html(d, provenance=_provenance())
     assert (
-        f"<b>{r['effect']}</b> and <b>ground_offset</b> explain the same part of the gap: the "
+        f"<b>{r.effect}</b> and <b>ground_offset</b> explain the same part of the gap: the "
         "data cannot tell them apart." in page
     )
     assert "sha256 0123456789abcdef" in page and "gc-ocp diagnose" in page
 
-    alone = [{**r, "confounded_with": ["kinematic_correction"], "gain_from_nuisance": 0.8}]
+    alone = [
+        dataclasses.replace(r, confounded_with=("kinematic_correction",), gain_from_nuisance=0.8)
+    ]
     assert confounded_groups(alone) == []  # a part of the base is not a candidate
     page = report_html(dataclasses.replace(diagnosis, ranking=alone, rounds=[alone]))
     assert (
-        f"<b>{r['effect']}</b> and the base's <b>kinematic_correction</b> (the per-stance "
+        f"<b>{r.effect}</b> and the base's <b>kinematic_correction</b> (the per-stance "
         "correction the base already has) explain the same part of the gap" in page
     )
     assert "80 % of its held-out gain" in page
@@ -129,58 +134,62 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
     from gc_ocp.diagnosis.report import _verdict, report_html
 
     r = diagnosis.ranking[0]
-    weak = {
-        **r,
-        "passes": False,
-        "inconclusive": True,
-        "heldout_rms_reduction_pct": 1.5,
-        "heldout_rms_reduction_ci": [-0.5, 3.5],
-        "insample_rms_reduction_pct": 6.0,
-        "confounded_with": [],
-    }
+    weak = dataclasses.replace(
+        r,
+        passes=False,
+        inconclusive=True,
+        heldout_rms_reduction_pct=1.5,
+        heldout_rms_reduction_ci=(-0.5, 3.5),
+        insample_rms_reduction_pct=6.0,
+        confounded_with=(),
+    )
     d = dataclasses.replace(
         diagnosis, ranking=[weak], rounds=[[weak]], selected=[], waterfall=diagnosis.waterfall[:1]
     )
-    assert d.inconclusive == [r["effect"]] and d.to_json()["inconclusive"] == [r["effect"]]
-    assert f"inconclusive: {r['effect']}" in d.summary()
+    assert d.inconclusive == [r.effect] and d.to_json()["inconclusive"] == [r.effect]
+    assert f"inconclusive: {r.effect}" in d.summary()
     page = report_html(d)
     assert "No candidate effect passes" in page and "Inconclusive:" in page
     assert _verdict(weak, 2.0) == "fail (below 2 %)"
-    assert _verdict({**weak, "heldout_rms_reduction_pct": 3.0}, 2.0) == "fail (interval reaches 0)"
-    in_sample = {**weak, "heldout_rms_reduction_pct": 3.0, "heldout_rms_reduction_ci": [1, 5]}
-    assert _verdict({**in_sample, "insample_rms_reduction_pct": 1.0}, 2.0) == (
+    assert _verdict(dataclasses.replace(weak, heldout_rms_reduction_pct=3.0), 2.0) == (
+        "fail (interval reaches 0)"
+    )
+    in_sample = dataclasses.replace(
+        weak, heldout_rms_reduction_pct=3.0, heldout_rms_reduction_ci=(1, 5)
+    )
+    assert _verdict(dataclasses.replace(in_sample, insample_rms_reduction_pct=1.0), 2.0) == (
         "fail (in-sample below 2 %)"
     )
-    screened = {**weak, "heldout_rms_reduction_pct": None, "heldout_rms_reduction_ci": [None] * 2}
+    screened = dataclasses.replace(
+        weak, heldout_rms_reduction_pct=None, heldout_rms_reduction_ci=(None, None)
+    )
     assert _verdict(screened, 2.0) == "fail (in-sample below 2 %: not held out)"
 
 
-def test_report_states_the_rule_the_code_applies(diagnosis):
+def test_report_states_the_rule_the_code_applies(diagnosis, page):
     """The page's method section gives the decision rule and the confounding criteria with the
     library's constants (a changed constant changes the page), and says when the interval
     cannot resample stances (fewer held-out stances than ``MIN_CLUSTERS``)."""
-    import importlib
-
     from gc_ocp.diagnosis import compare
-    from gc_ocp.diagnosis.report import _method
+    from gc_ocp.diagnosis import selection as rule
+    from gc_ocp.diagnosis.report import report_html
 
-    diagnose = importlib.import_module("gc_ocp.diagnosis.diagnose")  # the module, not the function
-
-    text = _method(diagnosis)
+    text = page.split("How the effects were judged")[1].split("Notes and flags")[0]
     t = f"{diagnosis.threshold_pct:g} %"
     assert f"reduces the in-sample objective by at least {t}" in text  # the in-sample guard
     assert "inconclusive" in text and "screened" in text
-    assert f"cosine above {diagnose.CONFOUND_COSINE:g}" in text
-    assert f"{100 * diagnose.COMPARABLE_FRACTION:.0f} % of the larger" in text
-    assert f"less than {100 * diagnose.NON_ADDITIVE_FRACTION:.0f} % of its gain" in text
-    assert f"more than {100 * diagnose.NUISANCE_SHARE:.0f} % of an effect" in text
+    assert f"cosine above {rule.CONFOUND_COSINE:g}" in text
+    assert f"{100 * rule.COMPARABLE_FRACTION:.0f} % of the larger" in text
+    assert f"less than {100 * rule.NON_ADDITIVE_FRACTION:.0f} % of its gain" in text
+    assert f"more than {100 * rule.NUISANCE_SHARE:.0f} % of an effect" in text
     n_held = len(diagnosis.folds["heldout"])
     assert n_held < compare.MIN_CLUSTERS  # the bundled trial: two held-out stances
     assert f"fewer than {compare.MIN_CLUSTERS}) the stances themselves are not resampled" in text
     many = dataclasses.replace(
         diagnosis, folds={**diagnosis.folds, "heldout": [f"s{i}" for i in range(6)], "n": 6}
     )
-    assert "the held-out stances resampled" in _method(many)
+    pngs = dict.fromkeys(("heatmap", "residuals", "ranking", "waterfall", "heatmap_final"), b"")
+    assert "the held-out stances resampled" in report_html(many, pngs=pngs)
 
 
 def test_effect_block_values_carry_their_standard_errors():
@@ -194,3 +203,99 @@ def test_effect_block_values_carry_their_standard_errors():
         )
     )
     assert rows == {"trial / ms": "10.4 ± 0.8", "c": "1.9 ± 0.13", "n": "1 (fixed)"}
+
+
+# --- the page and the JSON against those of the f-string renderer (tests/report_fixtures) ---------
+FIXTURES = Path(__file__).parent / "report_fixtures"
+CASES = sorted(p.name for p in FIXTURES.iterdir() if (p / "diagnosis.json").exists())
+
+
+BLOCKS = frozenset(
+    "html head title body h1 h2 h3 p ul li table tr td th div figure figcaption br img".split()
+)
+"""Elements that start a new line of a page's visible text (as a browser lays them out)."""
+
+
+class _Page(HTMLParser):
+    """What a reader of a page gets: its visible text (each image by its alt text; a line break
+    at every block element, whitespace within a line collapsed, as a browser shows it), its
+    markup (each start tag with its attributes, image data cut) and its style sheet."""
+
+    def __init__(self, page: str):
+        super().__init__(convert_charrefs=True)
+        self.chunks: list[str] = []
+        self.tags: list[tuple] = []
+        self.style = ""
+        self._in_style = False
+        self.feed(page)
+        self.close()
+
+    def handle_starttag(self, tag, attrs):
+        attrs = [(k, "data:" if k == "src" else v) for k, v in attrs]
+        self.tags.append((tag, tuple(sorted(attrs, key=lambda a: a[0]))))
+        self._in_style = tag == "style"
+        if tag in BLOCKS:
+            self.chunks.append("\n")
+        if tag == "img":
+            self.chunks.append(f"[image: {dict(attrs).get('alt')}]\n")
+
+    def handle_endtag(self, tag):
+        self.tags.append(("/" + tag,))
+        self._in_style = False
+        if tag in BLOCKS:
+            self.chunks.append("\n")
+
+    def handle_data(self, data):
+        if self._in_style:
+            self.style += " ".join(data.split())
+        else:
+            self.chunks.append(data)
+
+    @property
+    def visible(self) -> str:
+        """The text, line by line (empty lines dropped), whitespace collapsed in each."""
+        lines = (" ".join(line.split()) for line in "".join(self.chunks).split("\n"))
+        return "\n".join(line for line in lines if line)
+
+
+def _fixture(case: str):
+    from gc_ocp.diagnosis import Diagnosis
+    from gc_ocp.estimation.result import EstimationResult
+
+    folder = FIXTURES / case
+    text = (folder / "diagnosis.json").read_text()
+    js = json.loads(text)
+    final = EstimationResult.from_json(folder / "final_fit.json")
+    return folder, text, js, Diagnosis.from_json(js), final
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_report_page_reads_as_before(case):
+    """The page of a diagnosis read back from the CLI's ``diagnosis.json`` (+ its
+    ``final_fit.json``) shows the text, numbers and markup of the page that run wrote (made by
+    the f-string renderer the template replaced; images cut): the same visible text, whitespace
+    normalised, and the same tags with the same attributes."""
+    from gc_ocp.diagnosis.report import report_html
+
+    folder, _, js, d, final = _fixture(case)
+    pngs = dict.fromkeys(("heatmap", "residuals", "ranking", "waterfall"), b"\x89PNG")
+    if d.selected:
+        pngs["heatmap_final"] = b"\x89PNG"
+    new = _Page(report_html(d, provenance=js["provenance"], pngs=pngs, final=final))
+    old = _Page((folder / "report.html").read_text(encoding="utf-8"))
+    assert len(old.visible) > 3000 and "Provenance" in old.visible
+    assert new.visible == old.visible
+    assert new.tags == old.tags
+    assert new.style == old.style
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_diagnosis_json_is_written_back_byte_for_byte(case):
+    """``Diagnosis.from_json`` then ``to_json`` gives the CLI's ``diagnosis.json`` back, byte for
+    byte (keys, their order, every value): the JSON is written from the result's fields alone."""
+    from gc_ocp.diagnosis import Diagnosis
+
+    _, text, js, d, _ = _fixture(case)
+    again = json.dumps({**d.to_json(), "provenance": js["provenance"]}, indent=2)
+    assert again == text
+    assert Diagnosis.from_json(json.loads(again)).summary() == d.summary()

@@ -161,11 +161,9 @@ def test_diagnosis_evaluates_time_offset_with_the_reduced_bound(cut60):
         warnings.simplefilter("ignore")
         d = diagnose(pairs, candidates=["time_offset"], max_effects=0, n_boot=100, workers=1)
     [row] = d.ranking
-    assert "not_evaluable" not in row
-    assert (
-        row["heldout_rms_reduction_pct"] is not None and len(row["per_stance_reduction_pct"]) == 2
-    )
-    assert "time_offset_bound_reduced" in row["flags"]
+    assert row.not_evaluable is None and "not_evaluable" not in row.to_json()
+    assert row.heldout_rms_reduction_pct is not None and len(row.per_stance_reduction_pct) == 2
+    assert "time_offset_bound_reduced" in row.flags
 
 
 def test_a_candidate_that_cannot_be_evaluated_is_reported_and_the_others_go_on():
@@ -181,16 +179,16 @@ def test_a_candidate_that_cannot_be_evaluated_is_reported_and_the_others_go_on()
         warnings.simplefilter("ignore")
         d = diagnose(pairs, candidates=["time_offset", "damping"], n_boot=100, workers=2)
     first, last = d.rounds[0]
-    assert first["effect"] == "damping" and first["heldout_rms_reduction_pct"] is not None
-    assert last["effect"] == "time_offset" and not last["passes"]
-    assert "time_offset cannot be estimated" in last["not_evaluable"]
-    assert "test_small:right@0.407s" in last["not_evaluable"]
-    assert last["heldout_rms_reduction_pct"] is None and last["insample_rms_reduction_pct"] is None
+    assert first.effect == "damping" and first.heldout_rms_reduction_pct is not None
+    assert last.effect == "time_offset" and not last.passes
+    assert "time_offset cannot be estimated" in last.not_evaluable
+    assert "test_small:right@0.407s" in last.not_evaluable
+    assert last.heldout_rms_reduction_pct is None and last.insample_rms_reduction_pct is None
     # damping passes here and is added; a second round would only have time_offset to retry
     assert d.selected == ["damping"] and len(d.rounds) == 1
     assert any(n.startswith("time_offset is not evaluable") for n in d.notes)
     assert re.search(r"\n +time_offset +not evaluable on these data", d.summary())
     js = json.loads(json.dumps(d.to_json()))
-    assert js["ranking"][-1]["not_evaluable"] == last["not_evaluable"]
+    assert js["ranking"][-1]["not_evaluable"] == last.not_evaluable
     page = report_html(d)
     assert "not evaluable on these data: time_offset cannot be estimated" in page

@@ -182,8 +182,7 @@ def test_diagnose_and_confirm_trials_with_the_same_file_name(bts_pairs):
     """The diagnosis holds out every stance of the two trials (two per foot), and its
     confirmation on a third trial of the same file name scores that trial's stances: new
     stances, not a clash with the diagnosed ones."""
-    from gc_ocp.diagnosis import diagnose
-    from gc_ocp.diagnosis.diagnose import confirm
+    from gc_ocp.diagnosis import confirm, diagnose
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -191,8 +190,8 @@ def test_diagnose_and_confirm_trials_with_the_same_file_name(bts_pairs):
         c = confirm(bts_pairs[:2], bts_pairs[2:], [], n_boot=100)
     trained = [(1, bts_pairs[0]), (2, bts_pairs[1])]
     assert _labelled(d.folds["stances"], trained) and d.folds["n"] == 4
-    assert [r["effect"] for r in d.ranking] == ["damping"]
-    assert d.ranking[0]["heldout_rms_reduction_pct"] is not None
+    assert [r.effect for r in d.ranking] == ["damping"]
+    assert d.ranking[0].heldout_rms_reduction_pct is not None
     assert _labelled(c["train"], trained)
     assert _labelled(c["test"], [(3, bts_pairs[2])])
     assert [s["model"] for s in c["steps"]] == ["base"]
@@ -202,7 +201,7 @@ def test_diagnose_and_confirm_trials_with_the_same_file_name(bts_pairs):
 def test_confirm_still_refuses_a_diagnosed_trial(bts_pairs, bts_folders, tmp_path):
     """The same trial as new trial is refused, given by its path or as a copy under another
     folder (same motion); nothing is fitted before the refusal."""
-    from gc_ocp.diagnosis.diagnose import confirm
+    from gc_ocp.diagnosis import confirm
     from gc_ocp.io import load_trial
 
     with warnings.catch_warnings():

@@ -103,6 +103,20 @@ from gc_ocp.outputs import atomic_savefig, atomic_write_text, check_writable
 # --- the benchmark -----------------------------------------------------------------------------
 
 
+CASE_ROW_KEYS = (
+    "effect",
+    "heldout_rms_reduction_pct",
+    "heldout_rms_reduction_ci",
+    "insample_rms_reduction_pct",
+    "n_params",
+    "passes",
+    "confounded_with",
+    "per_stance_reduction_pct",
+    "gain_from_nuisance",
+)
+"""What a case keeps of each ranking row (its ``diagnosis.json`` keys)."""
+
+
 def plan(
     base: str = "registered",
     effects: Sequence[str] | None = None,
@@ -195,24 +209,7 @@ def run_case(
             workers=workers,
         )
     answer = d.selected[0] if d.selected else NONE
-    rows = [
-        {
-            k: r[k]
-            for k in (
-                "effect",
-                "heldout_rms_reduction_pct",
-                "heldout_rms_reduction_ci",
-                "insample_rms_reduction_pct",
-                "n_params",
-                "passes",
-                "confounded_with",
-                "per_stance_reduction_pct",
-                "gain_from_nuisance",
-            )
-            if k in r
-        }
-        for r in d.ranking
-    ]
+    rows = [{k: v for k, v in r.to_json().items() if k in CASE_ROW_KEYS} for r in d.ranking]
     row = next((r for r in rows if r["effect"] == answer), None)
     truth_row = next((r for r in rows if r["effect"] == truth_name), None)
     return {
@@ -230,7 +227,7 @@ def run_case(
         ),
         "truth_passes": bool(truth_row["passes"]) if truth_row else None,
         "ranking": rows,
-        "base_heldout_superior_pct_bw": d.waterfall[0]["heldout_superior_force_pct_bw"],
+        "base_heldout_superior_pct_bw": d.waterfall[0].heldout_superior_force_pct_bw,
         "seconds_generate": t1 - t0,
         "seconds_diagnose": d.seconds,
     }

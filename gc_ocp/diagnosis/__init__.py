@@ -6,30 +6,34 @@ it shrinks once that effect is added (``docs/diagnosis.md``).
 >>> d = gc_ocp.diagnose([(trial, kin)])                              # doctest: +SKIP
 >>> print(d.summary()); d.heatmap(); d.waterfall_figure()            # doctest: +SKIP
 
-Layout: :mod:`.phases` (gait phases of a stance), :mod:`.where` (residual map and figures),
-:mod:`.compare` (folds, held-out score, bootstrap), :mod:`.diagnose` (ranking, selection,
-confounding, the :class:`Diagnosis` result), :mod:`.report` (the self-contained HTML report).
+Layout, one idea per module (the table in ``docs/architecture.md``):
+
+* :mod:`.phases`: gait phases of a stance; :mod:`.where`: the residual map and its figures;
+* :mod:`.compare`: folds, the held-out score, the bootstrap (one model's evaluation);
+* :mod:`.selection`: the decision rule, ranking, confounding, which effect a round adds;
+* :mod:`.execution`: a round's candidates as tasks on a ``concurrent.futures.Executor``;
+* :mod:`.diagnose`: the orchestration (:func:`diagnose`, :func:`diagnose_stances`, the bases);
+* :mod:`.result`: the :class:`Diagnosis` and its rows (:class:`RankRow`,
+  :class:`WaterfallStep`): JSON, summary, figures;
+* :mod:`.confirm`: confirmation on stances the diagnosis never saw;
+* :mod:`.report`: the self-contained HTML page (markup in ``templates/report.html.j2``).
 """
 
-from gc_ocp.diagnosis.diagnose import (
-    BASES,
-    MIN_REDUCTION_PCT,
-    Diagnosis,
-    candidate_names,
-    confirm,
-    confirm_stances,
-    diagnose,
-    diagnose_stances,
-)
+from gc_ocp.diagnosis.confirm import confirm, confirm_stances
+from gc_ocp.diagnosis.diagnose import BASES, candidate_names, diagnose, diagnose_stances
 from gc_ocp.diagnosis.phases import PHASES, phase_bounds
 from gc_ocp.diagnosis.report import report_html, write_report
+from gc_ocp.diagnosis.result import Diagnosis, RankRow, WaterfallStep
+from gc_ocp.diagnosis.selection import MIN_REDUCTION_PCT
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure, where
 
-__all__ = [
+__all__ = (
     "BASES",
     "MIN_REDUCTION_PCT",
     "PHASES",
     "Diagnosis",
+    "RankRow",
+    "WaterfallStep",
     "candidate_names",
     "confirm",
     "confirm_stances",
@@ -41,4 +45,4 @@ __all__ = [
     "residual_figure",
     "where",
     "write_report",
-]
+)

@@ -427,7 +427,7 @@ def superior_rms(ev: Evaluation) -> float:
     return float(np.sqrt(np.mean(e**2))) if e.size else float("nan")
 
 
-__all__ = [
+__all__ = (
     "BLOCK_SECONDS",
     "MIN_CLUSTERS",
     "Evaluation",
@@ -445,4 +445,4 @@ __all__ = [
     "score",
     "superior_rms",
     "weighted_residuals",
-]
+)

@@ -75,4 +75,9 @@ def phase_index(time: np.ndarray, bounds: np.ndarray) -> np.ndarray:
     return out
 
 
-__all__ = ["PHASES", "PERRY_STANCE_FRACTIONS", "phase_bounds", "phase_index"]
+__all__ = (
+    "PHASES",
+    "PERRY_STANCE_FRACTIONS",
+    "phase_bounds",
+    "phase_index",
+)

@@ -193,4 +193,10 @@ def residual_figure(
     return fig
 
 
-__all__ = ["COP_SCALE_MM", "heatmap_figure", "residual_figure", "stance_residuals", "where"]
+__all__ = (
+    "COP_SCALE_MM",
+    "heatmap_figure",
+    "residual_figure",
+    "stance_residuals",
+    "where",
+)

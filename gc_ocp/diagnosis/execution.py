@@ -1,0 +1,196 @@
+"""Where a round's candidates are fitted: one task per candidate, on any
+:class:`concurrent.futures.Executor`.
+
+A task is :func:`run_job`, a pure function of two picklable plain-data arguments: the
+:class:`Job` (which model) and the :class:`RoundInputs` shared by every job of the round
+(stances, fold plan, parent evaluation, weights, solver options, screen). It returns the
+:class:`~gc_ocp.diagnosis.compare.Evaluation` and the warnings the fits raised, which
+:func:`evaluate_round` raises again in the calling process (under its filters, as if the fits
+had run there). Nothing travels through module globals and no start method is assumed, so the
+executor may be a local process pool (:func:`candidate_executor`), the caller's own one (any
+start method: ``tests/test_diagnosis.py`` runs a diagnosis on ``spawn``ed processes), or a
+cluster's (``dask.distributed.Client(...).get_executor()``).
+
+A worker process derives a model's per-frame functions and loads them compiled from the disk
+cache the first time it fits that model (``estimation/compiled.py``), and keeps them for its
+next tasks. The local pool uses the platform's default start method: ``fork`` on Linux (up to
+Python 3.13), whose workers start with the parent's functions already loaded; with ``spawn``
+each worker imports gc_ocp and derives them again, which cost a full diagnosis of the bundled
+trial a few seconds more (``docs/diagnosis.md``, *Speed*).
+
+One task per *fit* (a candidate's folds spread over the processes) was tried and measured
+slower than one task per candidate (bundled trial 63.6 s against 49.5 s; three BTS trials
+149.5 s against 149.6 s): every process then derives and loads every configuration's
+functions, and the results travel between processes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import os
+import time
+import warnings
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from concurrent.futures import Executor, as_completed
+
+from gc_ocp.diagnosis.compare import Evaluation, describe, evaluate
+from gc_ocp.errors import InputError, ModelError
+from gc_ocp.estimation.problem import Weights
+from gc_ocp.estimation.solve import IpoptOptions
+from gc_ocp.stance import StanceData
+
+MAX_WORKERS = 4
+"""Most processes :func:`default_workers` proposes (each holds its own compiled functions and
+fits)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Job:
+    """One candidate of a round: the effect ``name`` tried, the ``model`` (components) it makes
+    on top of the round's parent, that model's evaluation ``label`` (``"base+a+b"``) and the
+    effects it adds to the base (``names``)."""
+
+    name: str
+    label: str
+    model: tuple
+    names: tuple[str, ...]
+
+
+@dataclasses.dataclass(frozen=True)
+class RoundInputs:
+    """What every job of a round shares: the ``stances`` (one subject), the fold ``plan``
+    (indices held out), the ``parent`` evaluation (warm starts, screening), the weights and
+    solver options of every fit, and ``screen_pct``, the in-sample screen of
+    :func:`~gc_ocp.diagnosis.compare.evaluate` (``None``: every candidate is held out)."""
+
+    stances: tuple[StanceData, ...]
+    plan: tuple[int, ...]
+    parent: Evaluation
+    weights: Weights | None = None
+    options: IpoptOptions | None = None
+    screen_pct: float | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class NotEvaluable:
+    """The outcome of a job whose evaluation raised an input or model error
+    (:data:`NOT_EVALUABLE_ERRORS`; e.g. ``time_offset`` on a trial whose recording starts inside
+    a stance's margin so that no clock offset fits): reported with the message, not ranked; the
+    other candidates go on."""
+
+    label: str
+    message: str
+    seconds: float = 0.0
+
+
+NOT_EVALUABLE_ERRORS = (InputError, ModelError)
+"""Errors that make one candidate not evaluable on the data instead of stopping the diagnosis
+(a failed solve, or any other error, still stops it)."""
+
+WarningRecord = tuple[str, type, str, int]
+"""A warning raised in a task: ``(message, category, filename, lineno)``."""
+
+
+def _evaluate(job: Job, inputs: RoundInputs, progress=None) -> Evaluation | NotEvaluable:
+    t0 = time.perf_counter()
+    try:
+        return evaluate(
+            list(inputs.stances),
+            job.model,
+            job.label,
+            job.names,
+            list(inputs.plan),
+            inputs.parent,
+            weights=inputs.weights,
+            options=inputs.options,
+            progress=progress,
+            screen_pct=inputs.screen_pct,
+        )
+    except NOT_EVALUABLE_ERRORS as e:
+        if progress is not None:
+            progress(f"  {job.label}: not evaluable on these data: {e}")
+        return NotEvaluable(job.label, str(e), time.perf_counter() - t0)
+
+
+def run_job(
+    job: Job, inputs: RoundInputs
+) -> tuple[Evaluation | NotEvaluable, tuple[WarningRecord, ...]]:
+    """The task: ``job`` evaluated on ``inputs`` (fitted on all stances and on each fold,
+    held-out stances scored), with the warnings its fits raised (recorded, not shown)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        ev = _evaluate(job, inputs)
+    records = dict.fromkeys((str(w.message), w.category, w.filename, w.lineno) for w in caught)
+    return ev, tuple(records)
+
+
+def evaluate_round(
+    jobs: Sequence[Job],
+    inputs: RoundInputs,
+    executor: Executor | None = None,
+    progress: Callable[[str], None] | None = None,
+    hint: Mapping[str, float] | None = None,
+) -> dict[str, Evaluation | NotEvaluable]:
+    """``{job name: Evaluation}`` of every job, in the order of ``jobs`` (:class:`NotEvaluable`
+    for a job whose data cannot evaluate it).
+
+    executor: where the tasks (:func:`run_job`) run, one per job, submitted the dearest first
+    (``hint``: ``{name: seconds}``, e.g. of the same candidates in the previous round) so that
+    the longest does not start last. ``None``, or a single job: in this process, one after the
+    other (with the fits' own progress messages)."""
+    say = progress or (lambda s: None)
+    if executor is None or len(jobs) <= 1:
+        return {job.name: _evaluate(job, inputs, say) for job in jobs}
+    order = sorted(jobs, key=lambda j: -(hint or {}).get(j.name, 0.0))
+    futures = {executor.submit(run_job, job, inputs): job.name for job in order}
+    out = {}
+    for fut in as_completed(futures):
+        ev, caught = fut.result()
+        for message, category, filename, lineno in caught:
+            warnings.warn_explicit(message, category, filename, lineno)
+        out[futures[fut]] = ev
+        what = "not evaluable" if isinstance(ev, NotEvaluable) else describe(ev)
+        say(f"  {ev.label}: {what} ({ev.seconds:.1f} s)")
+    return {job.name: out[job.name] for job in jobs}
+
+
+def default_workers() -> int:
+    """Processes for the candidates of a round: the CPU cores this process may use, at most
+    :data:`MAX_WORKERS`."""
+    n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(MAX_WORKERS, n or 1))
+
+
+@contextlib.contextmanager
+def candidate_executor(
+    workers: int | None = None, executor: Executor | None = None
+) -> Iterator[Executor | None]:
+    """The executor of a diagnosis's rounds, for the ``with`` block: ``executor`` when given
+    (the caller's; not shut down here); ``None`` (in this process) with ``workers=1``;
+    otherwise a pool of ``workers`` (default :func:`default_workers`) processes, started at the
+    first task and shut down at the end of the block."""
+    if executor is not None:
+        yield executor
+        return
+    n = default_workers() if workers is None else int(workers)
+    if n <= 1:
+        yield None
+        return
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(n) as pool:
+        yield pool
+
+
+__all__ = (
+    "MAX_WORKERS",
+    "NOT_EVALUABLE_ERRORS",
+    "Job",
+    "NotEvaluable",
+    "RoundInputs",
+    "candidate_executor",
+    "default_workers",
+    "evaluate_round",
+    "run_job",
+)

@@ -1,0 +1,331 @@
+"""What a diagnosis returns: the :class:`Diagnosis` and its rows, its JSON, summary and figures.
+
+Plain data, typed: a ranking row is a :class:`RankRow`, a waterfall step a :class:`WaterfallStep`
+(frozen dataclasses whose fields are the keys of ``diagnosis.json``, in its order; schema in
+``docs/diagnosis.md``); readers use their attributes. The evaluations behind a diagnosis (the
+fits, :class:`~gc_ocp.diagnosis.compare.Evaluation`) ride along in ``Diagnosis.evaluations`` and
+are not written to JSON. How the rows are computed is :mod:`.selection`; the HTML page,
+:mod:`.report`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+
+import numpy as np
+
+from gc_ocp.diagnosis.compare import Evaluation, heldout_quality, score, superior_rms
+
+SCORE_TEXT = (
+    "held-out combined score: sqrt(2 E / n), E = data cost + nuisance prior cost + "
+    "1/2 log det of the nuisance Hessian (all six channels, in units of the error "
+    "scale); reduction = 1 - S_model / S_parent"
+)
+"""What ``diagnosis.json`` says its ``score`` is."""
+
+
+@dataclasses.dataclass(frozen=True)
+class RankRow:
+    """One candidate effect in a round: its reductions over the round's parent model and what
+    the decision rule made of them (:mod:`.selection`).
+
+    Reductions in [%] of the combined score (held out; ``None`` when ``screened``: fitted on all
+    stances only, its in-sample reduction being below the threshold), with the 95 % interval
+    ``(lo, hi)``; ``per_stance_reduction_pct``: ``{stance label: %}``; ``n_params``: scalars the
+    effect estimates; ``gain_from_nuisance``: the share of its held-out gain that comes from a
+    cheaper nuisance (``None`` unless the gain counts); ``confounded_with``: the candidates (or
+    parts of the base) the data cannot tell it from; ``flags``: codes of its fit's flags."""
+
+    effect: str
+    heldout_rms_reduction_pct: float | None
+    heldout_rms_reduction_ci: tuple[float | None, float | None]
+    heldout_superior_force_reduction_pct: float | None
+    insample_rms_reduction_pct: float
+    per_stance_reduction_pct: Mapping[str, float]
+    n_params: int
+    passes: bool
+    screened: bool
+    inconclusive: bool
+    gain_from_nuisance: float | None
+    confounded_with: tuple[str, ...]
+    flags: tuple[str, ...]
+    not_evaluable: str | None = None
+    """Why the candidate could not be evaluated on these data (its fit raised an input or model
+    error, e.g. a clock offset on a recording that starts inside a stance's margin), or None.
+    Such a row has no figures, never passes, comes last; written to JSON only when set."""
+
+    def confounded(self, *others: str) -> RankRow:
+        """This row also naming ``others`` confounded with it (each once, in the given order)."""
+        names = list(self.confounded_with)
+        names += [o for o in dict.fromkeys(others) if o not in names]
+        return dataclasses.replace(self, confounded_with=tuple(names))
+
+    def to_json(self) -> dict:
+        """The row as ``diagnosis.json`` has it (tuples as lists)."""
+        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        if self.not_evaluable is None:
+            del fields["not_evaluable"]
+        return {
+            **fields,  # in the order of the fields, the values below replaced in place
+            "heldout_rms_reduction_ci": list(self.heldout_rms_reduction_ci),
+            "per_stance_reduction_pct": dict(self.per_stance_reduction_pct),
+            "confounded_with": list(self.confounded_with),
+            "flags": list(self.flags),
+        }
+
+    @classmethod
+    def from_json(cls, d: Mapping) -> RankRow:
+        return cls(
+            **{
+                **d,
+                "heldout_rms_reduction_ci": tuple(d["heldout_rms_reduction_ci"]),
+                "per_stance_reduction_pct": dict(d["per_stance_reduction_pct"]),
+                "confounded_with": tuple(d["confounded_with"]),
+                "flags": tuple(d["flags"]),
+            }
+        )
+
+    def line(self) -> str:
+        """The row in a line: ``effect +x.x % [lo, hi]`` (or its in-sample screen)."""
+        if self.not_evaluable is not None:
+            return f"{self.effect} not evaluable"
+        if self.heldout_rms_reduction_pct is None:
+            return f"{self.effect} in-sample {self.insample_rms_reduction_pct:+.1f} % (screened)"
+        lo, hi = self.heldout_rms_reduction_ci
+        mark = " PASS" if self.passes else ""
+        return f"{self.effect} {self.heldout_rms_reduction_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}]{mark}"
+
+
+@dataclasses.dataclass(frozen=True)
+class WaterfallStep:
+    """The model after a step of the forward selection (``"base"``, ``"+effect"``): its held-out
+    superior-force RMS [% BW] (both feet pooled), ``{side: {channel key: RMS}}`` and combined
+    score. ``label``: the label of its evaluation (``"base+a+b"``; not written to JSON)."""
+
+    model: str
+    heldout_superior_force_pct_bw: float
+    heldout_rms: Mapping[str, Mapping[str, float]]
+    score: float
+    label: str
+
+    @classmethod
+    def of(cls, model: str, ev: Evaluation) -> WaterfallStep:
+        """The step ``model`` whose evaluation is ``ev``."""
+        return cls(model, superior_rms(ev), heldout_quality(ev), score(ev), ev.label)
+
+    def to_json(self) -> dict:
+        return {
+            "model": self.model,
+            "heldout_superior_force_pct_bw": self.heldout_superior_force_pct_bw,
+            "heldout_rms": self.heldout_rms,
+            "score": self.score,
+        }
+
+
+@dataclasses.dataclass
+class Diagnosis:
+    """The result of :func:`~gc_ocp.diagnosis.diagnose`: plain data plus the evaluations behind it.
+
+    ranking: every candidate against the base (round 1), best first; rounds: the ranking of every
+    forward-selection round; selected: effects added, in order; waterfall: held-out RMS after each
+    step; where: the residual map of the base (held-out stances) and of the final model;
+    evaluations: ``{label: Evaluation}`` (fits; not written to JSON)."""
+
+    base: str
+    base_components: list[str]
+    candidates: list[str]
+    ranking: list[RankRow]
+    rounds: list[list[RankRow]]
+    selected: list[str]
+    waterfall: list[WaterfallStep]
+    where: dict
+    folds: dict
+    seconds: float
+    threshold_pct: float
+    evaluations: dict = dataclasses.field(default_factory=dict, repr=False)
+    notes: list[str] = dataclasses.field(default_factory=list)
+    max_effects: int | None = None
+
+    @property
+    def inconclusive(self) -> list[str]:
+        """Candidates of the last round that fail the rule yet reduce the score both in-sample
+        (by at least the threshold) and on held-out stances, without a margin the data support
+        (below the threshold, or an interval reaching 0): with more stances they might pass. When
+        nothing is selected, "none" is then a weak answer, and the result says so."""
+        return [r.effect for r in (self.rounds[-1] if self.rounds else []) if r.inconclusive]
+
+    @property
+    def base_evaluation(self) -> Evaluation:
+        return self.evaluations["base"]
+
+    @property
+    def final_evaluation(self) -> Evaluation:
+        return self.evaluations[self.waterfall[-1].label]
+
+    def to_json(self) -> dict:
+        """``diagnosis.json`` (schema in ``docs/diagnosis.md``)."""
+        b = self.waterfall[0]  # the base's step: its held-out numbers
+        return {
+            "base": {
+                "name": self.base,
+                "model": self.base_components,
+                "heldout_rms": b.heldout_rms,
+                "heldout_superior_force_pct_bw": b.heldout_superior_force_pct_bw,
+                "score": b.score,
+            },
+            "candidates": self.candidates,
+            "ranking": [r.to_json() for r in self.ranking],
+            "rounds": [[r.to_json() for r in rows] for rows in self.rounds],
+            "selected": self.selected,
+            "inconclusive": self.inconclusive,
+            "waterfall": [w.to_json() for w in self.waterfall],
+            "where": self.where,
+            "folds": self.folds,
+            "threshold_pct": self.threshold_pct,
+            "max_effects": self.max_effects,
+            "score": SCORE_TEXT,
+            "notes": self.notes,
+            "seconds": self.seconds,
+        }
+
+    @classmethod
+    def from_json(cls, d: Mapping) -> Diagnosis:
+        """The diagnosis written by :meth:`to_json` (``diagnosis.json``), without its
+        evaluations (the fits): enough for its summary, JSON, report page (given the final
+        fit) and the figures that need no fit (ranking, waterfall, heat maps)."""
+        selected = list(d["selected"])
+        waterfall = [
+            WaterfallStep(**w, label="+".join(["base", *selected[:k]]))
+            for k, w in enumerate(d["waterfall"])
+        ]
+        return cls(
+            base=d["base"]["name"],
+            base_components=list(d["base"]["model"]),
+            candidates=list(d["candidates"]),
+            ranking=[RankRow.from_json(r) for r in d["ranking"]],
+            rounds=[[RankRow.from_json(r) for r in rows] for rows in d["rounds"]],
+            selected=selected,
+            waterfall=waterfall,
+            where=d["where"],
+            folds=d["folds"],
+            seconds=d["seconds"],
+            threshold_pct=d["threshold_pct"],
+            notes=list(d["notes"]),
+            max_effects=d["max_effects"],
+        )
+
+    @property
+    def scored(self) -> str:
+        """ "held-out", or "in-sample" when no stance could be held out (the JSON keys keep
+        their names; ``folds.kind`` says which)."""
+        return "held-out" if self.folds["n"] else "in-sample"
+
+    def summary(self) -> str:
+        f = self.folds
+        lines = [
+            f"Diagnosis on base '{self.base}' ({', '.join(self.base_components)}); "
+            f"{f['kind']}, {f['n']} held-out stance(s); {self.seconds:.0f} s",
+            f"base {self.scored} superior-force RMS "
+            f"{self.waterfall[0].heldout_superior_force_pct_bw:.2f} % BW",
+            f"ranking ({self.scored} reduction of the combined score, 95 % interval; in-sample):",
+        ]
+        for r in self.ranking:
+            if r.not_evaluable is not None:
+                lines.append(f"       {r.effect:<20} not evaluable on these data (see the notes)")
+                continue
+            mark = "PASS" if r.passes else "    "
+            conf = f"  confounded with {', '.join(r.confounded_with)}" if r.confounded_with else ""
+            lo, hi = r.heldout_rms_reduction_ci
+            lines.append(
+                f"  {mark} {r.effect:<20} {r.heldout_rms_reduction_pct:+6.1f} % [{lo:+.1f}, {hi:+.1f}]"
+                f"  in-sample {r.insample_rms_reduction_pct:+6.1f} %  ({r.n_params} params){conf}"
+            )
+        for k, rows in enumerate(self.rounds[1:], 2):
+            lines.append(
+                f"round {k} (on top of {' + '.join(['base', *self.selected[: k - 1]])}): "
+                + "; ".join(r.line() for r in rows)
+            )
+        lines.append(
+            "selected: "
+            + (", ".join(self.selected) if self.selected else "none (no effect passes)")
+        )
+        if self.inconclusive:
+            lines.append(
+                f"inconclusive: {', '.join(self.inconclusive)} (reduce the score in-sample and "
+                "held out, without a clear margin: more stances would decide)"
+            )
+        lines.append(f"waterfall ({self.scored} superior-force RMS, % BW):")
+        for w in self.waterfall:
+            lines.append(f"  {w.model:<28} {w.heldout_superior_force_pct_bw:.2f}")
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+    # --- figures ---------------------------------------------------------------------------
+    def heatmap(self, which: str = "base"):
+        """Heat map of where the residual lies (``which``: ``"base"`` or ``"final"``)."""
+        from gc_ocp.diagnosis.where import heatmap_figure
+
+        return heatmap_figure(self.where[which], title=f"Where the residual lies ({which} model)")
+
+    def residual_figure(self, which: str = "base", **kw):
+        """Residual over time of the held-out stances, phases shaded (needs the evaluations)."""
+        from gc_ocp.diagnosis.where import residual_figure
+
+        ev = self.base_evaluation if which == "base" else self.final_evaluation
+        return residual_figure(ev.heldout_fits if ev.folds else ev.full.stance_fits, **kw)
+
+    def ranking_figure(self):
+        """Held-out reduction per candidate with its 95 % interval and the threshold."""
+        import matplotlib.pyplot as plt
+
+        r = [e for e in self.ranking if e.not_evaluable is None]
+        fig, ax = plt.subplots(figsize=(7.0, 0.35 * len(r) + 1.4))
+        y = np.arange(len(r))[::-1]
+        v = np.array([e.heldout_rms_reduction_pct for e in r])
+        ci = np.array([e.heldout_rms_reduction_ci for e in r]).reshape(-1, 2)
+        colors = ["tab:green" if e.passes else "tab:gray" for e in r]
+        ax.barh(y, v, color=colors)
+        ax.errorbar(v, y, xerr=[v - ci[:, 0], ci[:, 1] - v], fmt="none", ecolor="k", capsize=3)
+        ax.axvline(self.threshold_pct, color="tab:red", ls="--", lw=1, label="threshold")
+        ax.axvline(0.0, color="k", lw=0.6)
+        ax.set_yticks(y, [e.effect + (" *" if e.confounded_with else "") for e in r])
+        ax.set_xlabel("held-out reduction of the combined score [%]  (* confounded)")
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        return fig
+
+    def waterfall_figure(self):
+        """Held-out RMS per channel after each added effect."""
+        import matplotlib.pyplot as plt
+
+        from gc_ocp.contact.channels import TABLE_KEYS
+
+        fig, ax = plt.subplots(figsize=(7.0, 3.6))
+        labels = [w.model for w in self.waterfall]
+        x = np.arange(len(labels))
+        ax.plot(
+            x,
+            [w.heldout_superior_force_pct_bw for w in self.waterfall],
+            "o-",
+            lw=2.2,
+            color="k",
+            label="superior force (both feet)",
+        )
+        for ch in TABLE_KEYS.values():
+            if ch == "superior_force_pct_bw":
+                continue
+            vals = [
+                np.nanmean([w.heldout_rms[s][ch] for s in w.heldout_rms]) for w in self.waterfall
+            ]
+            ax.plot(x, vals, ".--", lw=1, label=ch.replace("_pct_bwh", "").replace("_pct_bw", ""))
+        ax.set_xticks(x, labels, rotation=15)
+        ax.set_ylabel("held-out RMS [% BW, % BW×H]")
+        ax.set_ylim(bottom=0)
+        ax.legend(fontsize=7, ncol=2)
+        ax.set_title("How far the gap shrinks")
+        fig.tight_layout()
+        return fig
+
+
+__all__ = ("SCORE_TEXT", "Diagnosis", "RankRow", "WaterfallStep")

@@ -1,0 +1,315 @@
+"""The decision rule: how a round's evaluations become ranked rows, which effect is selected, and
+when two effects are named confounded (see ``docs/diagnosis.md``).
+
+**Ranking** (:func:`rank`): every candidate of a round against the round's parent model (the
+base, then the base plus the effects selected so far): its held-out reduction of the combined
+score with a 95 % bootstrap interval, and its in-sample reduction for reference
+(:func:`~gc_ocp.diagnosis.compare.reduction`); rows best first, screened candidates last.
+
+**Decision rule** ("none" is a possible answer): an effect passes when its held-out reduction is
+at least :data:`MIN_REDUCTION_PCT` *and* the lower end of its interval is above 0 *and* it
+reduces the in-sample objective by at least :data:`MIN_REDUCTION_PCT` too (a held-out gain
+without an in-sample one comes from how the model extrapolates per-unit stiffnesses from few
+training stances: the false answers of the withheld-effect benchmark, ``docs/diagnosis.md
+(withheld-effect benchmark)``). The held-out score already charges extra parameters that only
+fit noise (they do not predict the held-out stance) and the nuisance for the freedom it uses
+(Occam term); the threshold guards against the noise of the score itself (calibrated on the
+withheld-effect benchmark's "none" cases). A candidate that fails yet gains in-sample (by the
+threshold) and held out is *inconclusive*.
+
+**Forward selection**: the best passing effect (:func:`best_passing`) is added, the others are
+re-ranked on top of it, and so on until none passes (the loop is :mod:`.diagnose`'s).
+
+**Confounding**: two candidates are named confounded when their changes of the held-out residual
+are alike (cosine similarity of the weighted residual changes above :data:`CONFOUND_COSINE`, both
+reducing the score), or their changes of the in-sample residual are, with comparable sizes
+(:data:`COMPARABLE_FRACTION`; both reducing the in-sample objective by the threshold: they
+explain the same part of the gap on the fitted stances, even if only one carries over to held-out
+ones) (:func:`flag_alike`), or when one stops passing once the other is in the model (its gain
+falls below :data:`NON_ADDITIVE_FRACTION`: the gains are not additive, :func:`flag_non_additive`),
+or with the base's per-stance nuisance (``kinematic_correction``) when its gain comes mostly from
+a smaller nuisance cost rather than a better fit of the data (:data:`NUISANCE_SHARE`), or when
+both pass and the paired bootstrap of their difference does not order them (a tie,
+:func:`flag_ties`). The result says so instead of guessing which one it is.
+
+Rows are immutable (:class:`~gc_ocp.diagnosis.result.RankRow`): each flagging step returns new
+rows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+
+import numpy as np
+
+from gc_ocp.diagnosis.compare import (
+    Evaluation,
+    insample_reduction,
+    reduction,
+    weighted_residuals,
+)
+from gc_ocp.diagnosis.execution import NotEvaluable
+from gc_ocp.diagnosis.result import RankRow
+from gc_ocp.estimation.components import REGISTRY
+
+MIN_REDUCTION_PCT = 2.0
+"""Smallest held-out reduction [%] of the combined score that counts as an effect."""
+
+CONFOUND_COSINE = 0.5
+"""Cosine similarity of two effects' residual changes (held-out, or in-sample) above which they
+explain the same part of the gap. On the withheld-effect benchmark, in-sample changes of
+unrelated effects stay below 0.35, those of effects that can play each other reach 0.7-0.99
+(damping and clock offset 0.69; sole offsets, ground offset and pose correction 0.85-0.99)."""
+
+COMPARABLE_FRACTION = 0.5
+"""In-sample confounding also needs the two residual changes to be of comparable size (the
+smaller at least this fraction of the larger): an effect that repairs a sliver of the misfit
+another repairs in full does not stand in for it. On the seed base, where nearly every
+candidate repairs a little of the missing registration, this keeps the flag specific."""
+
+NON_ADDITIVE_FRACTION = 0.5
+"""An effect whose gain on top of another falls below this fraction of its gain alone is
+confounded with it."""
+
+NUISANCE_SHARE = 0.5
+"""An effect whose held-out gain comes mostly (more than this fraction) from a smaller nuisance
+cost (the pose correction moves less, or more cheaply) rather than from a better fit of the data
+does what the base's per-stance nuisance already does: it is named confounded with it."""
+
+
+def n_params(child: Evaluation, parent: Evaluation) -> int:
+    """Scalars the added effect estimates (its own variables, summed over the stances for a
+    per-stance effect). Not the change of ``n_free``: an effect may also fix variables of the
+    model (``contact_density`` replaces the five per-unit stiffnesses by a 4-parameter field)."""
+    names = {c.name for c in child.model} - {c.name for c in parent.model}
+    return int(sum(s.size for s in child.full.variables if s.key[0] in names))
+
+
+def _terms(ev: Evaluation) -> tuple[float, float]:
+    """(data cost, nuisance cost = prior + Occam) summed over the held-out stances."""
+    if not ev.folds:
+        return ev.full.data_cost, ev.full.prior_cost
+    return (
+        sum(f.heldout.data_cost for f in ev.folds),
+        sum(f.heldout.prior_cost + f.occam for f in ev.folds),
+    )
+
+
+def _nuisance_names(model: tuple) -> list[str]:
+    """Registry names of the model's stance-scope components (the per-stance nuisance)."""
+    names = {cls: n for n, cls in REGISTRY.items()}
+    return [names.get(type(c), c.name) for c in model if c.scope == "stance"]
+
+
+def rank(
+    parent: Evaluation,
+    evs: Mapping[str, Evaluation],
+    threshold: float,
+    n_boot: int,
+    seed: int,
+    rate: float,
+) -> list[RankRow]:
+    """The rows of one round: every candidate of ``evs`` (``{effect: Evaluation}``) against
+    ``parent``, with the decision rule applied (threshold [%]) and the confounding within the
+    round named; held out first (best first), then the screened ones (by their in-sample
+    reduction). ``n_boot``, ``seed``: the bootstrap; ``rate``: frame rate [Hz]."""
+    rows = []
+    base_r = weighted_residuals(parent)
+    deltas = {}
+    pd, pn = _terms(parent)
+    failed = [_not_evaluable_row(n, ev) for n, ev in evs.items() if isinstance(ev, NotEvaluable)]
+    evs = {n: ev for n, ev in evs.items() if not isinstance(ev, NotEvaluable)}
+    for name, ev in evs.items():
+        if ev.screened:
+            rows.append(_screened_row(name, ev, parent))
+            continue
+        red = reduction(parent, ev, n_boot=n_boot, seed=seed, frame_rate=rate)
+        deltas[name] = base_r - weighted_residuals(ev)
+        cd, cn = _terms(ev)
+        gain = (pd + pn) - (cd + cn)
+        # the share is only meaningful for a gain that counts (near 0 it is a ratio of noise)
+        meaningful = gain > 0 and red["pct"] >= threshold
+        from_nuisance = (pn - cn) / gain if meaningful else None
+        relieves = [
+            n
+            for n in _nuisance_names(parent.model)
+            if meaningful and from_nuisance > NUISANCE_SHARE
+        ]
+        # an in-sample gain too: a held-out gain without one comes from how the model
+        # extrapolates unit stiffnesses between stances, not from explaining the misfit
+        passes = bool(
+            red["pct"] >= threshold and red["ci"][0] > 0.0 and red["insample_pct"] >= threshold
+        )
+        rows.append(
+            RankRow(
+                effect=name,
+                heldout_rms_reduction_pct=red["pct"],
+                heldout_rms_reduction_ci=tuple(red["ci"]),
+                heldout_superior_force_reduction_pct=red["superior_pct"],
+                insample_rms_reduction_pct=red["insample_pct"],
+                per_stance_reduction_pct=red["per_stance"],
+                n_params=n_params(ev, parent),
+                passes=passes,
+                screened=False,
+                # gains in-sample and on held-out stances, without a margin the data support
+                inconclusive=bool(
+                    not passes and red["pct"] > 0.0 and red["insample_pct"] >= threshold
+                ),
+                gain_from_nuisance=None if from_nuisance is None else float(from_nuisance),
+                confounded_with=tuple(relieves),
+                flags=tuple(f["code"] for f in ev.full.flags),
+            )
+        )
+    held = [r for r in rows if r.heldout_rms_reduction_pct is not None]
+    flagged = {
+        r.effect: r for r in flag_alike(held, deltas, lambda r: r.heldout_rms_reduction_pct > 0)
+    }
+    rows = [flagged.get(r.effect, r) for r in rows]
+    # in-sample: every candidate (screened ones too) against the fits on all stances
+    base_in = weighted_residuals(parent, insample=True)
+    ins = {n: base_in - weighted_residuals(ev, insample=True) for n, ev in evs.items()}
+    rows = flag_alike(
+        rows, ins, lambda r: r.insample_rms_reduction_pct >= threshold, comparable=True
+    )
+    # held out first (best first), then the screened ones (by their in-sample reduction)
+    rows.sort(
+        key=lambda r: (
+            r.heldout_rms_reduction_pct is None,
+            -(
+                r.insample_rms_reduction_pct
+                if r.heldout_rms_reduction_pct is None
+                else r.heldout_rms_reduction_pct
+            ),
+        )
+    )
+    return [*flag_ties(rows, evs, n_boot, seed, rate), *failed]  # the not evaluable ones last
+
+
+def _screened_row(name: str, ev: Evaluation, parent: Evaluation) -> RankRow:
+    """The ranking row of a candidate screened out on its in-sample reduction (not held out)."""
+    return RankRow(
+        effect=name,
+        heldout_rms_reduction_pct=None,
+        heldout_rms_reduction_ci=(None, None),
+        heldout_superior_force_reduction_pct=None,
+        insample_rms_reduction_pct=insample_reduction(parent.full, ev.full),
+        per_stance_reduction_pct={},
+        n_params=n_params(ev, parent),
+        passes=False,
+        screened=True,
+        inconclusive=False,
+        gain_from_nuisance=None,
+        confounded_with=(),
+        flags=tuple(f["code"] for f in ev.full.flags),
+    )
+
+
+def _not_evaluable_row(name: str, failed: NotEvaluable) -> RankRow:
+    """The ranking row of a candidate that could not be evaluated on these data (its fit raised
+    an input or model error, the message in ``not_evaluable``): no figures, does not pass."""
+    return RankRow(
+        effect=name,
+        heldout_rms_reduction_pct=None,
+        heldout_rms_reduction_ci=(None, None),
+        heldout_superior_force_reduction_pct=None,
+        insample_rms_reduction_pct=None,
+        per_stance_reduction_pct={},
+        n_params=0,
+        passes=False,
+        screened=False,
+        inconclusive=False,
+        gain_from_nuisance=None,
+        confounded_with=(),
+        flags=(),
+        not_evaluable=failed.message,
+    )
+
+
+def _linked(rows: Sequence[RankRow], links: Mapping[str, list[str]]) -> list[RankRow]:
+    """``rows`` naming, each, the effects of ``links[effect]`` confounded with it (in order)."""
+    return [r.confounded(*links[r.effect]) for r in rows]
+
+
+def flag_alike(
+    rows: Sequence[RankRow],
+    deltas: Mapping[str, np.ndarray],
+    gains: Callable[[RankRow], bool],
+    comparable: bool = False,
+) -> list[RankRow]:
+    """``rows`` with the pairs that both satisfy ``gains`` and whose residual changes
+    (``deltas``: effect -> vector) have a cosine similarity above :data:`CONFOUND_COSINE` named
+    confounded; with ``comparable``, only when the smaller change is at least
+    :data:`COMPARABLE_FRACTION` of the larger (either could stand in for the other)."""
+    links = {r.effect: list(r.confounded_with) for r in rows}
+    for a in rows:
+        for b in rows:
+            if a is b or not (gains(a) and gains(b)) or b.effect in links[a.effect]:
+                continue
+            da, db = deltas[a.effect], deltas[b.effect]
+            na, nb = np.linalg.norm(da), np.linalg.norm(db)
+            if na == 0 or nb == 0 or float(da @ db) / (na * nb) <= CONFOUND_COSINE:
+                continue
+            if not comparable or min(na, nb) >= COMPARABLE_FRACTION * max(na, nb):
+                links[a.effect].append(b.effect)
+    return _linked(rows, links)
+
+
+def flag_ties(
+    rows: Sequence[RankRow], evs: Mapping[str, Evaluation], n_boot: int, seed: int, rate: float
+) -> list[RankRow]:
+    """``rows`` with the passing candidates whose held-out scores do not differ significantly
+    (the 95 % interval of their paired difference, the same block bootstrap, reaches 0) named
+    confounded with each other: the data do not order them, so which one comes first is not an
+    answer."""
+    links = {r.effect: list(r.confounded_with) for r in rows}
+    passing = [r for r in rows if r.passes]
+    for i, a in enumerate(passing):
+        for b in passing[i + 1 :]:
+            hi = reduction(evs[a.effect], evs[b.effect], n_boot, seed, rate)["ci"][1]
+            if hi >= 0.0:  # b is not significantly worse than a
+                for x, y in ((a, b), (b, a)):
+                    if y.effect not in links[x.effect]:
+                        links[x.effect].append(y.effect)
+    return _linked(rows, links)
+
+
+def best_passing(rows: Sequence[RankRow]) -> RankRow | None:
+    """The effect a round adds: the first passing row (rows are sorted, best first), if any."""
+    return next((r for r in rows if r.passes), None)
+
+
+def flag_non_additive(
+    ranking: Sequence[RankRow], rounds: Sequence[Sequence[RankRow]], selected: Sequence[str]
+) -> list[RankRow]:
+    """``ranking`` (round 1) with the non-additive pairs named confounded: a passing effect
+    that stops passing once another (``selected[k - 1]``, added before round ``k + 1``) is in
+    the model, its gain falling below :data:`NON_ADDITIVE_FRACTION` of its gain alone (or
+    screened out: its in-sample gain fell below the threshold)."""
+    links = {r.effect: list(r.confounded_with) for r in ranking}
+    for k in range(1, len(rounds)):
+        added = selected[k - 1]
+        later = {r.effect: r for r in rounds[k]}
+        for r in ranking:
+            e = r.effect
+            if e in later and r.passes and e != added and later[e].not_evaluable is None:
+                g0, g1 = r.heldout_rms_reduction_pct, later[e].heldout_rms_reduction_pct
+                if g1 is None or g1 < NON_ADDITIVE_FRACTION * g0:
+                    for a, b in ((e, added), (added, e)):
+                        if b not in links[a]:
+                            links[a].append(b)
+    return _linked(ranking, links)
+
+
+__all__ = (
+    "COMPARABLE_FRACTION",
+    "CONFOUND_COSINE",
+    "MIN_REDUCTION_PCT",
+    "NON_ADDITIVE_FRACTION",
+    "NUISANCE_SHARE",
+    "best_passing",
+    "flag_alike",
+    "flag_non_additive",
+    "flag_ties",
+    "n_params",
+    "rank",
+)

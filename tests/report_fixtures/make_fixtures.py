@@ -1,0 +1,35 @@
+"""Make a report fixture from a ``gc-ocp diagnose --out DIR`` folder (run once, by hand).
+
+    python tests/report_fixtures/make_fixtures.py DIR NAME
+
+Copies ``diagnosis.json`` as written; ``final_fit.json`` without its per-frame arrays and
+variable vector (the page does not show them); ``report.html`` with the base64 image data cut
+(``data:image/png;base64,`` kept). The fixtures of this folder were made from the outputs of the
+f-string renderer the jinja2 template replaced (commit 076f609), on the bundled trial:
+``damping_time_offset`` from ``gc-ocp diagnose --effects damping,time_offset``, ``all_effects``
+from ``gc-ocp diagnose`` (every effect of the library).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import sys
+from pathlib import Path
+
+
+def main(src: str, name: str) -> None:
+    src_dir, dst = Path(src), Path(__file__).parent / name
+    dst.mkdir(exist_ok=True)
+    shutil.copyfile(src_dir / "diagnosis.json", dst / "diagnosis.json")
+    fit = json.loads((src_dir / "final_fit.json").read_text())
+    fit.update(stance_fits=[], x=[], variables=[], covariance=None)
+    (dst / "final_fit.json").write_text(json.dumps(fit, indent=1))
+    page = (src_dir / "report.html").read_text(encoding="utf-8")
+    page = re.sub(r"data:image/png;base64,[A-Za-z0-9+/=]+", "data:image/png;base64,", page)
+    (dst / "report.html").write_text(page, encoding="utf-8")
+
+
+if __name__ == "__main__":
+    main(*sys.argv[1:3])
