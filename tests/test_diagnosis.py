@@ -411,8 +411,6 @@ def test_the_diagnosis_keeps_no_module_state():
 
     checked = []
     for info in pkgutil.iter_modules(pkg.__path__):
-        if info.name == "benchmark":  # moves to gc_ocp/bench (issue 21): not the diagnosis's
-            continue
         mod = importlib.import_module(f"gc_ocp.diagnosis.{info.name}")
         assert _module_state(mod, Path(mod.__file__).read_text()) == [], info.name
         checked.append(info.name)

@@ -129,12 +129,12 @@ def test_a_stance_without_plate_signal_is_refused():
 def test_frozen_keeps_a_fitted_trial_and_re_estimates_a_new_one():
     stances = _motion()[0]
     trial = stances[0].trial
-    fz = TimeOffset().frozen({trial: {"ms": 12.5, "se_ms": 0.3}})
+    fz = TimeOffset().frozen({trial: {"ms": 12.5, "ms_se": 0.3}})
     assert fz.fixed == {trial: pytest.approx(0.0125)}
     assert not build_estimation(stances, (base_model()[0], fz)).variables.has(
         ("time_offset", trial)
     )
-    other = TimeOffset().frozen({"another_trial": {"ms": 12.5, "se_ms": 0.3}})
+    other = TimeOffset().frozen({"another_trial": {"ms": 12.5, "ms_se": 0.3}})
     pb = build_estimation(stances, (base_model()[0], other))
     assert pb.variables.has(("time_offset", trial))
 
@@ -186,11 +186,11 @@ def test_recovery_of_a_20_ms_delay_on_real_motion():
     fit = recovery.fit_model(data, model)
     base = recovery.fit_model(data, base_model())
     b = fit.blocks["time_offset"][trial]
-    z = (b["ms"] - TRUE_DELAY * 1e3) / b["se_ms"]
+    z = (b["ms"] - TRUE_DELAY * 1e3) / b["ms_se"]
     share, frames, se_hs, se_rest = _heel_strike_information(fit, data, model)
     print(
         f"\ndelay: true {TRUE_DELAY * 1e3:.1f} ms, estimate {b['ms']:.3f} ms, "
-        f"SE {b['se_ms']:.3f} ms, z = {z:+.2f}"
+        f"SE {b['ms_se']:.3f} ms, z = {z:+.2f}"
     )
     print(
         f"information on delta: {share:.0%} from the first 50 ms of each stance ({frames:.0%} of "

@@ -193,13 +193,13 @@ def test_report_states_the_rule_the_code_applies(diagnosis, page):
 
 
 def test_effect_block_values_carry_their_standard_errors():
-    """Both namings of a standard error (``c_se``; ``se_ms`` of the clock offset) are shown as
-    ``value ± SE`` beside their value, not as parameters of their own; a zero SE says fixed."""
-    from gc_ocp.diagnosis.report import _flatten
+    """A standard error (``key_se``) is shown as ``value ± SE`` beside its value, not as a
+    parameter of its own; a zero SE says fixed."""
+    from gc_ocp.diagnosis.fit_tables import flatten_block
 
     rows = dict(
-        _flatten(
-            {"trial": {"ms": 10.4, "se_ms": 0.797}, "c": 1.9, "c_se": 0.13, "n": 1.0, "n_se": 0.0}
+        flatten_block(
+            {"trial": {"ms": 10.4, "ms_se": 0.797}, "c": 1.9, "c_se": 0.13, "n": 1.0, "n_se": 0.0}
         )
     )
     assert rows == {"trial / ms": "10.4 ± 0.8", "c": "1.9 ± 0.13", "n": "1 (fixed)"}
@@ -299,3 +299,20 @@ def test_diagnosis_json_is_written_back_byte_for_byte(case):
     again = json.dumps({**d.to_json(), "provenance": js["provenance"]}, indent=2)
     assert again == text
     assert Diagnosis.from_json(json.loads(again)).summary() == d.summary()
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_each_effect_block_is_shown_by_its_component(case):
+    """Every row a component gives of its block (``Component.describe``: label, value ± SE
+    with its unit) is on the page; the fixture's final model has effects of its own."""
+    from gc_ocp.diagnosis.fit_tables import pm_value
+    from gc_ocp.diagnosis.report import report_html
+
+    _, _, js, d, final = _fixture(case)
+    described = final.block_rows()
+    assert {"damping", "time_offset"} <= set(described)
+    pngs = dict.fromkeys(("heatmap", "residuals", "ranking", "waterfall", "heatmap_final"), b"")
+    page = _Page(report_html(d, provenance=js["provenance"], pngs=pngs, final=final)).visible
+    for rows in described.values():
+        for r in rows:
+            assert f"{r.label}\n{pm_value(r.value, r.se, unit=r.unit)}" in page

@@ -25,43 +25,23 @@ import math
 import os
 from pathlib import Path
 
-from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS
+from gc_ocp.diagnosis.fit_tables import (
+    CHANNEL_KEYS,
+    channel_name,
+    channel_unit,
+    contact_tables,
+    effect_blocks,
+    fmt_num,
+    pm,
+    rms_table,
+    sole_table,
+)
 from gc_ocp.trial import SIDES
 
 FIGURE_DPI = 100
 
 TEMPLATE = "report.html.j2"
 """The page's template, in ``gc_ocp/diagnosis/templates``."""
-
-_CORE_BLOCKS = ("contact", "sole", "pose", "belt")
-"""Blocks of the registered base shown in their own tables; any other block is an effect's."""
-
-CHANNEL_KEYS = (*(TABLE_KEYS[c] for c in CHANNELS), "cop_mm")
-"""The six ``fit.json`` channel keys and the COP, in the order the tables show them."""
-
-
-def _num(v, fmt: str = ".2f") -> str:
-    """``v`` formatted with ``fmt``; "–" for a missing or non-finite number."""
-    if v is None:
-        return "–"
-    try:
-        v = float(v)
-    except (TypeError, ValueError):
-        return str(v)
-    return "–" if not math.isfinite(v) else format(v, fmt)
-
-
-def _short(key: str) -> str:
-    """``superior_force_pct_bw`` -> ``superior force``."""
-    if key == "cop_mm":
-        return "COP"
-    return key.replace("_pct_bwh", "").replace("_pct_bw", "").replace("_", " ")
-
-
-def _unit(key: str) -> str:
-    if key == "cop_mm":
-        return "mm"
-    return "% BW×H" if key.endswith("_pct_bwh") else "% BW"
 
 
 # --- figures ---------------------------------------------------------------------------------
@@ -134,10 +114,10 @@ def _where(where: dict) -> dict:
             "cells": [
                 {
                     "share": share,
-                    "channel": _short(key),
+                    "channel": channel_name(key),
                     "phase": ph.replace("_", " "),
                     "rms": rms,
-                    "unit": _unit(key),
+                    "unit": channel_unit(key),
                 }
                 for key, ph, share, rms in w[side]
             ],
@@ -236,7 +216,7 @@ def _table(rows: list, threshold: float) -> list[dict]:
 def _change(a, b) -> str:
     """Relative change [%] from ``a`` to ``b``, rounded; "0" for a signed zero."""
     ok = all(isinstance(v, (int, float)) and math.isfinite(v) for v in (a, b)) and a > 0
-    pct = _num(100 * (b - a) / a, "+.0f") if ok else "–"
+    pct = fmt_num(100 * (b - a) / a, "+.0f") if ok else "–"
     return "0" if pct in ("+0", "-0") else pct
 
 
@@ -247,109 +227,11 @@ def _waterfall(waterfall: list) -> list[dict]:
     for side in waterfall[0].heldout_rms if waterfall else []:
         for key in CHANNEL_KEYS:
             vals = [w.heldout_rms.get(side, {}).get(key, float("nan")) for w in waterfall]
-            channel = f"{_short(key)} [{_unit(key)}]"
+            channel = f"{channel_name(key)} [{channel_unit(key)}]"
             rows.append({"foot": side, "channel": channel, "values": vals, "bold": False})
     for row in rows:
         row["change"] = _change(row["values"][0], row["values"][-1])
     return rows
-
-
-def _rms(res, heldout: dict | None) -> dict:
-    """The final model's RMS table: per channel, per foot in-sample (and held-out)."""
-    sides = list(res.rms)
-    rows = []
-    for key in CHANNEL_KEYS:
-        cells = []
-        for s in sides:
-            cells.append(res.cop_rms_mm.get(s) if key == "cop_mm" else res.rms[s].get(key))
-            if heldout:
-                cells.append(heldout.get(s, {}).get(key, float("nan")))
-        rows.append({"channel": f"{_short(key)} [{_unit(key)}]", "cells": cells})
-    return {"sides": sides, "heldout": bool(heldout), "rows": rows}
-
-
-def _pm(d: dict, key: str, fmt: str = ".4g") -> str:
-    """``value ± SE`` of ``d[key]`` (``d[key + "_se"]``); a zero SE marks a fixed value."""
-    se = d.get(key + "_se", d.get("se_" + key))  # both namings occur (time_offset: se_ms)
-    if se is None:
-        return _num(d[key], fmt)
-    return _num(d[key], fmt) + (" (fixed)" if se == 0 else f" ± {_num(se, '.2g')}")
-
-
-def _contact(params: dict) -> dict:
-    """The contact law's block as tables: per unit k and force at 5 mm, per-foot scalars, shared
-    parameters (each ``value ± SE``)."""
-    units, per_foot = [], []
-    for side, per in params.items():
-        if side == "shared" or not isinstance(per, dict):
-            continue
-        for unit, e in per.items():
-            if isinstance(e, dict) and "k" in e:
-                units.append(
-                    {
-                        "side": side,
-                        "unit": unit,
-                        "k": _pm(e, "k", ".4g"),
-                        "f_ref": _pm(e, "f_ref", ".0f"),
-                        "identified": e.get("identified", True),
-                    }
-                )
-        scalars = [k for k, v in per.items() if not isinstance(v, dict) and not k.endswith("_se")]
-        if scalars:
-            per_foot.append({"side": side, "values": [(k, _pm(per, k)) for k in scalars]})
-    shared = params.get("shared", {})
-    return {
-        "units": units,
-        "per_foot": per_foot,
-        "shared": [(k, _pm(shared, k)) for k in shared if not k.endswith("_se")],
-    }
-
-
-def _sole(sole: dict) -> list[dict]:
-    """Sole-point corrections per foot and unit: ``[(offset, SE) x, y, z]`` [mm]."""
-    off, se = sole.get("offsets_mm", {}), sole.get("se_mm", {})
-    return [
-        {
-            "side": side,
-            "unit": unit,
-            "xyz": list(zip(v, se.get(side, {}).get(unit, [float("nan")] * 3), strict=True)),
-        }
-        for side, units in off.items()
-        for unit, v in units.items()
-    ]
-
-
-def _flatten(block, prefix: str = "", depth: int = 0) -> list[tuple[str, str]]:
-    """Scalar leaves of an effect block as ``(name, "value ± SE")``; long arrays summarised."""
-    out: list[tuple[str, str]] = []
-    if isinstance(block, dict):
-        for k, v in block.items():
-            paired = str(k).startswith("se_") and str(k)[3:] in block  # shown with its value
-            if str(k).endswith("_se") or paired or depth > 4:
-                continue
-            name = f"{prefix}{k}"
-            if isinstance(v, (int, float)) and not isinstance(v, bool):
-                out.append((name, _pm(block, k)))
-            else:
-                out += _flatten(v, name + " / ", depth + 1)
-    elif isinstance(block, (list, tuple)):
-        flat = block
-        if all(isinstance(x, (int, float)) for x in flat) and len(flat) <= 6:
-            out.append((prefix.rstrip(" /"), "[" + ", ".join(_num(x, ".4g") for x in flat) + "]"))
-        else:
-            out.append((prefix.rstrip(" /"), f"({len(flat)} values)"))
-    elif isinstance(block, (str, bool)):
-        out.append((prefix.rstrip(" /"), str(block)))
-    return out
-
-
-def _effects(res) -> list[dict]:
-    """The blocks of the final model's effects (not the base's), flattened."""
-    return [
-        {"name": name, "description": res.components.get(name, ""), "rows": _flatten(block)}
-        for name, block in res.blocks.items()
-        if name not in _CORE_BLOCKS
-    ]
 
 
 def _method(d) -> dict:
@@ -425,13 +307,13 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         "waterfall": _waterfall(wf),
         "figures": {name: _data_uri(png) for name, png in pngs.items()},
         "res": res,
-        "rms": _rms(res, wf[-1].heldout_rms if d.folds.get("n") else None),
-        "contact": _contact(res.params),
-        "sole": _sole(res.blocks.get("sole", {})),
+        "rms": rms_table(res, wf[-1].heldout_rms if d.folds.get("n") else None),
+        "contact": contact_tables(res.params),
+        "sole": sole_table(res.blocks.get("sole", {})),
         "belt": [
-            (trial, _pm(v, "value", ".3f"), v.get("nominal")) for trial, v in res.belt_speed.items()
+            (trial, pm(v, "value", ".3f"), v.get("nominal")) for trial, v in res.belt_speed.items()
         ],
-        "effects": _effects(res),
+        "effects": effect_blocks(res),
         "method": _method(d),
         "provenance": _provenance(provenance, d),
     }
@@ -439,7 +321,7 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
 
 def _environment():
     """The jinja2 environment of the page (made per call: no module state). Autoescaping is on;
-    ``num`` formats a number (:func:`_num`: "–" when missing), ``fmt`` is :func:`format`."""
+    ``num`` formats a number (:func:`fmt_num`: "–" when missing), ``fmt`` is :func:`format`."""
     import jinja2
 
     env = jinja2.Environment(
@@ -450,7 +332,7 @@ def _environment():
         lstrip_blocks=True,
         keep_trailing_newline=True,
     )
-    env.filters["num"] = _num
+    env.filters["num"] = fmt_num
     env.filters["fmt"] = format
     return env
 

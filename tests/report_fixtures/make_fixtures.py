@@ -8,6 +8,12 @@ variable vector (the page does not show them); ``report.html`` with the base64 i
 f-string renderer the jinja2 template replaced (commit 076f609), on the bundled trial:
 ``damping_time_offset`` from ``gc-ocp diagnose --effects damping,time_offset``, ``all_effects``
 from ``gc-ocp diagnose`` (every effect of the library).
+
+Deliberate changes since, each re-rendered from the fixture's own JSON (no new run) and checked
+to change nothing else of the page: issue 21, each effect's block shown by its component
+(``Component.describe``: ``c 1.976 ± 0.13 s/m``, ``dz 3.961 ± 1.6 mm``, ``delay 10.44 ± 0.8 ms``)
+instead of the block's raw leaves (metres and radians beside the same values in mm and deg);
+the clock offset's standard error is ``ms_se`` (was ``se_ms``, the one key of another spelling).
 """
 
 from __future__ import annotations

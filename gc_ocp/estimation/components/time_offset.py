@@ -125,7 +125,7 @@ class TimeOffset(Component):
     def describe(cls, block: dict) -> list[SummaryRow]:
         """Per trial: the plate's delay [ms] (positive: plate late)."""
         return [
-            SummaryRow(f"{trial} delay", v["ms"], v["se_ms"], "ms") for trial, v in block.items()
+            SummaryRow(f"{trial} delay", v["ms"], v["ms_se"], "ms") for trial, v in block.items()
         ]
 
     @property
@@ -286,8 +286,8 @@ class TimeOffset(Component):
 
     # --- results -----------------------------------------------------------------------------------
     def decode(self, ctx: DecodeContext) -> dict:
-        """``{trial: {"ms": delta [ms], "se_ms": its standard error [ms]}}`` (plate late by
-        ``ms`` when positive; ``se_ms`` = 0 for a fixed trial); for a trial whose bound the
+        """``{trial: {"ms": delta [ms], "ms_se": its standard error [ms]}}`` (plate late by
+        ``ms`` when positive; ``ms_se`` = 0 for a fixed trial); for a trial whose bound the
         plate signal reduced (:meth:`trial_bound`), also ``"bound_ms"`` and
         ``"bound_limited_by"`` (the stance that limits it)."""
         out: dict = {}
@@ -297,14 +297,14 @@ class TimeOffset(Component):
                 continue
             if (self.name, st.trial) in index:
                 v, s = ctx.values((self.name, st.trial))
-                out[st.trial] = {"ms": float(v[0]) * 1e3, "se_ms": float(s[0]) * 1e3}
+                out[st.trial] = {"ms": float(v[0]) * 1e3, "ms_se": float(s[0]) * 1e3}
                 bound, limit = self.trial_bound(st.trial, ctx.stances)
                 if limit is not None:
                     out[st.trial].update(bound_ms=bound * 1e3, bound_limited_by=limit)
             else:
                 out[st.trial] = {
                     "ms": float((self.fixed or {}).get(st.trial, 0.0)) * 1e3,
-                    "se_ms": 0.0,
+                    "ms_se": 0.0,
                 }
         return out
 

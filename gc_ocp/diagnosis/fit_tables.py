@@ -1,0 +1,159 @@
+"""The final model's numbers as the pages show them: RMS per channel, the contact law's tables,
+sole offsets, each effect's block (``Component.describe`` rows), and the number formats.
+
+Plain data for a template (:mod:`gc_ocp.diagnosis.report` uses it for the diagnosis page; any
+page that shows a fit can).
+"""
+
+from __future__ import annotations
+
+import math
+
+from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS
+
+CORE_BLOCKS = ("contact", "sole", "pose", "belt")
+"""Blocks of the registered base shown in their own tables; any other block is an effect's."""
+
+CHANNEL_KEYS = (*(TABLE_KEYS[c] for c in CHANNELS), "cop_mm")
+"""The six ``fit.json`` channel keys and the COP, in the order the tables show them."""
+
+
+def fmt_num(v, fmt: str = ".2f") -> str:
+    """``v`` formatted with ``fmt``; "–" for a missing or non-finite number."""
+    if v is None:
+        return "–"
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return str(v)
+    return "–" if not math.isfinite(v) else format(v, fmt)
+
+
+def channel_name(key: str) -> str:
+    """``superior_force_pct_bw`` -> ``superior force``."""
+    if key == "cop_mm":
+        return "COP"
+    return key.replace("_pct_bwh", "").replace("_pct_bw", "").replace("_", " ")
+
+
+def channel_unit(key: str) -> str:
+    if key == "cop_mm":
+        return "mm"
+    return "% BW×H" if key.endswith("_pct_bwh") else "% BW"
+
+
+def rms_table(res, heldout: dict | None) -> dict:
+    """The final model's RMS table: per channel, per foot in-sample (and held-out)."""
+    sides = list(res.rms)
+    rows = []
+    for key in CHANNEL_KEYS:
+        cells = []
+        for s in sides:
+            cells.append(res.cop_rms_mm.get(s) if key == "cop_mm" else res.rms[s].get(key))
+            if heldout:
+                cells.append(heldout.get(s, {}).get(key, float("nan")))
+        rows.append({"channel": f"{channel_name(key)} [{channel_unit(key)}]", "cells": cells})
+    return {"sides": sides, "heldout": bool(heldout), "rows": rows}
+
+
+def pm(d: dict, key: str, fmt: str = ".4g") -> str:
+    """``value ± SE`` of ``d[key]`` (``d[key + "_se"]``); a zero SE marks a fixed value."""
+    return pm_value(d[key], d.get(key + "_se"), fmt)
+
+
+def pm_value(value: float, se: float | None, fmt: str = ".4g", unit: str = "") -> str:
+    """``value ± SE unit``; no SE: the value alone; a zero SE marks a fixed value."""
+    unit = "" if unit in ("", "-") else f" {unit}"
+    if se is None:
+        return fmt_num(value, fmt) + unit
+    if se == 0:
+        return fmt_num(value, fmt) + unit + " (fixed)"
+    return f"{fmt_num(value, fmt)} ± {fmt_num(se, '.2g')}{unit}"
+
+
+def contact_tables(params: dict) -> dict:
+    """The contact law's block as tables: per unit k and force at 5 mm, per-foot scalars, shared
+    parameters (each ``value ± SE``)."""
+    units, per_foot = [], []
+    for side, per in params.items():
+        if side == "shared" or not isinstance(per, dict):
+            continue
+        for unit, e in per.items():
+            if isinstance(e, dict) and "k" in e:
+                units.append(
+                    {
+                        "side": side,
+                        "unit": unit,
+                        "k": pm(e, "k", ".4g"),
+                        "f_ref": pm(e, "f_ref", ".0f"),
+                        "identified": e.get("identified", True),
+                    }
+                )
+        scalars = [k for k, v in per.items() if not isinstance(v, dict) and not k.endswith("_se")]
+        if scalars:
+            per_foot.append({"side": side, "values": [(k, pm(per, k)) for k in scalars]})
+    shared = params.get("shared", {})
+    return {
+        "units": units,
+        "per_foot": per_foot,
+        "shared": [(k, pm(shared, k)) for k in shared if not k.endswith("_se")],
+    }
+
+
+def sole_table(sole: dict) -> list[dict]:
+    """Sole-point corrections per foot and unit: ``[(offset, SE) x, y, z]`` [mm]."""
+    off, se = sole.get("offsets_mm", {}), sole.get("se_mm", {})
+    return [
+        {
+            "side": side,
+            "unit": unit,
+            "xyz": list(zip(v, se.get(side, {}).get(unit, [float("nan")] * 3), strict=True)),
+        }
+        for side, units in off.items()
+        for unit, v in units.items()
+    ]
+
+
+def flatten_block(block, prefix: str = "", depth: int = 0) -> list[tuple[str, str]]:
+    """Scalar leaves of an effect block as ``(name, "value ± SE")``; long arrays summarised."""
+    out: list[tuple[str, str]] = []
+    if isinstance(block, dict):
+        for k, v in block.items():
+            if str(k).endswith("_se") or depth > 4:  # an SE is shown with its value
+                continue
+            name = f"{prefix}{k}"
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                out.append((name, pm(block, k)))
+            else:
+                out += flatten_block(v, name + " / ", depth + 1)
+    elif isinstance(block, (list, tuple)):
+        flat = block
+        if all(isinstance(x, (int, float)) for x in flat) and len(flat) <= 6:
+            out.append(
+                (prefix.rstrip(" /"), "[" + ", ".join(fmt_num(x, ".4g") for x in flat) + "]")
+            )
+        else:
+            out.append((prefix.rstrip(" /"), f"({len(flat)} values)"))
+    elif isinstance(block, (str, bool)):
+        out.append((prefix.rstrip(" /"), str(block)))
+    return out
+
+
+def effect_blocks(res) -> list[dict]:
+    """The blocks of the final model's effects (not the base's): the rows each component gives
+    of its block (``Component.describe``: label, value ± SE with its unit), or, for a component
+    that gives none, the block's scalar leaves."""
+    described = res.block_rows()
+    out = []
+    for name, block in res.blocks.items():
+        if name in CORE_BLOCKS:
+            continue
+        rows = [(r.label, pm_value(r.value, r.se, unit=r.unit)) for r in described.get(name, [])]
+        out.append(
+            {
+                "name": name,
+                "description": res.components.get(name, ""),
+                "rows": rows or flatten_block(block),
+            }
+        )
+    return out
