@@ -81,8 +81,8 @@ def test_the_new_effect_is_fitted_diagnosed_and_injected(copy, tmp_path):
         copy,
         "-c",
         "import json; from gc_ocp.estimation import EFFECTS; "
-        "from gc_ocp.bench.withheld import VALUES; "
-        "print(json.dumps([EFFECTS, VALUES['ground_tilt']]))",
+        "from gc_ocp.bench.withheld import injected_values; "
+        "print(json.dumps([EFFECTS, injected_values()['ground_tilt']]))",
     )
     effects, values = json.loads(r.stdout)
     assert effects[-1] == "ground_tilt" and effects[:-1] == list(gc_ocp.estimation.EFFECTS)

@@ -15,7 +15,7 @@ import numpy as np
 from gc_ocp.bench.recovery import bundled_base_truth, simulate, truth_from_fit
 from gc_ocp.diagnosis.diagnose import resolve_base
 from gc_ocp.errors import InputError
-from gc_ocp.estimation.components import EFFECTS, REGISTRY, base_model
+from gc_ocp.estimation.components import REGISTRY, base_model, candidate_effects
 from gc_ocp.estimation.synthetic import noisy_pose, with_pose_error
 from gc_ocp.io import load_trial
 from gc_ocp.kinematics import compute_kinematics
@@ -24,14 +24,18 @@ from gc_ocp.workflow.fitting import fit_data
 
 MAGNITUDES = ("moderate", "strong")
 
-VALUES: dict[str, dict[str, object]] = {
-    name: REGISTRY[name].benchmark_values
-    for name in EFFECTS
-    if REGISTRY[name].benchmark_values is not None
-}
-"""Injected value per effect and magnitude (module doc): each effect's own
-``benchmark_values`` (:class:`~gc_ocp.estimation.components.Component`), in :data:`EFFECTS`
-order."""
+
+def injected_values() -> dict[str, dict[str, object]]:
+    """Injected value per effect and magnitude (module doc): each candidate's own
+    ``benchmark_values`` (:class:`~gc_ocp.estimation.components.Component`), in the order of
+    :func:`~gc_ocp.estimation.components.candidate_effects` (as the registry stands now: an
+    effect registered at run time is injected too)."""
+    return {
+        name: REGISTRY[name].benchmark_values
+        for name in candidate_effects()
+        if REGISTRY[name].benchmark_values is not None
+    }
+
 
 NONE = "none"
 
@@ -146,23 +150,24 @@ def _replace_law(truth: tuple, law) -> tuple:
 
 
 def truth_model(effect: str, magnitude: str, base: tuple, stances, rng) -> tuple:
-    """``base`` (a frozen base fit) plus ``effect`` at ``magnitude`` (:data:`VALUES`), as the
+    """``base`` (a frozen base fit) plus ``effect`` at ``magnitude`` (:func:`injected_values`), as the
     effect's class injects it (``Component.inject``; random signs and patterns from ``rng``),
     after the sole units it declares in ``benchmark_nominal_units`` are reset to nominal.
     ``none`` returns ``base``; so does an effect of the data (``kinematic_correction``: the
     kinematic error is applied to the data, :func:`kinematic_error`, :func:`generate`)."""
     if effect == NONE:
         return base
-    if effect not in VALUES:
+    values = injected_values()
+    if effect not in values:
         why = "declares no benchmark_values" if effect in REGISTRY else "is not a registered effect"
         raise InputError(
             f'Effect "{effect}" {why}: the benchmark cannot inject it; choose from '
-            f"{[*VALUES, NONE]}"
+            f"{[*values, NONE]}"
         )
     cls = REGISTRY[effect]
     units = cls.benchmark_nominal_units
     base = tuple(_at_nominal(c, units, stances[0].layout) for c in base)
-    return cls.inject(base, VALUES[effect][magnitude], list(stances), rng)
+    return cls.inject(base, values[effect][magnitude], list(stances), rng)
 
 
 # --- the data ----------------------------------------------------------------------------------

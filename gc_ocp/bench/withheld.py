@@ -10,7 +10,7 @@ matrix, top-1 accuracy, "none" correct-rejection rate; rewritten atomically afte
 so a partial run leaves a valid file) and ``confusion.png``.
 
 **Injected values** (physical; "moderate" is a typical value of the literature or of the fits
-of real walking, "strong" about twice it; :data:`VALUES`, made of each effect's own
+of real walking, "strong" about twice it; :func:`~gc_ocp.bench.truth.injected_values`, made of each effect's own
 ``benchmark_values``; the truth is the effect's ``inject``, :func:`truth_model`):
 
 =====================  =========================================  ==============================
@@ -86,12 +86,12 @@ from gc_ocp.bench.truth import (
     DEFAULT_REALISM,
     MAGNITUDES,
     NONE,
-    VALUES,
     Realism,
     _source,
     base_truth,
     drift,
     generate,
+    injected_values,
     motion,
     truth_model,
 )
@@ -129,7 +129,8 @@ def plan(
     run covers every truth). "none" has no magnitude: it gets one case per (magnitude, seed)
     with distinct seeds, as many as any effect."""
     _, model = resolve_base(base)
-    cands = [e for e in candidate_names(model) if e in VALUES]  # those it can inject
+    values = injected_values()
+    cands = [e for e in candidate_names(model) if e in values]  # those it can inject
     truths = [*cands, NONE] if effects is None else list(effects)
     bad = [e for e in truths if e != NONE and e not in cands]
     if bad:
@@ -157,8 +158,9 @@ def kinematic_error(
     own when it is an effect of the data (``Component.benchmark_kinematic_error``, e.g.
     ``kinematic_correction``); else the realism's when the base can register it (it has the
     pose correction); else none (module doc)."""
-    if effect in VALUES:
-        own = REGISTRY[effect].benchmark_kinematic_error(VALUES[effect][magnitude])
+    values = injected_values()
+    if effect in values:
+        own = REGISTRY[effect].benchmark_kinematic_error(values[effect][magnitude])
         if own is not None:
             return own
     if any(c.name == "pose" for c in base_model):
@@ -214,7 +216,7 @@ def run_case(
     truth_row = next((r for r in rows if r["effect"] == truth_name), None)
     return {
         **case,
-        "value": VALUES[truth_name][mag] if truth_name in VALUES else None,
+        "value": injected_values().get(truth_name, {}).get(mag),
         "kinematic_error": kin_err,
         "answer": answer,
         "correct": answer == truth_name,
@@ -267,7 +269,7 @@ def run_benchmark(
         "candidates": cands,
         "seeds": list(range(first_seed, first_seed + seeds)),
         "magnitudes": list(magnitudes),
-        "values": {k: VALUES[k] for k in VALUES if k in {c["truth"] for c in cases}},
+        "values": {k: v for k, v in injected_values().items() if k in {c["truth"] for c in cases}},
         "realism": dataclasses.asdict(realism),
         "motion": [st.label for st in _source(files)[0]],
         "motion_files": None if files is None else list(files),
@@ -334,7 +336,7 @@ def run_benchmark(
 __all__ = [
     "MAGNITUDES",
     "NONE",
-    "VALUES",
+    "injected_values",
     "Realism",
     "base_truth",
     "confusion_figure",

@@ -175,13 +175,15 @@ def provenance(args: argparse.Namespace, pairs) -> dict:
 def _effect_list(text: str, option: str = "--effects") -> list[str]:
     """The comma-separated effect names of ``option``, each checked against the effect library
     (:data:`gc_ocp.estimation.components.EFFECTS`)."""
-    from gc_ocp.estimation.components import EFFECTS
+    from gc_ocp.estimation.components import candidate_effects
+
+    effects_now = candidate_effects()
 
     effects = [e.strip() for e in text.split(",") if e.strip()]
-    unknown = [e for e in effects if e not in EFFECTS]
+    unknown = [e for e in effects if e not in effects_now]
     if unknown or not effects:
         what = f"unknown effect(s) {', '.join(unknown)}" if unknown else "no effect given"
         raise InputError(
-            f"{option} {text!r}: {what}; choose from {', '.join(EFFECTS)} (comma-separated)."
+            f"{option} {text!r}: {what}; choose from {', '.join(effects_now)} (comma-separated)."
         )
     return effects

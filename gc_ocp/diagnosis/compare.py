@@ -37,13 +37,15 @@ its frames.
 from __future__ import annotations
 
 import dataclasses
+import time
+import warnings
 from collections.abc import Callable
 
 import numpy as np
 
 from gc_ocp.errors import SolveError
 from gc_ocp.estimation.problem import Weights, build_estimation
-from gc_ocp.estimation.result import EstimationResult
+from gc_ocp.estimation.result import EstimationResult, fit_quality
 from gc_ocp.estimation.solve import IpoptOptions, solve
 from gc_ocp.estimation.starts import (
     STRATEGIES,
@@ -149,7 +151,6 @@ def _fit(
     The seed's LLS is rank deficient on many folds (a unit never loaded in the remaining
     stances); it only sets the law's start and prior centre, so its warning is given once, on
     the base's fit of all stances (``start`` None), not once per fold and candidate."""
-    import warnings
 
     with warnings.catch_warnings():
         if start is not None:
@@ -219,7 +220,6 @@ def evaluate(
     reduction (:func:`insample_reduction`) is below it: the evaluation is ``screened`` (no
     folds). The diagnosis's decision rule requires that reduction, so such a model cannot pass
     whatever its held-out score."""
-    import time
 
     say = progress or (lambda s: None)
     weights = weights or Weights()
@@ -293,7 +293,6 @@ def evaluate_on(
     one extends, on the same ``train``/``test`` (warm starts). The result's ``folds`` are the
     test stances (all with the same training fit), so :func:`reduction` and :func:`score`
     apply."""
-    import time
 
     say = progress or (lambda s: None)
     weights = weights or Weights()
@@ -403,7 +402,6 @@ def weighted_residuals(ev: Evaluation, insample: bool = False) -> np.ndarray:
 def heldout_quality(ev: Evaluation) -> dict:
     """``{side: {six fit.json channel keys, "cop_mm"}}`` of the held-out stances (pooled per
     foot; in-sample without folds)."""
-    from gc_ocp.estimation.result import fit_quality
 
     fits = ev.heldout_fits if ev.folds else ev.full.stance_fits
     rms, cop = fit_quality(fits)

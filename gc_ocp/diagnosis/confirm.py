@@ -17,7 +17,7 @@ from gc_ocp.diagnosis.compare import evaluate_on, reduction
 from gc_ocp.diagnosis.diagnose import resolve_base
 from gc_ocp.diagnosis.result import WaterfallStep
 from gc_ocp.errors import ModelError
-from gc_ocp.estimation.components import EFFECTS, REGISTRY, model_from_names
+from gc_ocp.estimation.components import REGISTRY, candidate_effects, model_from_names
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.solve import IpoptOptions
 from gc_ocp.io.consistency import same_motion
@@ -51,7 +51,7 @@ def confirm_stances(
     _, base_model_ = resolve_base(base)
     unknown = [n for n in selected if n not in REGISTRY]
     if unknown:
-        raise ModelError(f"Unknown effect(s) {unknown}; choose from {list(EFFECTS)}")
+        raise ModelError(f"Unknown effect(s) {unknown}; choose from {list(candidate_effects())}")
     if not test:
         raise ModelError(
             "No stance to confirm on: give stances or trials the diagnosis did not use"

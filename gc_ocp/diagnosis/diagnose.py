@@ -40,10 +40,10 @@ from gc_ocp.diagnosis.selection import (
 from gc_ocp.diagnosis.where import where
 from gc_ocp.errors import ModelError
 from gc_ocp.estimation.components import (
-    EFFECTS,
     REGISTRY,
     bare_seed_model,
     base_model,
+    candidate_effects,
     full_model,
     model_from_names,
 )
@@ -63,10 +63,10 @@ a fitted friction coefficient, sole and pose registration, belt speed), ``full``
 def candidate_names(base: tuple, candidates: Sequence[str] | None = None) -> list[str]:
     """The effects to try on ``base``: ``candidates`` (default: every effect of the library,
     :data:`EFFECTS`) minus those the base already has."""
-    names = list(EFFECTS if candidates is None else candidates)
+    names = list(candidate_effects() if candidates is None else candidates)
     unknown = [n for n in names if n not in REGISTRY]
     if unknown:
-        raise ModelError(f"Unknown effect(s) {unknown}; choose from {list(EFFECTS)}")
+        raise ModelError(f"Unknown effect(s) {unknown}; choose from {list(candidate_effects())}")
     return [n for n in names if not REGISTRY[n].present_in(base)]
 
 

@@ -32,7 +32,7 @@ import os
 import time
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import Executor, as_completed
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 
 from gc_ocp.diagnosis.compare import Evaluation, describe, evaluate
 from gc_ocp.errors import InputError, ModelError
@@ -177,7 +177,6 @@ def candidate_executor(
     if n <= 1:
         yield None
         return
-    from concurrent.futures import ProcessPoolExecutor
 
     with ProcessPoolExecutor(n) as pool:
         yield pool

@@ -25,6 +25,11 @@ import math
 import os
 from pathlib import Path
 
+import jinja2
+
+from gc_ocp import __version__
+from gc_ocp.diagnosis import selection
+from gc_ocp.diagnosis.compare import BLOCK_SECONDS, MIN_CLUSTERS, resamples_stances
 from gc_ocp.diagnosis.fit_tables import (
     CHANNEL_KEYS,
     channel_name,
@@ -36,6 +41,7 @@ from gc_ocp.diagnosis.fit_tables import (
     rms_table,
     sole_table,
 )
+from gc_ocp.outputs import atomic_write_text
 from gc_ocp.trial import SIDES
 
 FIGURE_DPI = 100
@@ -237,8 +243,6 @@ def _waterfall(waterfall: list) -> list[dict]:
 def _method(d) -> dict:
     """The numbers of the method section: the rule, the bootstrap and the confounding criteria
     as the code applies them (the constants of :mod:`.selection` and :mod:`.compare`)."""
-    from gc_ocp.diagnosis import selection
-    from gc_ocp.diagnosis.compare import BLOCK_SECONDS, MIN_CLUSTERS, resamples_stances
 
     f = d.folds
     # the stances the bootstrap draws from: the held-out ones, or all of them in-sample
@@ -261,8 +265,6 @@ def _provenance(prov: dict | None, d) -> dict:
     """The provenance section: the CLI's record (inputs, options, date), or, without one, the
     version, the time of writing and the stances."""
     if not prov:
-        from gc_ocp import __version__
-
         now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         return {"cli": False, "version": __version__, "now": now}
     trials = [
@@ -322,7 +324,6 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
 def _environment():
     """The jinja2 environment of the page (made per call: no module state). Autoescaping is on;
     ``num`` formats a number (:func:`fmt_num`: "–" when missing), ``fmt`` is :func:`format`."""
-    import jinja2
 
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("gc_ocp.diagnosis", "templates"),
@@ -360,7 +361,6 @@ def write_report(
     pngs: dict | None = None,
 ) -> Path:
     """Write :func:`report_html` of ``diagnosis`` to ``path`` atomically; returns the path."""
-    from gc_ocp.outputs import atomic_write_text
 
     return atomic_write_text(path, report_html(diagnosis, provenance, pngs))
 

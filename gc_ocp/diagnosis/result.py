@@ -15,7 +15,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from gc_ocp.contact.channels import TABLE_KEYS
 from gc_ocp.diagnosis.compare import Evaluation, heldout_quality, score, superior_rms
+from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
 
 SCORE_TEXT = (
     "held-out combined score: sqrt(2 E / n), E = data cost + nuisance prior cost + "
@@ -264,13 +266,11 @@ class Diagnosis:
     # --- figures ---------------------------------------------------------------------------
     def heatmap(self, which: str = "base"):
         """Heat map of where the residual lies (``which``: ``"base"`` or ``"final"``)."""
-        from gc_ocp.diagnosis.where import heatmap_figure
 
         return heatmap_figure(self.where[which], title=f"Where the residual lies ({which} model)")
 
     def residual_figure(self, which: str = "base", **kw):
         """Residual over time of the held-out stances, phases shaded (needs the evaluations)."""
-        from gc_ocp.diagnosis.where import residual_figure
 
         ev = self.base_evaluation if which == "base" else self.final_evaluation
         return residual_figure(ev.heldout_fits if ev.folds else ev.full.stance_fits, **kw)
@@ -298,8 +298,6 @@ class Diagnosis:
     def waterfall_figure(self):
         """Held-out RMS per channel after each added effect."""
         import matplotlib.pyplot as plt
-
-        from gc_ocp.contact.channels import TABLE_KEYS
 
         fig, ax = plt.subplots(figsize=(7.0, 3.6))
         labels = [w.model for w in self.waterfall]

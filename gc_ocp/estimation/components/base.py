@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal, NamedTuple
 import numpy as np
 
 from gc_ocp.errors import ModelError
+from gc_ocp.estimation.variables import block_values
 
 if TYPE_CHECKING:  # pragma: no cover
     from gc_ocp.estimation.frame import Frame
@@ -102,7 +103,6 @@ class DecodeContext:
 
     def values(self, key: tuple):
         """Physical values and standard errors of the block ``key``."""
-        from gc_ocp.estimation.variables import block_values
 
         return block_values(self.specs, self.x, self.cov, key)
 

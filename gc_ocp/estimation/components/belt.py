@@ -8,6 +8,7 @@ import casadi as ca
 import numpy as np
 
 from gc_ocp.estimation.components.base import Component, DecodeContext
+from gc_ocp.estimation.flags import flag
 
 
 @dataclass(frozen=True)
@@ -71,7 +72,6 @@ class BeltSpeed(Component):
     def flags(self, block: dict, stances: list) -> list[dict]:
         """The belt speed is *not informed* when its SE is at least 90 % of its prior sigma: the
         posterior is the prior (e.g. a belt speed given for an overground trial)."""
-        from gc_ocp.estimation.flags import flag
 
         return [
             flag(

@@ -21,6 +21,7 @@ from gc_ocp.contact.laws import (
 )
 from gc_ocp.errors import ModelError
 from gc_ocp.estimation.components.base import Component, DecodeContext
+from gc_ocp.estimation.flags import flag
 from gc_ocp.trial import SIDES
 
 PARAMS = ("k", "n", "c", "mu")
@@ -270,7 +271,6 @@ class ContactLaw(Component):
         the ground). Its entry gets ``"identified": False``; the summary prints "not identified"
         instead of the number. The weak log-k prior is kept as it is: tightening it would bias
         the identified units; the flag is the honest answer."""
-        from gc_ocp.estimation.flags import flag
 
         bw = {st.side: st.body_weight for st in stances}
         out = []

@@ -7,6 +7,7 @@ from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
+from scipy.interpolate import BSpline
 
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.components.base import Component, DecodeContext, unique_labels
@@ -19,7 +20,6 @@ POSE_SLOTS = ("pose_dp", "pose_dth", "pose_ddp", "pose_ddth")
 def _bspline_basis(time_bytes: bytes, knot_spacing: float) -> tuple[np.ndarray, np.ndarray]:
     """Cubic B-spline value and derivative design matrices on the times ``time_bytes`` (float64),
     clamped knots about every ``knot_spacing`` [s] from the first to the last time."""
-    from scipy.interpolate import BSpline
 
     time = np.frombuffer(time_bytes, dtype=float)
     t0, t1 = float(time[0]), float(time[-1])

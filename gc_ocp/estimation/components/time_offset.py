@@ -7,9 +7,13 @@ from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.signal import butter, filtfilt
 
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.components.base import Component, DecodeContext, SummaryRow
+from gc_ocp.estimation.flags import BOUND_FRACTION, flag
+from gc_ocp.stance import PLATE_SIGNAL_MARGIN
 
 
 def lanczos(x, a: int = 3):
@@ -178,9 +182,6 @@ class TimeOffset(Component):
         component's ``fixed`` delay of the stance's trial: a cubic spline through the frames
         (edge values held outside them), evaluated at ``t - delta`` on the frames (``measured``)
         and on a 1 kHz plate grid over the frames +- ``PLATE_SIGNAL_MARGIN``."""
-        from scipy.interpolate import CubicSpline
-
-        from gc_ocp.stance import PLATE_SIGNAL_MARGIN
 
         delta = float((self.fixed or {}).get(stance.trial, 0.0))
         t = np.asarray(stance.time, float)
@@ -259,7 +260,6 @@ class TimeOffset(Component):
 
     def _lowpassed(self, pt: np.ndarray, pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The plate signal on a uniform grid at its median rate, zero-phase low-passed."""
-        from scipy.signal import butter, filtfilt
 
         dt = float(np.median(np.diff(pt)))
         n = int(round((pt[-1] - pt[0]) / dt)) + 1
@@ -312,7 +312,6 @@ class TimeOffset(Component):
         """``time_offset_bound_reduced``: a trial's bound was reduced to what the plate signal
         around its stances allows (the message says whether delta ended at it: then the value
         is not an estimate, the true offset may lie beyond)."""
-        from gc_ocp.estimation.flags import BOUND_FRACTION, flag
 
         out = []
         for trial, v in block.items():
