@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from gc_ocp._version import __version__
 from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
+from gc_ocp.estimation.components import describe_block
 from gc_ocp.estimation.variables import VariableSpec
 from gc_ocp.trial import SIDES
 from gc_ocp.wrench import cop_from_wrench
@@ -100,7 +102,6 @@ class EstimationResult:
         that its component describes (``Component.describe``: an effect's own parameters, e.g.
         damping's ``c``), in model order; blocks without rows are left out. Works on a result
         read back from ``fit.json`` (the class is found by the name in :attr:`components`)."""
-        from gc_ocp.estimation.components import describe_block
 
         out = {}
         for name, class_name in self.components.items():
@@ -205,8 +206,6 @@ class EstimationResult:
     def from_json(cls, d: dict | str) -> EstimationResult:
         """The result written by :meth:`to_json` (a dict, or a path / text of ``fit.json``)."""
         if isinstance(d, str) or hasattr(d, "read_text"):
-            from pathlib import Path
-
             text = (
                 str(d) if isinstance(d, str) and d.lstrip().startswith("{") else Path(d).read_text()
             )
