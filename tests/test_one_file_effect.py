@@ -99,11 +99,25 @@ def test_the_new_effect_is_fitted_diagnosed_and_injected(copy, tmp_path):
         shown = f"ground_tilt {trial} {key} = {block[key + '_deg']:.4g} ± "
         assert shown in r.stdout, r.stdout
 
+    # shown in the report: the pages show a fit's effect blocks by the component's own rows
+    r = _run(
+        copy,
+        "-c",
+        "import json; from gc_ocp.estimation.result import EstimationResult; "
+        "from gc_ocp.diagnosis.fit_tables import effect_blocks; "
+        f"print(json.dumps(effect_blocks(EstimationResult.from_json({str(out / 'fit.json')!r}))))",
+    )
+    [shown_block] = [b for b in json.loads(r.stdout) if b["name"] == "ground_tilt"]
+    assert shown_block["description"] == "GroundTilt"
+    assert [label for label, _ in shown_block["rows"]] == [f"{trial} tilt_x", f"{trial} tilt_y"]
+    assert all(text.endswith(" deg") for _, text in shown_block["rows"])
+
     # offered: gc-ocp diagnose --effects ground_tilt ranks it
     out = tmp_path / "diagnosis"
     _run(copy, "-m", "gc_ocp.cli", "diagnose", "--effects", "ground_tilt", "--out", str(out))
     d = json.loads((out / "diagnosis.json").read_text())
     assert [row["effect"] for row in d["ranking"]] == ["ground_tilt"]
+    assert "<b>ground_tilt</b>" in (out / "report.html").read_text(encoding="utf-8")
 
     # injected: gc-ocp benchmark-diagnosis --effects ground_tilt, the smallest run; its truth
     out = tmp_path / "benchmark"
