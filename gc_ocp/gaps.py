@@ -105,7 +105,6 @@ def fill_rigid_gaps(
     Returns the filled copy and the filled runs ``(marker, first frame, end frame (exclusive),
     donors)``.
     """
-
     x = np.asarray(x, dtype=float)
     out = x.copy()
     done: list[tuple[int, int, int, list[int]]] = []

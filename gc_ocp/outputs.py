@@ -70,7 +70,6 @@ def _file_mode() -> int:
 
 def check_writable(folder: str | os.PathLike, what: str = "--out") -> Path:
     """Fail early (before any computation) when ``folder`` cannot be an output folder."""
-
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise InputError(f"{what} {folder} exists and is not a folder; give a folder path.")

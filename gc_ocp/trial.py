@@ -78,7 +78,6 @@ class Plate:
 
     def cop(self, min_vertical: float = 20.0) -> np.ndarray:
         """Centre of pressure on the plate surface in ``lab`` [m], NaN where Fz < ``min_vertical`` [N]."""
-
         return cop_from_wrench(
             self.force, self.moment, self.reference_point, self.surface_height, min_vertical
         )
@@ -198,7 +197,6 @@ class Trial:
     def stance_wrench(self, stance: Stance, times: np.ndarray) -> np.ndarray:
         """Measured wrench of ``stance`` at ``times`` [s]: ``(n, 6)`` = force [N], moment [N·m]
         about ``stance.reference_point``, in ``lab``. Linear interpolation of the plate samples."""
-
         plate = self.plates[stance.plate]
         f = np.column_stack([np.interp(times, plate.time, plate.force[:, i]) for i in range(3)])
         m = np.column_stack([np.interp(times, plate.time, plate.moment[:, i]) for i in range(3)])

@@ -49,7 +49,6 @@ def _bundled():
 
 def real_motion(trial=None, kinematics=None, margin: float = 0.03) -> list[StanceData]:
     """Stances (recorded kinematics and plate data) of ``trial`` (default: the bundled example)."""
-
     if trial is None:
         trial, kinematics = _bundled()
     return trial_stances(trial, kinematics, margin=margin, min_frames=5)
@@ -57,7 +56,6 @@ def real_motion(trial=None, kinematics=None, margin: float = 0.03) -> list[Stanc
 
 def fit_model(stances: Sequence[StanceData], model: tuple, weights: Weights | None = None, x0=None):
     """One Ipopt solve of ``model`` on ``stances`` (no restarts): a :class:`EstimationResult`."""
-
     pb = build_estimation(list(stances), model, weights)
     return solve(pb, x0=None if x0 is None else x0(pb))
 
@@ -66,7 +64,6 @@ def truth_from_fit(stances: Sequence[StanceData], base: tuple) -> tuple:
     """The base model fitted to ``stances`` (initialised from the seed's LLS as ``fit`` does),
     every component frozen at its fitted block except the stance-scope ones (pose correction),
     which the truth leaves at zero: the recorded kinematics are the truth's motion."""
-
     model = with_lls_start(base, list(stances))
     res = estimate(list(stances), model)
     return tuple(c for c in frozen_model(model, res) if c.scope != "stance")
@@ -100,7 +97,6 @@ def simulate(
     ``marker_noise`` [m] > 0 the foot kinematics the fitter sees are re-estimated from noisy
     virtual markers. Each truth component may change how the plate records the wrench
     (:meth:`Component.observe`, e.g. a clock offset)."""
-
     stances = list(stances)
     pb = build_estimation(stances, truth)
     wrenches = pb.stance_wrenches(np.zeros(pb.x0.size) if pb.x0.size else pb.x0)

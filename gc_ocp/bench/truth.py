@@ -74,7 +74,6 @@ def _source(files: tuple[str, ...] | None) -> tuple[tuple[StanceData, ...], tupl
     shared truth of the tests, :func:`~gc_ocp.bench.recovery.bundled_base_truth`) or the
     trials ``files`` of one subject, loaded as ``gc-ocp`` loads them, with the registered base
     fitted to all their stances and frozen (fitted once per process)."""
-
     if files is None:
         stances, truth = bundled_base_truth()
         return tuple(stances), truth
@@ -227,7 +226,6 @@ def generate(
     """What the fitter gets: the plate data ``truth`` predicts on ``stances`` (the true motion),
     with plate noise and thresholding, and the foot kinematics seen through ``kinematic_error``
     = (marker noise [m], drift [m], drift [deg]) (None: exact kinematics)."""
-
     law = _law(truth)
     changes = {
         k: v

@@ -256,7 +256,6 @@ def run_benchmark(
     processes per diagnosis round (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`);
     ``files``: trials of one subject whose real motion the cases use (default: the bundled
     trial; more stances per foot give the held-out score more folds)."""
-
     say = progress or (lambda s: None)
     out = check_writable(out)
     files = None if files is None else tuple(str(f) for f in files)

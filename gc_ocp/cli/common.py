@@ -178,7 +178,6 @@ def _effect_list(text: str, option: str = "--effects") -> list[str]:
     from gc_ocp.estimation.components import candidate_effects
 
     effects_now = candidate_effects()
-
     effects = [e.strip() for e in text.split(",") if e.strip()]
     unknown = [e for e in effects if e not in effects_now]
     if unknown or not effects:

@@ -151,7 +151,6 @@ def _fit(
     The seed's LLS is rank deficient on many folds (a unit never loaded in the remaining
     stances); it only sets the law's start and prior centre, so its warning is given once, on
     the base's fit of all stances (``start`` None), not once per fold and candidate."""
-
     with warnings.catch_warnings():
         if start is not None:
             warnings.filterwarnings("ignore", message="LLS initialisation not possible")
@@ -220,7 +219,6 @@ def evaluate(
     reduction (:func:`insample_reduction`) is below it: the evaluation is ``screened`` (no
     folds). The diagnosis's decision rule requires that reduction, so such a model cannot pass
     whatever its held-out score."""
-
     say = progress or (lambda s: None)
     weights = weights or Weights()
     t0 = time.perf_counter()
@@ -293,7 +291,6 @@ def evaluate_on(
     one extends, on the same ``train``/``test`` (warm starts). The result's ``folds`` are the
     test stances (all with the same training fit), so :func:`reduction` and :func:`score`
     apply."""
-
     say = progress or (lambda s: None)
     weights = weights or Weights()
     t0 = time.perf_counter()
@@ -402,7 +399,6 @@ def weighted_residuals(ev: Evaluation, insample: bool = False) -> np.ndarray:
 def heldout_quality(ev: Evaluation) -> dict:
     """``{side: {six fit.json channel keys, "cop_mm"}}`` of the held-out stances (pooled per
     foot; in-sample without folds)."""
-
     fits = ev.heldout_fits if ev.folds else ev.full.stance_fits
     rms, cop = fit_quality(fits)
     return {side: {**ch, "cop_mm": cop.get(side, float("nan"))} for side, ch in rms.items()}

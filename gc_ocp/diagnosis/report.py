@@ -243,7 +243,6 @@ def _waterfall(waterfall: list) -> list[dict]:
 def _method(d) -> dict:
     """The numbers of the method section: the rule, the bootstrap and the confounding criteria
     as the code applies them (the constants of :mod:`.selection` and :mod:`.compare`)."""
-
     f = d.folds
     # the stances the bootstrap draws from: the held-out ones, or all of them in-sample
     n_scored = len(f.get("heldout", []) if f.get("n") else f.get("stances", []))
@@ -324,7 +323,6 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
 def _environment():
     """The jinja2 environment of the page (made per call: no module state). Autoescaping is on;
     ``num`` formats a number (:func:`fmt_num`: "–" when missing), ``fmt`` is :func:`format`."""
-
     env = jinja2.Environment(
         loader=jinja2.PackageLoader("gc_ocp.diagnosis", "templates"),
         autoescape=True,
@@ -361,7 +359,6 @@ def write_report(
     pngs: dict | None = None,
 ) -> Path:
     """Write :func:`report_html` of ``diagnosis`` to ``path`` atomically; returns the path."""
-
     return atomic_write_text(path, report_html(diagnosis, provenance, pngs))
 
 

@@ -266,12 +266,10 @@ class Diagnosis:
     # --- figures ---------------------------------------------------------------------------
     def heatmap(self, which: str = "base"):
         """Heat map of where the residual lies (``which``: ``"base"`` or ``"final"``)."""
-
         return heatmap_figure(self.where[which], title=f"Where the residual lies ({which} model)")
 
     def residual_figure(self, which: str = "base", **kw):
         """Residual over time of the held-out stances, phases shaded (needs the evaluations)."""
-
         ev = self.base_evaluation if which == "base" else self.final_evaluation
         return residual_figure(ev.heldout_fits if ev.folds else ev.full.stance_fits, **kw)
 

@@ -301,7 +301,6 @@ class EstimationProblem:
         """Weighted data residuals ``r`` (n_data,) and their Jacobian in ``x`` (scipy CSR,
         n_data x nx) at ``x``, from the per-frame Jacobians (``J_t A_t``): no symbolic Jacobian
         of the whole graph is built. Rows are in the order of :attr:`residuals`."""
-
         rs, Js = [], []
         for b in self.blocks:
             ny = b.fm.slots.size

@@ -102,7 +102,6 @@ class EstimationResult:
         that its component describes (``Component.describe``: an effect's own parameters, e.g.
         damping's ``c``), in model order; blocks without rows are left out. Works on a result
         read back from ``fit.json`` (the class is found by the name in :attr:`components`)."""
-
         out = {}
         for name, class_name in self.components.items():
             rows = describe_block(class_name, self.blocks.get(name, {}))

@@ -42,7 +42,6 @@ def synthetic_stance(
     """One synthetic stance. ``truth``: ``{"k": (5,), "n", "c", "mu"}`` [SI]; ``points_local``:
     true unit positions (default nominal); ``force_noise`` [N] and ``marker_noise`` [m] standard
     deviations (marker noise perturbs the foot pose given to the fitter, through 3 virtual markers)."""
-
     foot = rolling_foot(side, duration, rate, t0, sink, style=style)
     true_pts = nominal_points(side) if points_local is None else np.asarray(points_local)
     true_foot = foot.with_points(true_pts)
@@ -98,7 +97,6 @@ def noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) -> 
     """``foot`` as a marker pipeline would see it: the hindfoot pose re-estimated (Kabsch) from 4
     virtual markers with iid noise ``sigma`` [m], low-passed at 6 Hz; the same rigid error moves
     the toes (the toes are not tracked separately)."""
-
     mk = np.array(
         [[-0.07, 0.0, -0.03], [0.16, 0.0, -0.04], [0.0, -0.04, 0.0], [0.10, -0.045, -0.04]]
     )
@@ -125,7 +123,6 @@ def with_pose_error(
     rotation vector in the hindfoot frame (``R' = R exp(rotation)``), ``translation`` ``(T, 3)``
     [m] of the hindfoot origin in ``lab``; the same rigid error moves the toes (the toes are not
     tracked separately), twists updated consistently. Zero error gives back the input exactly."""
-
     dR, do = np.asarray(rotation, float), np.asarray(translation, float)
     P = foot.hindfoot_pose
     Rn = np.einsum("nij,njk->nik", P[:, :3, :3], Rotation.from_rotvec(dR).as_matrix())

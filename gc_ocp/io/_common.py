@@ -147,7 +147,6 @@ def marker_side(name: str) -> str | None:
 
 def _landmark(name: str) -> tuple[str, str | None]:
     """``(landmark, side)`` of a label by the landmark vocabulary (``("", None)`` if none)."""
-
     kind, key, side = classify(name)
     return (key, side) if kind == "landmark" else ("", None)
 
@@ -160,7 +159,6 @@ def foot_markers(names: list[str] | tuple[str, ...], side: str) -> list[int]:
     """Indices of the foot markers (heel, ankle, toe, metatarsal, midfoot) of ``side``: by the
     name patterns below, or recognised as a foot landmark or malleolus by the landmark
     vocabulary (:mod:`gc_ocp.model.landmarks`; e.g. CAST ``RFCC``, ``RFM1``)."""
-
     voc = vocabulary()
     out = []
     for i, n in enumerate(names):

@@ -299,7 +299,6 @@ def _analog_reading(c, params: dict, i: int, kind: int, pos: float, path: Path) 
 
 def read_c3d(path: Path) -> RawTrial:
     """Read markers, plates and subject data of a C3D file (SI, C3D global frame, Z up)."""
-
     head = path.read_bytes()[:512]
     if len(head) == 512 and head[1] == 0x50:
         order = _byte_order(path, head)  # data-start word: a file cut before it stalls ezc3d

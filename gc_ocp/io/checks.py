@@ -86,7 +86,6 @@ def stance_gap_report(
     :func:`gc_ocp.io._common.foot_markers`). Markers never visible in the trial are not foot
     markers of this trial (absent, not a gap).
     """
-
     names = list(trial.marker_names)
     t = np.asarray(trial.marker_time)
     rate = trial.marker_rate

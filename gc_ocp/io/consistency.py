@@ -54,7 +54,6 @@ LOADED_FRACTION_BW = 0.2
 def _hull_distance(points_xy: np.ndarray, p: np.ndarray) -> float:
     """Signed distance [m] of ``p`` outside the convex hull of ``points_xy`` (negative inside;
     outside: the largest edge-normal distance, a lower bound of the Euclidean one)."""
-
     try:
         hull = ConvexHull(points_xy)
     except Exception:  # degenerate (collinear) units: distance to the nearest unit

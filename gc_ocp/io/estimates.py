@@ -30,7 +30,6 @@ def estimate_height_from_markers(
     static trial, which has no plates). Accuracy is a few per cent: pass the measured height when
     you have it. Returns (height, description).
     """
-
     if markerset is None:
         markerset = detect_markerset(trial.marker_names)
     elif not isinstance(markerset, MarkerSet):

@@ -14,7 +14,6 @@ from gc_ocp.trial import GRAVITY, Trial
 
 def _markerset_line(trial: Trial) -> str:
     """The recognised marker set (``gc_ocp.model.markerset.detect_markerset``), or why not."""
-
     try:
         ms = detect_markerset(trial.marker_names)
     except GcOcpError as e:

@@ -243,7 +243,6 @@ def fill_foot_gaps(
 def landmark_mapping(markerset: MarkerSet, trial: Trial) -> dict:
     """The label -> landmark -> segment mapping used for ``trial`` (plain data, see
     :meth:`gc_ocp.model.recognition.Recognition.to_json`)."""
-
     if markerset.recognition is not None:
         return markerset.recognition
     return shipped_mapping(markerset, trial.marker_names, trial.markers, trial.source)

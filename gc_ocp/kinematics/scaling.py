@@ -42,7 +42,6 @@ def estimate_height(
     ``H = z / (hip_height_ratio + z_nominal / reference_height)``; we take the median. Expect a few
     per cent error: pass the measured height whenever it is known.
     """
-
     hh = hip_height_ratio()
     est = []
     for i, n in enumerate(names):
@@ -78,7 +77,6 @@ def build_marker_model(body: BodyModel, markerset: MarkerSet, names, height: flo
 
 def local_coordinates(mm: MarkerModel, q: np.ndarray, markers: np.ndarray) -> np.ndarray:
     """Each marker's position in its segment frame ``(n, m, 3)`` for poses ``q`` ``(n, nq)``."""
-
     data = mm.model.createData()
     seg_ids = [mm.body.frame_id(s) for s in mm.segments]
     out = np.empty(markers.shape)

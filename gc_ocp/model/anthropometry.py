@@ -165,7 +165,6 @@ def anthropometry(height: float, mass: float, sex: str = "male") -> Anthropometr
     forearm = forearm + hand; thigh; shank; the foot split into hindfoot and toes
     (``TOES_MASS_FRACTION``). Segment masses sum to ``mass`` exactly.
     """
-
     if sex not in _DE_LEVA:
         raise InputError(f'sex "{sex}" is not one of {list(_DE_LEVA)}')
     if not (0.5 < height < 2.5):

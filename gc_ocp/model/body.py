@@ -71,7 +71,6 @@ class BodyModel:
     @classmethod
     def from_subject(cls, height: float, mass: float, sex: str = "male") -> BodyModel:
         """Anthropometric model (de Leva 1996) of a subject of ``height`` [m] and ``mass`` [kg]."""
-
         return cls(
             pin.buildModelFromXML(generate_urdf(height, mass, sex=sex)),
             generate_urdf(height, mass, sex=sex),
@@ -82,7 +81,6 @@ class BodyModel:
     @classmethod
     def seed_subject(cls) -> BodyModel:
         """The seed report's subject (689 N, 1.70 m)."""
-
         return cls.from_subject(SEED_SUBJECT["height"], SEED_SUBJECT["mass"])
 
     def create_data(self) -> pin.Data:

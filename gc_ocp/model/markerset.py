@@ -100,7 +100,6 @@ def detect_markerset(marker_names, markers=None, source="the trial") -> MarkerSe
     (naming ``source``, the markers found and what is missing) when a foot cannot be tracked.
     The mapping used is in the returned set's ``recognition``.
     """
-
     labels = [str(x) for x in marker_names]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

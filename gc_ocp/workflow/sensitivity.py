@@ -81,7 +81,6 @@ def sensitivity(
 ) -> SensitivityReport:
     """Refit ``trials`` (a list of :class:`~gc_ocp.trial.Trial`) once per marker cutoff [Hz] and
     once per stance margin [s]; the reference choice is the default (6 Hz, 0.03 s)."""
-
     kin_fn = compute_kinematics or default_kin
     say = progress or (lambda s: None)
     runs: list[tuple[str, dict, dict]] = []

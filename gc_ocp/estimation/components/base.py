@@ -103,7 +103,6 @@ class DecodeContext:
 
     def values(self, key: tuple):
         """Physical values and standard errors of the block ``key``."""
-
         return block_values(self.specs, self.x, self.cov, key)
 
 

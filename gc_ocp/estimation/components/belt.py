@@ -72,7 +72,6 @@ class BeltSpeed(Component):
     def flags(self, block: dict, stances: list) -> list[dict]:
         """The belt speed is *not informed* when its SE is at least 90 % of its prior sigma: the
         posterior is the prior (e.g. a belt speed given for an overground trial)."""
-
         return [
             flag(
                 "belt_not_informed",

@@ -271,7 +271,6 @@ class ContactLaw(Component):
         the ground). Its entry gets ``"identified": False``; the summary prints "not identified"
         instead of the number. The weak log-k prior is kept as it is: tightening it would bias
         the identified units; the flag is the honest answer."""
-
         bw = {st.side: st.body_weight for st in stances}
         out = []
         for side, units in block.items():

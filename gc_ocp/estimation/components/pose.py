@@ -20,7 +20,6 @@ POSE_SLOTS = ("pose_dp", "pose_dth", "pose_ddp", "pose_ddth")
 def _bspline_basis(time_bytes: bytes, knot_spacing: float) -> tuple[np.ndarray, np.ndarray]:
     """Cubic B-spline value and derivative design matrices on the times ``time_bytes`` (float64),
     clamped knots about every ``knot_spacing`` [s] from the first to the last time."""
-
     time = np.frombuffer(time_bytes, dtype=float)
     t0, t1 = float(time[0]), float(time[-1])
     n_int = max(1, int(np.ceil((t1 - t0) / knot_spacing)))

@@ -182,7 +182,6 @@ class TimeOffset(Component):
         component's ``fixed`` delay of the stance's trial: a cubic spline through the frames
         (edge values held outside them), evaluated at ``t - delta`` on the frames (``measured``)
         and on a 1 kHz plate grid over the frames +- ``PLATE_SIGNAL_MARGIN``."""
-
         delta = float((self.fixed or {}).get(stance.trial, 0.0))
         t = np.asarray(stance.time, float)
         w = np.asarray(wrench, float)
@@ -260,7 +259,6 @@ class TimeOffset(Component):
 
     def _lowpassed(self, pt: np.ndarray, pw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The plate signal on a uniform grid at its median rate, zero-phase low-passed."""
-
         dt = float(np.median(np.diff(pt)))
         n = int(round((pt[-1] - pt[0]) / dt)) + 1
         ut = pt[0] + dt * np.arange(n)
@@ -312,7 +310,6 @@ class TimeOffset(Component):
         """``time_offset_bound_reduced``: a trial's bound was reduced to what the plate signal
         around its stances allows (the message says whether delta ended at it: then the value
         is not an estimate, the true offset may lie beyond)."""
-
         out = []
         for trial, v in block.items():
             if "bound_ms" not in v:
