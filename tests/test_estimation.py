@@ -420,3 +420,10 @@ def test_extended_model_started_from_the_base_never_ends_higher():
             [tk], model=model_from_names(["time_offset"], base=base_model()), start=base
         ).result
     assert ext.objective <= base.objective * (1 + 1e-4), (ext.objective, base.objective)
+    # the same from fit(extends=...): the model it extends fitted first on the same stances
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ext2 = fit(
+            [tk], model=model_from_names(["time_offset"], base=base_model()), extends=base_model()
+        ).result
+    assert ext2.objective == pytest.approx(ext.objective, rel=1e-12)  # the same start and solves

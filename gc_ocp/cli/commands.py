@@ -103,6 +103,7 @@ def fit_model(effects: list[str] | None) -> tuple | None:
 
 
 def cmd_fit(args: argparse.Namespace) -> int:
+    from gc_ocp.estimation.components import full_model
     from gc_ocp.estimation.plots import plot_fit, plot_pose_corrections, plot_sole_fit
     from gc_ocp.io.checks import require_stances
     from gc_ocp.outputs import OutputSet, check_writable
@@ -121,12 +122,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
     landmarks = {"trials": [kin.info.get("landmarks") for _, kin in pairs]}
     try:
         try:
-            start = None
-            if model is not None:  # the problem is not convex: the full model's optimum is one
-                # more start, so that adding effects cannot end above the model without them
-                _progress("fitting the full model first (its optimum starts the fit with effects)")
-                start = fit(pairs, holdout=args.holdout, progress=_progress).result
-            report = fit(pairs, model=model, holdout=args.holdout, progress=_progress, start=start)
+            # the problem is not convex: with effects, the full model's optimum is one more
+            # start, so that adding effects cannot end above the model without them
+            extends = None if model is None else full_model()
+            report = fit(
+                pairs, model=model, holdout=args.holdout, progress=_progress, extends=extends
+            )
         except SolveError as e:
             if e.result is not None:
                 out.text(

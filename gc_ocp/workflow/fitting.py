@@ -105,12 +105,16 @@ def fit(
     strategies: tuple[tuple[float, ...], ...] = STRATEGIES,
     margin: float = MARGIN,
     start: EstimationResult | None = None,
+    extends: tuple | None = None,
 ) -> FitReport:
     """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
 
     holdout: label (or unique prefix/substring) of a stance to hold out, see the module doc.
     margin: unloaded frames kept each side of a stance [s] (:data:`MARGIN`).
     start: a fit of a model this one extends, tried as one more start (:func:`best_of`).
+    extends: a model this one extends (e.g. :func:`full_model` for the full model plus effects),
+    fitted first on the same stances when no ``start`` is given; its optimum is then that start,
+    so that the problem's non-convexity cannot leave the extended model above it.
     """
     say = progress or (lambda s: None)
     model = model or full_model()
@@ -133,6 +137,10 @@ def fit(
     # held-out one)
     say("initialising stiffness from the seed's linear least squares")
     model = with_lls_start(model, data)
+    if extends is not None and start is None:
+        say("fitting the model it extends first (its optimum is one more start)")
+        base = with_lls_start(extends, data)
+        start = best_of(data, base, weights, options, strategies, progress=say)
     say(f"solving with Ipopt: {len(data)} stances, {sum(d.n for d in data)} frames")
     res = best_of(data, model, weights, options, strategies, progress=say, start=start)
     say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
