@@ -42,7 +42,10 @@ class StanceData:
     subject's, for reporting (per stance, so that stances of several subjects can be pooled);
     plate_time ``(m,)`` [s], plate_wrench ``(m, 6)``: the measured wrench at the plate's own
     samples over the stance window and :data:`PLATE_SIGNAL_MARGIN` around it (same reference
-    point), or None: what a clock-offset model resamples.
+    point), or None: what a clock-offset model resamples; censor_below [N]: the plate recorded
+    an exact 0 wherever the vertical force was below this threshold (0: no threshold), so a
+    measured vertical force below it is censored, not an error
+    (:mod:`gc_ocp.estimation.measurement`).
     """
 
     side: str
@@ -58,6 +61,7 @@ class StanceData:
     height: float = float("nan")
     plate_time: np.ndarray | None = None
     plate_wrench: np.ndarray | None = None
+    censor_below: float = 0.0
 
     def __post_init__(self) -> None:
         n = self.foot.time.shape[0]
@@ -80,6 +84,12 @@ class StanceData:
         set_(self, "ground_height", float(self.ground_height))
         set_(self, "body_weight", float(self.body_weight))
         set_(self, "height", float(self.height))
+        set_(self, "censor_below", float(self.censor_below))
+        if not (np.isfinite(self.censor_below) and self.censor_below >= 0):
+            raise InputError(
+                f"StanceData {self.label!r}: censor_below must be a threshold >= 0 N, but got "
+                f"{self.censor_below}"
+            )
         if (self.plate_time is None) != (self.plate_wrench is None):
             raise InputError(
                 f"StanceData {self.label!r}: give both plate_time and plate_wrench, or neither"

@@ -44,6 +44,7 @@ from collections.abc import Callable
 import numpy as np
 
 from gc_ocp.errors import SolveError
+from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult, fit_quality
 from gc_ocp.estimation.solve import IpoptOptions, solve
@@ -108,6 +109,7 @@ class Evaluation:
     seconds: float = 0.0
     screened: bool = False  # not held out: its in-sample gain over its parent was too small
     weights: Weights = dataclasses.field(default_factory=Weights)  # of every fit and score
+    linear: object = None  # the model linearised for the null (diagnosis.null.Linear), if asked
 
     @property
     def heldout_fits(self) -> list:
@@ -210,6 +212,8 @@ def evaluate(
     options: IpoptOptions | None = None,
     progress: Callable[[str], None] | None = None,
     screen_pct: float | None = None,
+    full: EstimationResult | None = None,
+    folds: bool = True,
 ) -> Evaluation:
     """Fit ``model`` on all of ``data`` and on each fold of ``plan``
     (:func:`fit_fold`), and score every held-out stance. Warm starts: from ``parent``'s fits (the
@@ -218,24 +222,31 @@ def evaluate(
     screen_pct: with a ``parent``, stop after the fit on all stances when the in-sample
     reduction (:func:`insample_reduction`) is below it: the evaluation is ``screened`` (no
     folds). The diagnosis's decision rule requires that reduction, so such a model cannot pass
-    whatever its held-out score."""
+    whatever its held-out score.
+
+    full: the model's fit on all of ``data`` when already made (not refitted); ``folds=False``:
+    the fit on all stances only (the evaluation is ``screened``; the calibrated decision of the
+    diagnosis's later rounds holds out only the candidates its one-step test passes)."""
     say = progress or (lambda s: None)
     weights = weights or Weights()
     t0 = time.perf_counter()
-    full = _fit(data, model, parent.full if parent else None, weights, options)
-    screened = (
+    if full is None:
+        full = _fit(data, model, parent.full if parent else None, weights, options)
+    screened = not folds or (
         screen_pct is not None
         and parent is not None
         and insample_reduction(parent.full, full) < screen_pct
     )
-    folds = (
+    fold_fits = (
         []
         if screened
         else [
             fit_fold(data, model, plan, j, full, parent, weights, options) for j in range(len(plan))
         ]
     )
-    ev = Evaluation(label, names, model, full, folds, time.perf_counter() - t0, screened, weights)
+    ev = Evaluation(
+        label, names, model, full, fold_fits, time.perf_counter() - t0, screened, weights
+    )
     say(f"  {label}: {describe(ev)} ({ev.seconds:.1f} s)")
     return ev
 
@@ -409,14 +420,7 @@ def superior_rms(ev: Evaluation) -> float:
     own body weight)."""
     fits = ev.heldout_fits if ev.folds else ev.full.stance_fits
     e = np.concatenate(
-        [
-            100
-            * (np.asarray(f["model"])[:, 2] - np.asarray(f["measured"])[:, 2])[
-                np.asarray(f["in_contact"])
-            ]
-            / f["body_weight"]
-            for f in fits
-        ]
+        [100 * fit_error(f)[:, 2][np.asarray(f["in_contact"])] / f["body_weight"] for f in fits]
     )
     return float(np.sqrt(np.mean(e**2))) if e.size else float("nan")
 

@@ -25,6 +25,7 @@ import numpy as np
 
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, WRENCH_COLUMN
 from gc_ocp.diagnosis.phases import PHASES, phase_bounds, phase_index
+from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.result import COP_MIN_FRACTION_BW
 from gc_ocp.trial import SIDES
@@ -48,7 +49,7 @@ def stance_residuals(fits: list, weights: Weights | None = None) -> list[dict]:
     for f in fits:
         meas, mod = np.asarray(f["measured"]), np.asarray(f["model"])
         bw, h = f["body_weight"], f["height"]
-        res = mod - meas
+        res = fit_error(f)
         pct = 100 * res / np.array([bw, bw, bw, bw * h, bw * h, bw * h])
         wres = weights.residuals(f)
         inc = np.asarray(f["in_contact"], bool)

@@ -34,6 +34,7 @@ import casadi as ca
 
 from gc_ocp.errors import ModelError
 from gc_ocp.estimation.compiled import compiled
+from gc_ocp.estimation.measurement import CASADI, residual
 from gc_ocp.foot import SEGMENTS, SoleLayout
 
 BASE_DATA: tuple[tuple[str, int], ...] = (
@@ -50,6 +51,7 @@ BASE_DATA: tuple[tuple[str, int], ...] = (
     ("ground_height", 1),  # [m]
     ("belt_velocity", 3),  # [m/s]
     ("reference", 3),  # [m]
+    ("censor_below", 1),  # plate zero threshold [N] (0: none; see .measurement)
 )
 """Per-frame numeric data every model has (name, size), in this order in ``D``."""
 
@@ -104,7 +106,8 @@ class Frame:
     ``ground_height`` (a tilted or offset plate), read through :meth:`ground`;
     tangential: ``(frame, i, F_n) -> F_t`` (3,) tangential force law replacing the contact law's
     Coulomb friction, or None;
-    ground_height, belt_velocity, reference, measured, inv_sigma: as in :data:`BASE_DATA`.
+    ground_height, belt_velocity, reference, measured, inv_sigma, censor_below: as in
+    :data:`BASE_DATA`.
     """
 
     def __init__(self, layout: SoleLayout, D: ca.SX, y: ca.SX, data: Layout, slots: Layout) -> None:
@@ -128,6 +131,7 @@ class Frame:
         self.reference = self.data("reference")
         self.measured = self.data("measured")
         self.inv_sigma = self.data("inv_sigma")
+        self.censor_below = self.data("censor_below")
 
     def slot(self, name: str) -> ca.SX:
         """The per-frame input ``name`` (SX column)."""
@@ -195,7 +199,7 @@ def _compose(layout: SoleLayout, components: tuple, data_entries, slot_entries) 
     wrench = f.wrench()
     for c in components:
         c.edit_measured(f)
-    res = (wrench - f.measured) * f.inv_sigma
+    res = ca.vertcat(*residual(wrench, f.measured, f.inv_sigma, f.censor_below, CASADI))
     return ca.Function(
         "foot_frame", [D, y], [res, wrench, f.measured], ["D", "y"], ["res", "wrench", "measured"]
     )

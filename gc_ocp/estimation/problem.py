@@ -32,6 +32,7 @@ import scipy.sparse as sp
 
 from gc_ocp.errors import InputError, ModelError
 from gc_ocp.estimation.frame import BASE_DATA, FrameModel, frame_model
+from gc_ocp.estimation.measurement import stance_residuals
 from gc_ocp.estimation.variables import Variables
 from gc_ocp.stance import StanceData
 
@@ -51,10 +52,15 @@ class Weights:
         )
 
     def residuals(self, fit: dict) -> np.ndarray:
-        """``(T, 6)`` weighted residuals (model - measured, in units of the error scale) of a
-        stance fit (``EstimationResult.stance_fits`` item)."""
-        res = np.asarray(fit["model"], float) - np.asarray(fit["measured"], float)
-        return res * self.inverse_sigmas(fit["body_weight"])
+        """``(T, 6)`` weighted residuals (model - measured, in units of the error scale, censored
+        samples as :mod:`gc_ocp.estimation.measurement` says) of a stance fit
+        (``EstimationResult.stance_fits`` item)."""
+        return stance_residuals(
+            fit["model"],
+            fit["measured"],
+            self.inverse_sigmas(fit["body_weight"]),
+            fit.get("censor_below", 0.0),
+        )
 
 
 def frame_data(st: StanceData, weights: Weights, fm: FrameModel, model: tuple) -> np.ndarray:
@@ -75,6 +81,7 @@ def frame_data(st: StanceData, weights: Weights, fm: FrameModel, model: tuple) -
         "ground_height": st.ground_height,
         "belt_velocity": st.belt_velocity,
         "reference": st.reference_point,
+        "censor_below": st.censor_below,
     }
     for c in model:
         cols.update(c.data(st))
@@ -326,12 +333,11 @@ def _check_stances(stances: list[StanceData]) -> None:
             )
 
 
-def build_estimation(
-    stances: list[StanceData], model: tuple, weights: Weights | None = None
-) -> EstimationProblem:
-    """Build the NLP for ``stances`` under ``model`` (a tuple of components)."""
-    _check_stances(stances)
-    weights = weights or Weights()
+def declare(stances: list[StanceData], model: tuple) -> tuple[tuple, list, Variables]:
+    """``(model, stances, variables)``: the model after every component adjusted the others
+    (:meth:`Component.configure`), the stances as the components prepare them, and the
+    variables they declare (not finalised): the first half of :func:`build_estimation`, cheap
+    (no CasADi graph), e.g. for the prior a model has on some stances."""
     model = tuple(model)
     for comp in tuple(model):  # each component may adjust the others (e.g. fix what it replaces)
         model = tuple(comp.configure(model))
@@ -344,6 +350,16 @@ def build_estimation(
     variables = Variables()
     for comp in model:
         comp.declare(variables, stances)
+    return model, stances, variables
+
+
+def build_estimation(
+    stances: list[StanceData], model: tuple, weights: Weights | None = None
+) -> EstimationProblem:
+    """Build the NLP for ``stances`` under ``model`` (a tuple of components)."""
+    _check_stances(stances)
+    weights = weights or Weights()
+    model, stances, variables = declare(stances, model)
     x = variables.finalize()
     nx = variables.size
     models: dict = {}
@@ -412,4 +428,11 @@ def build_estimation(
     )
 
 
-__all__ = ["EstimationProblem", "StanceBlock", "Weights", "build_estimation", "frame_data"]
+__all__ = [
+    "EstimationProblem",
+    "StanceBlock",
+    "Weights",
+    "build_estimation",
+    "declare",
+    "frame_data",
+]

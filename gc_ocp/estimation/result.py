@@ -18,6 +18,7 @@ import numpy as np
 from gc_ocp._version import __version__
 from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
 from gc_ocp.estimation.components import describe_block
+from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
 from gc_ocp.trial import SIDES
 from gc_ocp.wrench import cop_from_wrench
@@ -256,10 +257,11 @@ def fit_quality(fits: list) -> tuple[dict, dict]:
         mine = [f for f in fits if f["side"] == side]
         if not mine:
             continue
-        # normalise per stance, then pool: channel_rms_pct of (measured / BW, model / BW) with BW = 1
-        meas = np.vstack([_per_bw(f, f["measured"]) for f in mine])
-        mod = np.vstack([_per_bw(f, f["model"]) for f in mine])
-        pct = channel_rms_pct(meas, mod, 1.0, 1.0)
+        # normalise per stance, then pool: channel_rms_pct of (0, error / BW) with BW = 1; the
+        # error is the measurement model's (a censored sample counts only for a force above
+        # the plate's threshold, :mod:`gc_ocp.estimation.measurement`)
+        err = np.vstack([_per_bw(f, fit_error(f)) for f in mine])
+        pct = channel_rms_pct(np.zeros_like(err), err, 1.0, 1.0)
         rms[side] = {TABLE_KEYS[c]: v for c, v in pct.items()}
         errs = []
         for f in mine:

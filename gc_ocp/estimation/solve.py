@@ -156,6 +156,7 @@ def decode(
                 "ground_height": st.ground_height,
                 "body_weight": st.body_weight,
                 "height": st.height,
+                "censor_below": st.censor_below,
             }
         )
     return blocks, fits

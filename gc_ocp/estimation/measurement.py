@@ -1,0 +1,74 @@
+"""The measurement model: how a model wrench is compared with what the plate recorded.
+
+One definition, two backends: :func:`residual` forms the residual of one frame inside the
+per-frame CasADi function (:mod:`.frame`) and of every frame of a fitted stance in NumPy
+(:meth:`~gc_ocp.estimation.problem.Weights.residuals`, the diagnosis's scores, the reported
+errors), from the same code (the backend's ``where``/``maximum``/``logical_and`` passed in, as
+``adam`` writes one algorithm for several backends).
+
+**Censored samples.** Many labs (and every OpenSim ``.mot`` export we have seen) set the whole
+plate wrench to exactly 0 wherever the vertical force is below a threshold ``X`` (10-50 N).
+Such a sample does not say the force was 0: it says it was below ``X``. It is *censored*: its
+residual is ``max(F_z - X, 0)`` on the vertical channel (the model is charged only for a force
+the plate would have recorded) and 0 on the other five (a force below ``X`` carries a friction
+force and moments the plate did not record). Without this, the rising and falling edges of every
+stance look like a force that starts late and ends early, which a clock offset and damping
+partly imitate (issue 22). A measured vertical force below ``X`` is censored: after the plate
+signal is resampled (a clock offset), values between 0 and ``X`` occur at the edges and mean the
+same thing. ``censor_below = 0``: no threshold (the residual is the plain difference; fits of
+unthresholded data are bit-identical to before).
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import casadi as ca
+import numpy as np
+
+NUMPY = SimpleNamespace(where=np.where, maximum=np.maximum, logical_and=np.logical_and)
+"""NumPy backend of :func:`residual` (channels are ``(T,)`` arrays)."""
+
+CASADI = SimpleNamespace(where=ca.if_else, maximum=ca.fmax, logical_and=ca.logic_and)
+"""CasADi backend of :func:`residual` (channels are SX scalars)."""
+
+
+def residual(wrench, measured, inv_sigma, censor_below, lib=NUMPY) -> list:
+    """Weighted residual per channel (six items, in wrench order): ``(model - measured) x
+    inv_sigma``, censored below ``censor_below`` [N] (module doc). ``wrench``, ``measured``,
+    ``inv_sigma``: indexable by channel (an SX column, or six ``(T,)`` arrays / a ``(6,)``
+    array); ``censor_below``: scalar [N] (0: none); ``lib``: :data:`NUMPY` or :data:`CASADI`."""
+    censored = lib.logical_and(censor_below > 0, measured[2] < censor_below)
+    above = lib.maximum(wrench[2] - censor_below, 0.0) * inv_sigma[2]
+    out = []
+    for k in range(6):
+        plain = (wrench[k] - measured[k]) * inv_sigma[k]
+        out.append(lib.where(censored, above if k == 2 else 0.0 * plain, plain))
+    return out
+
+
+def stance_residuals(
+    model: np.ndarray, measured: np.ndarray, inv_sigma, censor_below
+) -> np.ndarray:
+    """``(T, 6)`` residuals of one stance (:func:`residual` in NumPy); ``inv_sigma``: ``(6,)``
+    (ones: the residual in N and N m)."""
+    m, w = np.asarray(measured, float), np.asarray(model, float)
+    s = np.broadcast_to(np.asarray(inv_sigma, float), (6,))
+    cols = residual(w.T, m.T, s, float(censor_below))
+    return np.stack(cols, axis=1)
+
+
+def fit_error(fit: dict) -> np.ndarray:
+    """``(T, 6)`` model error [N, N m] of a stance fit (``EstimationResult.stance_fits`` item):
+    :func:`stance_residuals` with unit weights (fits written before the threshold was modelled
+    have no ``censor_below``: none)."""
+    return stance_residuals(fit["model"], fit["measured"], 1.0, fit.get("censor_below", 0.0))
+
+
+def censored(measured: np.ndarray, censor_below: float) -> np.ndarray:
+    """``(T,)`` which samples of ``measured`` ``(T, 6)`` are censored (module doc)."""
+    m = np.asarray(measured, float)
+    return np.zeros(m.shape[0], bool) if censor_below <= 0 else m[:, 2] < censor_below
+
+
+__all__ = ["CASADI", "NUMPY", "censored", "fit_error", "residual", "stance_residuals"]
