@@ -22,6 +22,7 @@ from gc_ocp.diagnosis.compare import (
     reduction,
     score,
 )
+from gc_ocp.diagnosis.null import NullTest
 from gc_ocp.diagnosis.phases import PERRY_STANCE_FRACTIONS, phase_index
 from gc_ocp.diagnosis.result import RankRow
 from gc_ocp.diagnosis.selection import CONFOUND_COSINE, flag_alike, rank
@@ -199,14 +200,16 @@ def test_fold_fits_nest_and_a_screened_candidate_is_not_held_out(base_eval):
     for fc, fp in zip(child.folds, parent.folds, strict=True):
         assert fc.train.objective <= fp.train.objective * (1.0 + NESTING_RTOL)
     gain = insample_reduction(parent.full, child.full)
-    screened = evaluate(
-        data, model, "base+damping", ("damping",), plan, parent=parent, screen_pct=gain + 1.0
-    )
+    screened = evaluate(data, model, "base+damping", ("damping",), plan, parent=parent, folds=False)
     assert screened.screened and screened.folds == []
-    (row,) = rank(parent, {"damping": screened}, 2.0, 50, 0, 100.0)
-    assert row.screened and not row.passes
+    assert screened.full.objective == pytest.approx(child.full.objective, rel=1e-9)
+    # a later round holds out only what the calibrated test names; this one it did not
+    test = NullTest(0.1, 0.0, 0.5, 0.2, 0.4, 2.3, None, len(plan))
+    (row,) = rank(parent, {"damping": screened}, {"damping": test}, 50, 0, 100.0)
+    assert row.screened and not row.passes and row.calibrated == test
     assert row.heldout_rms_reduction_pct is None
     assert row.insample_rms_reduction_pct == pytest.approx(gain)
+    assert "not held out" in row.line() and "p = 0.4" in row.line()
 
 
 def test_an_injected_damping_is_found_and_nothing_on_the_base_truth(bundled):
@@ -323,7 +326,7 @@ def test_a_round_runs_on_any_executor_the_dearest_first(monkeypatch):
 
     monkeypatch.setattr(execution, "evaluate", fake_evaluate)
     jobs = [execution.Job(n, f"base+{n}", (), (n,)) for n in ("a", "b", "c")]
-    inputs = execution.RoundInputs(("stance",), (0,), parent=None, screen_pct=2.0)
+    inputs = execution.RoundInputs(("stance",), (0,), parent=None, folds=False)
     ex, said = _PicklingExecutor(), []
     with pytest.warns(UserWarning) as caught:
         evs = execution.evaluate_round(jobs, inputs, ex, said.append, {"b": 9.0, "c": 3.0})
@@ -333,7 +336,7 @@ def test_a_round_runs_on_any_executor_the_dearest_first(monkeypatch):
         "base+b",
         "base+c",
     ]
-    assert evs["a"].kw["screen_pct"] == 2.0 and evs["a"].kw["progress"] is None
+    assert evs["a"].kw["folds"] is False and evs["a"].kw["progress"] is None
     assert sorted(str(w.message) for w in caught) == [f"note from base+{n}" for n in "abc"]
     assert sorted(said) == [  # as they complete
         f"  base+{n}: in-sample J = 1.0 (screened: not held out) (0.5 s)" for n in "abc"

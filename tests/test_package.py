@@ -36,7 +36,7 @@ def test_readme_examples_work_on_a_fresh_interpreter():
     code = (
         "import gc_ocp\n"
         "m = gc_ocp.estimation.model_from_names(['friction'], base=gc_ocp.estimation.base_model())\n"
-        "print([c.name for c in m], gc_ocp.diagnosis.MIN_REDUCTION_PCT > 0, gc_ocp.fit.__name__)"
+        "print([c.name for c in m], 0 < gc_ocp.diagnosis.ALPHA < 1, gc_ocp.fit.__name__)"
     )
     assert _fresh(code) == "['contact', 'sole', 'pose', 'belt', 'friction'] True fit"
 

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from gc_ocp.diagnosis.result import RankRow
+
 
 @pytest.fixture(scope="module")
 def diagnosis():
@@ -128,12 +130,15 @@ def _provenance() -> dict:
 
 
 def test_report_says_when_none_is_inconclusive(diagnosis):
-    """A "none" whose candidate reduces the score in-sample and held out without a supported
-    margin is called inconclusive, in the result, its JSON, its summary and the page; the
-    verdict of each row names the condition that failed."""
+    """A "none" whose candidate's one-step gain is above its null but not significant, with a
+    practical number of further steps that would decide it, is called inconclusive, in the
+    result, its JSON, its summary and the page, with that number; the verdict of each row says
+    what the calibrated test found."""
+    from gc_ocp.diagnosis.null import NullTest
     from gc_ocp.diagnosis.report import _verdict, report_html
 
     r = diagnosis.ranking[0]
+    test = NullTest(1.2, 0.1, 0.6, 1.8, 0.12, 2.4, 14, 6)
     weak = dataclasses.replace(
         r,
         passes=False,
@@ -142,28 +147,31 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
         heldout_rms_reduction_ci=(-0.5, 3.5),
         insample_rms_reduction_pct=6.0,
         confounded_with=(),
+        calibrated=test,
     )
     d = dataclasses.replace(
         diagnosis, ranking=[weak], rounds=[[weak]], selected=[], waterfall=diagnosis.waterfall[:1]
     )
     assert d.inconclusive == [r.effect] and d.to_json()["inconclusive"] == [r.effect]
-    assert f"inconclusive: {r.effect}" in d.summary()
+    said = f"{r.effect}: inconclusive (p = 0.12); about 14 more steps would decide"
+    assert said in d.summary()
     page = report_html(d)
-    assert "No candidate effect passes" in page and "Inconclusive:" in page
-    assert _verdict(weak, 2.0) == "fail (below 2 %)"
-    assert _verdict(dataclasses.replace(weak, heldout_rms_reduction_pct=3.0), 2.0) == (
-        "fail (interval reaches 0)"
+    assert "No candidate effect passes" in page and "about 14 more steps would decide" in page
+    assert _verdict(weak) == "inconclusive (p = 0.12); about 14 more steps would decide"
+    far = dataclasses.replace(
+        weak, inconclusive=False, calibrated=dataclasses.replace(test, more_stances=400)
     )
-    in_sample = dataclasses.replace(
-        weak, heldout_rms_reduction_pct=3.0, heldout_rms_reduction_ci=(1, 5)
+    assert _verdict(far) == "not named (p = 0.12); about 400 more steps would decide at this gain"
+    within = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=None))
+    assert "within what the null gives" in _verdict(within)
+    named = dataclasses.replace(
+        weak,
+        passes=True,
+        inconclusive=False,
+        calibrated=dataclasses.replace(test, p_adjusted=0.004, more_stances=0),
     )
-    assert _verdict(dataclasses.replace(in_sample, insample_rms_reduction_pct=1.0), 2.0) == (
-        "fail (in-sample below 2 %)"
-    )
-    screened = dataclasses.replace(
-        weak, heldout_rms_reduction_pct=None, heldout_rms_reduction_ci=(None, None)
-    )
-    assert _verdict(screened, 2.0) == "fail (in-sample below 2 %: not held out)"
+    assert _verdict(named) == "named (p = 0.004)"
+    assert RankRow.from_json(named.to_json()) == named
 
 
 def test_report_states_the_rule_the_code_applies(diagnosis, page):
@@ -175,9 +183,9 @@ def test_report_states_the_rule_the_code_applies(diagnosis, page):
     from gc_ocp.diagnosis.report import report_html
 
     text = page.split("How the effects were judged")[1].split("Notes and flags")[0]
-    t = f"{diagnosis.threshold_pct:g} %"
-    assert f"reduces the in-sample objective by at least {t}" in text  # the in-sample guard
-    assert "inconclusive" in text and "screened" in text
+    assert f"at most {diagnosis.alpha:g}" in text  # the family-wise rate
+    assert f"on {diagnosis.calibration[0]['replicates']} such replicates" in text
+    assert "inconclusive" in text and "only the candidates the test names are held out" in text
     assert f"cosine above {rule.CONFOUND_COSINE:g}" in text
     assert f"{100 * rule.COMPARABLE_FRACTION:.0f} % of the larger" in text
     assert f"less than {100 * rule.NON_ADDITIVE_FRACTION:.0f} % of its gain" in text

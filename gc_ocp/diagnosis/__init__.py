@@ -10,6 +10,8 @@ Layout, one idea per module (the table in ``docs/architecture.md``):
 
 * :mod:`.phases`: gait phases of a stance; :mod:`.where`: the residual map and its figures;
 * :mod:`.compare`: folds, the held-out score, the bootstrap (one model's evaluation);
+* :mod:`.null`: the calibrated test (null replicates, one-step fits, max statistic, steps
+  that would decide);
 * :mod:`.selection`: the decision rule, ranking, confounding, which effect a round adds;
 * :mod:`.execution`: a round's candidates as tasks on a ``concurrent.futures.Executor``;
 * :mod:`.diagnose`: the orchestration (:func:`diagnose`, :func:`diagnose_stances`, the bases);
@@ -21,15 +23,15 @@ Layout, one idea per module (the table in ``docs/architecture.md``):
 
 from gc_ocp.diagnosis.confirm import confirm, confirm_stances
 from gc_ocp.diagnosis.diagnose import BASES, candidate_names, diagnose, diagnose_stances
+from gc_ocp.diagnosis.null import ALPHA
 from gc_ocp.diagnosis.phases import PHASES, phase_bounds
 from gc_ocp.diagnosis.report import report_html, write_report
 from gc_ocp.diagnosis.result import Diagnosis, RankRow, WaterfallStep
-from gc_ocp.diagnosis.selection import MIN_REDUCTION_PCT
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure, where
 
 __all__ = (
+    "ALPHA",
     "BASES",
-    "MIN_REDUCTION_PCT",
     "PHASES",
     "Diagnosis",
     "RankRow",

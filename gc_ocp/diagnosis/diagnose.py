@@ -15,6 +15,7 @@ Confirmation on new stances is :mod:`.confirm`; the HTML page, :mod:`.report`.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
@@ -30,9 +31,15 @@ from gc_ocp.diagnosis.execution import (
     candidate_executor,
     evaluate_round,
 )
+from gc_ocp.diagnosis.null import (
+    ALPHA,
+    N_REPLICATES,
+    calibrate,
+    fold_prior_means,
+    linearize_parent,
+)
 from gc_ocp.diagnosis.result import Diagnosis, RankRow, WaterfallStep
 from gc_ocp.diagnosis.selection import (
-    MIN_REDUCTION_PCT,
     best_passing,
     flag_non_additive,
     rank,
@@ -85,21 +92,25 @@ def diagnose_stances(
     candidates: Sequence[str] | None = None,
     weights: Weights | None = None,
     options: IpoptOptions | None = None,
-    threshold_pct: float = MIN_REDUCTION_PCT,
+    alpha: float = ALPHA,
     max_effects: int | None = None,
     n_boot: int = 2000,
     seed: int = 0,
     progress: Callable[[str], None] | None = None,
     workers: int | None = None,
     executor: Executor | None = None,
+    n_replicates: int = N_REPLICATES,
+    mismatch=None,
 ) -> Diagnosis:
-    """The diagnosis of ``stances`` (one subject; see the module doc). ``max_effects``: stop the
-    forward selection after that many effects (``0``: rank only; ``1``: rank and add the best
-    passing effect, as the withheld-effect benchmark does). ``workers``: processes that evaluate
-    a round's candidates in parallel (default
-    :func:`~gc_ocp.diagnosis.execution.default_workers`; 1: in this process). ``executor``: a
-    :class:`concurrent.futures.Executor` to run them on instead (e.g. a
-    ``dask.distributed.Client(...).get_executor()``; ``workers`` is then ignored)."""
+    """The diagnosis of ``stances`` (one subject; see the module doc). ``alpha``: the
+    family-wise rate of a false claim per round (:mod:`.null`); ``n_replicates``: the null's
+    replicates per round; ``mismatch``: the family of model mismatch the null allows
+    (:mod:`.mismatch`; None: noise only). ``max_effects``: stop the forward selection after
+    that many effects (``0``: rank only; ``1``: rank and add the best passing effect, as the
+    withheld-effect benchmark does). ``workers``: processes that evaluate a round's candidates
+    in parallel (default :func:`~gc_ocp.diagnosis.execution.default_workers`; 1: in this
+    process). ``executor``: a :class:`concurrent.futures.Executor` to run them on instead (e.g.
+    a ``dask.distributed.Client(...).get_executor()``; ``workers`` is then ignored)."""
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
     base_label, base_model_ = resolve_base(base)
@@ -110,8 +121,8 @@ def diagnose_stances(
     if not plan:
         notes.append(
             "No stance could be held out (every foot has a single stance): effects are scored "
-            "in-sample with a BIC penalty; give more stances or trials of the subject for a "
-            "held-out diagnosis."
+            "in-sample with a BIC penalty (the calibrated test on the in-sample fit); give more "
+            "stances or trials of the subject for a held-out diagnosis."
         )
     folds = {
         "kind": "leave-one-stance-out" if plan else "in-sample (BIC penalty)",
@@ -127,11 +138,13 @@ def diagnose_stances(
     selected: list[str] = []
     remaining = list(names)
     rounds: list[list[RankRow]] = []
+    calibration: list[dict] = []
     hint: dict = {}
     limit = len(names) if max_effects is None else max_effects
     with candidate_executor(workers, executor) as pool:
         while remaining:
             say(f"round {len(rounds) + 1}: {len(remaining)} candidate(s) on top of {current.label}")
+            parent_lin = linearize_parent(stances, current.model, current.full, weights)
             jobs = [
                 Job(
                     name=n,
@@ -142,17 +155,49 @@ def diagnose_stances(
                 for n in remaining
             ]
             # round 1 ranks every candidate on held-out stances (the ranking the user reads);
-            # later rounds only decide the selection, so a candidate whose in-sample reduction is
-            # below the threshold (it cannot pass) is not held out there (``screened``)
-            screen = threshold_pct if rounds and plan else None
-            inputs = RoundInputs(tuple(stances), tuple(plan), current, weights, options, screen)
+            # later rounds only decide the selection, so only the candidates the calibrated
+            # test names are held out there (the others are ``screened``)
+            first = not rounds or not plan
+            inputs = RoundInputs(
+                tuple(stances), tuple(plan), current, weights, options, first, parent_lin.r
+            )
             evs = evaluate_round(jobs, inputs, pool, say, hint)
             hint = {n: ev.seconds for n, ev in evs.items()}
             failed = {n: ev for n, ev in evs.items() if isinstance(ev, NotEvaluable)}
             notes += [f"{n} is not evaluable on these data: {e.message}" for n, e in failed.items()]
             remaining = [n for n in remaining if n not in failed]  # not retried in later rounds
-            evaluations.update({ev.label: ev for n, ev in evs.items() if n not in failed})
-            rows = rank(current, evs, threshold_pct, n_boot, seed, rate)
+            ok = {n: ev for n, ev in evs.items() if n not in failed}
+            tests, info = _calibrated(
+                stances,
+                current,
+                parent_lin,
+                ok,
+                plan,
+                weights,
+                rate,
+                mismatch,
+                n_replicates,
+                seed,
+                alpha,
+                say,
+            )
+            calibration.append(info)
+            if not first:
+                named = [j for j in jobs if j.name in tests and tests[j.name].p_adjusted < alpha]
+                if named:
+                    again = RoundInputs(tuple(stances), tuple(plan), current, weights, options)
+                    held = evaluate_round(
+                        [dataclasses.replace(j, full=ok[j.name].full) for j in named],
+                        again,
+                        pool,
+                        say,
+                    )
+                    for n, ev in held.items():
+                        if not isinstance(ev, NotEvaluable):
+                            ev.linear = ok[n].linear
+                            ok[n] = evs[n] = ev
+            evaluations.update({ev.label: ev for ev in ok.values()})
+            rows = rank(current, evs, tests, n_boot, seed, rate, alpha)
             rounds.append(rows)
             best = best_passing(rows)
             if best is None or len(selected) >= limit:
@@ -180,11 +225,47 @@ def diagnose_stances(
         where=wh,
         folds=folds,
         seconds=time.perf_counter() - t0,
-        threshold_pct=threshold_pct,
+        alpha=alpha,
+        calibration=calibration,
         evaluations=evaluations,
         notes=notes,
         max_effects=max_effects,
     )
+
+
+def _calibrated(
+    stances, parent, parent_lin, evs, plan, weights, rate, family, n_replicates, seed, alpha, say
+) -> tuple[dict, dict]:
+    """The calibrated tests of a round's evaluated candidates and what the round's null was
+    (replicates, mismatch draws, critical value, seconds)."""
+    t0 = time.perf_counter()
+    lins = {n: ev.linear for n, ev in evs.items() if ev.linear is not None}
+    occam = {"parent": np.array([f.occam for f in parent.folds])}
+    occam.update({n: np.array([f.occam for f in ev.folds]) for n, ev in evs.items() if ev.folds})
+    mis = None  # the mismatch family's perturbations: wired with gc_ocp.diagnosis.mismatch
+    tests = calibrate(
+        parent_lin,
+        parent.full.stance_fits,
+        lins,
+        plan,
+        occam,
+        mis,
+        n_replicates,
+        seed,
+        rate,
+        alpha,
+        fold_prior_means(stances, parent.model, plan),
+    )
+    crit = next(iter(tests.values())).z_critical if tests else None
+    seconds = time.perf_counter() - t0
+    say(f"  calibrated null: {n_replicates} replicates, z_crit {crit}, {seconds:.1f} s")
+    info = {
+        "replicates": n_replicates,
+        "mismatch_draws": 0 if mis is None else int(mis.shape[1]),
+        "z_critical": crit,
+        "seconds": seconds,
+    }
+    return tests, info
 
 
 def diagnose(

@@ -3,7 +3,8 @@
 
 A task is :func:`run_job`, a pure function of two picklable plain-data arguments: the
 :class:`Job` (which model) and the :class:`RoundInputs` shared by every job of the round
-(stances, fold plan, parent evaluation, weights, solver options, screen). It returns the
+(stances, fold plan, parent evaluation, weights, solver options, folds, the parent's
+residual for the null). It returns the
 :class:`~gc_ocp.diagnosis.compare.Evaluation` and the warnings the fits raised, which
 :func:`evaluate_round` raises again in the calling process (under its filters, as if the fits
 had run there). Nothing travels through module globals and no start method is assumed, so the
@@ -34,9 +35,13 @@ import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 
+import numpy as np
+
 from gc_ocp.diagnosis.compare import Evaluation, describe, evaluate
+from gc_ocp.diagnosis.null import linearize_child
 from gc_ocp.errors import InputError, ModelError
 from gc_ocp.estimation.problem import Weights
+from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions
 from gc_ocp.stance import StanceData
 
@@ -55,21 +60,25 @@ class Job:
     label: str
     model: tuple
     names: tuple[str, ...]
+    full: EstimationResult | None = None  # its fit on all stances, when already made
 
 
 @dataclasses.dataclass(frozen=True)
 class RoundInputs:
     """What every job of a round shares: the ``stances`` (one subject), the fold ``plan``
     (indices held out), the ``parent`` evaluation (warm starts, screening), the weights and
-    solver options of every fit, and ``screen_pct``, the in-sample screen of
-    :func:`~gc_ocp.diagnosis.compare.evaluate` (``None``: every candidate is held out)."""
+    solver options of every fit; ``folds``: whether the jobs also fit and score the folds
+    (else the fit on all stances only); ``parent_r``: the parent's weighted residual at its
+    solution, given when every job also linearises its model for the null
+    (:func:`~gc_ocp.diagnosis.null.linearize_child`, the evaluation's ``linear``)."""
 
     stances: tuple[StanceData, ...]
     plan: tuple[int, ...]
     parent: Evaluation
     weights: Weights | None = None
     options: IpoptOptions | None = None
-    screen_pct: float | None = None
+    folds: bool = True
+    parent_r: np.ndarray | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -95,7 +104,7 @@ WarningRecord = tuple[str, type, str, int]
 def _evaluate(job: Job, inputs: RoundInputs, progress=None) -> Evaluation | NotEvaluable:
     t0 = time.perf_counter()
     try:
-        return evaluate(
+        ev = evaluate(
             list(inputs.stances),
             job.model,
             job.label,
@@ -105,8 +114,20 @@ def _evaluate(job: Job, inputs: RoundInputs, progress=None) -> Evaluation | NotE
             weights=inputs.weights,
             options=inputs.options,
             progress=progress,
-            screen_pct=inputs.screen_pct,
+            full=job.full,
+            folds=inputs.folds,
         )
+        if inputs.parent_r is not None and ev.linear is None:
+            ev.linear = linearize_child(
+                inputs.stances,
+                job.model,
+                inputs.parent.full,
+                inputs.parent_r,
+                ev.full,
+                inputs.weights,
+            )
+            ev.seconds = time.perf_counter() - t0
+        return ev
     except NOT_EVALUABLE_ERRORS as e:
         if progress is not None:
             progress(f"  {job.label}: not evaluable on these data: {e}")

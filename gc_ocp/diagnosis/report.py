@@ -197,26 +197,16 @@ def _nuisance(ranking: list) -> list[dict]:
     return items
 
 
-def _verdict(r, threshold: float) -> str:
-    """The decision rule's outcome for a ranking row, with the condition that failed."""
-    if r.passes:
-        return "pass"
+def _verdict(r) -> str:
+    """The decision rule's outcome for a ranking row, in words (the row's own verdict)."""
     if r.not_evaluable is not None:
         return f"not evaluable on these data: {r.not_evaluable}"
-    if r.heldout_rms_reduction_pct is None:
-        return f"fail (in-sample below {threshold:g} %: not held out)"
-    if r.heldout_rms_reduction_pct < threshold:
-        return f"fail (below {threshold:g} %)"
-    if r.heldout_rms_reduction_ci[0] <= 0.0:
-        return "fail (interval reaches 0)"
-    return f"fail (in-sample below {threshold:g} %)"
+    return r.verdict()
 
 
-def _table(rows: list, threshold: float) -> list[dict]:
+def _table(rows: list) -> list[dict]:
     """A round's rows as the ranking table shows them."""
-    return [
-        {"row": r, "verdict": _verdict(r, threshold), "flags": sorted(set(r.flags))} for r in rows
-    ]
+    return [{"row": r, "verdict": _verdict(r), "flags": sorted(set(r.flags))} for r in rows]
 
 
 def _change(a, b) -> str:
@@ -247,7 +237,14 @@ def _method(d) -> dict:
     # the stances the bootstrap draws from: the held-out ones, or all of them in-sample
     n_scored = len(f.get("heldout", []) if f.get("n") else f.get("stances", []))
     return {
-        "threshold": f"{d.threshold_pct:g} %",
+        "alpha": f"{d.alpha:g}",
+        "replicates": d.calibration[0]["replicates"] if d.calibration else "–",
+        "mismatch": (
+            f", plus one of {d.calibration[0]['mismatch_draws']} draws of the mismatch family "
+            "(the parent slightly changed in ways that are not candidates)"
+            if d.calibration and d.calibration[0].get("mismatch_draws")
+            else ""
+        ),
         "block": f"{BLOCK_SECONDS * 1000:.0f} ms blocks",
         "which": "held-out " if f.get("n") else "",
         "n_scored": n_scored,
@@ -300,9 +297,12 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         "groups": _groups(d.ranking, d.selected),
         "nuisance": _nuisance(d.ranking),
         "where": _where(d.where["base"]),
-        "ranking": _table(d.ranking, d.threshold_pct),
+        "ranking": _table(d.ranking),
+        "inconclusive": [
+            r for r in (d.rounds[-1] if d.rounds else []) if r.effect in d.inconclusive
+        ],
         "later_rounds": [
-            (" + ".join(["base", *d.selected[: k - 1]]), _table(rows, d.threshold_pct))
+            (" + ".join(["base", *d.selected[: k - 1]]), _table(rows))
             for k, rows in enumerate(d.rounds[1:], 2)
         ],
         "waterfall": _waterfall(wf),

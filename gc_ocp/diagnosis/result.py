@@ -17,6 +17,7 @@ import numpy as np
 
 from gc_ocp.contact.channels import TABLE_KEYS
 from gc_ocp.diagnosis.compare import Evaluation, heldout_quality, score, superior_rms
+from gc_ocp.diagnosis.null import NullTest
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
 
 SCORE_TEXT = (
@@ -33,7 +34,7 @@ class RankRow:
     the decision rule made of them (:mod:`.selection`).
 
     Reductions in [%] of the combined score (held out; ``None`` when ``screened``: fitted on all
-    stances only, its in-sample reduction being below the threshold), with the 95 % interval
+    stances only, the calibrated test not naming it in a later round), with the 95 % interval
     ``(lo, hi)``; ``per_stance_reduction_pct``: ``{stance label: %}``; ``n_params``: scalars the
     effect estimates; ``gain_from_nuisance``: the share of its held-out gain that comes from a
     cheaper nuisance (``None`` unless the gain counts); ``confounded_with``: the candidates (or
@@ -56,6 +57,10 @@ class RankRow:
     """Why the candidate could not be evaluated on these data (its fit raised an input or model
     error, e.g. a clock offset on a recording that starts inside a stance's margin), or None.
     Such a row has no figures, never passes, comes last; written to JSON only when set."""
+    calibrated: NullTest | None = None
+    """The calibrated test of the candidate (:mod:`.null`): its one-step reduction, the null's
+    mean and spread, the family-wise adjusted p-value and the further stances that would decide
+    it (None: not tested, e.g. not evaluable)."""
 
     def confounded(self, *others: str) -> RankRow:
         """This row also naming ``others`` confounded with it (each once, in the given order)."""
@@ -74,6 +79,7 @@ class RankRow:
             "per_stance_reduction_pct": dict(self.per_stance_reduction_pct),
             "confounded_with": list(self.confounded_with),
             "flags": list(self.flags),
+            "calibrated": None if self.calibrated is None else self.calibrated.to_json(),
         }
 
     @classmethod
@@ -85,18 +91,50 @@ class RankRow:
                 "per_stance_reduction_pct": dict(d["per_stance_reduction_pct"]),
                 "confounded_with": tuple(d["confounded_with"]),
                 "flags": tuple(d["flags"]),
+                "calibrated": None if d.get("calibrated") is None else NullTest(**d["calibrated"]),
             }
         )
+
+    def verdict(self) -> str:
+        """What the calibrated test says, in words: ``"named (p = 0.004)"``, ``"inconclusive;
+        about 14 more steps would decide"``, ``"not decidable by more steps: within what model
+        mismatch gives"``, ``"no gain"``."""
+        c = self.calibrated
+        if self.not_evaluable is not None:
+            return "not evaluable"
+        if c is None:
+            return "not tested"
+        p = f"p = {c.p_adjusted:.3g}"
+        if self.passes:
+            return f"named ({p})"
+        if c.more_stances == 0:
+            return f"named by the test ({p}), but its full refit does not reduce the score"
+        if self.inconclusive:
+            return f"inconclusive ({p}); about {c.more_stances} more steps would decide"
+        if c.more_stances:
+            return f"not named ({p}); about {c.more_stances} more steps would decide at this gain"
+        if c.observed_pct > 0:
+            return (
+                f"not named ({p}); its gain is within what the null gives: more steps would "
+                "not decide"
+            )
+        return f"no gain ({p})"
 
     def line(self) -> str:
         """The row in a line: ``effect +x.x % [lo, hi]`` (or its in-sample screen)."""
         if self.not_evaluable is not None:
             return f"{self.effect} not evaluable"
         if self.heldout_rms_reduction_pct is None:
-            return f"{self.effect} in-sample {self.insample_rms_reduction_pct:+.1f} % (screened)"
+            return (
+                f"{self.effect} in-sample {self.insample_rms_reduction_pct:+.1f} % (not held out:"
+                f" {self.verdict()})"
+            )
         lo, hi = self.heldout_rms_reduction_ci
         mark = " PASS" if self.passes else ""
-        return f"{self.effect} {self.heldout_rms_reduction_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}]{mark}"
+        return (
+            f"{self.effect} {self.heldout_rms_reduction_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}]{mark}"
+            f" ({self.verdict()})"
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -144,17 +182,18 @@ class Diagnosis:
     where: dict
     folds: dict
     seconds: float
-    threshold_pct: float
+    alpha: float
+    calibration: list = dataclasses.field(default_factory=list)
     evaluations: dict = dataclasses.field(default_factory=dict, repr=False)
     notes: list[str] = dataclasses.field(default_factory=list)
     max_effects: int | None = None
 
     @property
     def inconclusive(self) -> list[str]:
-        """Candidates of the last round that fail the rule yet reduce the score both in-sample
-        (by at least the threshold) and on held-out stances, without a margin the data support
-        (below the threshold, or an interval reaching 0): with more stances they might pass. When
-        nothing is selected, "none" is then a weak answer, and the result says so."""
+        """Candidates of the last round that fail the rule yet whose one-step reduction is above
+        what the null gives on average: more stances would decide them (their rows say about
+        how many). When nothing is selected, "none" is then a weak answer, and the result says
+        so."""
         return [r.effect for r in (self.rounds[-1] if self.rounds else []) if r.inconclusive]
 
     @property
@@ -184,7 +223,8 @@ class Diagnosis:
             "waterfall": [w.to_json() for w in self.waterfall],
             "where": self.where,
             "folds": self.folds,
-            "threshold_pct": self.threshold_pct,
+            "alpha": self.alpha,
+            "calibration": self.calibration,
             "max_effects": self.max_effects,
             "score": SCORE_TEXT,
             "notes": self.notes,
@@ -212,7 +252,8 @@ class Diagnosis:
             where=d["where"],
             folds=d["folds"],
             seconds=d["seconds"],
-            threshold_pct=d["threshold_pct"],
+            alpha=d["alpha"],
+            calibration=list(d.get("calibration", [])),
             notes=list(d["notes"]),
             max_effects=d["max_effects"],
         )
@@ -241,7 +282,8 @@ class Diagnosis:
             lo, hi = r.heldout_rms_reduction_ci
             lines.append(
                 f"  {mark} {r.effect:<20} {r.heldout_rms_reduction_pct:+6.1f} % [{lo:+.1f}, {hi:+.1f}]"
-                f"  in-sample {r.insample_rms_reduction_pct:+6.1f} %  ({r.n_params} params){conf}"
+                f"  in-sample {r.insample_rms_reduction_pct:+6.1f} %  ({r.n_params} params)"
+                f"  {r.verdict()}{conf}"
             )
         for k, rows in enumerate(self.rounds[1:], 2):
             lines.append(
@@ -252,11 +294,9 @@ class Diagnosis:
             "selected: "
             + (", ".join(self.selected) if self.selected else "none (no effect passes)")
         )
-        if self.inconclusive:
-            lines.append(
-                f"inconclusive: {', '.join(self.inconclusive)} (reduce the score in-sample and "
-                "held out, without a clear margin: more stances would decide)"
-            )
+        last = {r.effect: r for r in (self.rounds[-1] if self.rounds else [])}
+        for e in self.inconclusive:
+            lines.append(f"{e}: {last[e].verdict()}")
         lines.append(f"waterfall ({self.scored} superior-force RMS, % BW):")
         for w in self.waterfall:
             lines.append(f"  {w.model:<28} {w.heldout_superior_force_pct_bw:.2f}")
@@ -274,7 +314,7 @@ class Diagnosis:
         return residual_figure(ev.heldout_fits if ev.folds else ev.full.stance_fits, **kw)
 
     def ranking_figure(self):
-        """Held-out reduction per candidate with its 95 % interval and the threshold."""
+        """Held-out reduction per candidate with its 95 % interval (named ones in green)."""
         import matplotlib.pyplot as plt
 
         r = [e for e in self.ranking if e.not_evaluable is None]
@@ -285,11 +325,9 @@ class Diagnosis:
         colors = ["tab:green" if e.passes else "tab:gray" for e in r]
         ax.barh(y, v, color=colors)
         ax.errorbar(v, y, xerr=[v - ci[:, 0], ci[:, 1] - v], fmt="none", ecolor="k", capsize=3)
-        ax.axvline(self.threshold_pct, color="tab:red", ls="--", lw=1, label="threshold")
         ax.axvline(0.0, color="k", lw=0.6)
         ax.set_yticks(y, [e.effect + (" *" if e.confounded_with else "") for e in r])
-        ax.set_xlabel("held-out reduction of the combined score [%]  (* confounded)")
-        ax.legend(fontsize=8)
+        ax.set_xlabel("held-out reduction of the combined score [%]  (green: named; * confounded)")
         fig.tight_layout()
         return fig
 

@@ -6,16 +6,15 @@ base, then the base plus the effects selected so far): its held-out reduction of
 score with a 95 % bootstrap interval, and its in-sample reduction for reference
 (:func:`~gc_ocp.diagnosis.compare.reduction`); rows best first, screened candidates last.
 
-**Decision rule** ("none" is a possible answer): an effect passes when its held-out reduction is
-at least :data:`MIN_REDUCTION_PCT` *and* the lower end of its interval is above 0 *and* it
-reduces the in-sample objective by at least :data:`MIN_REDUCTION_PCT` too (a held-out gain
-without an in-sample one comes from how the model extrapolates per-unit stiffnesses from few
-training stances: the false answers of the withheld-effect benchmark, ``docs/diagnosis.md
-(withheld-effect benchmark)``). The held-out score already charges extra parameters that only
-fit noise (they do not predict the held-out stance) and the nuisance for the freedom it uses
-(Occam term); the threshold guards against the noise of the score itself (calibrated on the
-withheld-effect benchmark's "none" cases). A candidate that fails yet gains in-sample (by the
-threshold) and held out is *inconclusive*.
+**Decision rule** ("none" is a possible answer): an effect passes when the calibrated test of
+:mod:`.null` names it (its one-step held-out reduction exceeds what the parent model, slightly
+wrong in ways that are not candidates, gives on replicates of the subject's own data, with a
+family-wise rate of a false claim among the round's candidates of at most ``alpha``) *and*,
+fully refitted, it does reduce the held-out score (in-sample when no stance can be held out).
+No effect-size threshold: a small effect passes once the data are enough to tell it from the
+null, and the result gives, for every candidate that does not pass, the further stances that
+would decide it. A candidate that fails, yet whose one-step reduction is above the null's
+mean, is *inconclusive* (more stances would decide it; how many is in its row).
 
 **Forward selection**: the best passing effect (:func:`best_passing`) is added, the others are
 re-ranked on top of it, and so on until none passes (the loop is :mod:`.diagnose`'s).
@@ -23,7 +22,7 @@ re-ranked on top of it, and so on until none passes (the loop is :mod:`.diagnose
 **Confounding**: two candidates are named confounded when their changes of the held-out residual
 are alike (cosine similarity of the weighted residual changes above :data:`CONFOUND_COSINE`, both
 reducing the score), or their changes of the in-sample residual are, with comparable sizes
-(:data:`COMPARABLE_FRACTION`; both reducing the in-sample objective by the threshold: they
+(:data:`COMPARABLE_FRACTION`; both with evidence of a gain, passing or inconclusive: they
 explain the same part of the gap on the fitted stances, even if only one carries over to held-out
 ones) (:func:`flag_alike`), or when one stops passing once the other is in the model (its gain
 falls below :data:`NON_ADDITIVE_FRACTION`: the gains are not additive, :func:`flag_non_additive`),
@@ -49,11 +48,9 @@ from gc_ocp.diagnosis.compare import (
     weighted_residuals,
 )
 from gc_ocp.diagnosis.execution import NotEvaluable
+from gc_ocp.diagnosis.null import ALPHA, NullTest
 from gc_ocp.diagnosis.result import RankRow
 from gc_ocp.estimation.components import REGISTRY
-
-MIN_REDUCTION_PCT = 2.0
-"""Smallest held-out reduction [%] of the combined score that counts as an effect."""
 
 CONFOUND_COSINE = 0.5
 """Cosine similarity of two effects' residual changes (held-out, or in-sample) above which they
@@ -104,15 +101,18 @@ def _nuisance_names(model: tuple) -> list[str]:
 def rank(
     parent: Evaluation,
     evs: Mapping[str, Evaluation],
-    threshold: float,
+    tests: Mapping[str, NullTest],
     n_boot: int,
     seed: int,
     rate: float,
+    alpha: float = ALPHA,
 ) -> list[RankRow]:
     """The rows of one round: every candidate of ``evs`` (``{effect: Evaluation}``) against
-    ``parent``, with the decision rule applied (threshold [%]) and the confounding within the
-    round named; held out first (best first), then the screened ones (by their in-sample
-    reduction). ``n_boot``, ``seed``: the bootstrap; ``rate``: frame rate [Hz]."""
+    ``parent``, with the decision rule applied (``tests``: the calibrated test of each, from
+    :func:`~gc_ocp.diagnosis.null.calibrate`; family-wise rate ``alpha``) and the confounding
+    within the round named; held out first (best first), then the screened ones (by their
+    one-step reduction). ``n_boot``, ``seed``: the bootstrap of the intervals; ``rate``: frame
+    rate [Hz]."""
     rows = []
     base_r = weighted_residuals(parent)
     deltas = {}
@@ -120,26 +120,23 @@ def rank(
     failed = [_not_evaluable_row(n, ev) for n, ev in evs.items() if isinstance(ev, NotEvaluable)]
     evs = {n: ev for n, ev in evs.items() if not isinstance(ev, NotEvaluable)}
     for name, ev in evs.items():
+        test = tests.get(name)
+        named = test is not None and test.p_adjusted < alpha
         if ev.screened:
-            rows.append(_screened_row(name, ev, parent))
+            rows.append(_screened_row(name, ev, parent, test))
             continue
         red = reduction(parent, ev, n_boot=n_boot, seed=seed, frame_rate=rate)
         deltas[name] = base_r - weighted_residuals(ev)
         cd, cn = _terms(ev)
         gain = (pd + pn) - (cd + cn)
+        passes = bool(named and red["pct"] > 0.0)
         # the share is only meaningful for a gain that counts (near 0 it is a ratio of noise)
-        meaningful = gain > 0 and red["pct"] >= threshold
-        from_nuisance = (pn - cn) / gain if meaningful else None
+        from_nuisance = (pn - cn) / gain if passes and gain > 0 else None
         relieves = [
             n
             for n in _nuisance_names(parent.model)
-            if meaningful and from_nuisance > NUISANCE_SHARE
+            if from_nuisance is not None and from_nuisance > NUISANCE_SHARE
         ]
-        # an in-sample gain too: a held-out gain without one comes from how the model
-        # extrapolates unit stiffnesses between stances, not from explaining the misfit
-        passes = bool(
-            red["pct"] >= threshold and red["ci"][0] > 0.0 and red["insample_pct"] >= threshold
-        )
         rows.append(
             RankRow(
                 effect=name,
@@ -151,13 +148,11 @@ def rank(
                 n_params=n_params(ev, parent),
                 passes=passes,
                 screened=False,
-                # gains in-sample and on held-out stances, without a margin the data support
-                inconclusive=bool(
-                    not passes and red["pct"] > 0.0 and red["insample_pct"] >= threshold
-                ),
+                inconclusive=_inconclusive(passes, test) and red["pct"] > 0.0,
                 gain_from_nuisance=None if from_nuisance is None else float(from_nuisance),
                 confounded_with=tuple(relieves),
                 flags=tuple(f["code"] for f in ev.full.flags),
+                calibrated=test,
             )
         )
     held = [r for r in rows if r.heldout_rms_reduction_pct is not None]
@@ -169,14 +164,17 @@ def rank(
     base_in = weighted_residuals(parent, insample=True)
     ins = {n: base_in - weighted_residuals(ev, insample=True) for n, ev in evs.items()}
     rows = flag_alike(
-        rows, ins, lambda r: r.insample_rms_reduction_pct >= threshold, comparable=True
+        rows,
+        ins,
+        lambda r: r.insample_rms_reduction_pct > 0 and (r.passes or r.inconclusive),
+        comparable=True,
     )
-    # held out first (best first), then the screened ones (by their in-sample reduction)
+    # held out first (best first), then the screened ones (by their one-step reduction)
     rows.sort(
         key=lambda r: (
             r.heldout_rms_reduction_pct is None,
             -(
-                r.insample_rms_reduction_pct
+                (r.calibrated.observed_pct if r.calibrated else r.insample_rms_reduction_pct)
                 if r.heldout_rms_reduction_pct is None
                 else r.heldout_rms_reduction_pct
             ),
@@ -185,8 +183,17 @@ def rank(
     return [*flag_ties(rows, evs, n_boot, seed, rate), *failed]  # the not evaluable ones last
 
 
-def _screened_row(name: str, ev: Evaluation, parent: Evaluation) -> RankRow:
-    """The ranking row of a candidate screened out on its in-sample reduction (not held out)."""
+def _inconclusive(passes: bool, test: NullTest | None) -> bool:
+    """Not named, but its one-step reduction is above what the null gives on average and a
+    practical number of further stances would decide it (``NullTest.practical``)."""
+    return bool(not passes and test is not None and test.practical)
+
+
+def _screened_row(
+    name: str, ev: Evaluation, parent: Evaluation, test: NullTest | None = None
+) -> RankRow:
+    """The ranking row of a candidate screened out by the calibrated test (not held out: it
+    cannot pass)."""
     return RankRow(
         effect=name,
         heldout_rms_reduction_pct=None,
@@ -197,10 +204,11 @@ def _screened_row(name: str, ev: Evaluation, parent: Evaluation) -> RankRow:
         n_params=n_params(ev, parent),
         passes=False,
         screened=True,
-        inconclusive=False,
+        inconclusive=_inconclusive(False, test),
         gain_from_nuisance=None,
         confounded_with=(),
         flags=tuple(f["code"] for f in ev.full.flags),
+        calibrated=test,
     )
 
 
@@ -284,7 +292,7 @@ def flag_non_additive(
     """``ranking`` (round 1) with the non-additive pairs named confounded: a passing effect
     that stops passing once another (``selected[k - 1]``, added before round ``k + 1``) is in
     the model, its gain falling below :data:`NON_ADDITIVE_FRACTION` of its gain alone (or
-    screened out: its in-sample gain fell below the threshold)."""
+    screened out: the calibrated test no longer names it)."""
     links = {r.effect: list(r.confounded_with) for r in ranking}
     for k in range(1, len(rounds)):
         added = selected[k - 1]
@@ -303,7 +311,6 @@ def flag_non_additive(
 __all__ = (
     "COMPARABLE_FRACTION",
     "CONFOUND_COSINE",
-    "MIN_REDUCTION_PCT",
     "NON_ADDITIVE_FRACTION",
     "NUISANCE_SHARE",
     "best_passing",

@@ -1,0 +1,138 @@
+"""The calibrated test of the diagnosis (``gc_ocp.diagnosis.null``): the max-statistic decision
+holds its family-wise rate, the one-step fits respect the bounds, the steps-needed formula."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import scipy.optimize as so
+import scipy.sparse as sp
+
+from gc_ocp.diagnosis import null
+
+
+def _null_draws(rng, n_cand=5, B=500):
+    """Correlated null reductions of ``n_cand`` candidates with unlike means and spreads (as a
+    round's: a damping whose null spreads wide, a toe hinge whose null barely moves)."""
+    mean = np.array([-0.5, 0.2, 0.0, 1.0, -2.0])[:n_cand]
+    sd = np.array([2.0, 0.5, 0.02, 1.0, 3.0])[:n_cand]
+    C = 0.5 * np.ones((n_cand, n_cand)) + 0.5 * np.eye(n_cand)
+    L = np.linalg.cholesky(C)
+
+    def draw(n):
+        return mean[:, None] + sd[:, None] * (L @ rng.normal(size=(n_cand, n)))
+
+    return draw
+
+
+def test_the_max_statistic_holds_the_family_wise_rate_and_names_a_clear_effect():
+    rng = np.random.default_rng(0)
+    draw = _null_draws(rng)
+    names = [f"e{k}" for k in range(5)]
+    nulls = dict(zip(names, draw(500), strict=True))
+    trials = 1000
+    obs = draw(trials)
+    claims = 0
+    for t in range(trials):
+        tests = null.decide(dict(zip(names, obs[:, t], strict=True)), nulls, {}, 6)
+        claims += any(x.p_adjusted < null.ALPHA for x in tests.values())
+    # observed drawn from the null itself: the rate of any claim is alpha up to the binomial
+    # error of 1000 trials (SD 0.007) and the null's own sampling error (500 replicates: the
+    # 95 % quantile of the max is off by about +-0.01 in probability): +-0.03 is > 3 SD
+    assert abs(claims / trials - null.ALPHA) < 0.03
+    # a gain 6 null SDs above the null mean of one candidate is named, the others not
+    o = {n: float(np.mean(v)) for n, v in nulls.items()}
+    o["e1"] += 6 * float(np.std(nulls["e1"]))
+    tests = null.decide(o, nulls, {}, 6)
+    assert tests["e1"].p_adjusted < null.ALPHA and tests["e1"].more_stances == 0
+    assert all(tests[n].p_adjusted > null.ALPHA for n in names if n != "e1")
+
+
+def test_the_steps_that_would_decide_follow_the_power_calculation():
+    # n = n0 ((z_crit s + z_power sigma) / (T - m))^2 with sigma = sd / sqrt(n0)
+    n0, crit, m, s, sd = 6, 2.5, 0.2, 0.5, 0.6
+    t = 1.0
+    expect = n0 * ((crit * s + null.POWER_Z * sd / np.sqrt(n0)) / (t - m)) ** 2 - n0
+    assert null._more_stances(t, m, s, sd, n0, crit, False) == int(np.ceil(expect))
+    # a larger gain needs fewer steps; a decided one none; one within the null mean cannot be
+    # decided by more steps of the same kind
+    more = [null._more_stances(x, m, s, sd, n0, crit, False) for x in (0.5, 1.0, 2.0, 4.0)]
+    assert more == sorted(more, reverse=True) and more[0] > more[-1]
+    assert null._more_stances(t, m, s, sd, n0, crit, True) == 0
+    assert null._more_stances(m - 0.1, m, s, sd, n0, crit, False) is None
+
+
+def test_a_variable_at_its_bound_stays_there_in_the_one_step_fit():
+    """The damping of a candidate starts at its neutral value 0, its lower bound: on replicates
+    whose step would make it negative it stays at 0 and the others are fitted without it (the
+    constrained least squares, checked against scipy's bounded solver)."""
+    rng = np.random.default_rng(1)
+    n, nx = 60, 4
+    J = rng.normal(size=(n, nx))
+    R = rng.normal(size=(n, 40))
+    lin = null.Linear(
+        r=np.zeros(n),
+        J=sp.csr_matrix(J),
+        prior_idx=np.zeros(0, int),
+        pw=np.zeros(0),
+        p0=np.zeros(0),
+        rows=(slice(0, n),),
+        nuisance=(np.zeros(0, int),),
+        at_lower=np.array([2]),
+        at_upper=np.zeros(0, int),
+        nested=True,
+        x0=np.zeros(nx),
+        keys={},
+    )
+    d = null._step(J.T @ J, J.T @ R, lin)
+    assert (d[2] >= -1e-12).all()
+    crossed = 0
+    for b in range(R.shape[1]):
+        ref = so.lsq_linear(J, -R[:, b], bounds=([-np.inf, -np.inf, 0, -np.inf], np.inf))
+        # the constrained optimum, to the solver's tolerance (lsq_linear's default 1e-10)
+        np.testing.assert_allclose(d[:, b], ref.x, atol=1e-7)
+        crossed += ref.active_mask[2] != 0
+    assert 5 < crossed < 35  # both cases occur in the draw
+
+
+def test_a_null_test_round_trips_through_json():
+    t = null.NullTest(1.2, 0.1, 0.4, 2.75, 0.01, 2.4, 0, 6)
+    assert null.NullTest(**t.to_json()) == t
+    late = dataclasses.replace(t, p_adjusted=0.3, more_stances=14)
+    assert late.practical and not dataclasses.replace(late, more_stances=40).practical
+
+
+@pytest.mark.parametrize("T", [7, 50])
+def test_the_wild_bootstrap_keeps_the_residual_size_and_skips_censored_samples(T):
+    rng = np.random.default_rng(2)
+    e = rng.normal(size=6 * T)
+    lin = dataclasses.replace(
+        null.Linear(
+            r=e,
+            J=sp.csr_matrix((6 * T, 1)),
+            prior_idx=np.zeros(0, int),
+            pw=np.zeros(0),
+            p0=np.zeros(0),
+            rows=(slice(0, 6 * T),),
+            nuisance=(np.zeros(0, int),),
+            at_lower=np.zeros(0, int),
+            at_upper=np.zeros(0, int),
+            nested=True,
+            x0=np.zeros(1),
+            keys={},
+        )
+    )
+    measured = np.full((T, 6), 100.0)
+    measured[: T // 3, 2] = 0.0  # zeroed below a 20 N threshold
+    fit = {"measured": measured, "censor_below": 20.0}
+    U = null.wild_residuals(lin, [fit], 300, rng, 100.0)
+    Ur = U.reshape(T, 6, -1)
+    np.testing.assert_array_equal(Ur[: T // 3], 0.0)
+    # every other sample is the residual with a sign: same size, both signs
+    np.testing.assert_allclose(
+        np.abs(Ur[T // 3 :]), np.abs(e.reshape(T, 6)[T // 3 :, :, None]) + 0 * Ur[T // 3 :]
+    )
+    signs = np.sign(Ur[T // 3 :, 0, :] * e.reshape(T, 6)[T // 3 :, :1])
+    assert 0.4 < (signs > 0).mean() < 0.6
