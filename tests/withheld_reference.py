@@ -2,16 +2,21 @@
 are injected (``gc_ocp/bench/withheld.py`` at commit b9e69bc: its ``VALUES`` table, the
 ``truth_model`` if-chain, ``motion``'s toe-joint case and ``run_case``'s kinematic error),
 kept verbatim as the reference the registry-driven benchmark must reproduce exactly
-(``tests/test_benchmark_diagnosis.py``). Not used by the package."""
+(``tests/test_benchmark_diagnosis.py``); and its data generator before the mismatch family
+(:func:`generate`, ``tests/test_mismatch.py``). Not used by the package."""
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 
 import numpy as np
 
+from gc_ocp.bench.truth import DEFAULT_REALISM, Realism
 from gc_ocp.bench.withheld import _source
 from gc_ocp.errors import InputError
+from gc_ocp.estimation.problem import build_estimation
+from gc_ocp.estimation.synthetic import noisy_pose, plate_signal, with_pose_error
 from gc_ocp.stance import StanceData
 
 EFFECTS = (
@@ -178,3 +183,131 @@ def kinematic_error(truth_name, mag, base_model_, realism):
     else:
         kin_err = None
     return kin_err
+
+
+# --- the data generator before the mismatch family (gc_ocp/bench/truth.py at commit a750d22),
+# verbatim: a case without a mismatch must stay bit for bit what it was
+# (tests/test_mismatch.py); and simulate as it was in gc_ocp/bench/recovery.py
+
+PLATE_NOISE_PCT_BW = 0.5
+TORQUE_NOISE_LENGTH = 0.02  # [m]
+
+
+def simulate(
+    stances: Sequence[StanceData],
+    truth: tuple,
+    rng: np.random.Generator,
+    plate_noise_pct_bw: float = PLATE_NOISE_PCT_BW,
+    marker_noise: float = 0.0,
+) -> list[StanceData]:
+    """``stances`` with the plate data the ``truth`` model (components with fixed values; any
+    stance-scope component at zero) predicts on their motion, plus white plate noise; with
+    ``marker_noise`` [m] > 0 the foot kinematics the fitter sees are re-estimated from noisy
+    virtual markers. Each truth component may change how the plate records the wrench
+    (:meth:`Component.observe`, e.g. a clock offset)."""
+    stances = list(stances)
+    pb = build_estimation(stances, truth)
+    wrenches = pb.stance_wrenches(np.zeros(pb.x0.size) if pb.x0.size else pb.x0)
+    out = []
+    for st, w in zip(stances, wrenches, strict=True):
+        sd = plate_noise_pct_bw / 100 * st.body_weight
+        noise = rng.normal(0.0, 1.0, w.shape) * np.array(
+            [sd, sd, sd, *(3 * [sd * TORQUE_NOISE_LENGTH])]
+        )
+        obs = st.with_measured(w)
+        obs = _with_plate_signal(obs, *plate_signal(st.time, w))
+        for c in truth:
+            obs = c.observe(obs, w)
+        obs = obs.with_measured(obs.measured + noise)
+        if obs.plate_wrench is not None and obs.plate_time is not None:
+            pn = rng.normal(0.0, 1.0, obs.plate_wrench.shape) * np.array(
+                [sd, sd, sd, *(3 * [sd * TORQUE_NOISE_LENGTH])]
+            )
+            obs = _with_plate_signal(obs, obs.plate_time, obs.plate_wrench + pn)
+        if marker_noise > 0:
+            obs = obs.with_foot(noisy_pose(obs.foot, marker_noise, rng))
+        out.append(obs)
+    return out
+
+
+def _with_plate_signal(st: StanceData, time: np.ndarray, wrench: np.ndarray) -> StanceData:
+
+    return dataclasses.replace(
+        st, plate_time=np.asarray(time, float), plate_wrench=np.asarray(wrench, float)
+    )
+
+
+def drift(
+    stances: Sequence[StanceData],
+    translation: float,
+    rotation_deg: float,
+    rng,
+    stride_variation: float = 0.25,
+) -> list[StanceData]:
+    """``stances`` with a slow rigid soft-tissue drift of the foot: per axis an offset plus a
+    linear trend over the stance, RMS ~``translation`` [m] and ``rotation_deg`` per axis. The
+    pattern is the foot's (soft-tissue artefacts repeat from stride to stride of a subject and
+    task, Leardini et al. 2005), and each stance varies it by ``stride_variation`` of its size."""
+
+    def coefficients(sd):
+        return rng.normal(0.0, sd / np.sqrt(2), (2, 3))
+
+    pattern = {
+        side: (coefficients(translation), coefficients(np.deg2rad(rotation_deg)))
+        for side in sorted({st.side for st in stances})
+    }
+    out = []
+    for st in stances:
+        t = st.time
+        s = (2 * (t - t[0]) / (t[-1] - t[0]) - 1)[:, None] * np.sqrt(3)  # unit RMS over stance
+        tr, rot = pattern[st.side]
+        tr = tr + stride_variation * coefficients(translation)
+        rot = rot + stride_variation * coefficients(np.deg2rad(rotation_deg))
+        out.append(st.with_foot(with_pose_error(st.foot, rot[0] + rot[1] * s, tr[0] + tr[1] * s)))
+    return out
+
+
+def _thresholded(st: StanceData, threshold: float) -> StanceData:
+    """The plate wrench zeroed where its vertical force is below ``threshold`` [N]."""
+
+    def cut(w):
+        w = np.array(w, float)
+        w[w[:, 2] < threshold] = 0.0
+        return w
+
+    st = st.with_measured(cut(st.measured))
+    if st.plate_wrench is not None:
+        st = dataclasses.replace(st, plate_wrench=cut(st.plate_wrench))
+    return st
+
+
+def generate(
+    stances: Sequence[StanceData],
+    truth: tuple,
+    rng: np.random.Generator,
+    realism: Realism = DEFAULT_REALISM,
+    kinematic_error: tuple[float, float, float] | None = None,
+) -> list[StanceData]:
+    """What the fitter gets: the plate data ``truth`` predicts on ``stances`` (the true motion),
+    with plate noise and thresholding, and the foot kinematics seen through ``kinematic_error``
+    = (marker noise [m], drift [m], drift [deg]) (None: exact kinematics)."""
+    law = _law(truth)
+    changes = {
+        k: v
+        for k, v in (
+            ("depth_smoothing", realism.truth_depth_smoothing),
+            ("slip_smoothing", realism.truth_slip_smoothing),
+        )
+        if v is not None
+    }
+    if changes:
+        truth = _replace_law(truth, dataclasses.replace(law, **changes))
+    data = simulate(list(stances), truth, rng, plate_noise_pct_bw=realism.plate_noise_pct_bw)
+    data = [_thresholded(st, realism.force_threshold) for st in data]
+    if kinematic_error is None:
+        return data
+    noise, d_m, d_deg = kinematic_error
+    data = drift(data, d_m, d_deg, rng, realism.stride_variation)
+    if noise > 0:
+        data = [st.with_foot(noisy_pose(st.foot, noise, rng)) for st in data]
+    return data

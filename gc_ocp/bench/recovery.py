@@ -9,7 +9,8 @@ diagnosis):
    (contact parameters and sole corrections at the fitted values);
 3. :func:`simulate` -- the plate data the truth model (truth + an effect with known values)
    predicts on that motion, plus plate noise, and optionally marker noise on the kinematics the
-   fitter sees;
+   fitter sees (defined in :mod:`gc_ocp.estimation.synthetic`, where the diagnosis's mismatch
+   family can use it; the same function here);
 4. fit base + effect and base alone (:func:`fit_model`), compare.
 
 Plate noise default: white, 0.5 % BW on forces and 0.5 % BW x 20 mm on moments (the residual
@@ -22,22 +23,20 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Sequence
-from dataclasses import replace
-
-import numpy as np
 
 from gc_ocp.estimation.components import base_model
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import solve
 from gc_ocp.estimation.starts import estimate, frozen_model, with_lls_start
-from gc_ocp.estimation.synthetic import noisy_pose, plate_signal
+from gc_ocp.estimation.synthetic import (  # simulate lives with the core (re-exported here)
+    PLATE_NOISE_PCT_BW,
+    TORQUE_NOISE_LENGTH,
+    simulate,
+)
 from gc_ocp.io import load_trial
 from gc_ocp.kinematics import compute_kinematics
 from gc_ocp.stance import StanceData, trial_stances
-
-PLATE_NOISE_PCT_BW = 0.5
-TORQUE_NOISE_LENGTH = 0.02  # [m]
 
 
 @functools.cache
@@ -85,48 +84,6 @@ def bundled_base_truth() -> tuple[list[StanceData], tuple]:
     return list(stances), truth
 
 
-def simulate(
-    stances: Sequence[StanceData],
-    truth: tuple,
-    rng: np.random.Generator,
-    plate_noise_pct_bw: float = PLATE_NOISE_PCT_BW,
-    marker_noise: float = 0.0,
-) -> list[StanceData]:
-    """``stances`` with the plate data the ``truth`` model (components with fixed values; any
-    stance-scope component at zero) predicts on their motion, plus white plate noise; with
-    ``marker_noise`` [m] > 0 the foot kinematics the fitter sees are re-estimated from noisy
-    virtual markers. Each truth component may change how the plate records the wrench
-    (:meth:`Component.observe`, e.g. a clock offset)."""
-    stances = list(stances)
-    pb = build_estimation(stances, truth)
-    wrenches = pb.stance_wrenches(np.zeros(pb.x0.size) if pb.x0.size else pb.x0)
-    out = []
-    for st, w in zip(stances, wrenches, strict=True):
-        sd = plate_noise_pct_bw / 100 * st.body_weight
-        noise = rng.normal(0.0, 1.0, w.shape) * np.array(
-            [sd, sd, sd, *(3 * [sd * TORQUE_NOISE_LENGTH])]
-        )
-        obs = st.with_measured(w)
-        obs = _with_plate_signal(obs, *plate_signal(st.time, w))
-        for c in truth:
-            obs = c.observe(obs, w)
-        obs = obs.with_measured(obs.measured + noise)
-        if obs.plate_wrench is not None and obs.plate_time is not None:
-            pn = rng.normal(0.0, 1.0, obs.plate_wrench.shape) * np.array(
-                [sd, sd, sd, *(3 * [sd * TORQUE_NOISE_LENGTH])]
-            )
-            obs = _with_plate_signal(obs, obs.plate_time, obs.plate_wrench + pn)
-        if marker_noise > 0:
-            obs = obs.with_foot(noisy_pose(obs.foot, marker_noise, rng))
-        out.append(obs)
-    return out
-
-
-def _with_plate_signal(st: StanceData, time: np.ndarray, wrench: np.ndarray) -> StanceData:
-
-    return replace(st, plate_time=np.asarray(time, float), plate_wrench=np.asarray(wrench, float))
-
-
 def rms_line(result: EstimationResult) -> str:
     """One line of ``{side: {channel: RMS}}`` (% BW, % BW x H) of a result, for reports."""
     return "; ".join(
@@ -145,6 +102,8 @@ def started_from_truth(model: tuple, truth: tuple) -> tuple:
 
 
 __all__ = [
+    "PLATE_NOISE_PCT_BW",
+    "TORQUE_NOISE_LENGTH",
     "bundled_base_truth",
     "fit_model",
     "real_motion",

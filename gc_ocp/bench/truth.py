@@ -14,9 +14,19 @@ import numpy as np
 
 from gc_ocp.bench.recovery import bundled_base_truth, simulate, truth_from_fit
 from gc_ocp.diagnosis.diagnose import resolve_base
+from gc_ocp.diagnosis.mismatch import (
+    MismatchDraw,
+    MismatchFamily,
+    drift,
+    plate_processing,
+    seen_motion,
+    thresholded,
+    true_motion,
+    truth_variant,
+)
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.components import REGISTRY, base_model, candidate_effects
-from gc_ocp.estimation.synthetic import noisy_pose, with_pose_error
+from gc_ocp.estimation.synthetic import noisy_pose
 from gc_ocp.io import load_trial
 from gc_ocp.kinematics import compute_kinematics
 from gc_ocp.stance import StanceData
@@ -49,7 +59,10 @@ class Realism:
     [m], [deg]; plate_noise_pct_bw: white plate noise [% BW]; force_threshold: vertical force
     [N] below which the plate wrench is set to zero; stride_variation: the drift's change from
     stance to stance, relative to its size (:func:`drift`); truth_depth_smoothing /
-    truth_slip_smoothing: the truth law's smoothing [m], [m/s] (None: the fitter's)."""
+    truth_slip_smoothing: the truth law's smoothing [m], [m/s] (None: the fitter's);
+    mismatch: the family of small truth-model differences that are not candidate effects
+    (:class:`~gc_ocp.diagnosis.mismatch.MismatchFamily`) a draw of which every case gets
+    (:func:`generate_case`); None: none, the cases as they have always been."""
 
     marker_noise: float = 0.5e-3
     drift_translation: float = 2e-3
@@ -59,6 +72,15 @@ class Realism:
     stride_variation: float = 0.25
     truth_depth_smoothing: float | None = None
     truth_slip_smoothing: float | None = None
+    mismatch: MismatchFamily | None = None
+
+    def settings(self) -> dict:
+        """The realism as plain data for a benchmark's settings (``mismatch`` only when set, so
+        that the settings of runs without one read as they always have)."""
+        out = dataclasses.asdict(self)
+        if self.mismatch is None:
+            del out["mismatch"]
+        return out
 
 
 DEFAULT_REALISM = Realism()
@@ -172,60 +194,41 @@ def truth_model(effect: str, magnitude: str, base: tuple, stances, rng) -> tuple
 # --- the data ----------------------------------------------------------------------------------
 
 
-def drift(
-    stances: Sequence[StanceData],
-    translation: float,
-    rotation_deg: float,
-    rng,
-    stride_variation: float = 0.25,
-) -> list[StanceData]:
-    """``stances`` with a slow rigid soft-tissue drift of the foot: per axis an offset plus a
-    linear trend over the stance, RMS ~``translation`` [m] and ``rotation_deg`` per axis. The
-    pattern is the foot's (soft-tissue artefacts repeat from stride to stride of a subject and
-    task, Leardini et al. 2005), and each stance varies it by ``stride_variation`` of its size."""
-
-    def coefficients(sd):
-        return rng.normal(0.0, sd / np.sqrt(2), (2, 3))
-
-    pattern = {
-        side: (coefficients(translation), coefficients(np.deg2rad(rotation_deg)))
-        for side in sorted({st.side for st in stances})
-    }
-    out = []
-    for st in stances:
-        t = st.time
-        s = (2 * (t - t[0]) / (t[-1] - t[0]) - 1)[:, None] * np.sqrt(3)  # unit RMS over stance
-        tr, rot = pattern[st.side]
-        tr = tr + stride_variation * coefficients(translation)
-        rot = rot + stride_variation * coefficients(np.deg2rad(rotation_deg))
-        out.append(st.with_foot(with_pose_error(st.foot, rot[0] + rot[1] * s, tr[0] + tr[1] * s)))
-    return out
-
-
-def _thresholded(st: StanceData, threshold: float) -> StanceData:
-    """The plate wrench zeroed where its vertical force is below ``threshold`` [N]."""
-
-    def cut(w):
-        w = np.array(w, float)
-        w[w[:, 2] < threshold] = 0.0
-        return w
-
-    st = st.with_measured(cut(st.measured))
-    if st.plate_wrench is not None:
-        st = dataclasses.replace(st, plate_wrench=cut(st.plate_wrench))
-    return st
-
-
 def generate(
     stances: Sequence[StanceData],
     truth: tuple,
     rng: np.random.Generator,
     realism: Realism = DEFAULT_REALISM,
     kinematic_error: tuple[float, float, float] | None = None,
+    model: tuple | None = None,
 ) -> list[StanceData]:
     """What the fitter gets: the plate data ``truth`` predicts on ``stances`` (the true motion),
     with plate noise and thresholding, and the foot kinematics seen through ``kinematic_error``
-    = (marker noise [m], drift [m], drift [deg]) (None: exact kinematics)."""
+    = (marker noise [m], drift [m], drift [deg]) (None: exact kinematics); with
+    ``realism.mismatch``, a draw of it (:func:`generate_case`, which also returns the draw)."""
+    return generate_case(stances, truth, rng, realism, kinematic_error, model)[0]
+
+
+def generate_case(
+    stances: Sequence[StanceData],
+    truth: tuple,
+    rng: np.random.Generator,
+    realism: Realism = DEFAULT_REALISM,
+    kinematic_error: tuple[float, float, float] | None = None,
+    model: tuple | None = None,
+) -> tuple[list[StanceData], MismatchDraw | None]:
+    """:func:`generate` and the mismatch draw it applied (None without ``realism.mismatch``).
+
+    The draw comes from a child of ``rng`` (``rng.spawn``), which leaves ``rng``'s own stream
+    as it is: the plate noise, drift and marker noise of a case are the same with and without
+    a mismatch (paired cases), and a case without one is bit for bit what it always was. It is
+    restricted to the fitter's ``model`` (:meth:`MismatchDraw.for_model`; None: every member)
+    and has no marker noise or drift of its own: the case's kinematic error is
+    ``kinematic_error``, the realism's (:func:`MismatchDraw.without_pose_error`). The truth is
+    :func:`~gc_ocp.diagnosis.mismatch.truth_variant` on :func:`true_motion` (units off the
+    layout), the plate gets the draw's hum and threshold before the realism's threshold, and
+    the fitter sees the motion on the nominal layout low-passed at the draw's cutoff before the
+    kinematic error."""
     law = _law(truth)
     changes = {
         k: v
@@ -237,12 +240,26 @@ def generate(
     }
     if changes:
         truth = _replace_law(truth, dataclasses.replace(law, **changes))
-    data = simulate(list(stances), truth, rng, plate_noise_pct_bw=realism.plate_noise_pct_bw)
-    data = [_thresholded(st, realism.force_threshold) for st in data]
+    draw = None
+    sim_stances = list(stances)
+    if realism.mismatch is not None:
+        mrng = rng.spawn(1)[0]
+        draw = realism.mismatch.draw(mrng, stances[0].layout)
+        if model is not None:
+            draw = draw.for_model(model)
+        draw = draw.without_pose_error()
+        truth = truth_variant(truth, draw)
+        sim_stances = true_motion(stances, draw)
+    data = simulate(sim_stances, truth, rng, plate_noise_pct_bw=realism.plate_noise_pct_bw)
+    if draw is not None:
+        data = plate_processing(data, draw, mrng)
+        seen = seen_motion(stances, draw, mrng)
+        data = [d.with_foot(s.foot) for d, s in zip(data, seen, strict=True)]
+    data = [thresholded(st, realism.force_threshold) for st in data]
     if kinematic_error is None:
-        return data
+        return data, draw
     noise, d_m, d_deg = kinematic_error
     data = drift(data, d_m, d_deg, rng, realism.stride_variation)
     if noise > 0:
         data = [st.with_foot(noisy_pose(st.foot, noise, rng)) for st in data]
-    return data
+    return data, draw

@@ -68,11 +68,17 @@ smaller smoothing in the truth (0.1 mm, 3 cm/s) changes the truth's wrench by 0.
 their own (the law's shape, heel-strike content the 6 Hz kinematics lack) that the friction and
 stiffness candidates would rightly pick up; the smoothing is an option of :class:`Realism`
 (``truth_depth_smoothing``, ``truth_slip_smoothing``), off by default.
+
+**The mismatch family** (``Realism.mismatch``, off by default; ``docs/diagnosis.md``, "Mismatch
+family"): with a :class:`~gc_ocp.diagnosis.mismatch.MismatchFamily`, every case's truth and data
+also differ from the model by one draw of it (law smoothing width and form, units off the
+layout, plate threshold and hum, a lower-passed seen motion), drawn from a child of the case's
+generator (the case's own draws unchanged: paired with the case without), restricted to the
+base, and recorded in the case's row (``"mismatch"``, JSON).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import time
 import warnings
@@ -91,6 +97,7 @@ from gc_ocp.bench.truth import (
     base_truth,
     drift,
     generate,
+    generate_case,
     injected_values,
     motion,
     truth_model,
@@ -195,7 +202,7 @@ def run_case(
     _, base_model_ = resolve_base(base)
     truth = truth_model(truth_name, mag, base_truth(base, files), stances, rng)
     kin_err = kinematic_error(truth_name, mag, base_model_, realism)
-    data = generate(stances, truth, rng, realism, kin_err)
+    data, draw = generate_case(stances, truth, rng, realism, kin_err, base_model_)
     t1 = time.perf_counter()
     with warnings.catch_warnings():
         # units that never touch in a fold's training stances: expected under drift, noted
@@ -232,6 +239,9 @@ def run_case(
         "base_heldout_superior_pct_bw": d.waterfall[0].heldout_superior_force_pct_bw,
         "seconds_generate": t1 - t0,
         "seconds_diagnose": d.seconds,
+        # the mismatch draw of the case (Realism.mismatch), only when there is one: the rows of
+        # runs without stay as they were
+        **({} if draw is None else {"mismatch": draw.to_json()}),
     }
 
 
@@ -269,7 +279,7 @@ def run_benchmark(
         "seeds": list(range(first_seed, first_seed + seeds)),
         "magnitudes": list(magnitudes),
         "values": {k: v for k, v in injected_values().items() if k in {c["truth"] for c in cases}},
-        "realism": dataclasses.asdict(realism),
+        "realism": realism.settings(),
         "motion": [st.label for st in _source(files)[0]],
         "motion_files": None if files is None else list(files),
         "truth_fit": "registered base fitted to the real stances, frozen"
@@ -341,6 +351,7 @@ __all__ = [
     "confusion_figure",
     "drift",
     "generate",
+    "generate_case",
     "kinematic_error",
     "markdown",
     "merge",

@@ -18,6 +18,8 @@ Layout, one idea per module (the table in ``docs/architecture.md``):
 * :mod:`.result`: the :class:`Diagnosis` and its rows (:class:`RankRow`,
   :class:`WaterfallStep`): JSON, summary, figures;
 * :mod:`.confirm`: confirmation on stances the diagnosis never saw;
+* :mod:`.mismatch`: the mismatch family, small truth-model differences that are not candidate
+  effects (benchmark "none" truths, a parametric-bootstrap null);
 * :mod:`.report`: the self-contained HTML page (markup in ``templates/report.html.j2``).
 """
 

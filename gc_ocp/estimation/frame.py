@@ -222,7 +222,7 @@ def _derivatives(
 
 @functools.lru_cache(maxsize=32)
 def _frame_model(
-    key: tuple, layout: SoleLayout, components: tuple, data_entries, slot_entries
+    key: tuple, layout: SoleLayout, components: tuple, data_entries, slot_entries, compile_: bool
 ) -> FrameModel:
     frame_fn = _compose(layout, components, data_entries, slot_entries)
     nd = sum(s for _, s in data_entries)
@@ -230,17 +230,24 @@ def _frame_model(
     g, h, j = _derivatives(frame_fn, nd, ny)
     # the residual stays an SX function (small; CasADi differentiates it when the NLP is built);
     # its gradient and Hessian, which Ipopt evaluates through callbacks, are compiled
-    g, h = compiled([g, h], "gc_ocp_frame")
+    if compile_:
+        g, h = compiled([g, h], "gc_ocp_frame")
     return FrameModel(frame_fn, g, h, j, Layout(list(data_entries)), Layout(list(slot_entries)))
 
 
-def frame_model(layout: SoleLayout, components: tuple, data_entries, slot_entries) -> FrameModel:
+def frame_model(
+    layout: SoleLayout, components: tuple, data_entries, slot_entries, compile: bool = True
+) -> FrameModel:
     """The per-frame functions of ``components`` on ``layout``, built once per process for each
     distinct key: the layout, every component's :meth:`signature` (what it does to the frame),
-    and the named data and slot layouts."""
+    and the named data and slot layouts. ``compile=False``: the gradient and Hessian stay SX
+    functions (equal to round-off, slower to evaluate, no C compilation): for a model that is
+    only evaluated, e.g. a simulated truth whose physics no fit uses."""
     data_entries, slot_entries = tuple(data_entries), tuple(slot_entries)
     key = (layout, tuple(c.signature() for c in components), data_entries, slot_entries)
-    return _frame_model(key, layout, _KeyedComponents(components, key), data_entries, slot_entries)
+    return _frame_model(
+        key, layout, _KeyedComponents(components, key), data_entries, slot_entries, compile
+    )
 
 
 class _KeyedComponents(tuple):

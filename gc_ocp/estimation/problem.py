@@ -354,9 +354,11 @@ def declare(stances: list[StanceData], model: tuple) -> tuple[tuple, list, Varia
 
 
 def build_estimation(
-    stances: list[StanceData], model: tuple, weights: Weights | None = None
+    stances: list[StanceData], model: tuple, weights: Weights | None = None, compile: bool = True
 ) -> EstimationProblem:
-    """Build the NLP for ``stances`` under ``model`` (a tuple of components)."""
+    """Build the NLP for ``stances`` under ``model`` (a tuple of components). ``compile=False``:
+    the per-frame derivatives are not compiled to C (:func:`~gc_ocp.estimation.frame.frame_model`;
+    for a problem that is evaluated rather than solved, e.g. a simulation)."""
     _check_stances(stances)
     weights = weights or Weights()
     model, stances, variables = declare(stances, model)
@@ -373,7 +375,7 @@ def build_estimation(
             for c in model:
                 slot_entries += list(c.slot_sizes(layout).items())
                 data_entries += list(c.data_sizes(layout).items())
-            models[layout] = frame_model(layout, model, data_entries, slot_entries)
+            models[layout] = frame_model(layout, model, data_entries, slot_entries, compile)
         fm = models[layout]
         Y = _stance_slots(model, variables, i, st, fm)
         # Y = reshape(A x + y0): A is constant because every component maps x linearly

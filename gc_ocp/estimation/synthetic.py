@@ -1,4 +1,5 @@
-"""Synthetic stances for recovery tests and benchmarks: a rigid foot rolling heel-to-toe.
+"""Synthetic stances for recovery tests and benchmarks: a rigid foot rolling heel-to-toe, and
+the plate data a known model predicts on any stances (:func:`simulate`).
 
 The motion is smooth and realistic in shape (heel strike at 12 deg dorsiflexion, foot flat,
 heel-off and roll over the metatarsal heads to 35 deg plantarflexion), the foot sinks a few
@@ -8,6 +9,7 @@ the same per-frame model function the estimator uses, with known ("true") parame
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -16,11 +18,18 @@ from scipy.spatial.transform import Rotation
 
 from gc_ocp.contact.equivalent_wrench import LawParams, model_wrench
 from gc_ocp.contact.laws import Smoothing
+from gc_ocp.estimation.problem import build_estimation
 from gc_ocp.foot import FootKinematics
 from gc_ocp.geometry import kabsch
 from gc_ocp.stance import PLATE_SIGNAL_MARGIN, StanceData
 from gc_ocp.synthetic_foot import NOMINAL_POINTS, nominal_points, rolling_foot
 from gc_ocp.trial import GRAVITY
+
+PLATE_NOISE_PCT_BW = 0.5
+"""Default white plate noise of :func:`simulate` [% BW] (the residual of a well-zeroed plate
+after the 6 Hz filtering of the kinematics' rate)."""
+TORQUE_NOISE_LENGTH = 0.02  # [m]
+"""Moment noise = force noise x this length [m] (a COP noise of ~20 mm at 0.5 % BW)."""
 
 
 def synthetic_stance(
@@ -169,6 +178,50 @@ def with_pose_error(
     )
 
 
+def simulate(
+    stances: Sequence[StanceData],
+    truth: tuple,
+    rng: np.random.Generator,
+    plate_noise_pct_bw: float = PLATE_NOISE_PCT_BW,
+    marker_noise: float = 0.0,
+) -> list[StanceData]:
+    """``stances`` with the plate data the ``truth`` model (components with fixed values; any
+    stance-scope component at zero) predicts on their motion, plus white plate noise; with
+    ``marker_noise`` [m] > 0 the foot kinematics the fitter sees are re-estimated from noisy
+    virtual markers. Each truth component may change how the plate records the wrench
+    (:meth:`Component.observe`, e.g. a clock offset). The truth's per-frame functions are not
+    compiled (only their values are needed: a truth variant of its own physics, such as a
+    mismatch draw's law smoothing, costs no C compilation)."""
+    stances = list(stances)
+    pb = build_estimation(stances, truth, compile=False)
+    wrenches = pb.stance_wrenches(np.zeros(pb.x0.size) if pb.x0.size else pb.x0)
+    out = []
+    for st, w in zip(stances, wrenches, strict=True):
+        sd = plate_noise_pct_bw / 100 * st.body_weight
+        noise = rng.normal(0.0, 1.0, w.shape) * np.array(
+            [sd, sd, sd, *(3 * [sd * TORQUE_NOISE_LENGTH])]
+        )
+        obs = st.with_measured(w)
+        obs = _with_plate_signal(obs, *plate_signal(st.time, w))
+        for c in truth:
+            obs = c.observe(obs, w)
+        obs = obs.with_measured(obs.measured + noise)
+        if obs.plate_wrench is not None and obs.plate_time is not None:
+            pn = rng.normal(0.0, 1.0, obs.plate_wrench.shape) * np.array(
+                [sd, sd, sd, *(3 * [sd * TORQUE_NOISE_LENGTH])]
+            )
+            obs = _with_plate_signal(obs, obs.plate_time, obs.plate_wrench + pn)
+        if marker_noise > 0:
+            obs = obs.with_foot(noisy_pose(obs.foot, marker_noise, rng))
+        out.append(obs)
+    return out
+
+
+def _with_plate_signal(st: StanceData, time: np.ndarray, wrench: np.ndarray) -> StanceData:
+
+    return replace(st, plate_time=np.asarray(time, float), plate_wrench=np.asarray(wrench, float))
+
+
 def default_truth(seed: int = 0, body_weight: float = 700.0) -> dict:
     rng = np.random.default_rng(seed)
     return {"k": rng.uniform(0.6, 1.4, 5) * 3.0e5, "n": 1.5, "c": 1.0, "mu": 0.8}
@@ -176,6 +229,9 @@ def default_truth(seed: int = 0, body_weight: float = 700.0) -> dict:
 
 __all__ = [
     "NOMINAL_POINTS",
+    "PLATE_NOISE_PCT_BW",
+    "TORQUE_NOISE_LENGTH",
+    "simulate",
     "rolling_foot",
     "synthetic_stance",
     "default_truth",

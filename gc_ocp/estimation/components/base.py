@@ -186,6 +186,18 @@ class Component:
         float or per side/unit dict), if it is a contact law. Default: unchanged."""
         return self
 
+    def with_law_smoothing(
+        self,
+        depth_factor: float = 1.0,
+        slip_factor: float = 1.0,
+        depth_form: str | None = None,
+        slip_form: str | None = None,
+    ) -> Component:
+        """This component with its penetration and slip smoothing widths scaled by the factors
+        and their forms replaced (``None``: its own), if it is a contact law (the mismatch
+        family's truth variant, :mod:`gc_ocp.diagnosis.mismatch`). Default: unchanged."""
+        return self
+
     def for_layout(self, layout: SoleLayout, weights: np.ndarray) -> Component:
         """This component for a sole of the units ``layout``, each a convex combination
         (``weights``, ``(m, n_nominal)``, rows sum to 1) of the nominal units, if it depends on
@@ -201,7 +213,7 @@ class Component:
     def observe(self, stance: StanceData, wrench: np.ndarray) -> StanceData:
         """Synthetic data: ``stance`` as the plate would record the model ``wrench`` ``(T, 6)``
         if this component were the truth (e.g. a clock offset delays it). Default: measured =
-        wrench. Used by :func:`gc_ocp.bench.recovery.simulate`."""
+        wrench. Used by :func:`gc_ocp.estimation.synthetic.simulate`."""
         return stance
 
     # --- variables ----------------------------------------------------------------------------

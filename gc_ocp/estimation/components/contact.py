@@ -15,6 +15,8 @@ import numpy as np
 
 from gc_ocp.contact.laws import (
     DEFAULT_SMOOTHING,
+    PENETRATION_FORMS,
+    SLIP_FORMS,
     friction_force_function,
     normal_force_function,
     penetration_function,
@@ -81,6 +83,10 @@ class ContactLaw(Component):
     c: Hunt-Crossley damping [s/m]; mu: friction coefficient [-].
     depth_smoothing: smoothing length of the penetration [m] (see ``gc_ocp.contact.laws``).
     slip_smoothing: sliding speed below which friction is smoothed [m/s].
+    depth_form, slip_form: the forms of those two smoothings (``gc_ocp.contact.laws``:
+    :data:`~gc_ocp.contact.laws.PENETRATION_FORMS`, :data:`~gc_ocp.contact.laws.SLIP_FORMS`;
+    default the first of each, the seed's). The frame's law records ``slip_form`` so that a
+    tangential law replacing the Coulomb friction (``friction``) regularises the same way.
     reference_depth: penetration [m] at which each unit's force ``f_ref = k d^n`` is reported
     (the well-determined summary of its force-depth curve).
     """
@@ -95,6 +101,8 @@ class ContactLaw(Component):
     depth_smoothing: float = 5e-4
     slip_smoothing: float = 0.05
     reference_depth: float = 0.005
+    depth_form: str = PENETRATION_FORMS[0]
+    slip_form: str = SLIP_FORMS[0]
     name: str = "contact"
 
     @classmethod
@@ -129,11 +137,39 @@ class ContactLaw(Component):
             raise ModelError(f'Unknown contact-law parameter "{param}"; choose from {PARAMS}')
         return replace(self, **{param: Param("fixed", value)})
 
+    def with_law_smoothing(
+        self,
+        depth_factor: float = 1.0,
+        slip_factor: float = 1.0,
+        depth_form: str | None = None,
+        slip_form: str | None = None,
+    ) -> ContactLaw:
+        """The law with its penetration and slip smoothing widths multiplied by ``depth_factor``
+        and ``slip_factor`` and, when given, their forms replaced (``None``: its own)."""
+        return replace(
+            self,
+            depth_smoothing=self.depth_smoothing * depth_factor,
+            slip_smoothing=self.slip_smoothing * slip_factor,
+            depth_form=self.depth_form if depth_form is None else depth_form,
+            slip_form=self.slip_form if slip_form is None else slip_form,
+        )
+
     def __post_init__(self) -> None:
         for pname in ("n", "c", "mu"):
             if getattr(self, pname).scope == "unit":
                 raise ModelError(
                     f'Param "{pname}" cannot have scope "unit"; choose foot, shared or fixed.'
+                )
+        for what, form, forms in (
+            ("depth_form", self.depth_form, PENETRATION_FORMS),
+            ("slip_form", self.slip_form, SLIP_FORMS),
+        ):
+            if form not in forms:
+                raise ModelError(f'ContactLaw.{what} must be one of {forms}, but got "{form}"')
+        for what in ("depth_smoothing", "slip_smoothing"):
+            if not getattr(self, what) > 0:
+                raise ModelError(
+                    f"ContactLaw.{what} must be > 0 [SI], but got {getattr(self, what)}"
                 )
 
     # --- variables ----------------------------------------------------------------------------
@@ -191,10 +227,10 @@ class ContactLaw(Component):
         k = ca.exp(frame.slot("log_k"))
         frame.law.update(k=[k[i] for i in range(frame.layout.n)])
         frame.law.update({p: frame.slot(s) for p, s in LAW_SLOTS.items()})
-        frame.law.update(v_eps=self.slip_smoothing)
+        frame.law.update(v_eps=self.slip_smoothing, slip_form=self.slip_form)
         penetration = penetration_function()
-        normal = normal_force_function(True)
-        coulomb = friction_force_function()
+        normal = normal_force_function(True, self.depth_form)
+        coulomb = friction_force_function(self.slip_form)
         eps_x, eps_d = self.depth_smoothing, DEFAULT_SMOOTHING.eps_damping
 
         def unit_force(f, i):
@@ -217,6 +253,8 @@ class ContactLaw(Component):
             self.depth_smoothing,
             self.slip_smoothing,
             DEFAULT_SMOOTHING.eps_damping,
+            self.depth_form,
+            self.slip_form,
         )
 
     # --- results ------------------------------------------------------------------------------

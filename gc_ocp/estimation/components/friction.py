@@ -6,7 +6,7 @@ from dataclasses import dataclass, replace
 
 import casadi as ca
 
-from gc_ocp.contact.laws import friction_force_function
+from gc_ocp.contact.laws import SLIP_FORMS, friction_force_function
 from gc_ocp.estimation.components.base import Component, DecodeContext, SummaryRow
 
 SLOTS = ("friction_dmu", "friction_b")
@@ -19,7 +19,8 @@ class StribeckFriction(Component):
 
     With ``v_s`` the unit's horizontal sliding velocity relative to the belt (lab x, y; zero
     overground), ``F_n`` its normal force and the contact law's regularised Coulomb direction
-    (``v_eps = frame.law["v_eps"]``, the law's slip smoothing, 5 cm/s) ::
+    (``v_eps = frame.law["v_eps"]``, the law's slip smoothing, 5 cm/s, in the law's form
+    ``frame.law["slip_form"]``) ::
 
         mu(v_s) = mu_d + (mu_s - mu_d) * exp(-|v_s|^2 / v_stribeck^2)
         F_t     = -mu(v_s) * F_n * v_s / sqrt(|v_s|^2 + v_eps^2)  -  b * F_n * v_s
@@ -95,7 +96,6 @@ class StribeckFriction(Component):
         return {s: variables.get((self.name, e)) for s, e in pairs}
 
     def edit_contact(self, frame) -> None:
-        coulomb = friction_force_function()
         dmu, b = frame.slot(SLOTS[0]), frame.slot(SLOTS[1])
         v0sq = self.v_stribeck**2
 
@@ -103,6 +103,7 @@ class StribeckFriction(Component):
             v, vb = f.velocities[i], f.belt_velocity
             vs = ca.vertcat(v[0] - vb[0], v[1] - vb[1])
             mu = f.law["mu"] + dmu * ca.exp(-ca.sumsqr(vs) / v0sq)
+            coulomb = friction_force_function(f.law.get("slip_form", SLIP_FORMS[0]))
             return coulomb(fn, v, vb, mu, f.law["v_eps"]) - ca.vertcat(b * fn * vs, 0)
 
         frame.tangential = tangential
