@@ -9,7 +9,7 @@ estimator (:mod:`gc_ocp.estimation`) all take it. Numeric, time-first, SI, ``lab
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -145,13 +145,15 @@ def stance_data(
     margin: float = 0.0,
     min_frames: int = 1,
     name: str | None = None,
+    censor_below: float = 0.0,
 ) -> StanceData:
     """Cut ``stance`` out of ``trial``: the frames of ``kin.feet[stance.side]`` within
     ``[t_on - margin, t_off + margin]`` [s] and the measured wrench on them. Frames with non-finite
     kinematics or plate data are dropped; fewer than ``min_frames`` left is an :class:`InputError`
     naming the stance and the likely cause. ``name``: the trial's name in the label
     (``name:side@t_on``) and in ``StanceData.trial`` (default ``trial.name``, the file's stem;
-    several trials of one fit are named by :func:`trial_names`)."""
+    several trials of one fit are named by :func:`trial_names`); ``censor_below``: its plate's
+    zero threshold [N] (:attr:`StanceData.censor_below`)."""
     name = trial.name if name is None else name
     if stance.side not in kin.feet:
         raise InputError(
@@ -198,6 +200,7 @@ def stance_data(
         height=height,
         plate_time=pt[finite],
         plate_wrench=pw[finite],
+        censor_below=censor_below,
     )
 
 
@@ -207,9 +210,15 @@ def trial_stances(
     margin: float = 0.0,
     min_frames: int = 1,
     name: str | None = None,
+    censor_below: Mapping[int, float] | None = None,
 ) -> list[StanceData]:
-    """Every stance of ``trial`` (see :func:`stance_data`)."""
-    return [stance_data(trial, kin, s, margin, min_frames, name) for s in trial.stances]
+    """Every stance of ``trial`` (see :func:`stance_data`); ``censor_below``: ``{plate index:
+    zero threshold [N]}`` (missing: 0)."""
+    thr = censor_below or {}
+    return [
+        stance_data(trial, kin, s, margin, min_frames, name, thr.get(s.plate, 0.0))
+        for s in trial.stances
+    ]
 
 
 def _path_parts(source: str | Path) -> tuple[str, ...]:
@@ -258,22 +267,24 @@ def fit_stances(
     margin: float = 0.0,
     min_frames: int = 1,
     names: Sequence[str] | None = None,
+    censor_below: Sequence[Mapping[int, float]] | None = None,
 ) -> list[StanceData]:
     """Every stance of every trial of one fit (``[(Trial, TrialKinematics), ...]``, see
     :func:`stance_data`), each trial named by :func:`trial_names` (or ``names``, one per trial,
     e.g. names given to the trials of two fits together). Two trials of one fit with the same
     name (one file given twice with different content, e.g. edited in memory) are told apart by
     their position (``name#2``): a stance's label and a trial's variables never depend on file
-    names being distinct."""
+    names being distinct. ``censor_below``: per trial, ``{plate index: zero threshold [N]}``."""
     if names is None:
         names = trial_names([t.source for t, _ in trials])
     if len(names) != len(trials):
         raise InputError(f"Got {len(names)} trial names for {len(trials)} trials; give one each.")
     names = [n if list(names).count(n) == 1 else f"{n}#{i + 1}" for i, n in enumerate(names)]
+    thresholds = list(censor_below) if censor_below is not None else [{}] * len(trials)
     return [
         st
-        for (trial, kin), name in zip(trials, names, strict=True)
-        for st in trial_stances(trial, kin, margin, min_frames, name)
+        for (trial, kin), name, thr in zip(trials, names, thresholds, strict=True)
+        for st in trial_stances(trial, kin, margin, min_frames, name, thr)
     ]
 
 

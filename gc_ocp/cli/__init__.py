@@ -117,9 +117,12 @@ def build_parser() -> argparse.ArgumentParser:
         "shrinks.",
         description="Fit the base model on the trials of one subject, score it on held-out "
         "stances (leave one stance out), add each candidate effect alone and rank them by the "
-        "held-out reduction (95 % bootstrap interval), add the best passing one and re-rank "
-        "(forward selection). Writes DIR/diagnosis.json, DIR/report.html (one self-contained "
-        "page) and the figures as PNG. Exit status 1 if a solve fails, 2 on bad input.",
+        "held-out reduction (95 % bootstrap interval); name an effect only when a calibrated "
+        "test (null replicates of the base with model mismatch, family-wise rate 5 %) does, "
+        "add the best named one and re-test (forward selection); say how many more steps "
+        "would decide the others. Writes DIR/diagnosis.json, DIR/report.html (one "
+        "self-contained page) and the figures as PNG. Exit status 1 if a solve fails, 2 on bad "
+        "input.",
     )
     _add_trial_args(p)
     p.add_argument(
@@ -183,6 +186,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="FILE",
         help="A trial whose real motion the cases use (repeatable: trials of one subject; "
         "default: the bundled example). More stances per foot give more held-out folds.",
+    )
+    p.add_argument(
+        "--mismatch",
+        type=float,
+        default=None,
+        metavar="SCALE",
+        help="Also make every truth differ from the model by a draw of the mismatch family at "
+        "this scale (1: the documented family; default: none; docs/diagnosis.md).",
     )
     p.set_defaults(func=cmd_benchmark_diagnosis)
     return parser

@@ -4,6 +4,7 @@ and turned into one line and a status by :func:`gc_ocp.cli.main`)."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 
@@ -241,8 +242,17 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
 def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
     """The withheld-effect benchmark of the diagnosis (``gc_ocp.bench.withheld``)."""
+    from gc_ocp.bench.truth import DEFAULT_REALISM
     from gc_ocp.bench.withheld import report, run_benchmark
+    from gc_ocp.diagnosis.mismatch import MismatchFamily
 
+    realism = DEFAULT_REALISM
+    if args.mismatch is not None:
+        if not (args.mismatch >= 0):
+            raise InputError(
+                f"--mismatch must be a scale >= 0 (1: the family), but got {args.mismatch}"
+            )
+        realism = dataclasses.replace(realism, mismatch=MismatchFamily(scale=args.mismatch))
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     candidates = None if args.candidates is None else _effect_list(args.candidates, "--candidates")
     res = run_benchmark(
@@ -256,6 +266,7 @@ def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
         progress=_progress,
         first_seed=args.first_seed,
         files=args.trial or None,
+        realism=realism,
     )
     print(report(res))
     print(f"wrote {args.out / 'confusion.json'} and {args.out / 'confusion.png'}")

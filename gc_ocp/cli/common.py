@@ -125,6 +125,7 @@ def provenance(args: argparse.Namespace, pairs) -> dict:
     import platform
 
     from gc_ocp import __version__
+    from gc_ocp.io.processing import detect_processing
     from gc_ocp.stance import trial_names
 
     trials = []
@@ -153,6 +154,9 @@ def provenance(args: argparse.Namespace, pairs) -> dict:
                 ],
                 "load_notes": list(t.load_notes),
                 "marker_cutoff_hz": kin.cutoff_hz,
+                # what the lab's processing did, as detected (the measurement model uses the
+                # plates' zero thresholds: gc_ocp.io.processing)
+                "processing": detect_processing(t).to_json(),
             }
         )
 

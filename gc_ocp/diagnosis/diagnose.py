@@ -31,12 +31,15 @@ from gc_ocp.diagnosis.execution import (
     candidate_executor,
     evaluate_round,
 )
+from gc_ocp.diagnosis.mismatch import MismatchFamily
 from gc_ocp.diagnosis.null import (
     ALPHA,
+    DEFAULT_FAMILY,
     N_REPLICATES,
     calibrate,
     fold_prior_means,
     linearize_parent,
+    mismatch_perturbations,
 )
 from gc_ocp.diagnosis.result import Diagnosis, RankRow, WaterfallStep
 from gc_ocp.diagnosis.selection import (
@@ -54,6 +57,7 @@ from gc_ocp.estimation.components import (
     full_model,
     model_from_names,
 )
+from gc_ocp.estimation.measurement import measurement_of
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.solve import IpoptOptions
 from gc_ocp.stance import StanceData
@@ -100,7 +104,7 @@ def diagnose_stances(
     workers: int | None = None,
     executor: Executor | None = None,
     n_replicates: int = N_REPLICATES,
-    mismatch=None,
+    mismatch: MismatchFamily | None = DEFAULT_FAMILY,
 ) -> Diagnosis:
     """The diagnosis of ``stances`` (one subject; see the module doc). ``alpha``: the
     family-wise rate of a false claim per round (:mod:`.null`); ``n_replicates``: the null's
@@ -227,6 +231,7 @@ def diagnose_stances(
         seconds=time.perf_counter() - t0,
         alpha=alpha,
         calibration=calibration,
+        measurement=measurement_of(stances),
         evaluations=evaluations,
         notes=notes,
         max_effects=max_effects,
@@ -242,7 +247,11 @@ def _calibrated(
     lins = {n: ev.linear for n, ev in evs.items() if ev.linear is not None}
     occam = {"parent": np.array([f.occam for f in parent.folds])}
     occam.update({n: np.array([f.occam for f in ev.folds]) for n, ev in evs.items() if ev.folds})
-    mis = None  # the mismatch family's perturbations: wired with gc_ocp.diagnosis.mismatch
+    mis = None
+    if family is not None and family.scale > 0:
+        mis = mismatch_perturbations(
+            stances, parent.model, parent.full, weights, family, np.random.default_rng(seed)
+        )
     tests = calibrate(
         parent_lin,
         parent.full.stance_fits,

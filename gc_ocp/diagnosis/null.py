@@ -49,10 +49,18 @@ import numpy as np
 import scipy.sparse as sp
 
 from gc_ocp.diagnosis.compare import BLOCK_SECONDS
+from gc_ocp.diagnosis.mismatch import (
+    MismatchDraw,
+    MismatchFamily,
+    plate_processing,
+    seen_motion,
+    true_motion,
+    truth_variant,
+)
 from gc_ocp.estimation.measurement import censored
-from gc_ocp.estimation.problem import Weights, build_estimation, declare
+from gc_ocp.estimation.problem import Weights, build_estimation, declare, frame_data
 from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.estimation.starts import rescaled_start, with_lls_start
+from gc_ocp.estimation.starts import frozen_model, rescaled_start, with_lls_start
 from gc_ocp.estimation.synthetic import plate_signal
 from gc_ocp.stance import StanceData
 
@@ -257,6 +265,78 @@ def replicate(
         pt, pw = plate_signal(st.time, m)
         out.append(dataclasses.replace(st.with_measured(m), plate_time=pt, plate_wrench=pw))
     return out
+
+
+MISMATCH_DRAWS = 16
+"""Draws of the mismatch family per round: replicate ``b`` adds draw ``b mod K`` (each draw a
+systematic pattern; the wild residuals vary around it)."""
+
+DEFAULT_FAMILY = MismatchFamily()
+"""The mismatch family the null allows unless told otherwise (``docs/diagnosis.md``)."""
+
+
+def _null_draw(d: MismatchDraw, model: tuple) -> MismatchDraw:
+    """The members of draw ``d`` a replicate of the null adds (:func:`mismatch_perturbations`):
+    the law's smoothing and friction forms, the plate's hum and the markers' low-pass. Left out:
+    the plate threshold (the measurement model finds it in the data and censors it), the marker
+    noise and soft-tissue drift (the wild residuals are the observed data's own, kinematic noise
+    included, and the pose correction absorbs a rigid per-stance drift), and, for a model with
+    sole registration, the units off the layout (the sole correction has exactly that freedom: a
+    truth with moved units is the parent with other sole offsets). The last two are large
+    changes of the force (units 2 mm off: 8-87 % BW) that a refit absorbs almost entirely
+    (``docs/diagnosis.md``, mismatch family): one Gauss-Newton step would leave their
+    second-order terms, an artefact of the step, not a mismatch."""
+    d = dataclasses.replace(d.without_pose_error(), threshold_n=0.0)
+    if any(c.name == "sole" for c in model):
+        d = dataclasses.replace(
+            d, unit_offsets={s: tuple((0.0,) * 3 for _ in o) for s, o in d.unit_offsets.items()}
+        )
+    return d
+
+
+def mismatch_perturbations(
+    stances: Sequence[StanceData],
+    model: tuple,
+    full: EstimationResult,
+    weights: Weights | None,
+    family: MismatchFamily,
+    rng: np.random.Generator,
+    n_draws: int = MISMATCH_DRAWS,
+) -> np.ndarray:
+    """``(rows, n_draws)`` weighted perturbations of mismatch-family draws (module doc): for
+    each draw, how the plate data of the fitted parent (``model`` frozen at ``full``) walking
+    the subject's motion differ from what the parent predicts from the kinematics a fitter would
+    see, ``W (m_mismatched - F_parent(seen))``: the law's drawn smoothing and friction forms and
+    the plate's hum, against the parent on the low-passed kinematics (the members of
+    :func:`_null_draw`). Zero on censored samples. Members that are a candidate of the parent's
+    model are left out (:meth:`MismatchDraw.for_model`)."""
+    weights = weights or Weights()
+    stances = list(stances)
+    truth = frozen_model(with_lls_start(model, stances), full)
+    # the parent on other kinematics of the same frames: only the per-frame data change
+    ps = build_estimation(stances, truth, weights, compile=False)
+    Y0 = [b.Y(np.zeros(ps.x0.size)) for b in ps.blocks]
+    cols = []
+    for _ in range(n_draws):
+        d = _null_draw(family.draw(rng, stances[0].layout).for_model(model), model)
+        true = true_motion(stances, d)
+        pb = build_estimation(true, truth_variant(truth, d), weights, compile=False)
+        w_true = pb.stance_wrenches(np.zeros(pb.x0.size))
+        recorded = plate_processing(
+            [st.with_measured(w) for st, w in zip(stances, w_true, strict=True)], d, rng
+        )
+        configured, seen, _ = declare(seen_motion(stances, d, rng), truth)
+        w_seen = [
+            np.asarray(b.fm.frame.map(b.T)(frame_data(st, weights, b.fm, configured), y)[1]).T
+            for b, st, y in zip(ps.blocks, seen, Y0, strict=True)
+        ]
+        col = []
+        for st, rec, ws in zip(stances, recorded, w_seen, strict=True):
+            u = (rec.measured - ws) * weights.inverse_sigmas(st.body_weight)
+            u[censored(st.measured, st.censor_below)] = 0.0
+            col.append(u.ravel())
+        cols.append(np.concatenate(col))
+    return np.column_stack(cols)
 
 
 def _solve(G: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -512,6 +592,8 @@ def _more_stances(
 
 __all__ = (
     "ALPHA",
+    "DEFAULT_FAMILY",
+    "MISMATCH_DRAWS",
     "N_REPLICATES",
     "PRACTICAL_FACTOR",
     "Linear",
@@ -523,6 +605,7 @@ __all__ = (
     "heldout_energy",
     "linearize_child",
     "linearize_parent",
+    "mismatch_perturbations",
     "per_stance_sd",
     "reductions",
     "replicate",

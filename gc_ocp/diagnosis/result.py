@@ -19,6 +19,7 @@ from gc_ocp.contact.channels import TABLE_KEYS
 from gc_ocp.diagnosis.compare import Evaluation, heldout_quality, score, superior_rms
 from gc_ocp.diagnosis.null import NullTest
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
+from gc_ocp.errors import InputError
 
 SCORE_TEXT = (
     "held-out combined score: sqrt(2 E / n), E = data cost + nuisance prior cost + "
@@ -184,6 +185,7 @@ class Diagnosis:
     seconds: float
     alpha: float
     calibration: list = dataclasses.field(default_factory=list)
+    measurement: dict = dataclasses.field(default_factory=dict)
     evaluations: dict = dataclasses.field(default_factory=dict, repr=False)
     notes: list[str] = dataclasses.field(default_factory=list)
     max_effects: int | None = None
@@ -225,6 +227,7 @@ class Diagnosis:
             "folds": self.folds,
             "alpha": self.alpha,
             "calibration": self.calibration,
+            "measurement": self.measurement,
             "max_effects": self.max_effects,
             "score": SCORE_TEXT,
             "notes": self.notes,
@@ -235,7 +238,15 @@ class Diagnosis:
     def from_json(cls, d: Mapping) -> Diagnosis:
         """The diagnosis written by :meth:`to_json` (``diagnosis.json``), without its
         evaluations (the fits): enough for its summary, JSON, report page (given the final
-        fit) and the figures that need no fit (ranking, waterfall, heat maps)."""
+        fit) and the figures that need no fit (ranking, waterfall, heat maps). A
+        ``diagnosis.json`` of the former threshold rule (before the calibrated test: no
+        ``alpha``) is refused with what to do."""
+        if "alpha" not in d:
+            raise InputError(
+                "This diagnosis.json was written by an earlier gc_ocp, whose decision rule was a "
+                "2 % threshold (it has 'threshold_pct', no 'alpha'); its verdicts cannot be shown "
+                "as the calibrated test's. Run `gc-ocp diagnose` again on the trials."
+            )
         selected = list(d["selected"])
         waterfall = [
             WaterfallStep(**w, label="+".join(["base", *selected[:k]]))
@@ -254,6 +265,7 @@ class Diagnosis:
             seconds=d["seconds"],
             alpha=d["alpha"],
             calibration=list(d.get("calibration", [])),
+            measurement=dict(d.get("measurement", {})),
             notes=list(d["notes"]),
             max_effects=d["max_effects"],
         )

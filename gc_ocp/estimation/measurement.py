@@ -65,10 +65,24 @@ def fit_error(fit: dict) -> np.ndarray:
     return stance_residuals(fit["model"], fit["measured"], 1.0, fit.get("censor_below", 0.0))
 
 
+def measurement_of(stances) -> dict:
+    """What the measurement model knew of each stance (``fit.json``, ``diagnosis.json``):
+    ``{label: {"censor_below": threshold [N] (0: none)}}``."""
+    return {st.label: {"censor_below": st.censor_below} for st in stances}
+
+
 def censored(measured: np.ndarray, censor_below: float) -> np.ndarray:
     """``(T,)`` which samples of ``measured`` ``(T, 6)`` are censored (module doc)."""
     m = np.asarray(measured, float)
     return np.zeros(m.shape[0], bool) if censor_below <= 0 else m[:, 2] < censor_below
 
 
-__all__ = ["CASADI", "NUMPY", "censored", "fit_error", "residual", "stance_residuals"]
+__all__ = [
+    "CASADI",
+    "NUMPY",
+    "censored",
+    "fit_error",
+    "measurement_of",
+    "residual",
+    "stance_residuals",
+]

@@ -486,3 +486,34 @@ def detect_processing(trial: Trial) -> Processing:
         plates=plates,
         markers=detect_marker_processing(trial.markers, trial.marker_time),
     )
+
+
+# --- what the measurement model uses -----------------------------------------------------------
+
+
+def censor_threshold(plate: PlateProcessing | None) -> float:
+    """The threshold [N] below which the measurement model censors this plate's samples
+    (:mod:`gc_ocp.estimation.measurement`): its zero threshold when the force steps from 0 to
+    it (``zero_edges == "step"``), else 0. A force that leaves 0 continuously was not cut at a
+    level (nothing to censor beyond the zeros, which a model predicting ~0 there fits anyway);
+    one zeroed and then filtered has lost its level (the zeros are still data the model must
+    meet)."""
+    if plate is None or plate.zero_threshold is None or plate.zero_edges != "step":
+        return 0.0
+    return float(plate.zero_threshold)
+
+
+def stance_censor_threshold(plate_wrench: np.ndarray | None) -> float:
+    """:func:`censor_threshold` of a stance's own plate signal (``StanceData.plate_wrench``: the
+    stance and 0.1 s around it at the plate's rate): for stances not cut from a trial here (e.g.
+    simulated), where no whole plate recording is at hand. Two edges instead of every edge of the
+    plate: the estimate is the smaller of the two edge values (an upper bound of the lab's
+    threshold, within one sample's rise)."""
+    if plate_wrench is None or len(plate_wrench) == 0:
+        return 0.0
+    w = np.asarray(plate_wrench, float)
+    zero = exact_zero_runs(w)
+    if not zero.any():
+        return 0.0
+    thr, edges = zero_threshold(w[:, 2], zero)
+    return float(thr) if thr is not None and edges == "step" else 0.0

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.components import full_model
@@ -26,6 +26,7 @@ from gc_ocp.estimation.solve import IpoptOptions, solve
 from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
 from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.consistency import check_for_fit
+from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
 from gc_ocp.stance import StanceData, fit_stances
 from gc_ocp.trial import Trial
 
@@ -75,6 +76,18 @@ def _with_height(trial: Trial, kin: TrialKinematics) -> Trial:
     return dataclasses.replace(trial, height=h, height_source="estimated from markers")
 
 
+def with_detected_censoring(stances: Sequence[StanceData]) -> list[StanceData]:
+    """``stances`` with each one's zero threshold found in its own plate signal where none was
+    set (:func:`gc_ocp.io.processing.stance_censor_threshold`): for stances not cut from trials
+    by :func:`fit_data` (which finds it on the whole plate recording), e.g. simulated ones."""
+    return [
+        st
+        if st.censor_below > 0
+        else dataclasses.replace(st, censor_below=stance_censor_threshold(st.plate_wrench))
+        for st in stances
+    ]
+
+
 def fit_data(
     trials: list[tuple[Trial, TrialKinematics]],
     margin: float = MARGIN,
@@ -91,7 +104,21 @@ def fit_data(
     for note in notes:
         warnings.warn(note, stacklevel=3)
         say(f"check: {note}")
-    data = fit_stances(trials, margin=margin, min_frames=5, names=names)
+    processing = [detect_processing(t) for t, _ in trials]
+    thresholds = [
+        {i: censor_threshold(proc.plates.get(p.name)) for i, p in enumerate(t.plates)}
+        for (t, _), proc in zip(trials, processing, strict=True)
+    ]
+    for (t, _), thr in zip(trials, thresholds, strict=True):
+        for i, x in thr.items():
+            if x > 0:
+                note = (
+                    f"{t.source}: plate {t.plates[i].name} was zeroed below {x:.1f} N by the lab: "
+                    "its samples below that are censored (not errors) in every fit"
+                )
+                notes.append(note)
+                say(f"check: {note}")
+    data = fit_stances(trials, margin=margin, min_frames=5, names=names, censor_below=thresholds)
     return trials, data, notes
 
 

@@ -10,6 +10,13 @@ Generated once at commit bb2d7d0 (before the composable-estimator refactor) with
   variable layout (key, start, size) so that a later ordering of the variables can be mapped.
 * ``fit_pins.json``: fitted objective and RMS per channel of the three shared trials and the
   bundled trial's held-out fit (the figures ``tests/test_pins.py`` keeps).
+
+``fit_pins.json`` regenerated (``--fits-only``) on deliberate changes: issue 21 (one start path,
+see ``docs/architecture.md``); issue 22, plates the lab zeroed below a threshold censored
+(``gc_ocp/estimation/measurement.py``; the bundled trial's and Plug-in Gait's plates are zeroed
+below about 10 N): bundled 394.50 -> 394.46 (held out 290.21 -> 290.00), Plug-in Gait
+599.52 -> 599.31, Rajagopal and Gait2392 unchanged (their MOT zeros rise continuously: no
+level to censor).
 """
 
 from __future__ import annotations
