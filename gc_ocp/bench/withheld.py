@@ -93,7 +93,6 @@ from gc_ocp.bench.truth import (
     MAGNITUDES,
     NONE,
     Realism,
-    _source,
     base_truth,
     drift,
     generate,
@@ -121,6 +120,8 @@ CASE_ROW_KEYS = (
     "confounded_with",
     "per_stance_reduction_pct",
     "gain_from_nuisance",
+    "inconclusive",
+    "calibrated",
 )
 """What a case keeps of each ranking row (its ``diagnosis.json`` keys)."""
 
@@ -191,15 +192,17 @@ def run_case(
     progress: Callable[[str], None] | None = None,
     workers: int | None = None,
     files: Sequence[str] | None = None,
+    stances_per_foot: int | None = None,
 ) -> dict:
     """Generate one case's data and diagnose it blind: the case with ``answer``, ``correct``,
     the ranking rows and timing. ``files``: trials of one subject whose motion the case uses
-    (default: the bundled trial)."""
+    (default: the bundled trial); ``stances_per_foot``: that many stances of each foot
+    (:func:`~gc_ocp.bench.truth.per_foot`; None: the motion's own)."""
     t0 = time.perf_counter()
     truth_name, mag = case["truth"], case["magnitude"]
     rng = np.random.default_rng(_case_seed(base, truth_name, mag, case["seed"]))
     files = None if files is None else tuple(str(f) for f in files)
-    stances = motion(base, truth_name, files)
+    stances = motion(base, truth_name, files, stances_per_foot)
     _, base_model_ = resolve_base(base)
     truth = truth_model(truth_name, mag, base_truth(base, files), stances, rng)
     kin_err = kinematic_error(truth_name, mag, base_model_, realism)
@@ -262,13 +265,15 @@ def run_benchmark(
     workers: int | None = None,
     first_seed: int = 0,
     files: Sequence[str] | None = None,
+    stances_per_foot: int | None = None,
 ) -> dict:
     """Run every case of :func:`plan`; ``DIR/confusion.json`` is rewritten atomically after each
     case (``resume``: keep the cases of an earlier run with the same settings), then
     ``DIR/confusion.png``. Returns the result dict written to ``confusion.json``. ``workers``:
     processes per diagnosis round (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`);
     ``files``: trials of one subject whose real motion the cases use (default: the bundled
-    trial; more stances per foot give the held-out score more folds)."""
+    trial; more stances per foot give the held-out score more folds); ``stances_per_foot``: that
+    many stances of each foot (:func:`~gc_ocp.bench.truth.per_foot`)."""
     say = progress or (lambda s: None)
     out = check_writable(out)
     files = None if files is None else tuple(str(f) for f in files)
@@ -283,7 +288,7 @@ def run_benchmark(
         "magnitudes": list(magnitudes),
         "values": {k: v for k, v in injected_values().items() if k in {c["truth"] for c in cases}},
         "realism": realism.settings(),
-        "motion": [st.label for st in _source(files)[0]],
+        "motion": [st.label for st in motion(base, NONE, files, stances_per_foot)],
         "motion_files": None if files is None else list(files),
         "truth_fit": "registered base fitted to the real stances, frozen"
         + ("; its sole offsets baked into the sole points" if base == "seed" else ""),
@@ -320,7 +325,15 @@ def run_benchmark(
             f"({case['magnitude']}), seed {case['seed']}"
         )
         r = run_case(
-            case, base, candidates, realism, n_boot, progress=None, workers=workers, files=files
+            case,
+            base,
+            candidates,
+            realism,
+            n_boot,
+            progress=None,
+            workers=workers,
+            files=files,
+            stances_per_foot=stances_per_foot,
         )
         done.append(r)
         s = summarize(done, labels)

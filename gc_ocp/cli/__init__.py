@@ -188,6 +188,14 @@ def build_parser() -> argparse.ArgumentParser:
         "default: the bundled example). More stances per foot give more held-out folds.",
     )
     p.add_argument(
+        "--stances-per-foot",
+        type=int,
+        default=None,
+        metavar="N",
+        help="Cases on N stances of each foot (a foot with fewer has its strides repeated as "
+        "further trials; default: the motion's own).",
+    )
+    p.add_argument(
         "--mismatch",
         type=float,
         default=None,

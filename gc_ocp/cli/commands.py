@@ -267,6 +267,7 @@ def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
         first_seed=args.first_seed,
         files=args.trial or None,
         realism=realism,
+        stances_per_foot=args.stances_per_foot,
     )
     print(report(res))
     print(f"wrote {args.out / 'confusion.json'} and {args.out / 'confusion.png'}")

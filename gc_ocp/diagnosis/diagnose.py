@@ -178,6 +178,7 @@ def diagnose_stances(
                 ok,
                 plan,
                 weights,
+                options,
                 rate,
                 mismatch,
                 n_replicates,
@@ -239,7 +240,19 @@ def diagnose_stances(
 
 
 def _calibrated(
-    stances, parent, parent_lin, evs, plan, weights, rate, family, n_replicates, seed, alpha, say
+    stances,
+    parent,
+    parent_lin,
+    evs,
+    plan,
+    weights,
+    options,
+    rate,
+    family,
+    n_replicates,
+    seed,
+    alpha,
+    say,
 ) -> tuple[dict, dict]:
     """The calibrated tests of a round's evaluated candidates and what the round's null was
     (replicates, mismatch draws, critical value, seconds)."""

@@ -109,7 +109,7 @@ class RankRow:
         if self.passes:
             return f"named ({p})"
         if c.more_stances == 0:
-            return f"named by the test ({p}), but its full refit does not reduce the score"
+            return f"inconclusive: named by the test ({p}), below the rule's effect-size floor"
         if self.inconclusive:
             return f"inconclusive ({p}); about {c.more_stances} more steps would decide"
         if c.more_stances:
