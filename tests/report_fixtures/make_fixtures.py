@@ -18,7 +18,9 @@ the clock offset's standard error is ``ms_se`` (was ``se_ms``, the one key of an
 Issue 22 (the calibrated decision: a test with a family-wise rate replaced the 2 % threshold;
 ``diagnosis.json`` has ``alpha``, ``calibration``, ``measurement`` and a ``calibrated`` test per
 row instead of ``threshold_pct``; the lab's plate thresholds are censored): both fixtures made
-again from new runs of the same commands on the bundled trial.
+again from new runs of the same commands on the bundled trial; then re-rendered from their own
+JSON once (the ranking table's three test columns merged into one, so that the table fits the
+page).
 """
 
 from __future__ import annotations
