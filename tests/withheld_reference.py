@@ -12,8 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from gc_ocp.bench.truth import DEFAULT_REALISM, Realism
-from gc_ocp.bench.truth import _source
+from gc_ocp.bench.truth import DEFAULT_REALISM, Realism, _source
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.problem import build_estimation
 from gc_ocp.estimation.synthetic import noisy_pose, plate_signal, with_pose_error
