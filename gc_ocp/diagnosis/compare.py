@@ -107,7 +107,7 @@ class Evaluation:
     full: EstimationResult
     folds: list[Fold]
     seconds: float = 0.0
-    screened: bool = False  # not held out: its in-sample gain over its parent was too small
+    screened: bool = False  # fitted on all stances only, not held out (evaluate(folds=False))
     weights: Weights = dataclasses.field(default_factory=Weights)  # of every fit and score
     linear: object = None  # the model linearised for the null (diagnosis.null.Linear), if asked
 
@@ -211,18 +211,12 @@ def evaluate(
     weights: Weights | None = None,
     options: IpoptOptions | None = None,
     progress: Callable[[str], None] | None = None,
-    screen_pct: float | None = None,
     full: EstimationResult | None = None,
     folds: bool = True,
 ) -> Evaluation:
     """Fit ``model`` on all of ``data`` and on each fold of ``plan``
     (:func:`fit_fold`), and score every held-out stance. Warm starts: from ``parent``'s fits (the
     model this one extends) when given; the folds from the model's own fit on all stances.
-
-    screen_pct: with a ``parent``, stop after the fit on all stances when the in-sample
-    reduction (:func:`insample_reduction`) is below it: the evaluation is ``screened`` (no
-    folds). The diagnosis's decision rule requires that reduction, so such a model cannot pass
-    whatever its held-out score.
 
     full: the model's fit on all of ``data`` when already made (not refitted); ``folds=False``:
     the fit on all stances only (the evaluation is ``screened``; the calibrated decision of the
@@ -232,11 +226,7 @@ def evaluate(
     t0 = time.perf_counter()
     if full is None:
         full = _fit(data, model, parent.full if parent else None, weights, options)
-    screened = not folds or (
-        screen_pct is not None
-        and parent is not None
-        and insample_reduction(parent.full, full) < screen_pct
-    )
+    screened = not folds
     fold_fits = (
         []
         if screened

@@ -308,16 +308,18 @@ class MismatchDraw:
         ]
         out = self
         if "unit_offsets" in off:
-            out = dataclasses.replace(
-                out,
-                unit_offsets={
-                    s: tuple((0.0,) * 3 for _ in o) for s, o in self.unit_offsets.items()
-                },
-            )
+            out = out.without_unit_offsets()
         if "kinematics" in off:
             out = out.without_pose_error()
             out = dataclasses.replace(out, cutoff_hz=None)
         return dataclasses.replace(out, off=tuple(sorted({*self.off, *off})))
+
+    def without_unit_offsets(self) -> MismatchDraw:
+        """The draw with every unit on the layout (its offsets zero)."""
+        return dataclasses.replace(
+            self,
+            unit_offsets={s: tuple((0.0,) * 3 for _ in o) for s, o in self.unit_offsets.items()},
+        )
 
     def without_pose_error(self) -> MismatchDraw:
         """The draw without marker noise and drift (e.g. when the data's kinematic error comes

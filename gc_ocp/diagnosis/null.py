@@ -287,11 +287,7 @@ def _null_draw(d: MismatchDraw, model: tuple) -> MismatchDraw:
     (``docs/diagnosis.md``, mismatch family): one Gauss-Newton step would leave their
     second-order terms, an artefact of the step, not a mismatch."""
     d = dataclasses.replace(d.without_pose_error(), threshold_n=0.0)
-    if any(c.name == "sole" for c in model):
-        d = dataclasses.replace(
-            d, unit_offsets={s: tuple((0.0,) * 3 for _ in o) for s, o in d.unit_offsets.items()}
-        )
-    return d
+    return d.without_unit_offsets() if any(c.name == "sole" for c in model) else d
 
 
 def mismatch_perturbations(
@@ -525,8 +521,10 @@ def calibrate(
     U = U + prior_pull(parent)[:, None]
     if mismatch is not None and mismatch.size:
         U = U + mismatch[:, np.arange(n_replicates) % mismatch.shape[1]]
-    null = reductions(energies(parent, children, U, plan, occam, fold_means))
-    E_obs = energies(parent, children, -parent.r[:, None], plan, occam, fold_means)
+    # the observed data are one more column (perturbation -r): one pass of the linear algebra
+    E = energies(parent, children, np.column_stack([U, -parent.r]), plan, occam, fold_means)
+    null = reductions({n: e[:, :-1] for n, e in E.items()})
+    E_obs = {n: e[:, -1:] for n, e in E.items()}
     observed = {n: float(v[0]) for n, v in reductions(E_obs).items()}
     n_held = max(len(plan), 1)
     return decide(observed, null, per_stance_sd(E_obs), n_held, alpha)
