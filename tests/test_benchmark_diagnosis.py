@@ -174,3 +174,22 @@ def test_tied_candidates_are_named_confounded():
     rows = flag_ties(rows, evs, 500, 0, 100.0)
     by = {r.effect: r.confounded_with for r in rows}
     assert by == {"a": ("b",), "b": ("a",), "w": ()}
+
+
+def test_a_case_that_stops_with_an_error_is_an_answer_of_its_own():
+    """A case whose diagnosis stops (the base's fit did not converge on its data) is kept as
+    the answer "error" with its message: counted, not right, its own column of the confusion
+    matrix, and the summary of the other cases unchanged in kind."""
+    from gc_ocp.errors import SolveError
+
+    case = {"truth": "damping", "magnitude": "moderate", "seed": 0}
+    row = benchmark.failed_case(case, SolveError("Ipopt did not converge: x"), 12.0)
+    assert row["answer"] == benchmark.ERROR and not row["correct"]
+    assert row["error"] == "SolveError: Ipopt did not converge: x"
+    ok = {**row, "answer": "damping", "correct": True, "truth": "damping", "seed": 1}
+    none = {**row, "truth": "none", "magnitude": "-", "answer": "none", "correct": True}
+    s = benchmark.summarize([row, ok, none], ["damping", "none"])
+    assert s["answers"] == ["damping", "none", "error"]
+    assert s["matrix"] == [[1, 0, 1], [0, 1, 0]]
+    assert s["top1_accuracy"] == 0.5 and s["none_correct_rejection"] == 1.0
+    json.dumps(row)  # plain data, as confusion.json keeps it

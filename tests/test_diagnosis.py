@@ -420,3 +420,25 @@ def test_the_diagnosis_keeps_no_module_state():
     init = Path(pkg.__file__).read_text()
     assert _module_state(pkg, init) == []
     assert {"diagnose", "execution", "selection", "result", "confirm", "report"} <= set(checked)
+
+
+def test_a_candidate_whose_fit_fails_is_reported_not_ranked(base_eval):
+    """A candidate none of whose starts converges (here: Ipopt allowed 2 iterations, far fewer
+    than any of these fits needs) is one question left open, not the end of the diagnosis: its
+    job returns :class:`NotEvaluable` naming the failed fit, as for a model the data cannot
+    build."""
+    from gc_ocp.diagnosis.execution import Job, NotEvaluable, RoundInputs, run_job
+    from gc_ocp.estimation.solve import IpoptOptions
+
+    data, parent = base_eval
+    model = model_from_names(["damping"], base=base_model())
+    job = Job("damping", "base+damping", model, ("damping",))
+    inputs = RoundInputs(
+        tuple(data), tuple(fold_plan(data)), parent, options=IpoptOptions(max_iter=2)
+    )
+    ev, _ = run_job(job, inputs)
+    assert isinstance(ev, NotEvaluable) and ev.label == "base+damping"
+    assert ev.message.startswith("its fit failed (Ipopt did not converge")
+    # the same job with the usual options is evaluated
+    ok, _ = run_job(job, RoundInputs(tuple(data), tuple(fold_plan(data)), parent, folds=False))
+    assert isinstance(ok, Evaluation)

@@ -102,7 +102,7 @@ from gc_ocp.bench.truth import (
     truth_model,
 )
 from gc_ocp.diagnosis.diagnose import candidate_names, diagnose_stances, resolve_base
-from gc_ocp.errors import InputError
+from gc_ocp.errors import GcOcpError, InputError
 from gc_ocp.estimation.components import REGISTRY
 from gc_ocp.outputs import atomic_savefig, atomic_write_text, check_writable
 from gc_ocp.workflow.fitting import with_detected_censoring
@@ -251,6 +251,29 @@ def run_case(
     }
 
 
+ERROR = "error"
+"""The answer of a case whose diagnosis stopped with an error (:func:`failed_case`)."""
+
+
+def failed_case(case: dict, error: Exception, seconds: float) -> dict:
+    """The row of a case whose diagnosis stopped with ``error`` (e.g. the base's fit did not
+    converge on the case's data): answer :data:`ERROR`, not correct, the message kept."""
+    return {
+        **case,
+        "value": injected_values().get(case["truth"], {}).get(case["magnitude"]),
+        "answer": ERROR,
+        "correct": False,
+        "error": f"{type(error).__name__}: {error}",
+        "confounded_with": [],
+        "inconclusive": [],
+        "truth_rank": None,
+        "truth_passes": None,
+        "ranking": [],
+        "seconds_generate": 0.0,
+        "seconds_diagnose": seconds,
+    }
+
+
 def run_benchmark(
     out: str | Path,
     base: str = "registered",
@@ -324,21 +347,29 @@ def run_benchmark(
             f"[{len(done) + 1}/{len(cases)}] base {base}: truth {case['truth']} "
             f"({case['magnitude']}), seed {case['seed']}"
         )
-        r = run_case(
-            case,
-            base,
-            candidates,
-            realism,
-            n_boot,
-            progress=None,
-            workers=workers,
-            files=files,
-            stances_per_foot=stances_per_foot,
-        )
+        c0 = time.perf_counter()
+        try:
+            r = run_case(
+                case,
+                base,
+                candidates,
+                realism,
+                n_boot,
+                progress=None,
+                workers=workers,
+                files=files,
+                stances_per_foot=stances_per_foot,
+            )
+        except GcOcpError as e:
+            # a case whose diagnosis cannot finish (the base's fit did not converge on its
+            # data) is an answer of its own, counted as not right, and the run goes on
+            r = failed_case(case, e, time.perf_counter() - c0)
         done.append(r)
         s = summarize(done, labels)
         say(
-            f"    -> {r['answer']} ({'ok' if r['correct'] else 'WRONG'}"
+            f"    -> {r['answer']}"
+            + (f" ({r['error']})" if r["answer"] == ERROR else "")
+            + f" ({'ok' if r['correct'] else 'WRONG'}"
             + (
                 f", confounded with {', '.join(r['confounded_with'])}"
                 if r["confounded_with"]
@@ -359,6 +390,7 @@ def run_benchmark(
 
 
 __all__ = [
+    "ERROR",
     "MAGNITUDES",
     "NONE",
     "injected_values",
@@ -366,6 +398,7 @@ __all__ = [
     "base_truth",
     "confusion_figure",
     "drift",
+    "failed_case",
     "generate",
     "generate_case",
     "kinematic_error",

@@ -39,7 +39,7 @@ import numpy as np
 
 from gc_ocp.diagnosis.compare import Evaluation, describe, evaluate
 from gc_ocp.diagnosis.null import linearize_child
-from gc_ocp.errors import InputError, ModelError
+from gc_ocp.errors import InputError, ModelError, SolveError
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions
@@ -83,19 +83,22 @@ class RoundInputs:
 
 @dataclasses.dataclass(frozen=True)
 class NotEvaluable:
-    """The outcome of a job whose evaluation raised an input or model error
-    (:data:`NOT_EVALUABLE_ERRORS`; e.g. ``time_offset`` on a trial whose recording starts inside
-    a stance's margin so that no clock offset fits): reported with the message, not ranked; the
-    other candidates go on."""
+    """The outcome of a job whose evaluation raised an input or model error, or whose fit did
+    not converge from any start (:data:`NOT_EVALUABLE_ERRORS`; e.g. ``time_offset`` on a trial
+    whose recording starts inside a stance's margin so that no clock offset fits): reported
+    with the message, not ranked; the other candidates go on."""
 
     label: str
     message: str
     seconds: float = 0.0
 
 
-NOT_EVALUABLE_ERRORS = (InputError, ModelError)
-"""Errors that make one candidate not evaluable on the data instead of stopping the diagnosis
-(a failed solve, or any other error, still stops it)."""
+NOT_EVALUABLE_ERRORS = (InputError, ModelError, SolveError)
+"""Errors that make one candidate not evaluable on the data instead of stopping the diagnosis:
+its model cannot be built on them, or no start of one of its fits (all stances, a fold, a
+held-out stance) converged. A candidate is one question among several; an answer to the others
+is still an answer (the note names the one left out). The base's own fit failing still stops
+the diagnosis: every candidate is measured against it. Any other error is a bug and stops it."""
 
 WarningRecord = tuple[str, type, str, int]
 """A warning raised in a task: ``(message, category, filename, lineno)``."""
@@ -129,9 +132,10 @@ def _evaluate(job: Job, inputs: RoundInputs, progress=None) -> Evaluation | NotE
             ev.seconds = time.perf_counter() - t0
         return ev
     except NOT_EVALUABLE_ERRORS as e:
+        why = f"its fit failed ({e})" if isinstance(e, SolveError) else str(e)
         if progress is not None:
-            progress(f"  {job.label}: not evaluable on these data: {e}")
-        return NotEvaluable(job.label, str(e), time.perf_counter() - t0)
+            progress(f"  {job.label}: not evaluable on these data: {why}")
+        return NotEvaluable(job.label, why, time.perf_counter() - t0)
 
 
 def run_job(
