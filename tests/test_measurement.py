@@ -34,9 +34,35 @@ def test_the_casadi_and_numpy_residuals_are_one_definition():
     c = censored(measured, 25.0)
     cens = stance_residuals(wrench, measured, inv, 25.0)
     assert c.sum() >= 20
-    np.testing.assert_array_equal(cens[c][:, [0, 1, 3, 4, 5]], 0.0)
-    np.testing.assert_array_equal(cens[c][:, 2], np.maximum(wrench[c, 2] - 25.0, 0) * inv[2])
-    np.testing.assert_array_equal(cens[~c], plain[~c])
+    zero = measured[:, 2] == 0.0  # a recorded zero: wholly censored
+    np.testing.assert_array_equal(cens[zero][:, [0, 1, 3, 4, 5]], 0.0)
+    np.testing.assert_array_equal(cens[zero][:, 2], np.maximum(wrench[zero, 2] - 25.0, 0) * inv[2])
+    np.testing.assert_array_equal(cens[~c], plain[~c])  # at or above the threshold: data
+    # between 0 and the threshold (resampled): the smoothstep blend of the two
+    mid = c & ~zero
+    u = np.clip(measured[mid, 2] / 25.0, 0.0, 1.0)  # below 0 (noise): wholly censored
+    sw = (u * u * (3 - 2 * u))[:, None]
+    above = np.zeros((mid.sum(), 6))
+    above[:, 2] = np.maximum(wrench[mid, 2] - 25.0, 0) * inv[2]
+    np.testing.assert_allclose(cens[mid], sw * plain[mid] + (1 - sw) * above, rtol=1e-12)
+
+
+def test_the_censored_residual_is_continuous_in_the_measurement():
+    """A clock offset moves a resampled measurement across the threshold: the residual and its
+    slope must not jump there (a jump left Ipopt cycling, see the module doc). Checked by
+    finite differences over a fine sweep of the measured vertical force through 0 and X."""
+    wrench = np.array([3.0, -2.0, 60.0, 0.5, -0.4, 0.1])
+    inv = np.ones(6)
+    fz = np.linspace(-5.0, 45.0, 50001)  # step 1e-3 N
+    measured = np.tile([1.0, 1.0, 0.0, 0.2, 0.2, 0.0], (fz.size, 1))
+    measured[:, 2] = fz
+    r = stance_residuals(np.tile(wrench, (fz.size, 1)), measured, inv, 40.0)
+    jump = np.abs(np.diff(r, axis=0)).max()
+    # the largest slope of the blend is ~1.5 x (plain - censored) / X per N, here < 10 N / N:
+    # a step of 1e-3 N moves the residual by < 1e-2; a switch would move it by ~60 at once
+    assert jump < 1e-2
+    slope = np.diff(r, axis=0) / 1e-3
+    assert np.abs(np.diff(slope, axis=0)).max() < 1e-1  # C1: no kink either
 
 
 def test_thresholded_plates_are_reproduced_exactly_by_the_truth_under_censoring():
