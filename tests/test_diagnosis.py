@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import pickle
 import warnings
 from concurrent.futures import Executor, Future
@@ -101,8 +102,30 @@ def test_fold_plan_holds_out_only_feet_with_another_stance():
         def __init__(self, side):
             self.side = side
 
-    assert fold_plan([S("right"), S("left"), S("right")]) == [0, 2]
+    assert fold_plan([S("right"), S("left"), S("right")]) == [(0,), (2,)]
     assert fold_plan([S("right"), S("left")]) == []
+
+
+def test_many_stances_are_held_out_in_groups_each_once_each_foot_kept():
+    """Beyond MAX_FOLDS stances to hold out, groups: every eligible stance in exactly one group,
+    no group holding out every stance of a foot (its training keeps that foot), the group
+    sizes within one of each other."""
+    from types import SimpleNamespace as S
+
+    from gc_ocp.diagnosis.compare import MAX_FOLDS, held_out
+
+    for n_right, n_left in ((9, 2), (8, 8), (3, 14), (1, 12)):
+        stances = [S(side="right")] * n_right + [S(side="left")] * n_left
+        plan = fold_plan(stances)
+        eligible = [i for i, st in enumerate(stances) if [*stances].count(st) >= 2]
+        assert sorted(held_out(plan)) == eligible
+        assert len(plan) == min(MAX_FOLDS, len(eligible))
+        sizes = [len(g) for g in plan]
+        assert max(sizes) - min(sizes) <= 1
+        for g in plan:
+            for side in ("right", "left"):
+                of_side = [i for i in eligible if stances[i].side == side]
+                assert not of_side or not set(of_side) <= set(g), (n_right, n_left, g)
 
 
 def _row(effect: str, gain: float = 0.0) -> RankRow:
@@ -442,3 +465,27 @@ def test_a_candidate_whose_fit_fails_is_reported_not_ranked(base_eval):
     # the same job with the usual options is evaluated
     ok, _ = run_job(job, RoundInputs(tuple(data), tuple(fold_plan(data)), parent, folds=False))
     assert isinstance(ok, Evaluation)
+
+
+def test_a_diagnosis_in_grouped_folds_holds_out_every_stance_once(bundled):
+    """Four stances (two per foot) in two groups: each training fit keeps a stance of each foot,
+    every stance is scored held out once, the JSON names the groups, and an injected damping
+    is found as it is with one stance per fold."""
+    from gc_ocp.bench.truth import per_foot
+
+    stances, truth = bundled
+    four = per_foot(stances, 2)
+    data = simulate(four, Damping.inject(truth, 1.0, four, None), np.random.default_rng(5))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = diagnose_stances(
+            data, candidates=["damping"], n_boot=200, workers=1, max_folds=2, n_replicates=200
+        )
+    assert d.folds["n"] == 4 and len(d.folds["groups"]) == 2
+    assert sorted(lab for g in d.folds["groups"] for lab in g) == sorted(st.label for st in four)
+    for g in d.folds["groups"]:
+        sides = {next(st.side for st in four if st.label == lab) for lab in g}
+        assert sides == {"left", "right"}  # the training keeps a stance of each foot
+    assert len(d.evaluations["base"].folds) == 4
+    assert d.selected == ["damping"]
+    assert "groups" in json.loads(json.dumps(d.to_json()))["folds"]

@@ -8,7 +8,10 @@ foot-pose correction; a stance-scope effect such as the ground offset or the spl
 hinge is also re-estimated: it is a property of that stance; the pitch-driven toe hinge, the
 diagnosis's default, is global and frozen). A foot with a single stance is never held out
 (its contact parameters would come from nothing). When no stance can be held out at all, the
-comparison falls back to in-sample scores with a BIC penalty and says so.
+comparison falls back to in-sample scores with a BIC penalty and says so. With more than
+:data:`MAX_FOLDS` stances to hold out, they are held out in that many groups (each group's
+training fit scores each of its stances as above): the cost of the folds then grows linearly
+with the stances instead of quadratically.
 
 **Held-out score.** Per fold, the negative log evidence of the held-out stance given the trained
 parameters, with the nuisance integrated out under its prior (Laplace approximation):
@@ -39,7 +42,7 @@ from __future__ import annotations
 import dataclasses
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -76,10 +79,38 @@ def resamples_stances(n_stances: int) -> bool:
     return n_stances >= MIN_CLUSTERS
 
 
-def fold_plan(stances: list[StanceData]) -> list[int]:
-    """Indices of the stances held out one at a time: those whose foot has another stance."""
+MAX_FOLDS = 8
+"""Most training fits per model: with more stances that can be held out, they are held out in
+this many groups (:func:`fold_plan`). Leave-one-stance-out costs ``n`` fits of ``n - 1``
+stances per model, quadratic in the stances (16 stances: 20 times the cost of 4); in groups the
+cost grows linearly, and every stance is still held out once, so the held-out evidence still
+grows with the stances. Up to 8 stances (four per foot) nothing changes."""
+
+
+def fold_plan(stances: list[StanceData], max_folds: int = MAX_FOLDS) -> list[tuple[int, ...]]:
+    """The folds: groups of stance indices held out together, each group's model trained on all
+    the other stances. Held out are the stances whose foot has another stance (the training
+    keeps that foot), each once. Up to ``max_folds`` of them: one per fold
+    (leave-one-stance-out). More: ``max_folds`` groups, dealt in turn from the stances ordered
+    by foot, so that a foot's stances fall in different groups and every training set keeps
+    each foot (:data:`MAX_FOLDS`)."""
     sides = [st.side for st in stances]
-    return [i for i, s in enumerate(sides) if sides.count(s) >= 2]
+    held = [i for i, s in enumerate(sides) if sides.count(s) >= 2]
+    if len(held) <= max_folds:
+        return [(i,) for i in held]
+    held.sort(key=lambda i: (sides[i], i))
+    return [tuple(sorted(held[g::max_folds])) for g in range(max_folds)]
+
+
+def held_out(plan: Sequence[Sequence[int]]) -> list[int]:
+    """The stances of ``plan`` in the order of the folds' scores (``Evaluation.folds``): group by
+    group."""
+    return [i for group in plan for i in group]
+
+
+def _first_fold(plan: Sequence[Sequence[int]], j: int) -> int:
+    """Position in ``Evaluation.folds`` of the first held-out stance of group ``j``."""
+    return sum(len(g) for g in plan[:j])
 
 
 @dataclasses.dataclass
@@ -172,33 +203,42 @@ def _fit(
 def fit_fold(
     data: list[StanceData],
     model: tuple,
-    plan: list[int],
+    plan: Sequence[Sequence[int]],
     j: int,
     full: EstimationResult,
     parent: Evaluation | None = None,
     weights: Weights | None = None,
     options: IpoptOptions | None = None,
-) -> Fold:
-    """Fold ``j`` of ``plan``: ``model`` trained on every stance but ``data[plan[j]]`` and scored
-    on that one. The training fit starts from the model's own fit on all stances ``full`` (the
-    nearest problem). The objective is not convex, and a model nests its parent (its effect at
-    the neutral value is the parent exactly), so its training fit must end at or below the
-    parent's on the same stances: when it does not, it also starts from the parent's fold fit
-    and keeps the lower. No covariance for the fold fits: only their values and costs are
-    used."""
+) -> list[Fold]:
+    """Fold ``j`` of ``plan``: ``model`` trained on every stance but those of group ``plan[j]``
+    and scored on each of those (one :class:`Fold` per held-out stance, sharing the training
+    fit). The training fit starts from the model's own fit on all stances ``full`` (the nearest
+    problem). The objective is not convex, and a model nests its parent (its effect at the
+    neutral value is the parent exactly), so its training fit must end at or below the parent's
+    on the same stances: when it does not, it also starts from the parent's fold fit and keeps
+    the lower. No covariance for the fold fits: only their values and costs are used."""
     weights = weights or Weights()
-    i = plan[j]
-    held = data[i]
-    train = [d for k, d in enumerate(data) if k != i]
+    group = set(plan[j])
+    train = [d for k, d in enumerate(data) if k not in group]
+    first = _first_fold(plan, j)
     tr = _fit(train, model, full, weights, options, covariance=False)
     if parent is not None:
-        ptr = parent.folds[j].train
+        ptr = parent.folds[first].train
         if tr.objective > ptr.objective * (1.0 + NESTING_RTOL):
             alt = _fit(train, model, ptr, weights, options, covariance=False)
             tr = alt if alt.objective < tr.objective else tr
-    return _score_heldout(
-        held, train, model, tr, weights, options, parent.folds[j].heldout if parent else None
-    )
+    return [
+        _score_heldout(
+            data[i],
+            train,
+            model,
+            tr,
+            weights,
+            options,
+            parent.folds[first + k].heldout if parent else None,
+        )
+        for k, i in enumerate(plan[j])
+    ]
 
 
 def evaluate(
@@ -206,7 +246,7 @@ def evaluate(
     model: tuple,
     label: str,
     names: tuple[str, ...],
-    plan: list[int],
+    plan: Sequence[Sequence[int]],
     parent: Evaluation | None = None,
     weights: Weights | None = None,
     options: IpoptOptions | None = None,
@@ -231,7 +271,9 @@ def evaluate(
         []
         if screened
         else [
-            fit_fold(data, model, plan, j, full, parent, weights, options) for j in range(len(plan))
+            fold
+            for j in range(len(plan))
+            for fold in fit_fold(data, model, plan, j, full, parent, weights, options)
         ]
     )
     ev = Evaluation(
@@ -424,7 +466,9 @@ __all__ = (
     "evaluate_on",
     "fit_fold",
     "describe",
+    "MAX_FOLDS",
     "fold_plan",
+    "held_out",
     "heldout_quality",
     "insample_reduction",
     "occam_term",

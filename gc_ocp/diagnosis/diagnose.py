@@ -23,7 +23,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from gc_ocp.diagnosis.compare import evaluate, fold_plan
+from gc_ocp.diagnosis.compare import MAX_FOLDS, evaluate, fold_plan, held_out
 from gc_ocp.diagnosis.execution import (
     Job,
     NotEvaluable,
@@ -105,6 +105,7 @@ def diagnose_stances(
     executor: Executor | None = None,
     n_replicates: int = N_REPLICATES,
     mismatch: MismatchFamily | None = DEFAULT_FAMILY,
+    max_folds: int = MAX_FOLDS,
 ) -> Diagnosis:
     """The diagnosis of ``stances`` (one subject; see the module doc). ``alpha``: the
     family-wise rate of a false claim per round (:mod:`.null`); ``n_replicates``: the null's
@@ -114,12 +115,14 @@ def diagnose_stances(
     withheld-effect benchmark does). ``workers``: processes that evaluate a round's candidates
     in parallel (default :func:`~gc_ocp.diagnosis.execution.default_workers`; 1: in this
     process). ``executor``: a :class:`concurrent.futures.Executor` to run them on instead (e.g.
-    a ``dask.distributed.Client(...).get_executor()``; ``workers`` is then ignored)."""
+    a ``dask.distributed.Client(...).get_executor()``; ``workers`` is then ignored).
+    ``max_folds``: most training fits per model; more stances to hold out are held out in that
+    many groups (:func:`~gc_ocp.diagnosis.compare.fold_plan`)."""
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
     base_label, base_model_ = resolve_base(base)
     names = candidate_names(base_model_, candidates)
-    plan = fold_plan(stances)
+    plan = fold_plan(stances, max_folds)
     rate = 1.0 / float(np.median(np.diff(stances[0].time)))
     notes = []
     if not plan:
@@ -128,11 +131,20 @@ def diagnose_stances(
             "in-sample with a BIC penalty (the calibrated test on the in-sample fit); give more "
             "stances or trials of the subject for a held-out diagnosis."
         )
+    held = held_out(plan)
+    grouped = any(len(g) > 1 for g in plan)
     folds = {
-        "kind": "leave-one-stance-out" if plan else "in-sample (BIC penalty)",
-        "n": len(plan),
-        "heldout": [stances[i].label for i in plan],
+        "kind": (
+            f"{len(plan)} groups of held-out stances"
+            if grouped
+            else "leave-one-stance-out"
+            if plan
+            else "in-sample (BIC penalty)"
+        ),
+        "n": len(held),
+        "heldout": [stances[i].label for i in held],
         "stances": [st.label for st in stances],
+        **({"groups": [[stances[i].label for i in g] for g in plan]} if grouped else {}),
     }
     say(f"fitting the base ({base_label}) on {len(stances)} stances, {len(plan)} folds")
     kw = {"weights": weights, "options": options, "progress": say}

@@ -163,9 +163,10 @@ def _linear(problem, x: np.ndarray, nested: bool) -> Linear:
 
 
 def fold_prior_means(
-    stances: Sequence[StanceData], model: tuple, plan: Sequence[int]
+    stances: Sequence[StanceData], model: tuple, plan: Sequence[Sequence[int]]
 ) -> list[dict[tuple, np.ndarray]]:
-    """Per fold of ``plan``, the prior means of the model fitted on its training stances that
+    """Per held-out stance of ``plan`` (groups of stances, :func:`~.compare.fold_plan`), the
+    prior means of the model fitted on its training stances that
     differ from those on all stances (``{key: values}``): the contact law's prior is centred on
     the seed's linear least squares of the stances fitted (``with_lls_start``), so each fold's
     training fit has its own (the one-step fits of :func:`heldout_energy` use it)."""
@@ -179,9 +180,10 @@ def fold_prior_means(
 
     full = means(stances)
     out = []
-    for i in plan:
-        fold = means([st for k, st in enumerate(stances) if k != i])
-        out.append({k: v for k, v in fold.items() if k in full and not np.array_equal(v, full[k])})
+    for group in plan:
+        fold = means([st for k, st in enumerate(stances) if k not in group])
+        diff = {k: v for k, v in fold.items() if k in full and not np.array_equal(v, full[k])}
+        out += [diff] * len(group)  # per held-out stance, as the folds' scores
     return out
 
 
@@ -402,11 +404,12 @@ def _step(G: np.ndarray, rhs: np.ndarray, lin: Linear) -> np.ndarray:
 def heldout_energy(
     lin: Linear,
     R0: np.ndarray,
-    plan: Sequence[int],
+    plan: Sequence[Sequence[int]],
     fold_means: Sequence[Mapping[tuple, np.ndarray]] | None = None,
 ) -> np.ndarray:
-    """``(folds, B)``: the held-out energy (data + nuisance prior) of the linearised model on
-    every fold of the leave-one-stance-out ``plan``, for every column of ``R0`` (``(rows, B)``
+    """``(held-out stances, B)``: the held-out energy (data + nuisance prior) of the linearised
+    model on every held-out stance of ``plan`` (groups held out together,
+    :func:`~.compare.fold_plan`; one training step per group), for every column of ``R0`` (``(rows, B)``
     residuals at the point) (module doc). Without folds (one stance per foot), one row: the
     in-sample energy of the fit on all stances. ``fold_means``: per fold, the prior means of its
     training fit (:func:`fold_prior_means`)."""
@@ -424,35 +427,46 @@ def heldout_energy(
         p = lin.p0[:, None] + lin.pw[:, None] * d[lin.prior_idx]
         return (0.5 * (np.sum(res**2, axis=0) + np.sum(p**2, axis=0)))[None, :]
     prior_pos = {c: k for k, c in enumerate(lin.prior_idx)}
-    E = np.zeros((len(plan), R0.shape[1]))
-    for j, i in enumerate(plan):
-        rows = lin.rows[i]
-        Jh = J[rows]
-        Rh = R0[rows]
-        G = JTJ - (Jh.T @ Jh).toarray() + np.diag(P2)
+    E = np.zeros((sum(len(g) for g in plan), R0.shape[1]))
+    j = 0  # row of E: held-out stances group by group, as the folds' scores
+    for group in plan:
+        rows = np.concatenate([np.arange(lin.rows[i].start, lin.rows[i].stop) for i in group])
+        Jg = J[rows]
+        G = JTJ - (Jg.T @ Jg).toarray() + np.diag(P2)
         Pp = np.zeros(nx)
         Pp[lin.prior_idx] = lin.pw * lin.prior_residual(fold_means[j] if fold_means else None)
-        rhs = JTR - np.asarray(Jh.T @ Rh) + Pp[:, None]
-        d = _step(G, rhs, lin)
-        z = lin.nuisance[i]
-        d[z] = 0.0  # the held-out stance's nuisance is re-estimated below, from the point
-        a = Rh + np.asarray(Jh @ d)
-        Jz = Jh[:, z].toarray()
-        kz = np.array([prior_pos[c] for c in z], int)
-        pwz, p0z = lin.pw[kz], lin.p0[kz]
-        Hz = Jz.T @ Jz + np.diag(pwz**2)
-        dz = -_solve(Hz, Jz.T @ a + (pwz * p0z)[:, None])
-        res = a + Jz @ dz
-        pz = p0z[:, None] + pwz[:, None] * dz
-        E[j] = 0.5 * (np.sum(res**2, axis=0) + np.sum(pz**2, axis=0))
+        rhs = JTR - np.asarray(Jg.T @ R0[rows]) + Pp[:, None]
+        d_train = _step(G, rhs, lin)
+        for i in group:
+            E[j] = _heldout_stance(lin, J, R0, i, d_train, prior_pos)
+            j += 1
     return E
+
+
+def _heldout_stance(lin: Linear, J, R0: np.ndarray, i: int, d_train, prior_pos) -> np.ndarray:
+    """``(B,)``: the held-out energy of stance ``i`` at the training step ``d_train``, its
+    nuisance re-estimated from the point (:func:`heldout_energy`)."""
+    rows = lin.rows[i]
+    Jh = J[rows]
+    d = d_train.copy()
+    z = lin.nuisance[i]
+    d[z] = 0.0  # the held-out stance's nuisance is re-estimated below, from the point
+    a = R0[rows] + np.asarray(Jh @ d)
+    Jz = Jh[:, z].toarray()
+    kz = np.array([prior_pos[c] for c in z], int)
+    pwz, p0z = lin.pw[kz], lin.p0[kz]
+    Hz = Jz.T @ Jz + np.diag(pwz**2)
+    dz = -_solve(Hz, Jz.T @ a + (pwz * p0z)[:, None])
+    res = a + Jz @ dz
+    pz = p0z[:, None] + pwz[:, None] * dz
+    return 0.5 * (np.sum(res**2, axis=0) + np.sum(pz**2, axis=0))
 
 
 def energies(
     parent: Linear,
     children: Mapping[str, Linear],
     perturbations: np.ndarray,
-    plan: Sequence[int],
+    plan: Sequence[Sequence[int]],
     occam: Mapping[str, np.ndarray] | None = None,
     fold_means: Sequence[Mapping[tuple, np.ndarray]] | None = None,
 ) -> dict[str, np.ndarray]:
@@ -501,7 +515,7 @@ def calibrate(
     parent: Linear,
     parent_fits: Sequence[dict],
     children: Mapping[str, Linear],
-    plan: Sequence[int],
+    plan: Sequence[Sequence[int]],
     occam: Mapping[str, np.ndarray] | None = None,
     mismatch: np.ndarray | None = None,
     n_replicates: int = N_REPLICATES,
@@ -526,7 +540,7 @@ def calibrate(
     null = reductions({n: e[:, :-1] for n, e in E.items()})
     E_obs = {n: e[:, -1:] for n, e in E.items()}
     observed = {n: float(v[0]) for n, v in reductions(E_obs).items()}
-    n_held = max(len(plan), 1)
+    n_held = max(sum(len(g) for g in plan), 1)
     return decide(observed, null, per_stance_sd(E_obs), n_held, alpha)
 
 
