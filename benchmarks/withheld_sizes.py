@@ -1,0 +1,196 @@
+"""The withheld-effect benchmark with the mismatch family on, at 2, 4 and 8 stances per foot, on
+both motions (issue 22): top-1 and "none" per size, per effect and magnitude; what stops the
+effects that are not found (the bound per effect); and the steps-needed prediction checked.
+
+Runs (each a ``gc-ocp benchmark-diagnosis`` folder; ``--resume`` continues one)::
+
+    gc-ocp benchmark-diagnosis --seeds 3 --mismatch 1 --stances-per-foot N \\
+        --out benchmarks/withheld_mismatch/bundled_N
+    gc-ocp benchmark-diagnosis --seeds 3 --mismatch 1 --stances-per-foot N \\
+        --trial ../shared/data/bts_unipd_5trials/Walking1.c3d (... Walking2, Walking3) \\
+        --out benchmarks/withheld_mismatch/bts_N
+
+then ``python benchmarks/withheld_sizes.py`` writes the Markdown to stdout from every
+``benchmarks/withheld_mismatch/{motion}_{N}/confusion.json`` present (partial runs included,
+their case counts shown).
+
+**What stops an effect** (per case whose truth is not the answer): ``test`` (the calibrated
+test does not name the truth), ``floor`` (it does, but the refitted held-out or in-sample
+reduction is below the rule's floor or its interval reaches 0), ``outranked`` (the truth passes
+but another passing candidate comes first), ``error`` (the case's diagnosis stopped).
+
+**Steps needed, checked**: a case whose truth's row is inconclusive at N stances per foot
+predicts ``more_stances`` further held-out stances for 80 % power; the same truth and seed at
+the smallest larger size with at least that many held-out stances is a rerun of the kind the
+prediction speaks of (new draws of the noise and mismatch, the same effect): it *decides* when
+the calibrated test names the truth there.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections import Counter, defaultdict
+from pathlib import Path
+
+HERE = Path(__file__).parent / "withheld_mismatch"
+ALPHA = 0.05  # gc_ocp.diagnosis.null.ALPHA
+FLOOR = 2.0  # gc_ocp.diagnosis.selection.MIN_REDUCTION_PCT
+
+
+def load() -> dict[tuple[str, int], dict]:
+    out = {}
+    for p in sorted(HERE.glob("*_*/confusion.json")):
+        m = re.fullmatch(r"(.+)_(\d+)", p.parent.name)
+        if m:
+            out[(m.group(1), int(m.group(2)))] = json.loads(p.read_text())
+    return out
+
+
+def _pct(k: int, n: int) -> str:
+    return "-" if not n else f"{100 * k / n:.0f} % ({k}/{n})"
+
+
+def stopped_by(case: dict) -> str:
+    if case["answer"] == "error":
+        return "error"
+    row = next((r for r in case["ranking"] if r["effect"] == case["truth"]), None)
+    if row is None:
+        return "not ranked"
+    c = row.get("calibrated")
+    if not c or c["p_adjusted"] >= ALPHA:
+        return "test"
+    if not row["passes"]:
+        return "floor"
+    return "outranked"
+
+
+def main() -> None:
+    runs = load()
+    motions = sorted({m for m, _ in runs})
+    print("# Withheld-effect benchmark with the mismatch family, by stances per foot\n")
+    print(
+        "Truth: the registered base fitted to the motion's real stances, plus one effect (or "
+        "none) and one draw of the mismatch family (scale 1); data with the benchmark's realism "
+        "(marker noise, soft-tissue drift, plate noise, 20 N threshold). Blind "
+        "`diagnose_stances(max_effects=1)`. Strides beyond a motion's own are its real strides "
+        "repeated as further trials with their own noise and draws (`bench.truth.per_foot`).\n"
+    )
+    print(
+        '| motion | stances per foot | cases | top-1, moderate | top-1, strong | "none" rejected '
+        "| case time [min] |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for (motion, n), res in sorted(runs.items()):
+        cs = res["cases"]
+        mod = [c for c in cs if c["magnitude"] == "moderate"]
+        strong = [c for c in cs if c["magnitude"] == "strong"]
+        non = [c for c in cs if c["truth"] == "none"]
+        print(
+            f"| {motion} | {n} | {len(cs)} | {_pct(sum(c['correct'] for c in mod), len(mod))} | "
+            f"{_pct(sum(c['correct'] for c in strong), len(strong))} | "
+            f"{_pct(sum(c['correct'] for c in non), len(non))} | "
+            f"{res['seconds']['cases_total'] / 60:.0f} |"
+        )
+    for motion in motions:
+        sizes = sorted(n for m, n in runs if m == motion)
+        print(f"\n## {motion}: per effect (right / cases; what stopped the others)\n")
+        print("| truth | magnitude | " + " | ".join(f"{n} per foot" for n in sizes) + " |")
+        print("|---|---|" + "---|" * len(sizes))
+        truths = sorted({c["truth"] for n in sizes for c in runs[(motion, n)]["cases"]})
+        for t in truths:
+            for mag in ("moderate", "strong") if t != "none" else ("-",):
+                cells = []
+                for n in sizes:
+                    cs = [
+                        c
+                        for c in runs[(motion, n)]["cases"]
+                        if c["truth"] == t and c["magnitude"] == mag
+                    ]
+                    if not cs:
+                        cells.append("")
+                        continue
+                    ok = sum(c["correct"] for c in cs)
+                    if t == "none":
+                        why = Counter(c["answer"] for c in cs if not c["correct"])
+                    else:
+                        why = Counter(stopped_by(c) for c in cs if not c["correct"])
+                    gains = sorted(
+                        r["heldout_rms_reduction_pct"]
+                        for c in cs
+                        for r in c["ranking"]
+                        if r["effect"] == t and r["heldout_rms_reduction_pct"] is not None
+                    )
+                    med = (
+                        f"; truth's held-out gain median {gains[len(gains) // 2]:+.1f} %"
+                        if gains
+                        else ""
+                    )
+                    cells.append(
+                        f"{ok}/{len(cs)}"
+                        + (f" ({', '.join(f'{k} {v}' for k, v in why.items())})" if why else "")
+                        + med
+                    )
+                print(f"| {t} | {mag} | " + " | ".join(cells) + " |")
+    print("\n## Steps needed, checked\n")
+    checked = defaultdict(list)
+    for (motion, n), res in sorted(runs.items()):
+        larger = sorted(k for m, k in runs if m == motion and k > n)
+        for c in res["cases"]:
+            if c["truth"] == "none" or c["answer"] == "error":
+                continue
+            row = next((r for r in c["ranking"] if r["effect"] == c["truth"]), None)
+            if row is None or not row.get("inconclusive") or not row.get("calibrated"):
+                continue
+            need = row["calibrated"]["more_stances"]
+            have = row["calibrated"]["n_heldout"]
+            if not need:
+                continue
+            # held-out stances at k per foot: 2k (every stance of a foot with two or more)
+            target = next((k for k in larger if 2 * k >= have + need), None)
+            if target is None:
+                checked[motion].append((c, n, need, None, None, None))
+                continue
+            again = next(
+                (
+                    d
+                    for d in runs[(motion, target)]["cases"]
+                    if (d["truth"], d["magnitude"], d["seed"])
+                    == (c["truth"], c["magnitude"], c["seed"])
+                ),
+                None,
+            )
+            if again is None:
+                checked[motion].append((c, n, need, target, None, None))
+                continue
+            r2 = next((r for r in again["ranking"] if r["effect"] == c["truth"]), None)
+            named = bool(r2 and r2.get("calibrated") and r2["calibrated"]["p_adjusted"] < ALPHA)
+            checked[motion].append((c, n, need, target, named, again["correct"]))
+    print(
+        "| motion | inconclusive truths | rerun available | decided by the test at the "
+        "predicted size | also named by the rule |"
+    )
+    print("|---|---|---|---|---|")
+    for motion, items in checked.items():
+        avail = [i for i in items if i[4] is not None]
+        print(
+            f"| {motion} | {len(items)} | {len(avail)} | "
+            f"{_pct(sum(bool(i[4]) for i in avail), len(avail))} | "
+            f"{_pct(sum(bool(i[5]) for i in avail), len(avail))} |"
+        )
+    for motion, items in checked.items():
+        for c, n, need, target, named, _ in items:
+            print(
+                f"* {motion}: {c['truth']} ({c['magnitude']}, seed {c['seed']}) at {n} per foot: "
+                f"{need} more stances predicted; "
+                + (
+                    "no larger size holds that many"
+                    if target is None
+                    else f"at {target} per foot: "
+                    + ("not run" if named is None else "named" if named else "not named")
+                )
+            )
+
+
+if __name__ == "__main__":
+    main()
