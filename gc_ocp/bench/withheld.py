@@ -122,6 +122,7 @@ CASE_ROW_KEYS = (
     "gain_from_nuisance",
     "inconclusive",
     "calibrated",
+    "not_evaluable",
 )
 """What a case keeps of each ranking row (its ``diagnosis.json`` keys)."""
 
