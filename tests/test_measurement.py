@@ -43,8 +43,30 @@ def test_the_casadi_and_numpy_residuals_are_one_definition():
     u = np.clip(measured[mid, 2] / 25.0, 0.0, 1.0)  # below 0 (noise): wholly censored
     sw = (u * u * (3 - 2 * u))[:, None]
     above = np.zeros((mid.sum(), 6))
-    above[:, 2] = np.maximum(wrench[mid, 2] - 25.0, 0) * inv[2]
+    d = wrench[mid, 2] - 25.0
+    eps = sw[:, 0] * 25.0
+    ramp = np.where(eps > 0, 0.5 * (d + np.sqrt(d * d + eps * eps)), np.maximum(d, 0))
+    above[:, 2] = ramp * inv[2]
     np.testing.assert_allclose(cens[mid], sw * plain[mid] + (1 - sw) * above, rtol=1e-12)
+
+
+def test_a_partly_censored_cost_has_no_kink_in_the_model_force():
+    """On a resampled sample between 0 and the threshold, the cost's slope in the model's
+    vertical force does not jump where that force crosses the threshold (a jump there stalled
+    Ipopt); on a wholly censored sample the ramp is exact (0 below the threshold)."""
+    fz = np.linspace(20.0, 60.0, 40001)  # the model force sweeps across X = 40 N
+    model = np.zeros((fz.size, 6))
+    model[:, 2] = fz
+    for m_z in (10.0, 25.0, 39.0):  # partly censored measurements
+        measured = np.zeros((fz.size, 6))
+        measured[:, 2] = m_z
+        cost = 0.5 * np.sum(stance_residuals(model, measured, np.ones(6), 40.0) ** 2, axis=1)
+        slope = np.diff(cost) / np.diff(fz)
+        # the slope changes by at most (max curvature ~ 1 + 1 / eps) x step: < 1e-2 per 1 mN
+        assert np.abs(np.diff(slope)).max() < 1e-2, m_z
+    measured = np.zeros((fz.size, 6))  # a recorded zero: wholly censored, exact ramp
+    r = stance_residuals(model, measured, np.ones(6), 40.0)
+    np.testing.assert_array_equal(r[:, 2], np.maximum(fz - 40.0, 0.0))
 
 
 def test_the_censored_residual_is_continuous_in_the_measurement():
