@@ -28,7 +28,7 @@ sys.path.insert(0, str(HERE.parent))
 
 from gc_ocp.bench.truth import DEFAULT_REALISM, base_truth, generate, motion  # noqa: E402
 from gc_ocp.bench.withheld import kinematic_error  # noqa: E402
-from gc_ocp.diagnosis import null  # noqa: E402
+from gc_ocp.diagnosis import null, onestep  # noqa: E402
 from gc_ocp.diagnosis.compare import evaluate, fold_plan, reduction  # noqa: E402
 from gc_ocp.diagnosis.diagnose import resolve_base  # noqa: E402
 from gc_ocp.estimation.components import model_from_names  # noqa: E402
@@ -61,18 +61,18 @@ def main() -> None:
     rate = 1.0 / float(np.median(np.diff(data[0].time)))
     plan = fold_plan(data)
     parent = evaluate(data, base, "base", (), plan)
-    pl = null.linearize_parent(data, base, parent.full, None)
-    means = null.fold_prior_means(data, base, plan)
+    pl = onestep.linearize_parent(data, base, parent.full, None)
+    means = onestep.fold_prior_means(data, base, plan)
     occam = {"parent": np.array([f.occam for f in parent.folds])}
     kids, observed = {}, {}
     for n in CANDIDATES:
         m = model_from_names([n], base=base)
         c = evaluate(data, m, n, (n,), plan, parent=parent)
-        kids[n] = null.linearize_child(data, m, parent.full, pl.r, c.full, None)
+        kids[n] = onestep.linearize_child(data, m, parent.full, pl.r, c.full, None)
         observed[n] = reduction(parent, c, 10, 0, rate)["pct"]
-    one = null.reductions(null.energies(pl, kids, -pl.r[:, None], plan, occam, means))
+    one = onestep.reductions(onestep.energies(pl, kids, -pl.r[:, None], plan, occam, means))
     U = null.wild_residuals(pl, parent.full.stance_fits, args.replicates, rng, rate)
-    lin = null.reductions(null.energies(pl, kids, U, plan, occam, means))
+    lin = onestep.reductions(onestep.energies(pl, kids, U, plan, occam, means))
     full = {n: [] for n in CANDIDATES}
     for b in range(args.replicates):
         rep = null.replicate(data, parent.full.stance_fits, U[:, b], Weights())

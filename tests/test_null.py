@@ -10,7 +10,7 @@ import pytest
 import scipy.optimize as so
 import scipy.sparse as sp
 
-from gc_ocp.diagnosis import null
+from gc_ocp.diagnosis import null, onestep
 
 
 def _null_draws(rng, n_cand=5, B=500):
@@ -72,7 +72,7 @@ def test_a_variable_at_its_bound_stays_there_in_the_one_step_fit():
     n, nx = 60, 4
     J = rng.normal(size=(n, nx))
     R = rng.normal(size=(n, 40))
-    lin = null.Linear(
+    lin = onestep.Linear(
         r=np.zeros(n),
         J=sp.csr_matrix(J),
         prior_idx=np.zeros(0, int),
@@ -86,7 +86,7 @@ def test_a_variable_at_its_bound_stays_there_in_the_one_step_fit():
         x0=np.zeros(nx),
         keys={},
     )
-    d = null._step(J.T @ J, J.T @ R, lin)
+    d = onestep.step(J.T @ J, J.T @ R, lin)
     assert (d[2] >= -1e-12).all()
     crossed = 0
     for b in range(R.shape[1]):
@@ -109,7 +109,7 @@ def test_the_wild_bootstrap_keeps_the_residual_size_and_skips_censored_samples(T
     rng = np.random.default_rng(2)
     e = rng.normal(size=6 * T)
     lin = dataclasses.replace(
-        null.Linear(
+        onestep.Linear(
             r=e,
             J=sp.csr_matrix((6 * T, 1)),
             prior_idx=np.zeros(0, int),
@@ -156,7 +156,7 @@ def test_grouped_folds_train_without_the_whole_group_and_score_each_stance():
     prior_idx = np.arange(1, nx)  # every variable but the first has a prior
     pw = rng.uniform(0.5, 2.0, prior_idx.size)
     p0 = rng.normal(0.0, 0.3, prior_idx.size)
-    lin = null.Linear(
+    lin = onestep.Linear(
         r=np.zeros(n_st * T6),
         J=sp.csr_matrix(J),
         prior_idx=prior_idx,
@@ -172,7 +172,7 @@ def test_grouped_folds_train_without_the_whole_group_and_score_each_stance():
     )
     R0 = rng.normal(size=(n_st * T6, 3))
     plan = [(0, 3), (1,), (2, 4)]
-    E = null.heldout_energy(lin, R0, plan)
+    E = onestep.heldout_energy(lin, R0, plan)
     P = np.zeros((prior_idx.size, nx))
     P[np.arange(prior_idx.size), prior_idx] = pw
     pos = {c: k for k, c in enumerate(prior_idx)}

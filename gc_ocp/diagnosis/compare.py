@@ -140,7 +140,7 @@ class Evaluation:
     seconds: float = 0.0
     screened: bool = False  # fitted on all stances only, not held out (evaluate(folds=False))
     weights: Weights = dataclasses.field(default_factory=Weights)  # of every fit and score
-    linear: object = None  # the model linearised for the null (diagnosis.null.Linear), if asked
+    linear: object = None  # the model linearised for the null (diagnosis.onestep.Linear), if asked
 
     @property
     def heldout_fits(self) -> list:

@@ -37,10 +37,9 @@ from gc_ocp.diagnosis.null import (
     DEFAULT_FAMILY,
     N_REPLICATES,
     calibrate,
-    fold_prior_means,
-    linearize_parent,
     mismatch_perturbations,
 )
+from gc_ocp.diagnosis.onestep import fold_prior_means, linearize_parent
 from gc_ocp.diagnosis.result import Diagnosis, RankRow, WaterfallStep
 from gc_ocp.diagnosis.selection import (
     best_passing,

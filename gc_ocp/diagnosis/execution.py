@@ -38,7 +38,7 @@ from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 import numpy as np
 
 from gc_ocp.diagnosis.compare import Evaluation, describe, evaluate
-from gc_ocp.diagnosis.null import linearize_child
+from gc_ocp.diagnosis.onestep import linearize_child
 from gc_ocp.errors import InputError, ModelError, SolveError
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.result import EstimationResult
@@ -70,7 +70,7 @@ class RoundInputs:
     solver options of every fit; ``folds``: whether the jobs also fit and score the folds
     (else the fit on all stances only); ``parent_r``: the parent's weighted residual at its
     solution, given when every job also linearises its model for the null
-    (:func:`~gc_ocp.diagnosis.null.linearize_child`, the evaluation's ``linear``)."""
+    (:func:`~gc_ocp.diagnosis.onestep.linearize_child`, the evaluation's ``linear``)."""
 
     stances: tuple[StanceData, ...]
     plan: tuple[tuple[int, ...], ...]

@@ -1,0 +1,345 @@
+"""One Gauss-Newton step per fit: the linearised models of the calibrated test (:mod:`.null`)
+and their held-out scores on any number of replicates at once.
+
+Each model (the parent, every candidate) is linearised once:
+its weighted residual ``r`` and Jacobian ``J`` at the parent's solution, with the candidate's
+own variables at their neutral value (where the candidate *is* the parent; a candidate that
+cannot reproduce the parent, such as the contact density, which replaces the five stiffnesses by
+a smooth field, is linearised at its own fit instead). On a replicate the residual at that
+point is ``r - r_parent - u`` (``u`` the replicate's weighted perturbation), and every fit of the
+leave-one-stance-out scoring is the linear least-squares step from there, with the priors: the
+training fit in all variables, then the held-out stance's nuisance under its prior. A variable
+at a bound (a damping of 0) stays there when the step would cross it. So the null's held-out
+reductions of all replicates cost a few matrix products, not thousands of fits;
+``benchmarks/null_check.py`` compares them with full refits.
+
+Groups of stances held out together (:func:`~gc_ocp.diagnosis.compare.fold_plan`) get one
+training step per group and one nuisance step per held-out stance.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import scipy.sparse as sp
+
+from gc_ocp.estimation.problem import Weights, build_estimation, declare
+from gc_ocp.estimation.result import EstimationResult
+from gc_ocp.estimation.starts import rescaled_start, with_lls_start
+from gc_ocp.stance import StanceData
+
+NESTED_RTOL = 1e-8
+"""A candidate reproduces its parent when its residual at the parent's point (its own variables
+neutral) differs from the parent's by less than this, relative to the residual's norm (round-off
+of the per-frame functions: ~1e-14)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Linear:
+    """One model linearised for the null (module doc).
+
+    r: ``(n,)`` weighted data residual at the point, on the observed data; J: ``(n, nx)`` its
+    Jacobian (CSR); prior_idx, pw, p0: the variables with a prior, their weights and the prior
+    residual at the point; rows: per stance, its rows of ``r``; nuisance: per stance, the
+    columns it re-estimates when held out (its stance-scope variables); at_lower / at_upper: the
+    columns at a bound; nested: linearised at the parent's point (else at its own fit)."""
+
+    r: np.ndarray
+    J: sp.csr_matrix
+    prior_idx: np.ndarray
+    pw: np.ndarray
+    p0: np.ndarray
+    rows: tuple[slice, ...]
+    nuisance: tuple[np.ndarray, ...]
+    at_lower: np.ndarray
+    at_upper: np.ndarray
+    nested: bool
+    x0: np.ndarray
+    keys: dict  # {variable key: slice of x}
+
+    def prior_residual(self, means: Mapping[tuple, np.ndarray] | None = None) -> np.ndarray:
+        """The prior residual at the point, with the prior means of ``means`` (``{key:
+        values}``, e.g. a fold's, whose law prior is centred on its training stances) in place
+        of the model's."""
+        if not means:
+            return self.p0
+        pm = self.x0[self.prior_idx] - self.p0 / self.pw
+        pos = {c: k for k, c in enumerate(self.prior_idx)}
+        pm = pm.copy()
+        for key, v in means.items():
+            sl = self.keys.get(key)
+            if sl is None:
+                continue
+            for c, val in zip(range(sl.start, sl.stop), np.ravel(v), strict=True):
+                if c in pos:
+                    pm[pos[c]] = val
+        return self.pw * (self.x0[self.prior_idx] - pm)
+
+
+def _linear(problem, x: np.ndarray, nested: bool) -> Linear:
+    r, J = problem.data_jacobian(x)
+    pw_all = np.asarray(problem.prior_weights, float)
+    idx = np.flatnonzero(pw_all > 0)
+    p0 = pw_all[idx] * (x[idx] - np.asarray(problem.prior_means, float)[idx])
+    rows, start = [], 0
+    for b in problem.blocks:
+        rows.append(slice(start, start + 6 * b.T))
+        start += 6 * b.T
+    stance_scope = {c.name for c in problem.model if c.scope == "stance"}
+    nuisance = []
+    for st in problem.stances:
+        cols = [
+            np.arange(s.start, s.start + s.size)
+            for s in problem.variables.specs
+            if s.key[0] in stance_scope and len(s.key) > 1 and s.key[1] == st.label
+        ]
+        nuisance.append(np.concatenate(cols) if cols else np.zeros(0, int))
+    span = np.maximum(problem.ubx - problem.lbx, 1.0)
+    tol = 1e-9 * span
+    return Linear(
+        r=np.asarray(r, float),
+        J=J.tocsr(),
+        prior_idx=idx,
+        pw=pw_all[idx],
+        p0=p0,
+        rows=tuple(rows),
+        nuisance=tuple(nuisance),
+        at_lower=np.flatnonzero(np.isfinite(problem.lbx) & (x - problem.lbx <= tol)),
+        at_upper=np.flatnonzero(np.isfinite(problem.ubx) & (problem.ubx - x <= tol)),
+        nested=nested,
+        x0=np.asarray(x, float),
+        keys={s.key: s.slice for s in problem.variables.specs},
+    )
+
+
+def fold_prior_means(
+    stances: Sequence[StanceData], model: tuple, plan: Sequence[Sequence[int]]
+) -> list[dict[tuple, np.ndarray]]:
+    """Per held-out stance of ``plan`` (groups of stances, :func:`~.compare.fold_plan`), the
+    prior means of the model fitted on its training stances that
+    differ from those on all stances (``{key: values}``): the contact law's prior is centred on
+    the seed's linear least squares of the stances fitted (``with_lls_start``), so each fold's
+    training fit has its own (the one-step fits of :func:`heldout_energy` use it)."""
+
+    def means(sts):
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="LLS initialisation not possible")
+            _, _, v = declare(list(sts), with_lls_start(model, list(sts)))
+        pm, pw = v.vector("prior_mean"), v.vector("prior_weight")
+        return {s.key: pm[s.slice] for s in v.specs if (pw[s.slice] > 0).any()}
+
+    full = means(stances)
+    out = []
+    for group in plan:
+        fold = means([st for k, st in enumerate(stances) if k not in group])
+        diff = {k: v for k, v in fold.items() if k in full and not np.array_equal(v, full[k])}
+        out += [diff] * len(group)  # per held-out stance, as the folds' scores
+    return out
+
+
+def linearize_parent(
+    stances: Sequence[StanceData], model: tuple, full: EstimationResult, weights: Weights | None
+) -> Linear:
+    """The round's parent linearised at its own fit on all stances ``full``."""
+    problem = build_estimation(list(stances), with_lls_start(model, list(stances)), weights)
+    return _linear(problem, np.asarray(full.x, float), nested=True)
+
+
+def linearize_child(
+    stances: Sequence[StanceData],
+    model: tuple,
+    parent: EstimationResult,
+    parent_r: np.ndarray,
+    own: EstimationResult,
+    weights: Weights | None,
+) -> Linear:
+    """A candidate linearised at the parent's solution ``parent`` with its own variables
+    neutral (stored 0, else their initial values), when either reproduces the parent's residual
+    ``parent_r``; at its own fit ``own`` otherwise (module doc)."""
+    problem = build_estimation(list(stances), with_lls_start(model, list(stances)), weights)
+    x = rescaled_start(parent, problem)
+    old = {s.key for s in parent.variables}
+    new = [s for s in problem.variables.specs if s.key not in old]
+    scale = max(float(np.linalg.norm(parent_r)), 1e-300)
+    candidates = [x.copy()]
+    zero = x.copy()
+    for s in new:
+        zero[s.slice] = np.clip(0.0, s.lb, s.ub)
+    candidates.insert(0, zero)
+    for x0 in candidates:
+        r, _ = problem.data_jacobian(x0)
+        if r.shape == parent_r.shape and np.linalg.norm(r - parent_r) <= NESTED_RTOL * scale:
+            return _linear(problem, x0, nested=True)
+    return _linear(problem, rescaled_start(own, problem), nested=False)
+
+
+def _solve(G: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    eps = 1e-10 * max(float(np.trace(G)) / max(G.shape[0], 1), 1e-300)
+    return np.linalg.solve(G + eps * np.eye(G.shape[0]), rhs)
+
+
+MAX_ACTIVE_SET = 6
+"""Variables at a bound up to which :func:`_step` solves the bounded step exactly (every face,
+``2^k`` solves); beyond, those whose step crosses their bound are fixed in one pass."""
+
+
+def step(G: np.ndarray, rhs: np.ndarray, lin: Linear) -> np.ndarray:
+    """``argmin_d 1/2 d^T G d + rhs^T d`` for every column of ``rhs``, with the variables at a
+    bound at the point kept on their side of it (a convex QP: its optimum is the lowest of the
+    feasible stationary points of the faces, each face fixing a subset of those variables at
+    their bound)."""
+    lo, hi = lin.at_lower, lin.at_upper
+    bounded = np.concatenate([lo, hi])
+    sign = np.concatenate([np.ones(lo.size), -np.ones(hi.size)])  # side: sign * d >= 0
+    d = -_solve(G, rhs)
+    if not bounded.size:
+        return d
+    if bounded.size > MAX_ACTIVE_SET:
+        bad = (sign[:, None] * d[bounded]) < 0
+        for j in np.flatnonzero(bad.any(axis=0)):
+            free = np.setdiff1d(np.arange(G.shape[0]), bounded[bad[:, j]])
+            d[:, j] = 0.0
+            d[free, j] = -_solve(G[np.ix_(free, free)], rhs[free, j : j + 1])[:, 0]
+        return d
+    best = np.full(rhs.shape[1], np.inf)
+    out = np.zeros_like(d)
+    n = G.shape[0]
+    for mask in range(2**bounded.size):
+        fixed = np.array([(mask >> k) & 1 for k in range(bounded.size)], bool)
+        free = np.setdiff1d(np.arange(n), bounded[fixed])
+        dd = np.zeros_like(d)
+        dd[free] = d[free] if not fixed.any() else -_solve(G[np.ix_(free, free)], rhs[free])
+        ok = np.all(sign[~fixed, None] * dd[bounded[~fixed]] >= -1e-12, axis=0)
+        q = 0.5 * np.sum(dd * (G @ dd), axis=0) + np.sum(rhs * dd, axis=0)
+        take = ok & (q < best)
+        out[:, take] = dd[:, take]
+        best[take] = q[take]
+    return out
+
+
+def heldout_energy(
+    lin: Linear,
+    R0: np.ndarray,
+    plan: Sequence[Sequence[int]],
+    fold_means: Sequence[Mapping[tuple, np.ndarray]] | None = None,
+) -> np.ndarray:
+    """``(held-out stances, B)``: the held-out energy (data + nuisance prior) of the linearised
+    model on every held-out stance of ``plan`` (groups held out together,
+    :func:`~.compare.fold_plan`; one training step per group), for every column of ``R0`` (``(rows, B)``
+    residuals at the point) (module doc). Without folds (one stance per foot), one row: the
+    in-sample energy of the fit on all stances. ``fold_means``: per fold, the prior means of its
+    training fit (:func:`fold_prior_means`)."""
+    J = lin.J
+    nx = J.shape[1]
+    JTJ = (J.T @ J).toarray()
+    JTR = np.asarray(J.T @ R0)
+    P2 = np.zeros(nx)
+    P2[lin.prior_idx] = lin.pw**2
+    Pp0 = np.zeros(nx)
+    Pp0[lin.prior_idx] = lin.pw * lin.p0
+    if not plan:
+        d = step(JTJ + np.diag(P2), JTR + Pp0[:, None], lin)
+        res = R0 + np.asarray(J @ d)
+        p = lin.p0[:, None] + lin.pw[:, None] * d[lin.prior_idx]
+        return (0.5 * (np.sum(res**2, axis=0) + np.sum(p**2, axis=0)))[None, :]
+    prior_pos = {c: k for k, c in enumerate(lin.prior_idx)}
+    E = np.zeros((sum(len(g) for g in plan), R0.shape[1]))
+    j = 0  # row of E: held-out stances group by group, as the folds' scores
+    for group in plan:
+        rows = np.concatenate([np.arange(lin.rows[i].start, lin.rows[i].stop) for i in group])
+        Jg = J[rows]
+        G = JTJ - (Jg.T @ Jg).toarray() + np.diag(P2)
+        Pp = np.zeros(nx)
+        Pp[lin.prior_idx] = lin.pw * lin.prior_residual(fold_means[j] if fold_means else None)
+        rhs = JTR - np.asarray(Jg.T @ R0[rows]) + Pp[:, None]
+        d_train = step(G, rhs, lin)
+        for i in group:
+            E[j] = _heldout_stance(lin, J, R0, i, d_train, prior_pos)
+            j += 1
+    return E
+
+
+def _heldout_stance(lin: Linear, J, R0: np.ndarray, i: int, d_train, prior_pos) -> np.ndarray:
+    """``(B,)``: the held-out energy of stance ``i`` at the training step ``d_train``, its
+    nuisance re-estimated from the point (:func:`heldout_energy`)."""
+    rows = lin.rows[i]
+    Jh = J[rows]
+    d = d_train.copy()
+    z = lin.nuisance[i]
+    d[z] = 0.0  # the held-out stance's nuisance is re-estimated below, from the point
+    a = R0[rows] + np.asarray(Jh @ d)
+    Jz = Jh[:, z].toarray()
+    kz = np.array([prior_pos[c] for c in z], int)
+    pwz, p0z = lin.pw[kz], lin.p0[kz]
+    Hz = Jz.T @ Jz + np.diag(pwz**2)
+    dz = -_solve(Hz, Jz.T @ a + (pwz * p0z)[:, None])
+    res = a + Jz @ dz
+    pz = p0z[:, None] + pwz[:, None] * dz
+    return 0.5 * (np.sum(res**2, axis=0) + np.sum(pz**2, axis=0))
+
+
+def energies(
+    parent: Linear,
+    children: Mapping[str, Linear],
+    perturbations: np.ndarray,
+    plan: Sequence[Sequence[int]],
+    occam: Mapping[str, np.ndarray] | None = None,
+    fold_means: Sequence[Mapping[tuple, np.ndarray]] | None = None,
+) -> dict[str, np.ndarray]:
+    """``{"parent" and every child: (folds, B) held-out energies}`` on the replicates whose
+    weighted perturbations are the columns of ``perturbations`` (module doc; the observed data
+    are ``perturbations = -parent.r``). ``occam``: per model, the Occam term of each held-out
+    fit (``"parent"``; a nested child's is the parent's: at the neutral point it *is* the
+    parent), a constant of the linearisation."""
+    occam = occam or {}
+    R0p = -perturbations
+    base = np.asarray(occam.get("parent", 0.0), float).reshape(-1, 1)
+    out = {"parent": heldout_energy(parent, R0p, plan, fold_means) + base}
+    for name, lin in children.items():
+        shift = (lin.r - parent.r)[:, None]
+        own = base if lin.nested else np.asarray(occam.get(name, base), float).reshape(-1, 1)
+        out[name] = heldout_energy(lin, shift + R0p, plan, fold_means) + own
+    return out
+
+
+def reductions(E: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``{child: (B,) reduction [%] of the combined score over the parent}`` from
+    :func:`energies` (``1 - sqrt(E_child / E_parent)``, summed over the folds, as
+    :func:`~gc_ocp.diagnosis.compare.score`)."""
+    ep = np.maximum(E["parent"].sum(axis=0), 1e-300)
+    return {
+        n: 100.0 * (1.0 - np.sqrt(np.maximum(e.sum(axis=0), 0.0) / ep))
+        for n, e in E.items()
+        if n != "parent"
+    }
+
+
+def per_stance_sd(E: Mapping[str, np.ndarray]) -> dict[str, float | None]:
+    """Spread [%] of the per-fold reductions of the observed data (``E`` of one column), None
+    with fewer than two folds."""
+    ep = E["parent"][:, 0]
+    out: dict[str, float | None] = {}
+    for n, e in E.items():
+        if n == "parent":
+            continue
+        per = 100.0 * (1.0 - np.sqrt(np.maximum(e[:, 0], 0.0) / np.maximum(ep, 1e-300)))
+        out[n] = float(np.std(per, ddof=1)) if per.size >= 2 else None
+    return out
+
+
+__all__ = (
+    "MAX_ACTIVE_SET",
+    "NESTED_RTOL",
+    "Linear",
+    "energies",
+    "fold_prior_means",
+    "heldout_energy",
+    "linearize_child",
+    "linearize_parent",
+    "per_stance_sd",
+    "reductions",
+    "step",
+)
