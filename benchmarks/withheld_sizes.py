@@ -10,8 +10,8 @@ Runs (each a ``gc-ocp benchmark-diagnosis`` folder; ``--resume`` continues one):
         --trial ../shared/data/bts_unipd_5trials/Walking1.c3d (... Walking2, Walking3) \\
         --out benchmarks/withheld_mismatch/bts_N
 
-then ``python benchmarks/withheld_sizes.py`` writes the Markdown to stdout from every
-``benchmarks/withheld_mismatch/{motion}_{N}/confusion.json`` present (partial runs included,
+then ``python benchmarks/withheld_sizes.py [ROOT]`` writes the Markdown to stdout from every
+``ROOT/{motion}_{N}/confusion.json`` present (ROOT: ``benchmarks/withheld_mismatch``) (partial runs included,
 their case counts shown).
 
 **What stops an effect** (per case whose truth is not the answer): ``test`` (the calibrated
@@ -38,9 +38,9 @@ ALPHA = 0.05  # gc_ocp.diagnosis.null.ALPHA
 FLOOR = 2.0  # gc_ocp.diagnosis.selection.MIN_REDUCTION_PCT
 
 
-def load() -> dict[tuple[str, int], dict]:
+def load(root: Path = HERE) -> dict[tuple[str, int], dict]:
     out = {}
-    for p in sorted(HERE.glob("*_*/confusion.json")):
+    for p in sorted(root.glob("*_*/confusion.json")):
         m = re.fullmatch(r"(.+)_(\d+)", p.parent.name)
         if m:
             out[(m.group(1), int(m.group(2)))] = json.loads(p.read_text())
@@ -65,8 +65,8 @@ def stopped_by(case: dict) -> str:
     return "outranked"
 
 
-def main() -> None:
-    runs = load()
+def main(root: Path = HERE) -> None:
+    runs = load(root)
     motions = sorted({m for m, _ in runs})
     print("# Withheld-effect benchmark with the mismatch family, by stances per foot\n")
     print(
@@ -193,4 +193,6 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    main(Path(sys.argv[1]) if len(sys.argv) > 1 else HERE)
