@@ -1,10 +1,11 @@
 """Summarise the mismatch benchmark's "none" cases (``gc-ocp benchmark-diagnosis --effects none
---mismatch 1``): how often the diagnosis names an effect, and how often the calibrated test alone
-would (without the rule's effect-size floor).
+--mismatch 1``): how often the diagnosis names an effect (a false claim: the truth differs from
+the model only by a draw of the mismatch family), and how often each of the rule's two filters
+alone would (the calibrated test without the effect-size floor; the floor without the test).
 
-    .venv/bin/python benchmarks/mismatch_none_summary.py benchmarks/mismatch_none/bundled ...
+    .venv/bin/python benchmarks/mismatch_none_summary.py NAME=FOLDER ...
 
-Writes the markdown to stdout.
+Writes the Markdown to stdout.
 """
 
 from __future__ import annotations
@@ -13,44 +14,66 @@ import json
 import sys
 from pathlib import Path
 
+ALPHA = 0.05  # gc_ocp.diagnosis.null.ALPHA
+FLOOR = 2.0  # gc_ocp.diagnosis.selection.MIN_REDUCTION_PCT
 
-def main(folders: list[str]) -> None:
+
+def _named(r: dict) -> bool:
+    c = r.get("calibrated")
+    return bool(c) and c["p_adjusted"] < ALPHA
+
+
+def _floor(r: dict) -> bool:
+    h, ci = r["heldout_rms_reduction_pct"], r["heldout_rms_reduction_ci"]
+    return h is not None and h >= FLOOR and ci[0] > 0 and r["insample_rms_reduction_pct"] >= FLOOR
+
+
+def _share(k: int, n: int) -> str:
+    return f"{k} ({100 * k / n:.0f} %)" if n else "-"
+
+
+def _draw(m: dict | None) -> str:
+    if not m:
+        return "-"
+    return (
+        f"penetration x{m['depth_factor']:.2f} {m['depth_form'] or 'default form'}, "
+        f"slip x{m['slip_factor']:.2f} {m['slip_form'] or 'default form'}, "
+        f"markers low-passed {m['cutoff_hz']:.1f} Hz, threshold {m['threshold_n']:.0f} N, "
+        f"hum {m['hum_amplitude_n']:.1f} N"
+    )
+
+
+def main(args: list[str]) -> None:
     print('# Mismatch benchmark: "none" truths that differ from the model by the mismatch family\n')
     print(
-        "| motion | cases | effect named (false claims) | named by the test alone | test alone and "
-        "refit reduces the held-out score | run time [s] |"
+        "| run | cases | effect named by the rule (false claims) | by the calibrated test alone "
+        "| by the effect-size floor alone | errors | case time [min] |"
     )
-    print("|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|")
     details = []
-    for folder in folders:
+    for a in args:
+        name, folder = a.split("=", 1)
         d = json.loads((Path(folder) / "confusion.json").read_text())
         cases = d["cases"]
-        claims = [c for c in cases if c["answer"] != "none"]
-        alone, refit = [], []
-        for c in cases:
-            rows = [r for r in c["ranking"] if r.get("calibrated")]
-            named = [r for r in rows if r["calibrated"]["p_adjusted"] < 0.05]
-            if named:
-                alone.append(c)
-                details.append((Path(folder).name, c["seed"], named))
-            if any((r["heldout_rms_reduction_pct"] or 0) > 0 for r in named):
-                refit.append(c)
         n = len(cases)
+        claims = [c for c in cases if c["answer"] not in ("none", "error")]
+        errors = [c for c in cases if c["answer"] == "error"]
+        alone = [c for c in cases if any(_named(r) for r in c["ranking"])]
+        floor = [c for c in cases if any(_floor(r) for r in c["ranking"])]
         print(
-            f"| {Path(folder).name} | {n} | {len(claims)} ({100 * len(claims) / n:.0f} %) | "
-            f"{len(alone)} ({100 * len(alone) / n:.0f} %) | {len(refit)} ({100 * len(refit) / n:.0f} %) | "
-            f"{d['seconds']['cases_total']:.0f} |"
+            f"| {name} | {n} | {_share(len(claims), n)} | {_share(len(alone), n)} | "
+            f"{_share(len(floor), n)} | {len(errors)} | {d['seconds']['cases_total'] / 60:.0f} |"
         )
+        details += [(name, c) for c in claims]
     print(
-        "\nCases the test alone names (effect: family-wise p, held-out reduction of the refit):\n"
+        "\nFalse claims (the effect named: family-wise p, refitted held-out reduction; the draw):\n"
     )
-    for motion, seed, named in details:
-        text = ", ".join(
-            f"{r['effect']}: p = {r['calibrated']['p_adjusted']:.3f}, "
-            f"{r['heldout_rms_reduction_pct']:+.2f} %"
-            for r in named
+    for name, c in details:
+        r = next(r for r in c["ranking"] if r["effect"] == c["answer"])
+        print(
+            f"* {name} seed {c['seed']}: **{c['answer']}**, p = {r['calibrated']['p_adjusted']:.3f}, "
+            f"{r['heldout_rms_reduction_pct']:+.2f} % held out; draw: {_draw(c.get('mismatch'))}"
         )
-        print(f"* {motion} seed {seed}: {text}")
 
 
 if __name__ == "__main__":
