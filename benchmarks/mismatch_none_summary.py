@@ -14,18 +14,7 @@ import json
 import sys
 from pathlib import Path
 
-ALPHA = 0.05  # gc_ocp.diagnosis.null.ALPHA
-FLOOR = 2.0  # gc_ocp.diagnosis.selection.MIN_REDUCTION_PCT
-
-
-def _named(r: dict) -> bool:
-    c = r.get("calibrated")
-    return bool(c) and c["p_adjusted"] < ALPHA
-
-
-def _floor(r: dict) -> bool:
-    h, ci = r["heldout_rms_reduction_pct"], r["heldout_rms_reduction_ci"]
-    return h is not None and h >= FLOOR and ci[0] > 0 and r["insample_rms_reduction_pct"] >= FLOOR
+from rule_variants import clears_floor, named
 
 
 def _share(k: int, n: int) -> str:
@@ -58,8 +47,8 @@ def main(args: list[str]) -> None:
         n = len(cases)
         claims = [c for c in cases if c["answer"] not in ("none", "error")]
         errors = [c for c in cases if c["answer"] == "error"]
-        alone = [c for c in cases if any(_named(r) for r in c["ranking"])]
-        floor = [c for c in cases if any(_floor(r) for r in c["ranking"])]
+        alone = [c for c in cases if any(named(r) for r in c["ranking"])]
+        floor = [c for c in cases if any(clears_floor(r) for r in c["ranking"])]
         print(
             f"| {name} | {n} | {_share(len(claims), n)} | {_share(len(alone), n)} | "
             f"{_share(len(floor), n)} | {len(errors)} | {d['seconds']['cases_total'] / 60:.0f} |"

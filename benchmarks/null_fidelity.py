@@ -29,9 +29,9 @@ from pathlib import Path
 import numpy as np
 
 from gc_ocp.bench import withheld as W
-from gc_ocp.bench.truth import Realism, base_truth, generate_case, motion, truth_model
+from gc_ocp.bench.truth import Realism
 from gc_ocp.diagnosis import null
-from gc_ocp.diagnosis.diagnose import diagnose_stances, resolve_base
+from gc_ocp.diagnosis.diagnose import diagnose_stances
 from gc_ocp.diagnosis.mismatch import MismatchFamily, simulate_mismatched, thresholded
 from gc_ocp.estimation.starts import frozen_model, with_lls_start
 from gc_ocp.workflow.fitting import with_detected_censoring
@@ -45,14 +45,10 @@ CANDIDATES = ("friction", "time_offset", "damping")
 
 
 def case_data(seed: int, files):
-    realism = Realism(mismatch=MismatchFamily(1.0))
-    rng = np.random.default_rng(W._case_seed("registered", "none", "-", seed))
-    stances = motion("registered", "none", files, None)
-    _, bm = resolve_base("registered")
-    truth = truth_model("none", "-", base_truth("registered", files), stances, rng)
-    kin = W.kinematic_error("none", "-", bm, realism)
-    data, draw = generate_case(stances, truth, rng, realism, kin, bm)
-    return with_detected_censoring(data), draw
+    """The mismatch benchmark's "none" case of ``seed``: its data and mismatch draw."""
+    case = {"truth": "none", "magnitude": "-", "seed": seed}
+    data, draw, _ = W.case_data(case, realism=Realism(mismatch=MismatchFamily(1.0)), files=files)
+    return data, draw
 
 
 def one_step(diagnosis) -> dict:
@@ -80,8 +76,8 @@ def main() -> None:
     rng = np.random.default_rng(1000 + args.seed)
     reps = []
     for b in range(args.replicates):
-        dk = null._null_draw(null.DEFAULT_FAMILY.draw(rng, data[0].layout), parent.model)
-        rep = simulate_mismatched(data, frozen, dk.for_model(parent.model), rng)
+        dk = null.null_draw(null.DEFAULT_FAMILY, rng, data[0].layout, parent.model)
+        rep = simulate_mismatched(data, frozen, dk, rng)
         # the benchmark's own plate threshold, then the fitter's detection, as for the case
         rep = with_detected_censoring([thresholded(r, Realism().force_threshold) for r in rep])
         dr = diagnose_stances(

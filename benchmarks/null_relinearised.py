@@ -75,8 +75,8 @@ def main() -> None:
     cols: dict[str, list] = {n: [] for n in CANDIDATES}
     t0 = time.perf_counter()
     for k in range(args.draws):
-        dk = null._null_draw(null.DEFAULT_FAMILY.draw(rng, data[0].layout), model)
-        rep = simulate_mismatched(data, frozen, dk.for_model(model), rng, plate_noise_pct_bw=0.0)
+        dk = null.null_draw(null.DEFAULT_FAMILY, rng, data[0].layout, model)
+        rep = simulate_mismatched(data, frozen, dk, rng, plate_noise_pct_bw=0.0)
         rep = with_detected_censoring([thresholded(r, Realism().force_threshold) for r in rep])
         fk = best_of(
             rep,

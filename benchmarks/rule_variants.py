@@ -31,7 +31,9 @@ from collections import defaultdict
 from functools import partial
 from pathlib import Path
 
-ALPHA = 0.05  # the package's family-wise rate (gc_ocp.diagnosis.null.ALPHA)
+from gc_ocp.diagnosis.null import ALPHA
+from gc_ocp.diagnosis.selection import MIN_REDUCTION_PCT
+
 FLOORS = (0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0)
 """Floors [%] tried; the package's is 2."""
 NONE_TARGET = 0.95
@@ -39,12 +41,15 @@ NONE_TARGET = 0.95
 (issue 22's target), the floor that keeps the most power at that false-claim rate."""
 
 
-def _named(r: dict) -> bool:
+def named(r: dict) -> bool:
+    """A ranking row (``confusion.json``) the calibrated test names."""
     c = r.get("calibrated")
     return bool(c) and c["p_adjusted"] < ALPHA
 
 
-def _big(r: dict, floor: float) -> bool:
+def clears_floor(r: dict, floor: float = MIN_REDUCTION_PCT) -> bool:
+    """A ranking row whose refit clears the effect-size floor ``floor`` [%] (held out and
+    in-sample, the interval above 0)."""
     h, ci, ins = (
         r["heldout_rms_reduction_pct"],
         r["heldout_rms_reduction_ci"],
@@ -54,12 +59,12 @@ def _big(r: dict, floor: float) -> bool:
 
 
 def _test_and_floor(r: dict, floor: float) -> bool:
-    return _named(r) and _big(r, floor)
+    return named(r) and clears_floor(r, floor)
 
 
 VARIANTS = {
-    "test alone": lambda r: _named(r) and (r["heldout_rms_reduction_pct"] or 0.0) > 0.0,
-    "floor alone": lambda r: _big(r, 2.0),
+    "test alone": lambda r: named(r) and (r["heldout_rms_reduction_pct"] or 0.0) > 0.0,
+    "floor alone": clears_floor,
     **{f"test + floor {f:g} %": partial(_test_and_floor, floor=f) for f in FLOORS},
 }
 

@@ -33,9 +33,9 @@ import re
 from collections import Counter, defaultdict
 from pathlib import Path
 
+from gc_ocp.diagnosis.null import ALPHA
+
 HERE = Path(__file__).parent / "withheld_mismatch"
-ALPHA = 0.05  # gc_ocp.diagnosis.null.ALPHA
-FLOOR = 2.0  # gc_ocp.diagnosis.selection.MIN_REDUCTION_PCT
 
 
 def load(root: Path = HERE) -> dict[tuple[str, int], dict]:

@@ -184,6 +184,28 @@ def _case_seed(base: str, truth: str, magnitude: str, seed: int) -> int:
     return int.from_bytes(__import__("hashlib").sha256(key).digest()[:8], "little")
 
 
+def case_data(
+    case: dict,
+    base: str = "registered",
+    realism: Realism = DEFAULT_REALISM,
+    files: Sequence[str] | None = None,
+    stances_per_foot: int | None = None,
+) -> tuple[list, object, tuple[float, float, float] | None]:
+    """``(data, mismatch draw or None, kinematic error)`` of one case: what the blind diagnosis
+    of :func:`run_case` gets, the same for every run of the case (its own seed), with the zero
+    threshold the fitter's loader would find in each stance's plate signal."""
+    truth_name, mag = case["truth"], case["magnitude"]
+    rng = np.random.default_rng(_case_seed(base, truth_name, mag, case["seed"]))
+    files = None if files is None else tuple(str(f) for f in files)
+    stances = motion(base, truth_name, files, stances_per_foot)
+    _, base_model_ = resolve_base(base)
+    truth = truth_model(truth_name, mag, base_truth(base, files), stances, rng)
+    kin_err = kinematic_error(truth_name, mag, base_model_, realism)
+    data, draw = generate_case(stances, truth, rng, realism, kin_err, base_model_)
+    # what the fitter's loader does with a plate signal: find a zero threshold and censor it
+    return with_detected_censoring(data), draw, kin_err
+
+
 def run_case(
     case: dict,
     base: str = "registered",
@@ -201,15 +223,7 @@ def run_case(
     (:func:`~gc_ocp.bench.truth.per_foot`; None: the motion's own)."""
     t0 = time.perf_counter()
     truth_name, mag = case["truth"], case["magnitude"]
-    rng = np.random.default_rng(_case_seed(base, truth_name, mag, case["seed"]))
-    files = None if files is None else tuple(str(f) for f in files)
-    stances = motion(base, truth_name, files, stances_per_foot)
-    _, base_model_ = resolve_base(base)
-    truth = truth_model(truth_name, mag, base_truth(base, files), stances, rng)
-    kin_err = kinematic_error(truth_name, mag, base_model_, realism)
-    data, draw = generate_case(stances, truth, rng, realism, kin_err, base_model_)
-    # what the fitter's loader does with a plate signal: find a zero threshold and censor it
-    data = with_detected_censoring(data)
+    data, draw, kin_err = case_data(case, base, realism, files, stances_per_foot)
     t1 = time.perf_counter()
     with warnings.catch_warnings():
         # units that never touch in a fold's training stances: expected under drift, noted
@@ -397,6 +411,7 @@ __all__ = [
     "injected_values",
     "Realism",
     "base_truth",
+    "case_data",
     "confusion_figure",
     "drift",
     "failed_case",

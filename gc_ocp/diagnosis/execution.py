@@ -66,8 +66,9 @@ class Job:
 @dataclasses.dataclass(frozen=True)
 class RoundInputs:
     """What every job of a round shares: the ``stances`` (one subject), the fold ``plan``
-    (groups of stance indices held out together, :func:`~gc_ocp.diagnosis.compare.fold_plan`), the ``parent`` evaluation (warm starts, screening), the weights and
-    solver options of every fit; ``folds``: whether the jobs also fit and score the folds
+    (groups of stance indices held out together, :func:`~gc_ocp.diagnosis.compare.fold_plan`),
+    the ``parent`` evaluation (warm starts, screening), the weights and solver options of every
+    fit; ``folds``: whether the jobs also fit and score the folds
     (else the fit on all stances only); ``parent_r``: the parent's weighted residual at its
     solution, given when every job also linearises its model for the null
     (:func:`~gc_ocp.diagnosis.onestep.linearize_child`, the evaluation's ``linear``)."""

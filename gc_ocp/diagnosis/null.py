@@ -38,7 +38,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from gc_ocp.diagnosis.compare import BLOCK_SECONDS
+from gc_ocp.diagnosis.compare import BLOCK_SECONDS, held_out
 from gc_ocp.diagnosis.mismatch import (
     MismatchDraw,
     MismatchFamily,
@@ -131,6 +131,15 @@ DEFAULT_FAMILY = MismatchFamily()
 """The mismatch family the null allows unless told otherwise (``docs/diagnosis.md``)."""
 
 
+def null_draw(
+    family: MismatchFamily, rng: np.random.Generator, layout, model: tuple
+) -> MismatchDraw:
+    """A draw of ``family`` (sole ``layout``) as a replicate of the null for ``model`` takes it:
+    restricted to the model (:meth:`MismatchDraw.for_model`) and to the members the null adds
+    (:func:`_null_draw`)."""
+    return _null_draw(family.draw(rng, layout).for_model(model), model)
+
+
 def _null_draw(d: MismatchDraw, model: tuple) -> MismatchDraw:
     """The members of draw ``d`` a replicate of the null adds (:func:`mismatch_perturbations`):
     the law's smoothing and friction forms, the plate's hum and the markers' low-pass. Left out:
@@ -170,7 +179,7 @@ def mismatch_perturbations(
     Y0 = [b.Y(np.zeros(ps.x0.size)) for b in ps.blocks]
     cols = []
     for _ in range(n_draws):
-        d = _null_draw(family.draw(rng, stances[0].layout).for_model(model), model)
+        d = null_draw(family, rng, stances[0].layout, model)
         true = true_motion(stances, d)
         pb = build_estimation(true, truth_variant(truth, d), weights, compile=False)
         w_true = pb.stance_wrenches(np.zeros(pb.x0.size))
@@ -240,7 +249,7 @@ def calibrate(
     null = reductions({n: e[:, :-1] for n, e in E.items()})
     E_obs = {n: e[:, -1:] for n, e in E.items()}
     observed = {n: float(v[0]) for n, v in reductions(E_obs).items()}
-    n_held = max(sum(len(g) for g in plan), 1)
+    n_held = max(len(held_out(plan)), 1)
     return decide(observed, null, per_stance_sd(E_obs), n_held, alpha)
 
 
@@ -333,6 +342,7 @@ __all__ = (
     "calibrate",
     "decide",
     "mismatch_perturbations",
+    "null_draw",
     "prior_pull",
     "replicate",
     "wild_residuals",

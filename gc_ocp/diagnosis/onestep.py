@@ -26,6 +26,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import scipy.sparse as sp
 
+from gc_ocp.diagnosis.compare import held_out
 from gc_ocp.estimation.problem import Weights, build_estimation, declare
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.starts import rescaled_start, with_lls_start
@@ -246,7 +247,7 @@ def heldout_energy(
         p = lin.p0[:, None] + lin.pw[:, None] * d[lin.prior_idx]
         return (0.5 * (np.sum(res**2, axis=0) + np.sum(p**2, axis=0)))[None, :]
     prior_pos = {c: k for k, c in enumerate(lin.prior_idx)}
-    E = np.zeros((sum(len(g) for g in plan), R0.shape[1]))
+    E = np.zeros((len(held_out(plan)), R0.shape[1]))
     j = 0  # row of E: held-out stances group by group, as the folds' scores
     for group in plan:
         rows = np.concatenate([np.arange(lin.rows[i].start, lin.rows[i].stop) for i in group])

@@ -106,7 +106,8 @@ def measurement_of(stances) -> dict:
 
 
 def censored(measured: np.ndarray, censor_below: float) -> np.ndarray:
-    """``(T,)`` which samples of ``measured`` ``(T, 6)`` are censored (module doc)."""
+    """``(T,)`` which samples of ``measured`` ``(T, 6)`` are censored, wholly or partly (a
+    resampled value between 0 and the threshold; module doc)."""
     m = np.asarray(measured, float)
     return np.zeros(m.shape[0], bool) if censor_below <= 0 else m[:, 2] < censor_below
 
