@@ -10,8 +10,9 @@ Layout, one idea per module (the table in ``docs/architecture.md``):
 
 * :mod:`.phases`: gait phases of a stance; :mod:`.where`: the residual map and its figures;
 * :mod:`.compare`: folds, the held-out score, the bootstrap (one model's evaluation);
-* :mod:`.null`: the calibrated test (null replicates, one-step fits, max statistic, steps
-  that would decide);
+* :mod:`.null`: the calibrated test (null replicates, max statistic, steps that would decide);
+  :mod:`.onestep`: its one Gauss-Newton step per fit; :mod:`.draws`: its mismatch draws, each
+  a refit of the parent;
 * :mod:`.selection`: the decision rule, ranking, confounding, which effect a round adds;
 * :mod:`.execution`: a round's candidates as tasks on a ``concurrent.futures.Executor``;
 * :mod:`.diagnose`: the orchestration (:func:`diagnose`, :func:`diagnose_stances`, the bases);

@@ -24,6 +24,7 @@ from types import MappingProxyType
 import numpy as np
 
 from gc_ocp.diagnosis.compare import MAX_FOLDS, evaluate, fold_plan, held_out
+from gc_ocp.diagnosis.draws import NullInputs, debiased, mismatch_null
 from gc_ocp.diagnosis.execution import (
     Job,
     NotEvaluable,
@@ -35,9 +36,10 @@ from gc_ocp.diagnosis.mismatch import MismatchFamily
 from gc_ocp.diagnosis.null import (
     ALPHA,
     DEFAULT_FAMILY,
+    MISMATCH_DRAWS,
     N_REPLICATES,
     calibrate,
-    mismatch_perturbations,
+    prior_step,
 )
 from gc_ocp.diagnosis.onestep import fold_prior_means, linearize_parent
 from gc_ocp.diagnosis.result import Diagnosis, RankRow, WaterfallStep
@@ -59,6 +61,7 @@ from gc_ocp.estimation.components import (
 from gc_ocp.estimation.measurement import measurement_of
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.solve import IpoptOptions
+from gc_ocp.estimation.starts import with_lls_start
 from gc_ocp.stance import StanceData
 from gc_ocp.workflow.fitting import fit_data
 
@@ -105,11 +108,13 @@ def diagnose_stances(
     n_replicates: int = N_REPLICATES,
     mismatch: MismatchFamily | None = DEFAULT_FAMILY,
     max_folds: int = MAX_FOLDS,
+    mismatch_draws: int = MISMATCH_DRAWS,
 ) -> Diagnosis:
     """The diagnosis of ``stances`` (one subject; see the module doc). ``alpha``: the
     family-wise rate of a false claim per round (:mod:`.null`); ``n_replicates``: the null's
     replicates per round; ``mismatch``: the family of model mismatch the null allows
-    (:mod:`.mismatch`; None: noise only). ``max_effects``: stop the forward selection after
+    (:mod:`.mismatch`; None: noise only), ``mismatch_draws`` of it per round, each a refit of
+    the parent (:mod:`.draws`). ``max_effects``: stop the forward selection after
     that many effects (``0``: rank only; ``1``: rank and add the best passing effect, as the
     withheld-effect benchmark does). ``workers``: processes that evaluate a round's candidates
     in parallel (default :func:`~gc_ocp.diagnosis.execution.default_workers`; 1: in this
@@ -189,12 +194,15 @@ def diagnose_stances(
                 ok,
                 plan,
                 weights,
+                options,
                 rate,
                 mismatch,
+                mismatch_draws,
                 n_replicates,
                 seed,
                 alpha,
                 say,
+                pool,
             )
             calibration.append(info)
             if not first:
@@ -256,12 +264,15 @@ def _calibrated(
     evs,
     plan,
     weights,
+    options,
     rate,
     family,
+    n_draws,
     n_replicates,
     seed,
     alpha,
     say,
+    executor,
 ) -> tuple[dict, dict]:
     """The calibrated tests of a round's evaluated candidates and what the round's null was
     (replicates, mismatch draws, critical value, seconds)."""
@@ -269,30 +280,51 @@ def _calibrated(
     lins = {n: ev.linear for n, ev in evs.items() if ev.linear is not None}
     occam = {"parent": np.array([f.occam for f in parent.folds])}
     occam.update({n: np.array([f.occam for f in ev.folds]) for n, ev in evs.items() if ev.folds})
-    mis = None
-    if family is not None and family.scale > 0:
-        mis = mismatch_perturbations(
-            stances, parent.model, parent.full, weights, family, np.random.default_rng(seed)
+    means = fold_prior_means(stances, parent.model, plan)
+    null, skipped = None, 0
+    if not (lins and family is not None and family.scale > 0 and n_draws > 0):
+        n_draws = 0
+    else:
+        law = with_lls_start(parent.model, stances)  # the law prior of every fit
+        truth = debiased(stances, law, parent.full, -prior_step(parent_lin), weights)
+        inputs = NullInputs(
+            stances=tuple(stances),
+            model=law,
+            full=parent.full,
+            truth=truth,
+            children={n: (with_lls_start(evs[n].model, stances), evs[n].full) for n in lins},
+            parent=parent_lin,
+            plan=tuple(plan),
+            occam=occam,
+            fold_means=tuple(means),
+            n_wild=max(1, -(-n_replicates // n_draws)),
+            frame_rate=rate,
+            weights=weights,
+            options=options,
         )
+        say(f"  calibrated null: {n_draws} mismatch draws, each a refit of {parent.label}")
+        null, skipped = mismatch_null(inputs, family, n_draws, seed, executor)
     tests = calibrate(
         parent_lin,
         parent.full.stance_fits,
         lins,
         plan,
         occam,
-        mis,
+        null,
         n_replicates,
         seed,
         rate,
         alpha,
-        fold_prior_means(stances, parent.model, plan),
+        means,
     )
     crit = next(iter(tests.values())).z_critical if tests else None
     seconds = time.perf_counter() - t0
-    say(f"  calibrated null: {n_replicates} replicates, z_crit {crit}, {seconds:.1f} s")
+    n_rep = n_replicates if null is None else int(next(iter(null.values())).size)
+    say(f"  calibrated null: {n_rep} replicates, z_crit {crit}, {seconds:.1f} s")
     info = {
-        "replicates": n_replicates,
-        "mismatch_draws": 0 if mis is None else int(mis.shape[1]),
+        "replicates": n_rep,
+        "mismatch_draws": n_draws - skipped,
+        "mismatch_draws_left_out": skipped,
         "z_critical": crit,
         "seconds": seconds,
     }

@@ -139,16 +139,42 @@ def _evaluate(job: Job, inputs: RoundInputs, progress=None) -> Evaluation | NotE
         return NotEvaluable(job.label, why, time.perf_counter() - t0)
 
 
+def recorded(fn: Callable, *args) -> tuple[object, tuple[WarningRecord, ...]]:
+    """``fn(*args)`` with the warnings it raised (recorded, not shown): a task of any kind."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = fn(*args)
+    records = dict.fromkeys((str(w.message), w.category, w.filename, w.lineno) for w in caught)
+    return out, tuple(records)
+
+
+def _warn_again(caught: Sequence[WarningRecord]) -> None:
+    for message, category, filename, lineno in caught:
+        warnings.warn_explicit(message, category, filename, lineno)
+
+
 def run_job(
     job: Job, inputs: RoundInputs
 ) -> tuple[Evaluation | NotEvaluable, tuple[WarningRecord, ...]]:
     """The task: ``job`` evaluated on ``inputs`` (fitted on all stances and on each fold,
     held-out stances scored), with the warnings its fits raised (recorded, not shown)."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        ev = _evaluate(job, inputs)
-    records = dict.fromkeys((str(w.message), w.category, w.filename, w.lineno) for w in caught)
-    return ev, tuple(records)
+    return recorded(_evaluate, job, inputs)
+
+
+def run_tasks(fn: Callable, calls: Sequence[tuple], executor: Executor | None = None) -> list:
+    """``[fn(*call) for call in calls]``, each call a task on ``executor`` (None: here, one
+    after the other); the warnings the tasks raised are raised again here. ``fn`` and the
+    calls' arguments must be picklable (a module-level function of plain data), as
+    :func:`run_job`'s: e.g. the null's mismatch draws (:mod:`.draws`)."""
+    if executor is None or len(calls) <= 1:
+        return [fn(*call) for call in calls]
+    futures = [executor.submit(recorded, fn, *call) for call in calls]
+    out = []
+    for fut in futures:
+        value, caught = fut.result()
+        _warn_again(caught)
+        out.append(value)
+    return out
 
 
 def evaluate_round(
@@ -173,8 +199,7 @@ def evaluate_round(
     out = {}
     for fut in as_completed(futures):
         ev, caught = fut.result()
-        for message, category, filename, lineno in caught:
-            warnings.warn_explicit(message, category, filename, lineno)
+        _warn_again(caught)
         out[futures[fut]] = ev
         what = "not evaluable" if isinstance(ev, NotEvaluable) else describe(ev)
         say(f"  {ev.label}: {what} ({ev.seconds:.1f} s)")
@@ -217,5 +242,7 @@ __all__ = (
     "candidate_executor",
     "default_workers",
     "evaluate_round",
+    "recorded",
     "run_job",
+    "run_tasks",
 )

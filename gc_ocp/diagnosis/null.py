@@ -9,12 +9,16 @@ autocorrelation, their size frame by frame and the correlation between channels,
 zero, so that the systematic part of the residual, which an effect would explain, is not in the
 null) and (b) a draw of the *mismatch family* (:mod:`.mismatch`): how the data would differ if the
 truth were the parent slightly changed in ways that are not candidates (law smoothing, friction
-form, filter cutoffs, marker drift, unit positions). Censored samples (below the plate's
-threshold) carry neither: the plate recorded nothing there.
+form, plate hum, marker low-pass). Censored samples (below the plate's threshold) carry neither:
+the plate recorded nothing there.
 
-**One Gauss-Newton step per fit** (:mod:`.onestep`): every model is linearised once and every fit
-of the held-out scoring of a replicate is a linear least-squares step from there, so the null's
-held-out reductions of all replicates cost a few matrix products, not thousands of fits.
+**Fits.** Every fit of a replicate's held-out scoring is one Gauss-Newton step
+(:mod:`.onestep`) from a point where every model is linearised. With a mismatch family, that
+point is the parent *refitted* to the draw's data, one per draw (:mod:`.draws`: a draw can move
+the parent far, and the Jacobians of the observed fit then understate the candidates' gains);
+the wild-residual replicates of a draw share it. Without one (noise only), it is the observed
+fit. So the null's held-out reductions cost one solve per draw and a few matrix products per
+replicate, not thousands of fits.
 
 **Decision.** For every candidate, its null reductions give a mean ``m`` and spread ``s``; the
 observed reduction is studentised, ``z = (T - m) / s``, and compared with the distribution of
@@ -42,16 +46,10 @@ from gc_ocp.diagnosis.compare import BLOCK_SECONDS, held_out
 from gc_ocp.diagnosis.mismatch import (
     MismatchDraw,
     MismatchFamily,
-    plate_processing,
-    seen_motion,
-    true_motion,
-    truth_variant,
 )
 from gc_ocp.diagnosis.onestep import Linear, energies, per_stance_sd, reductions, step
 from gc_ocp.estimation.measurement import censored
-from gc_ocp.estimation.problem import Weights, build_estimation, declare, frame_data
-from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.estimation.starts import frozen_model, with_lls_start
+from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.synthetic import plate_signal
 from gc_ocp.stance import StanceData
 
@@ -116,16 +114,14 @@ def replicate(
     return out
 
 
-MISMATCH_DRAWS = 64
-"""Draws of the mismatch family per round: replicate ``b`` adds draw ``b mod K`` (each draw a
-systematic pattern; the wild residuals vary around it). The null is a mixture over the draws,
-so its tail at ``alpha`` is resolved by the draws, not by the replicates: with 16 draws the 5 %
-tail holds less than one draw, and whether a strong member (a friction regularisation twice as
-wide) is among them decides the p-value. Measured on a "none" case of three BTS trials whose
-draw widened the friction regularisation 1.65 times: friction's family-wise p was 0.036, 0.088
-and 0.092 with three sets of 16 draws, 0.113 / 0.142 with 64, 0.119 / 0.076 with 128. 64 draws
-put about three in the tail; each costs one wrench evaluation of the stances (~0.1 s per
-stance)."""
+MISMATCH_DRAWS = 32
+"""Draws of the mismatch family per round, each a refit of the parent and a relinearisation of
+every model (:mod:`.draws`), with ``N_REPLICATES / MISMATCH_DRAWS`` wild-residual replicates
+around each. The null is a mixture over the draws, so its tail at ``alpha`` is resolved by the
+draws, not by the replicates: with 16 draws it holds less than one. Each draw costs a solve of
+the parent and a linearisation of every candidate (~2.5 s on the bundled trial's three stances
+with seven candidates, one core): 32 is the compromise between the tail's resolution and a
+diagnosis of minutes (``docs/diagnosis.md``, "Cost")."""
 
 DEFAULT_FAMILY = MismatchFamily()
 """The mismatch family the null allows unless told otherwise (``docs/diagnosis.md``)."""
@@ -141,7 +137,7 @@ def null_draw(
 
 
 def _null_draw(d: MismatchDraw, model: tuple) -> MismatchDraw:
-    """The members of draw ``d`` a replicate of the null adds (:func:`mismatch_perturbations`):
+    """The members of draw ``d`` the null's data carry (:func:`.draws.draw_data`):
     the law's smoothing and friction forms, the plate's hum and the markers' low-pass. Left out:
     the plate threshold (the measurement model finds it in the data and censors it), the marker
     noise and soft-tissue drift (the wild residuals are the observed data's own, kinematic noise
@@ -155,69 +151,62 @@ def _null_draw(d: MismatchDraw, model: tuple) -> MismatchDraw:
     return d.without_unit_offsets() if any(c.name == "sole" for c in model) else d
 
 
-def mismatch_perturbations(
-    stances: Sequence[StanceData],
-    model: tuple,
-    full: EstimationResult,
-    weights: Weights | None,
-    family: MismatchFamily,
-    rng: np.random.Generator,
-    n_draws: int = MISMATCH_DRAWS,
-) -> np.ndarray:
-    """``(rows, n_draws)`` weighted perturbations of mismatch-family draws (module doc): for
-    each draw, how the plate data of the fitted parent (``model`` frozen at ``full``) walking
-    the subject's motion differ from what the parent predicts from the kinematics a fitter would
-    see, ``W (m_mismatched - F_parent(seen))``: the law's drawn smoothing and friction forms and
-    the plate's hum, against the parent on the low-passed kinematics (the members of
-    :func:`_null_draw`). Zero on censored samples. Members that are a candidate of the parent's
-    model are left out (:meth:`MismatchDraw.for_model`)."""
-    weights = weights or Weights()
-    stances = list(stances)
-    truth = frozen_model(with_lls_start(model, stances), full)
-    # the parent on other kinematics of the same frames: only the per-frame data change
-    ps = build_estimation(stances, truth, weights, compile=False)
-    Y0 = [b.Y(np.zeros(ps.x0.size)) for b in ps.blocks]
-    cols = []
-    for _ in range(n_draws):
-        d = null_draw(family, rng, stances[0].layout, model)
-        true = true_motion(stances, d)
-        pb = build_estimation(true, truth_variant(truth, d), weights, compile=False)
-        w_true = pb.stance_wrenches(np.zeros(pb.x0.size))
-        recorded = plate_processing(
-            [st.with_measured(w) for st, w in zip(stances, w_true, strict=True)], d, rng
-        )
-        configured, seen, _ = declare(seen_motion(stances, d, rng), truth)
-        w_seen = [
-            np.asarray(b.fm.frame.map(b.T)(frame_data(st, weights, b.fm, configured), y)[1]).T
-            for b, st, y in zip(ps.blocks, seen, Y0, strict=True)
-        ]
-        col = []
-        for st, rec, ws in zip(stances, recorded, w_seen, strict=True):
-            u = (rec.measured - ws) * weights.inverse_sigmas(st.body_weight)
-            u[censored(st.measured, st.censor_below)] = 0.0
-            col.append(u.ravel())
-        cols.append(np.concatenate(col))
-    return np.column_stack(cols)
-
-
-def prior_pull(lin: Linear) -> np.ndarray:
-    """``(rows,)`` the weighted perturbation that makes the replicates' truth the parent
-    *debiased* for its priors (module doc): refitted to its own noise-free prediction, the parent
-    moves on by ``d0`` (its priors pull it further, as they pulled the fit of the observed data
-    away from the truth that made them); the replicates are made from ``x_hat - d0`` instead of
-    ``x_hat``, so that their fits carry the priors' bias as the observed fit does (a
-    bias-corrected parametric bootstrap). Without it, a candidate that absorbs the misfit a
-    prior leaves (damping, under the sole prior, on a truth whose sole offsets are 4-5 prior
-    sigmas) gains on the observed data and not on the replicates: on eight noise-only datasets
-    of the bundled motion damping was named in five."""
+def prior_step(lin: Linear) -> np.ndarray:
+    """``(nx,)`` the step ``d0`` by which the parent, refitted to its own noise-free
+    prediction, moves on (its priors pull it further, as they pulled the fit of the observed
+    data away from the truth that made them; :func:`prior_pull`)."""
     J = lin.J
     nx = J.shape[1]
     P2 = np.zeros(nx)
     P2[lin.prior_idx] = lin.pw**2
     Pp0 = np.zeros(nx)
     Pp0[lin.prior_idx] = lin.pw * lin.p0
-    d0 = step((J.T @ J).toarray() + np.diag(P2), Pp0[:, None], lin)[:, 0]
-    return -np.asarray(J @ d0).ravel()
+    return step((J.T @ J).toarray() + np.diag(P2), Pp0[:, None], lin)[:, 0]
+
+
+def prior_pull(lin: Linear) -> np.ndarray:
+    """``(rows,)`` the weighted perturbation that makes the replicates' truth the parent
+    *debiased* for its priors (module doc): refitted to its own noise-free prediction, the parent
+    moves on by ``d0`` (:func:`prior_step`); the replicates are made from ``x_hat - d0`` instead
+    of ``x_hat``, so that their fits carry the priors' bias as the observed fit does (a
+    bias-corrected parametric bootstrap). Without it, a candidate that absorbs the misfit a
+    prior leaves (damping, under the sole prior, on a truth whose sole offsets are 4-5 prior
+    sigmas) gains on the observed data and not on the replicates: on eight noise-only datasets
+    of the bundled motion damping was named in five."""
+    return -np.asarray(lin.J @ prior_step(lin)).ravel()
+
+
+def observed_reductions(
+    parent: Linear,
+    children: Mapping[str, Linear],
+    plan: Sequence[Sequence[int]],
+    occam: Mapping[str, np.ndarray] | None = None,
+    fold_means: Sequence[Mapping[tuple, np.ndarray]] | None = None,
+) -> tuple[dict[str, float], dict[str, float | None]]:
+    """Each candidate's held-out reduction [%] on the observed data as the null scores its
+    replicates (one step from the linearisation) and the spread of its per-stance reductions."""
+    E = energies(parent, children, -parent.r[:, None], plan, occam, fold_means)
+    return {n: float(v[0]) for n, v in reductions(E).items()}, per_stance_sd(E)
+
+
+def onestep_null(
+    parent: Linear,
+    parent_fits: Sequence[dict],
+    children: Mapping[str, Linear],
+    plan: Sequence[Sequence[int]],
+    occam: Mapping[str, np.ndarray] | None = None,
+    fold_means: Sequence[Mapping[tuple, np.ndarray]] | None = None,
+    n_replicates: int = N_REPLICATES,
+    seed: int = 0,
+    frame_rate: float = 100.0,
+) -> dict[str, np.ndarray]:
+    """``{candidate: (n_replicates,) null reductions [%]}`` of the noise-only null: the
+    parent's wild residuals around its debiased fit, every fit one step from the observed
+    linearisation (module doc; with a mismatch family the draws of :mod:`.draws` replace it)."""
+    rng = np.random.default_rng(seed)
+    U = wild_residuals(parent, parent_fits, n_replicates, rng, frame_rate)
+    U = U + prior_pull(parent)[:, None]
+    return reductions(energies(parent, children, U, plan, occam, fold_means))
 
 
 def calibrate(
@@ -226,7 +215,7 @@ def calibrate(
     children: Mapping[str, Linear],
     plan: Sequence[Sequence[int]],
     occam: Mapping[str, np.ndarray] | None = None,
-    mismatch: np.ndarray | None = None,
+    null: Mapping[str, np.ndarray] | None = None,
     n_replicates: int = N_REPLICATES,
     seed: int = 0,
     frame_rate: float = 100.0,
@@ -234,23 +223,19 @@ def calibrate(
     fold_means: Sequence[Mapping[tuple, np.ndarray]] | None = None,
 ) -> dict[str, NullTest]:
     """The calibrated decision of a round (module doc): ``{candidate: NullTest}``.
-    ``parent_fits``: the parent's stance fits (censored samples); ``mismatch``: ``(rows, K)``
-    weighted perturbations of mismatch-family draws (:mod:`.mismatch`), replicate ``b`` adding
-    column ``b mod K`` (None: noise only); ``fold_means``: :func:`fold_prior_means`."""
+    ``parent_fits``: the parent's stance fits (censored samples); ``null``: the candidates'
+    null reductions when already made (the mismatch draws of :mod:`.draws`), else the
+    noise-only one-step null (:func:`onestep_null`); ``fold_means``:
+    :func:`~.onestep.fold_prior_means`."""
     if not children:
         return {}
-    rng = np.random.default_rng(seed)
-    U = wild_residuals(parent, parent_fits, n_replicates, rng, frame_rate)
-    U = U + prior_pull(parent)[:, None]
-    if mismatch is not None and mismatch.size:
-        U = U + mismatch[:, np.arange(n_replicates) % mismatch.shape[1]]
-    # the observed data are one more column (perturbation -r): one pass of the linear algebra
-    E = energies(parent, children, np.column_stack([U, -parent.r]), plan, occam, fold_means)
-    null = reductions({n: e[:, :-1] for n, e in E.items()})
-    E_obs = {n: e[:, -1:] for n, e in E.items()}
-    observed = {n: float(v[0]) for n, v in reductions(E_obs).items()}
+    observed, sd = observed_reductions(parent, children, plan, occam, fold_means)
+    if null is None:
+        null = onestep_null(
+            parent, parent_fits, children, plan, occam, fold_means, n_replicates, seed, frame_rate
+        )
     n_held = max(len(held_out(plan)), 1)
-    return decide(observed, null, per_stance_sd(E_obs), n_held, alpha)
+    return decide(observed, null, sd, n_held, alpha)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -341,9 +326,11 @@ __all__ = (
     "NullTest",
     "calibrate",
     "decide",
-    "mismatch_perturbations",
     "null_draw",
+    "observed_reductions",
+    "onestep_null",
     "prior_pull",
+    "prior_step",
     "replicate",
     "wild_residuals",
 )

@@ -80,7 +80,9 @@ class Linear:
         return self.pw * (self.x0[self.prior_idx] - pm)
 
 
-def _linear(problem, x: np.ndarray, nested: bool) -> Linear:
+def linearize(problem, x: np.ndarray, nested: bool = True) -> Linear:
+    """``problem`` (an :class:`~gc_ocp.estimation.problem.EstimationProblem`) linearised at
+    ``x``; ``nested``: at the parent's point (module doc)."""
     r, J = problem.data_jacobian(x)
     pw_all = np.asarray(problem.prior_weights, float)
     idx = np.flatnonzero(pw_all > 0)
@@ -141,12 +143,37 @@ def fold_prior_means(
     return out
 
 
+def _problem(stances, model, weights):
+    return build_estimation(list(stances), with_lls_start(model, list(stances)), weights)
+
+
 def linearize_parent(
-    stances: Sequence[StanceData], model: tuple, full: EstimationResult, weights: Weights | None
+    stances: Sequence[StanceData],
+    model: tuple,
+    full: EstimationResult,
+    weights: Weights | None,
 ) -> Linear:
     """The round's parent linearised at its own fit on all stances ``full``."""
-    problem = build_estimation(list(stances), with_lls_start(model, list(stances)), weights)
-    return _linear(problem, np.asarray(full.x, float), nested=True)
+    problem = _problem(stances, model, weights)
+    return linearize(problem, np.asarray(full.x, float), nested=True)
+
+
+def nested_point(problem, parent: EstimationResult, parent_r: np.ndarray) -> np.ndarray | None:
+    """The point of a candidate's ``problem`` that reproduces the parent's residual
+    ``parent_r`` at the parent's solution ``parent`` (the candidate's own variables neutral:
+    stored 0, else their initial values), None when neither does (module doc)."""
+    x = rescaled_start(parent, problem)
+    old = {s.key for s in parent.variables}
+    zero = x.copy()
+    for s in problem.variables.specs:
+        if s.key not in old:
+            zero[s.slice] = np.clip(0.0, s.lb, s.ub)
+    scale = max(float(np.linalg.norm(parent_r)), 1e-300)
+    for x0 in (zero, x):
+        r, _ = problem.data_jacobian(x0)
+        if r.shape == parent_r.shape and np.linalg.norm(r - parent_r) <= NESTED_RTOL * scale:
+            return x0
+    return None
 
 
 def linearize_child(
@@ -158,23 +185,13 @@ def linearize_child(
     weights: Weights | None,
 ) -> Linear:
     """A candidate linearised at the parent's solution ``parent`` with its own variables
-    neutral (stored 0, else their initial values), when either reproduces the parent's residual
-    ``parent_r``; at its own fit ``own`` otherwise (module doc)."""
-    problem = build_estimation(list(stances), with_lls_start(model, list(stances)), weights)
-    x = rescaled_start(parent, problem)
-    old = {s.key for s in parent.variables}
-    new = [s for s in problem.variables.specs if s.key not in old]
-    scale = max(float(np.linalg.norm(parent_r)), 1e-300)
-    candidates = [x.copy()]
-    zero = x.copy()
-    for s in new:
-        zero[s.slice] = np.clip(0.0, s.lb, s.ub)
-    candidates.insert(0, zero)
-    for x0 in candidates:
-        r, _ = problem.data_jacobian(x0)
-        if r.shape == parent_r.shape and np.linalg.norm(r - parent_r) <= NESTED_RTOL * scale:
-            return _linear(problem, x0, nested=True)
-    return _linear(problem, rescaled_start(own, problem), nested=False)
+    neutral (:func:`nested_point`); at its own fit ``own`` when it cannot reproduce the
+    parent (module doc)."""
+    problem = _problem(stances, model, weights)
+    x0 = nested_point(problem, parent, parent_r)
+    if x0 is not None:
+        return linearize(problem, x0, nested=True)
+    return linearize(problem, rescaled_start(own, problem), nested=False)
 
 
 def _solve(G: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -338,8 +355,10 @@ __all__ = (
     "energies",
     "fold_prior_means",
     "heldout_energy",
+    "linearize",
     "linearize_child",
     "linearize_parent",
+    "nested_point",
     "per_stance_sd",
     "reductions",
     "step",

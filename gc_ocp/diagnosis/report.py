@@ -242,7 +242,9 @@ def _method(d) -> dict:
         "replicates": d.calibration[0]["replicates"] if d.calibration else "–",
         "mismatch": (
             f", plus one of {d.calibration[0]['mismatch_draws']} draws of the mismatch family "
-            "(the parent slightly changed in ways that are not candidates)"
+            "(the parent slightly changed in ways that are not candidates; for each draw the "
+            "parent is refitted to the data it makes, and the draw's replicates are scored from "
+            "that refit)"
             if d.calibration and d.calibration[0].get("mismatch_draws")
             else ""
         ),

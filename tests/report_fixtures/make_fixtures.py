@@ -1,6 +1,7 @@
 """Make a report fixture from a ``gc-ocp diagnose --out DIR`` folder (run once, by hand).
 
     python tests/report_fixtures/make_fixtures.py DIR NAME
+    python tests/report_fixtures/make_fixtures.py --rerender NAME
 
 Copies ``diagnosis.json`` as written; ``final_fit.json`` without its per-frame arrays and
 variable vector (the page does not show them); ``report.html`` with the base64 image data cut
@@ -20,7 +21,9 @@ Issue 22 (the calibrated decision: a test with a family-wise rate replaced the 2
 row instead of ``threshold_pct``; the lab's plate thresholds are censored): both fixtures made
 again from new runs of the same commands on the bundled trial; then re-rendered from their own
 JSON once (the ranking table's three test columns merged into one, so that the table fits the
-page).
+page). The null's mismatch draws became refits of the parent (the method text says so):
+both pages re-rendered from their own JSON (``--rerender``), the method paragraph the only
+change.
 """
 
 from __future__ import annotations
@@ -44,5 +47,26 @@ def main(src: str, name: str) -> None:
     (dst / "report.html").write_text(page, encoding="utf-8")
 
 
+def rerender(name: str) -> None:
+    """The fixture's page made again from its own JSON by today's template (images empty, as
+    cut): for a deliberate change of the page's text."""
+    from gc_ocp.diagnosis import Diagnosis
+    from gc_ocp.diagnosis.report import report_html
+    from gc_ocp.estimation.result import EstimationResult
+
+    dst = Path(__file__).parent / name
+    js = json.loads((dst / "diagnosis.json").read_text())
+    d = Diagnosis.from_json(js)
+    final = EstimationResult.from_json(dst / "final_fit.json")
+    keys = ["heatmap", "residuals", "ranking", "waterfall"] + (
+        ["heatmap_final"] if d.selected else []
+    )
+    page = report_html(d, provenance=js["provenance"], pngs=dict.fromkeys(keys, b""), final=final)
+    (dst / "report.html").write_text(page, encoding="utf-8")
+
+
 if __name__ == "__main__":
-    main(*sys.argv[1:3])
+    if sys.argv[1] == "--rerender":
+        rerender(sys.argv[2])
+    else:
+        main(*sys.argv[1:3])

@@ -1,0 +1,162 @@
+"""The mismatch draws of the calibrated null (:mod:`.null`), each with the parent refitted and
+every model linearised where that draw puts them: one task per draw.
+
+A draw of the mismatch family can move the parent a long way (a friction regularisation twice
+as wide moves the friction coefficient and the damping the fit settles on); linearised once at
+the observed fit, the null then scored the candidates' gains on a mismatched replicate with the
+Jacobians of another point and understated them: on the mismatch benchmark's "none" cases the
+one-step null gave friction p = 0.008-0.022 where a full parametric bootstrap put 2 of 16
+refitted replicates above the observed gain (``docs/diagnosis.md``, "Does the test hold its
+rate?"). So for each draw ``k`` (:func:`draw_reductions`):
+
+1. the data the *truth* makes with draw ``k``: the parent, frozen at its fit debiased for its
+   priors (:func:`~gc_ocp.diagnosis.null.prior_pull`), walking the subject's motion with the
+   draw's law smoothing and friction form, the plate's hum and the markers' low-pass
+   (:func:`~gc_ocp.diagnosis.mismatch.simulate_mismatched`, no plate noise: the noise is the
+   wild residuals'), recorded with the subject's own plate threshold;
+2. the parent refitted to them, warm from its fit on the observed data (one solve);
+3. the parent and every candidate linearised at that refit (a candidate that cannot reproduce
+   its parent is refitted too, warm from its own observed fit, and linearised there);
+4. replicates: that point plus the observed residual's sign-flipped blocks
+   (:func:`~gc_ocp.diagnosis.null.wild_residuals`), each scored by one Gauss-Newton step per fit
+   from the draw's own point (:mod:`.onestep`).
+
+A draw whose refit does not converge is left out of the null and counted (``skipped``).
+The tasks are plain-data functions of picklable arguments, so they run on the diagnosis's
+executor (:mod:`.execution`) like its candidate fits.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from concurrent.futures import Executor
+
+import numpy as np
+
+from gc_ocp.diagnosis.execution import run_tasks
+from gc_ocp.diagnosis.mismatch import MismatchDraw, MismatchFamily, simulate_mismatched, thresholded
+from gc_ocp.diagnosis.null import null_draw, wild_residuals
+from gc_ocp.diagnosis.onestep import Linear, energies, linearize, nested_point, reductions
+from gc_ocp.errors import SolveError
+from gc_ocp.estimation.problem import Weights, build_estimation
+from gc_ocp.estimation.result import EstimationResult
+from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
+from gc_ocp.estimation.starts import frozen_model, rescaled_start
+from gc_ocp.stance import StanceData
+
+
+@dataclasses.dataclass(frozen=True)
+class NullInputs:
+    """What every draw of a round's null shares (plain data, picklable).
+
+    stances: the observed stances (motion, plate thresholds); model, full: the parent, its law
+    started at the observed data's linear least squares (``with_lls_start``: the law prior of
+    every fit, replicates' too), and its fit on them; truth: the parent's fit debiased for its
+    priors (the replicates' truth, :func:`~gc_ocp.diagnosis.null.prior_pull`); children:
+    ``{name: (model started as the parent's, its fit on all stances)}``; parent: the parent
+    linearised on the observed data (its residual's blocks are the replicates' noise); plan,
+    occam, fold_means: the held-out scoring (:func:`~gc_ocp.diagnosis.onestep.energies`);
+    n_wild: replicates per draw."""
+
+    stances: tuple[StanceData, ...]
+    model: tuple
+    full: EstimationResult
+    truth: EstimationResult
+    children: Mapping[str, tuple[tuple, EstimationResult]]
+    parent: Linear
+    plan: tuple[tuple[int, ...], ...]
+    occam: Mapping[str, np.ndarray]
+    fold_means: tuple
+    n_wild: int
+    frame_rate: float
+    weights: Weights | None = None
+    options: IpoptOptions | None = None
+
+
+def draw_data(inputs: NullInputs, draw: MismatchDraw, rng: np.random.Generator) -> list:
+    """Step 1 (module doc): the noise-free data the debiased parent makes with ``draw``,
+    recorded with each observed stance's plate threshold."""
+    stances = list(inputs.stances)
+    truth = frozen_model(inputs.model, inputs.truth)
+    rep = simulate_mismatched(stances, truth, draw, rng, plate_noise_pct_bw=0.0)
+    return [
+        dataclasses.replace(thresholded(r, st.censor_below), censor_below=st.censor_below)
+        if st.censor_below > 0
+        else r
+        for r, st in zip(rep, stances, strict=True)
+    ]
+
+
+def _refit(problem, start: EstimationResult, options: IpoptOptions | None) -> EstimationResult:
+    return solve(problem, options, x0=rescaled_start(start, problem), covariance=False)
+
+
+def draw_reductions(
+    inputs: NullInputs, draw: MismatchDraw, seed: int
+) -> dict[str, np.ndarray] | str:
+    """The task: ``{candidate: (n_wild,) one-step held-out reductions [%]}`` of the replicates
+    of ``draw`` (module doc), or the reason the draw is left out (a refit failed)."""
+    rng = np.random.default_rng(seed)
+    data = draw_data(inputs, draw, rng)
+    w = inputs.weights
+    try:
+        problem = build_estimation(data, inputs.model, w)
+        fk = _refit(problem, inputs.full, inputs.options)
+        pk = linearize(problem, fk.x)
+        kids = {}
+        for name, (model, own) in inputs.children.items():
+            child = build_estimation(data, model, w)
+            x0 = nested_point(child, fk, pk.r)
+            if x0 is None:  # cannot reproduce the parent: refitted, linearised at its fit
+                kids[name] = linearize(child, _refit(child, own, inputs.options).x, nested=False)
+            else:
+                kids[name] = linearize(child, x0)
+    except SolveError as e:
+        return f"a refit did not converge ({e})"
+    U = wild_residuals(
+        inputs.parent, inputs.full.stance_fits, inputs.n_wild, rng, inputs.frame_rate
+    )
+    E = energies(pk, kids, U - pk.r[:, None], inputs.plan, inputs.occam, inputs.fold_means)
+    return reductions(E)
+
+
+def debiased(
+    stances: Sequence[StanceData],
+    model: tuple,
+    full: EstimationResult,
+    pull: np.ndarray,
+    weights: Weights | None,
+) -> EstimationResult:
+    """The parent's fit ``full`` (of ``model`` on ``stances``, its law already started) moved
+    by ``pull`` (:func:`~gc_ocp.diagnosis.null.prior_step`, negated), kept within the
+    variables' bounds: the replicates' truth."""
+    problem = build_estimation(list(stances), model, weights)
+    x = np.clip(np.asarray(full.x, float) + pull, problem.lbx, problem.ubx)
+    return result_at(problem, x, covariance=False)
+
+
+def mismatch_null(
+    inputs: NullInputs,
+    family: MismatchFamily,
+    n_draws: int,
+    seed: int,
+    executor: Executor | None = None,
+) -> tuple[dict[str, np.ndarray], int]:
+    """``({candidate: null reductions [%]}, draws left out)``: ``n_draws`` draws of ``family``
+    (restricted as the null takes them, :func:`~gc_ocp.diagnosis.null.null_draw`), one task
+    each on ``executor`` (:func:`~gc_ocp.diagnosis.execution.run_tasks`; None: here)."""
+    rng = np.random.default_rng(seed)
+    layout = inputs.stances[0].layout
+    calls = [
+        (inputs, null_draw(family, rng, layout, inputs.model), int(s))
+        for s in rng.integers(0, 2**31, n_draws)
+    ]
+    outs = run_tasks(draw_reductions, calls, executor)
+    kept = [o for o in outs if not isinstance(o, str)]
+    if not kept:
+        raise SolveError(f"no draw of the null's mismatch family could be refitted: {outs[0]}")
+    return {n: np.concatenate([o[n] for o in kept]) for n in kept[0]}, len(outs) - len(kept)
+
+
+__all__ = ("NullInputs", "debiased", "draw_data", "draw_reductions", "mismatch_null")
