@@ -586,7 +586,8 @@ def test_a_draw_whose_refit_fails_is_left_out_and_counted(base_eval, monkeypatch
         return real(problem, start, options)
 
     monkeypatch.setattr(draws, "_refit", refit)
-    null, left_out = draws.mismatch_null(inputs, DEFAULT_FAMILY, 3, seed=0)
+    null, draw, left_out = draws.mismatch_null(inputs, DEFAULT_FAMILY, 3, seed=0)
     assert left_out == 1
+    assert draw.tolist() == [0] * inputs.n_wild + [1] * inputs.n_wild
     assert set(null) == {"damping"} and null["damping"].shape == (2 * inputs.n_wild,)
     assert np.all(np.isfinite(null["damping"]))

@@ -55,13 +55,53 @@ def test_the_steps_that_would_decide_follow_the_power_calculation():
     n0, crit, m, s, sd = 6, 2.5, 0.2, 0.5, 0.6
     t = 1.0
     expect = n0 * ((crit * s + null.POWER_Z * sd / np.sqrt(n0)) / (t - m)) ** 2 - n0
-    assert null._more_stances(t, m, s, sd, n0, crit, False) == int(np.ceil(expect))
+    assert null.more_stances(t, m, s, sd, n0, crit, False) == int(np.ceil(expect))
     # a larger gain needs fewer steps; a decided one none; one within the null mean cannot be
     # decided by more steps of the same kind
-    more = [null._more_stances(x, m, s, sd, n0, crit, False) for x in (0.5, 1.0, 2.0, 4.0)]
+    more = [null.more_stances(x, m, s, sd, n0, crit, False) for x in (0.5, 1.0, 2.0, 4.0)]
     assert more == sorted(more, reverse=True) and more[0] > more[-1]
-    assert null._more_stances(t, m, s, sd, n0, crit, True) == 0
-    assert null._more_stances(m - 0.1, m, s, sd, n0, crit, False) is None
+    assert null.more_stances(t, m, s, sd, n0, crit, True) == 0
+    assert null.more_stances(m - 0.1, m, s, sd, n0, crit, False) is None
+
+
+def test_the_spread_between_mismatch_draws_is_told_from_the_noise_within_them():
+    """``between_draw_sd``: on replicates made as the mismatch null makes them (K draws, each a
+    systematic offset of SD ``s_b``, with ``n_wild`` noise replicates of SD ``s_w`` around it)
+    the one-way analysis of variance recovers ``s_b``. Tolerance: with K = 400 draws the
+    estimate of a variance has a relative SD of about sqrt(2 / K) = 7 %, so 20 % on the SD is
+    more than 5 of its SDs; without groups, or one draw, there is no between part."""
+    rng = np.random.default_rng(3)
+    K, n_wild, s_b, s_w = 400, 16, 0.8, 1.5
+    draws = np.repeat(np.arange(K), n_wild)
+    values = 0.3 + s_b * rng.normal(size=K)[draws] + s_w * rng.normal(size=draws.size)
+    assert null.between_draw_sd(values, draws) == pytest.approx(s_b, rel=0.2)
+    # noise alone (no systematic part): at most a fraction of the noise's SD
+    noise = s_w * rng.normal(size=draws.size)
+    assert null.between_draw_sd(noise, draws) < 0.2 * s_w
+    assert null.between_draw_sd(values, None) == 0.0
+    assert null.between_draw_sd(values, np.zeros(draws.size, int)) == 0.0
+
+
+def test_a_gain_the_mismatch_alone_can_give_is_not_decided_by_more_steps():
+    """The null's spread between mismatch draws does not shrink with more stances: a gain
+    within ``z_crit s_b`` of the null's mean is undecidable (None) however large the study; a
+    larger one needs more steps than the noise-only calculation says, and the number returned
+    is the smallest that meets the power condition (checked at it and one below)."""
+    n0, crit, m, s, sd = 6, 2.5, 0.2, 1.0, 0.6
+    t = 2.0  # gap 1.8
+    noise_only = null.more_stances(t, m, s, sd, n0, crit, False)
+    assert null.more_stances(t, m, s, sd, n0, crit, False, s_between=0.8) is None  # 2.0 > 1.8
+    s_b = 0.5  # crit s_b = 1.25 < 1.8: decidable, later than without the mismatch part
+    more = null.more_stances(t, m, s, sd, n0, crit, False, s_between=s_b)
+    assert more is not None and more > noise_only
+
+    def needed(n):
+        f = n0 / n
+        return crit * np.sqrt(s_b**2 + (s**2 - s_b**2) * f) + null.POWER_Z * sd / np.sqrt(
+            n0
+        ) * np.sqrt(f)
+
+    assert needed(n0 + more) <= t - m < needed(n0 + more - 1)
 
 
 def test_a_variable_at_its_bound_stays_there_in_the_one_step_fit():
@@ -198,3 +238,29 @@ def test_grouped_folds_train_without_the_whole_group_and_score_each_stance():
                 assert E[j + group.index(i), b] == pytest.approx(want, rel=1e-9)
         j += len(group)
     assert E.shape == (5, 3)
+
+
+def test_the_decision_carries_the_mismatch_part_of_the_null_into_its_steps():
+    """``decide`` with the replicates' draw index: each test reports the between-draw spread,
+    and a candidate whose gain only the between-draw spread could reach is undecidable, while
+    without the draw index (every replicate its own draw, as a noise-only null) the same gain
+    would be promised a finite number of steps."""
+    rng = np.random.default_rng(5)
+    K, n_wild = 64, 8
+    draws = np.repeat(np.arange(K), n_wild)
+    systematic = 1.0 * rng.normal(size=K)[draws]  # what the mismatch gives: does not shrink
+    nulls = {
+        "a": systematic + 0.3 * rng.normal(size=draws.size),
+        "b": 0.5 * rng.normal(size=draws.size),
+    }
+    # "a" observed 1.8 SDs above its mean: not named at the family-wise 5 %, and within
+    # z_crit times its between-draw spread
+    obs = {"a": float(np.mean(nulls["a"]) + 1.8 * np.std(nulls["a"])), "b": 0.0}
+    grouped = null.decide(obs, nulls, {}, 6, draws=draws)
+    plain = null.decide(obs, nulls, {}, 6)
+    a = grouped["a"]
+    assert a.p_adjusted > null.ALPHA
+    assert a.null_sd_mismatch_pct == pytest.approx(null.between_draw_sd(nulls["a"], draws))
+    assert a.observed_pct - a.null_mean_pct <= a.z_critical * a.null_sd_mismatch_pct
+    assert a.more_stances is None
+    assert plain["a"].null_sd_mismatch_pct == 0.0 and plain["a"].more_stances > 0

@@ -163,7 +163,7 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
     )
     assert _verdict(far) == "not named (p = 0.12); about 400 more steps would decide at this gain"
     within = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=None))
-    assert "within what the null gives" in _verdict(within)
+    assert "within what noise and model mismatch give" in _verdict(within)
     named = dataclasses.replace(
         weak,
         passes=True,

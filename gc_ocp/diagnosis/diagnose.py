@@ -281,7 +281,7 @@ def _calibrated(
     occam = {"parent": np.array([f.occam for f in parent.folds])}
     occam.update({n: np.array([f.occam for f in ev.folds]) for n, ev in evs.items() if ev.folds})
     means = fold_prior_means(stances, parent.model, plan)
-    null, skipped = None, 0
+    null, draw, skipped = None, None, 0
     if not (lins and family is not None and family.scale > 0 and n_draws > 0):
         n_draws = 0
     else:
@@ -303,7 +303,7 @@ def _calibrated(
             options=options,
         )
         say(f"  calibrated null: {n_draws} mismatch draws, each a refit of {parent.label}")
-        null, skipped = mismatch_null(inputs, family, n_draws, seed, executor)
+        null, draw, skipped = mismatch_null(inputs, family, n_draws, seed, executor)
     tests = calibrate(
         parent_lin,
         parent.full.stance_fits,
@@ -316,6 +316,7 @@ def _calibrated(
         rate,
         alpha,
         means,
+        draw,
     )
     crit = next(iter(tests.values())).z_critical if tests else None
     seconds = time.perf_counter() - t0

@@ -142,10 +142,13 @@ def mismatch_null(
     n_draws: int,
     seed: int,
     executor: Executor | None = None,
-) -> tuple[dict[str, np.ndarray], int]:
-    """``({candidate: null reductions [%]}, draws left out)``: ``n_draws`` draws of ``family``
-    (restricted as the null takes them, :func:`~gc_ocp.diagnosis.null.null_draw`), one task
-    each on ``executor`` (:func:`~gc_ocp.diagnosis.execution.run_tasks`; None: here)."""
+) -> tuple[dict[str, np.ndarray], np.ndarray, int]:
+    """``({candidate: null reductions [%]}, the draw of each replicate, draws left out)``:
+    ``n_draws`` draws of ``family`` (restricted as the null takes them,
+    :func:`~gc_ocp.diagnosis.null.null_draw`), one task each on ``executor``
+    (:func:`~gc_ocp.diagnosis.execution.run_tasks`; None: here). The draw index lets the
+    decision tell the spread between draws (mismatch: more stances do not shrink it) from the
+    spread within a draw (noise: they do; :func:`~gc_ocp.diagnosis.null.decide`)."""
     rng = np.random.default_rng(seed)
     layout = inputs.stances[0].layout
     calls = [
@@ -156,7 +159,9 @@ def mismatch_null(
     kept = [o for o in outs if not isinstance(o, str)]
     if not kept:
         raise SolveError(f"no draw of the null's mismatch family could be refitted: {outs[0]}")
-    return {n: np.concatenate([o[n] for o in kept]) for n in kept[0]}, len(outs) - len(kept)
+    null = {n: np.concatenate([o[n] for o in kept]) for n in kept[0]}
+    draw = np.concatenate([np.full(next(iter(o.values())).size, k) for k, o in enumerate(kept)])
+    return null, draw, len(outs) - len(kept)
 
 
 __all__ = ("NullInputs", "debiased", "draw_data", "draw_reductions", "mismatch_null")

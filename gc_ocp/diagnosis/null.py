@@ -27,11 +27,19 @@ max statistic), so that the family-wise rate of a false claim among all candidat
 ``alpha``: the adjusted p-value is the share of replicates whose largest ``z`` reaches the
 observed one.
 
-**Steps that would decide.** With ``n`` held-out stances the null's spread and the observed
-reduction's sampling error both shrink as ``1/sqrt(n)``, its mean (what mismatch alone gives)
-does not. A candidate whose reduction ``T`` exceeds ``m`` is decided (80 % power) once
-``sqrt(n / n0) >= (z_crit s + 0.84 sigma) / (T - m)``; one whose reduction does not exceed
-``m`` cannot be told from the mismatch by more steps of the same kind.
+**Steps that would decide.** The null's variance has two parts: the spread *between* the
+mismatch draws, ``s_b`` (a draw is a systematic change of the law or the processing: it gives
+every stance the same kind of gain, so more stances do not average it away), and the spread
+*within* a draw, ``s_w`` (the wild residuals: noise, which shrinks as ``1/sqrt(n)`` with ``n``
+held-out stances), estimated from the replicates' draw index by the one-way analysis of
+variance (``s_b^2 = var(draw means) - s_w^2 / per draw``, at least 0). The observed reduction's
+sampling error ``sigma`` shrinks as ``1/sqrt(n)``; the null's mean ``m`` (what mismatch alone
+gives) does not move. A candidate whose reduction ``T`` exceeds ``m`` is decided (80 % power)
+at the smallest ``n`` with ``z_crit sqrt(s_b^2 + s_w^2 n0 / n) + 0.84 sigma sqrt(n0 / n) <= T -
+m``. That ``n`` exists only if ``T - m > z_crit s_b``: a gain the mismatch alone can give cannot
+be told from it by more steps of the same kind, however many (the bound; ``None``). Without
+mismatch draws (noise only) ``s_b = 0`` and the rule is ``sqrt(n / n0) >= (z_crit s + 0.84
+sigma) / (T - m)``.
 """
 
 from __future__ import annotations
@@ -221,12 +229,13 @@ def calibrate(
     frame_rate: float = 100.0,
     alpha: float = ALPHA,
     fold_means: Sequence[Mapping[tuple, np.ndarray]] | None = None,
+    draws: np.ndarray | None = None,
 ) -> dict[str, NullTest]:
     """The calibrated decision of a round (module doc): ``{candidate: NullTest}``.
     ``parent_fits``: the parent's stance fits (censored samples); ``null``: the candidates'
-    null reductions when already made (the mismatch draws of :mod:`.draws`), else the
-    noise-only one-step null (:func:`onestep_null`); ``fold_means``:
-    :func:`~.onestep.fold_prior_means`."""
+    null reductions when already made (the mismatch draws of :mod:`.draws`, ``draws`` the draw
+    of each replicate), else the noise-only one-step null (:func:`onestep_null`);
+    ``fold_means``: :func:`~.onestep.fold_prior_means`."""
     if not children:
         return {}
     observed, sd = observed_reductions(parent, children, plan, occam, fold_means)
@@ -234,8 +243,9 @@ def calibrate(
         null = onestep_null(
             parent, parent_fits, children, plan, occam, fold_means, n_replicates, seed, frame_rate
         )
+        draws = None
     n_held = max(len(held_out(plan)), 1)
-    return decide(observed, null, sd, n_held, alpha)
+    return decide(observed, null, sd, n_held, alpha, draws)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -243,7 +253,9 @@ class NullTest:
     """The calibrated decision of one candidate (module doc): observed reduction [%], the null's
     mean and spread [%], the studentised statistic, the family-wise adjusted p-value, the
     critical studentised value of the round, and the further held-out stances that would decide
-    it at 80 % power (0: decided; None: more steps of the same kind would not)."""
+    it at 80 % power (0: decided; None: more steps of the same kind would not).
+    ``null_sd_mismatch_pct``: the part of the null's spread that lies between the mismatch
+    draws, which more stances do not shrink (module doc; 0 for a noise-only null)."""
 
     observed_pct: float
     null_mean_pct: float
@@ -253,6 +265,7 @@ class NullTest:
     z_critical: float
     more_stances: int | None
     n_heldout: int = 0
+    null_sd_mismatch_pct: float = 0.0
 
     @property
     def practical(self) -> bool:
@@ -272,17 +285,19 @@ def decide(
     per_stance_sd: Mapping[str, float | None],
     n_heldout: int,
     alpha: float = ALPHA,
+    draws: np.ndarray | None = None,
 ) -> dict[str, NullTest]:
     """The max-statistic decision over the round's candidates (module doc). ``observed``:
     ``{candidate: held-out reduction [%]}``; ``null``: their null reductions (same replicates
     for all); ``per_stance_sd``: the spread of a candidate's per-stance reductions (the
     sampling error of the observed one is ``sd / sqrt(n_heldout)``; None: the null's spread is
-    used)."""
+    used); ``draws``: the mismatch draw of each replicate (None: a noise-only null)."""
     names = [n for n in observed if n in null]
     if not names:
         return {}
     m = {n: float(np.mean(null[n])) for n in names}
     s = {n: max(float(np.std(null[n], ddof=1)), 1e-12) for n in names}
+    s_b = {n: between_draw_sd(null[n], draws) for n in names}
     zmax = np.max(np.vstack([(null[n] - m[n]) / s[n] for n in names]), axis=0)
     crit = float(np.quantile(zmax, 1.0 - alpha))
     out = {}
@@ -296,36 +311,89 @@ def decide(
             z=float(z),
             p_adjusted=p,
             z_critical=crit,
-            more_stances=_more_stances(
-                observed[n], m[n], s[n], per_stance_sd.get(n), n_heldout, crit, p < alpha
+            more_stances=more_stances(
+                observed[n], m[n], s[n], per_stance_sd.get(n), n_heldout, crit, p < alpha, s_b[n]
             ),
             n_heldout=n_heldout,
+            null_sd_mismatch_pct=s_b[n],
         )
     return out
 
 
-def _more_stances(
-    t: float, m: float, s: float, sd: float | None, n0: int, crit: float, decided: bool
+def between_draw_sd(values: np.ndarray, draws: np.ndarray | None) -> float:
+    """The spread of ``values`` between the groups ``draws`` (one-way random-effects analysis
+    of variance: the variance of the group means less the within-group variance each mean
+    carries, at least 0); 0 without groups or with fewer than two."""
+    if draws is None:
+        return 0.0
+    values = np.asarray(values, float)
+    groups = [values[draws == k] for k in np.unique(draws)]
+    groups = [g for g in groups if g.size]
+    if len(groups) < 2:
+        return 0.0
+    means = np.array([g.mean() for g in groups])
+    within = [g.var(ddof=1) for g in groups if g.size > 1]
+    per = np.mean([g.size for g in groups])
+    noise = float(np.mean(within)) / per if within else 0.0
+    return math.sqrt(max(float(means.var(ddof=1)) - noise, 0.0))
+
+
+MAX_STANCES = 10**6
+"""Beyond this many held-out stances a candidate is reported undecidable (a numerical cap of
+the search, not a rule: the bound ``T - m > z_crit s_b`` decides first)."""
+
+
+def more_stances(
+    t: float,
+    m: float,
+    s: float,
+    sd: float | None,
+    n0: int,
+    crit: float,
+    decided: bool,
+    s_between: float = 0.0,
 ) -> int | None:
-    """Further held-out stances that decide a candidate at 80 % power (module doc)."""
+    """Further held-out stances that decide a candidate at 80 % power (module doc): ``t`` its
+    observed reduction, ``m``, ``s`` the null's mean and spread, ``s_between`` the part of ``s``
+    between mismatch draws, ``sd`` the spread of its per-stance reductions, ``n0`` its held-out
+    stances, ``crit`` the round's critical studentised value. None: no number decides it."""
     if decided:
         return 0
-    if t <= m or n0 < 1:
+    gap = t - m
+    s_between = min(max(s_between, 0.0), s)
+    if gap <= 0 or n0 < 1 or gap <= crit * s_between:
         return None
+    s_within2 = s * s - s_between * s_between
     sigma = s if sd is None else sd / math.sqrt(n0)
-    n = n0 * ((crit * s + POWER_Z * sigma) / (t - m)) ** 2
-    return max(1, math.ceil(n - n0))
+
+    def needed(n: float) -> float:  # what the gain must exceed with n held-out stances
+        f = n0 / n
+        return crit * math.sqrt(s_between**2 + s_within2 * f) + POWER_Z * sigma * math.sqrt(f)
+
+    hi = n0 + 1
+    while needed(hi) > gap:  # decreasing in n, to crit * s_between < gap
+        hi *= 2
+        if hi > MAX_STANCES:
+            return None
+    lo = n0  # needed(lo) > gap: not decided with the stances it has
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if needed(mid) > gap else (lo, mid)
+    return hi - n0
 
 
 __all__ = (
     "ALPHA",
     "DEFAULT_FAMILY",
+    "MAX_STANCES",
     "MISMATCH_DRAWS",
     "N_REPLICATES",
     "PRACTICAL_FACTOR",
     "NullTest",
+    "between_draw_sd",
     "calibrate",
     "decide",
+    "more_stances",
     "null_draw",
     "observed_reductions",
     "onestep_null",

@@ -116,8 +116,8 @@ class RankRow:
             return f"not named ({p}); about {c.more_stances} more steps would decide at this gain"
         if c.observed_pct > 0:
             return (
-                f"not named ({p}); its gain is within what the null gives: more steps would "
-                "not decide"
+                f"not named ({p}); its gain is within what noise and model mismatch give: "
+                "more steps would not decide"
             )
         return f"no gain ({p})"
 

@@ -23,7 +23,10 @@ again from new runs of the same commands on the bundled trial; then re-rendered 
 JSON once (the ranking table's three test columns merged into one, so that the table fits the
 page). The null's mismatch draws became refits of the parent (the method text says so):
 both pages re-rendered from their own JSON (``--rerender``), the method paragraph the only
-change.
+change. The test's row gained ``null_sd_mismatch_pct`` (the null's spread between mismatch
+draws, which more stances do not shrink): added to both ``diagnosis.json`` as 0.0, which is
+what the fixtures' own steps-needed figures assumed (their null did not group its replicates
+by draw); the pages do not show it and are unchanged.
 """
 
 from __future__ import annotations
