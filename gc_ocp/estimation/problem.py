@@ -241,9 +241,12 @@ class EstimationProblem:
     """A built (not yet solved) estimation NLP and what is needed to decode its solution.
 
     model: the components; variables: the registry (``variables.specs`` is plain data);
-    x: the decision vector (MX); objective, gradient, hessian: ``J(x)`` and its exact derivatives
-    (MX); residuals: every weighted residual, data then priors (MX); blocks: one
-    :class:`StanceBlock` per stance; n_data: number of data residuals.
+    x: the decision vector (MX); blocks: one :class:`StanceBlock` per stance; n_data: number of
+    data residuals. The symbolic ``objective``, ``gradient``, ``hessian`` (``J(x)`` and its
+    exact derivatives) and ``residuals`` (every weighted residual, data then priors) are
+    assembled from the blocks when first asked for (a solver needs them; a problem that is only
+    evaluated or linearised through the compiled per-frame functions, e.g. the diagnosis's
+    null, does not pay for their assembly).
     """
 
     stances: list[StanceData]
@@ -251,10 +254,6 @@ class EstimationProblem:
     weights: Weights
     variables: Variables
     x: ca.MX
-    objective: ca.MX
-    gradient: ca.MX
-    hessian: ca.MX
-    residuals: ca.MX
     n_data: int
     x0: np.ndarray
     lbx: np.ndarray
@@ -262,6 +261,44 @@ class EstimationProblem:
     blocks: list[StanceBlock] = field(default_factory=list)
     prior_weights: np.ndarray | None = None
     prior_means: np.ndarray | None = None
+
+    def _stance_inputs(self, b: StanceBlock) -> ca.MX:
+        return ca.reshape(ca.mtimes(b.A, self.x) + b.y0, b.fm.slots.size, b.T)
+
+    @functools.cached_property
+    def residuals(self) -> ca.MX:
+        """Every weighted residual (MX): the data's, stance by stance, then the priors'."""
+        x, pw, pm = self.x, self.prior_weights, self.prior_means
+        data = [ca.vec(b.fm.frame.map(b.T)(b.D, self._stance_inputs(b))[0]) for b in self.blocks]
+        idx = np.flatnonzero(pw > 0)
+        prior = pw[idx] * (x[idx.tolist()] - pm[idx]) if idx.size else ca.MX.zeros(0)
+        return ca.vertcat(*data, prior)
+
+    @functools.cached_property
+    def objective(self) -> ca.MX:
+        """``J = 1/2 |residuals|^2`` (MX)."""
+        return 0.5 * ca.sumsqr(self.residuals)
+
+    @functools.cached_property
+    def gradient(self) -> ca.MX:
+        """``grad J = sum_t A_t^T g_t + W^2 (x - m)`` (MX) from the per-frame gradients
+        (``y = A x + y0``; W: prior weights)."""
+        x, pw, pm = self.x, self.prior_weights, self.prior_means
+        grad = ca.DM(pw**2) * (x - pm) if pw.size else ca.MX.zeros(self.x.numel())
+        gs = [
+            ca.mtimes(b.A.T, ca.vec(b.fm.grad.map(b.T)(b.D, self._stance_inputs(b))))
+            for b in self.blocks
+        ]
+        return grad + ca.sum2(ca.horzcat(*gs)) if gs else grad
+
+    @functools.cached_property
+    def hessian(self) -> ca.MX:
+        """The exact ``Hess J = sum_t A_t^T H_t A_t + W^2`` (MX) from the per-frame SX
+        Hessians (:func:`_stance_hessian`), the prior term as a *sparse* diagonal (a DM built
+        from a dense array would make it dense)."""
+        nx, pw = self.x.numel(), self.prior_weights
+        hs = [_stance_hessian(b, self._stance_inputs(b)) for b in self.blocks]
+        return _assemble_hessian(hs, nx) + ca.DM(ca.Sparsity.diag(nx), pw**2)
 
     def objective_function(self) -> ca.Function:
         return ca.Function("J", [self.x], [self.objective])
@@ -366,7 +403,6 @@ def build_estimation(
     nx = variables.size
     models: dict = {}
     blocks: list[StanceBlock] = []
-    residuals = []
     for i, st in enumerate(stances):
         layout = st.layout
         if layout not in models:
@@ -382,51 +418,20 @@ def build_estimation(
         zero = np.zeros(nx)
         A = ca.DM(ca.Function("A", [x], [ca.jacobian(ca.vec(Y), x)])(zero))
         y0 = ca.DM(ca.Function("y0", [x], [ca.vec(Y)])(zero))
-        block = StanceBlock(A, y0, frame_data(st, weights, fm, model), st.n, fm)
-        Yl = ca.reshape(ca.mtimes(A, x) + y0, fm.slots.size, st.n)
-        res = fm.frame.map(st.n)(block.D, Yl)[0]
-        residuals.append(ca.vec(res))
-        blocks.append(block)
-    n_data = sum(6 * b.T for b in blocks)
-    pw, pm = variables.vector("prior_weight"), variables.vector("prior_mean")
-    prior_idx = np.flatnonzero(pw > 0)
-    prior_res = (
-        pw[prior_idx] * (x[prior_idx.tolist()] - pm[prior_idx])
-        if prior_idx.size
-        else ca.MX.zeros(0)
-    )
-    r_all = ca.vertcat(*residuals, prior_res)
-    # objective, gradient and exact Hessian assembled from per-frame SX derivatives:
-    # J = sum_t phi(D_t, y_t) + 1/2 |W (x - m)|^2 = 1/2 |r_all|^2 with y = A x + y0, so
-    # grad = sum A^T g_t + W^2 (x - m) and Hess = sum A^T blockdiag(H_t) A + W^2 (W: prior weights).
-    J = 0.5 * ca.sumsqr(r_all)
-    grad = ca.DM(pw**2) * (x - pm) if pw.size else ca.MX.zeros(nx)
-    gs, hs = [], []
-    for b in blocks:
-        ny = b.fm.slots.size
-        Yl = ca.reshape(ca.mtimes(b.A, x) + b.y0, ny, b.T)
-        gs.append(ca.mtimes(b.A.T, ca.vec(b.fm.grad.map(b.T)(b.D, Yl))))
-        hs.append(_stance_hessian(b, Yl))
-    grad = grad + ca.sum2(ca.horzcat(*gs)) if gs else grad
-    # the prior term as a *sparse* diagonal (a DM built from a dense array would make H dense)
-    hess = _assemble_hessian(hs, nx) + ca.DM(ca.Sparsity.diag(nx), pw**2)
+        blocks.append(StanceBlock(A, y0, frame_data(st, weights, fm, model), st.n, fm))
     return EstimationProblem(
         stances=list(stances),
         model=model,
         weights=weights,
         variables=variables,
         x=x,
-        objective=J,
-        gradient=grad,
-        hessian=hess,
-        residuals=r_all,
-        n_data=n_data,
+        n_data=sum(6 * b.T for b in blocks),
         x0=variables.vector("x0"),
         lbx=variables.vector("lb"),
         ubx=variables.vector("ub"),
         blocks=blocks,
-        prior_weights=pw,
-        prior_means=pm,
+        prior_weights=variables.vector("prior_weight"),
+        prior_means=variables.vector("prior_mean"),
     )
 
 
