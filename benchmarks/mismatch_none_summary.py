@@ -3,7 +3,11 @@
 the model only by a draw of the mismatch family), and how often each of the rule's two filters
 alone would (the calibrated test without the effect-size floor; the floor without the test).
 
-    .venv/bin/python benchmarks/mismatch_none_summary.py NAME=FOLDER ...
+    .venv/bin/python benchmarks/mismatch_none_summary.py NAME=FOLDER[+FOLDER...] ... [paired:A:B]
+
+A run of several folders (runs of other seeds, ``--first-seed``) is merged into one row.
+``paired:A:B``: the cases of runs A and B with the same seed (the same data) where either named
+an effect, side by side (e.g. the same cases under two versions of the null).
 
 Writes the Markdown to stdout.
 """
@@ -15,6 +19,8 @@ import sys
 from pathlib import Path
 
 from rule_variants import clears_floor, named
+
+from gc_ocp.bench.summary import merge
 
 
 def _share(k: int, n: int) -> str:
@@ -40,10 +46,16 @@ def main(args: list[str]) -> None:
     )
     print("|---|---|---|---|---|---|---|")
     details = []
+    runs = {}
+    pairs = [a.split(":")[1:] for a in args if a.startswith("paired:")]
     for a in args:
-        name, folder = a.split("=", 1)
-        d = json.loads((Path(folder) / "confusion.json").read_text())
-        cases = d["cases"]
+        if a.startswith("paired:"):
+            continue
+        name, folders = a.split("=", 1)
+        parts = [json.loads((Path(f) / "confusion.json").read_text()) for f in folders.split("+")]
+        d = merge(parts) if len(parts) > 1 else parts[0]
+        cases = sorted(d["cases"], key=lambda c: c["seed"])
+        runs[name] = {c["seed"]: c for c in cases}
         n = len(cases)
         claims = [c for c in cases if c["answer"] not in ("none", "error")]
         errors = [c for c in cases if c["answer"] == "error"]
@@ -63,6 +75,28 @@ def main(args: list[str]) -> None:
             f"* {name} seed {c['seed']}: **{c['answer']}**, p = {r['calibrated']['p_adjusted']:.3f}, "
             f"{r['heldout_rms_reduction_pct']:+.2f} % held out; draw: {_draw(c.get('mismatch'))}"
         )
+    for a, b in pairs:
+        print(
+            f"\nPaired (the same data): {a} against {b}, the seeds where either named an effect:\n"
+        )
+        print(f"| seed | {a} | {b} |\n|---|---|---|")
+        for seed in sorted(set(runs[a]) & set(runs[b])):
+            ca, cb = runs[a][seed], runs[b][seed]
+            if ca["answer"] == "none" and cb["answer"] == "none":
+                continue
+            print(f"| {seed} | {_answer(ca)} | {_answer(cb)} |")
+
+
+def _answer(c: dict) -> str:
+    """The case's answer with the named effect's p (or the top-ranked row's, for "none")."""
+    rows = [r for r in c["ranking"] if r.get("calibrated")]
+    if c["answer"] not in ("none", "error"):
+        r = next(r for r in rows if r["effect"] == c["answer"])
+    elif rows:
+        r = min(rows, key=lambda r: r["calibrated"]["p_adjusted"])
+    else:
+        return c["answer"]
+    return f"{c['answer']} (lowest p: {r['effect']} {r['calibrated']['p_adjusted']:.3f})"
 
 
 if __name__ == "__main__":

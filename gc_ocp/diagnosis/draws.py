@@ -10,8 +10,11 @@ refitted replicates above the observed gain (``docs/diagnosis.md``, "Does the te
 rate?"). So for each draw ``k`` (:func:`draw_reductions`):
 
 1. the data the *truth* makes with draw ``k``: the parent, frozen at its fit debiased for its
-   priors (:func:`~gc_ocp.diagnosis.null.prior_pull`), walking the subject's motion with the
-   draw's law smoothing and friction form, the plate's hum and the markers' low-pass
+   priors (:func:`~gc_ocp.diagnosis.null.prior_pull`), walking the subject's motion as that fit
+   corrected it (its per-stance pose correction, the kinematic error the fit estimated, at the
+   debiased values: the fitter sees the recorded motion, so a refit meets the same nuisance
+   the observed fit met) with the draw's law smoothing and friction form, the plate's hum and
+   the markers' low-pass
    (:func:`~gc_ocp.diagnosis.mismatch.simulate_mismatched`, no plate noise: the noise is the
    wild residuals'), recorded with the subject's own plate threshold;
 2. the parent refitted to them, warm from its fit on the observed data (one solve);
@@ -79,7 +82,7 @@ def draw_data(inputs: NullInputs, draw: MismatchDraw, rng: np.random.Generator) 
     recorded with each observed stance's plate threshold."""
     stances = list(inputs.stances)
     truth = frozen_model(inputs.model, inputs.truth)
-    rep = simulate_mismatched(stances, truth, draw, rng, plate_noise_pct_bw=0.0)
+    rep = simulate_mismatched(stances, truth, draw, rng, plate_noise_pct_bw=0.0, at=inputs.truth)
     return [
         dataclasses.replace(thresholded(r, st.censor_below), censor_below=st.censor_below)
         if st.censor_below > 0

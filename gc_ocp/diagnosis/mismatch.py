@@ -40,6 +40,7 @@ from scipy.spatial.transform import Rotation
 from gc_ocp.contact.laws import PENETRATION_FORMS, SLIP_FORMS
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.components import REGISTRY
+from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.synthetic import (
     PLATE_NOISE_PCT_BW,
     TORQUE_NOISE_LENGTH,
@@ -490,9 +491,12 @@ def simulate_mismatched(
     draw: MismatchDraw,
     rng: np.random.Generator,
     plate_noise_pct_bw: float = PLATE_NOISE_PCT_BW,
+    at: EstimationResult | None = None,
 ) -> list[StanceData]:
     """The data a fitter gets when ``truth`` (a model with fixed values, e.g. a fitted parent
-    model frozen, ``estimation.frozen_model``) walks the motion of ``stances`` and differs from
+    model frozen, ``estimation.frozen_model``; its per-stance components at zero, or at the
+    values of ``at``, :func:`~gc_ocp.estimation.synthetic.simulate`) walks the motion of
+    ``stances`` and differs from
     the model by ``draw``: the truth variant (:func:`truth_variant`) simulated on the true
     motion (:func:`true_motion`) with white plate noise
     (:func:`~gc_ocp.estimation.synthetic.simulate`), recorded by the lab's plate
@@ -500,7 +504,9 @@ def simulate_mismatched(
     nominal layout (:func:`seen_motion`). Restrict the draw to the fitter's model first
     (:meth:`MismatchDraw.for_model`)."""
     stances = list(stances)
-    data = simulate(true_motion(stances, draw), truth_variant(truth, draw), rng, plate_noise_pct_bw)
+    data = simulate(
+        true_motion(stances, draw), truth_variant(truth, draw), rng, plate_noise_pct_bw, at=at
+    )
     data = plate_processing(data, draw, rng)
     seen = seen_motion(stances, draw, rng)
     return [d.with_foot(s.foot) for d, s in zip(data, seen, strict=True)]

@@ -78,10 +78,11 @@ bundled example a single solve from the LLS start ends at J = 655 and the contin
 the Rajagopal trial the single solve ends at 530 and the continuation at 682."""
 
 
-def rescaled_start(prev: EstimationResult, prob) -> np.ndarray:
+def rescaled_start(prev: EstimationResult, prob, neutral: bool = False) -> np.ndarray:
     """Warm start for ``prob`` from the result ``prev``, matching variables by key (prior
-    variables are stored in units of their sigma, so they are rescaled)."""
-    x0 = prob.x0.copy()
+    variables are stored in units of their sigma, so they are rescaled); the variables ``prev``
+    lacks keep ``prob``'s start (``neutral``: 0, the stored neutral value)."""
+    x0 = np.zeros(prob.x0.size) if neutral else prob.x0.copy()
     old = {s.key: s for s in prev.variables}
     for spec in prob.variables.specs:
         o = old.get(spec.key)

@@ -19,6 +19,8 @@ from scipy.spatial.transform import Rotation
 from gc_ocp.contact.equivalent_wrench import LawParams, model_wrench
 from gc_ocp.contact.laws import Smoothing
 from gc_ocp.estimation.problem import build_estimation
+from gc_ocp.estimation.result import EstimationResult
+from gc_ocp.estimation.starts import rescaled_start
 from gc_ocp.foot import FootKinematics
 from gc_ocp.geometry import kabsch
 from gc_ocp.stance import PLATE_SIGNAL_MARGIN, StanceData
@@ -184,9 +186,12 @@ def simulate(
     rng: np.random.Generator,
     plate_noise_pct_bw: float = PLATE_NOISE_PCT_BW,
     marker_noise: float = 0.0,
+    at: EstimationResult | None = None,
 ) -> list[StanceData]:
     """``stances`` with the plate data the ``truth`` model (components with fixed values; any
-    stance-scope component at zero) predicts on their motion, plus white plate noise; with
+    stance-scope component at zero, or, with ``at``, at that result's values, matched by key:
+    e.g. the per-stance pose correction a fit estimated) predicts on their motion, plus white
+    plate noise; with
     ``marker_noise`` [m] > 0 the foot kinematics the fitter sees are re-estimated from noisy
     virtual markers. Each truth component may change how the plate records the wrench
     (:meth:`Component.observe`, e.g. a clock offset). The truth's per-frame functions are not
@@ -194,7 +199,8 @@ def simulate(
     mismatch draw's law smoothing, costs no C compilation)."""
     stances = list(stances)
     pb = build_estimation(stances, truth, compile=False)
-    wrenches = pb.stance_wrenches(np.zeros(pb.x0.size) if pb.x0.size else pb.x0)
+    x = np.zeros(pb.x0.size) if at is None else rescaled_start(at, pb, neutral=True)
+    wrenches = pb.stance_wrenches(x)
     out = []
     for st, w in zip(stances, wrenches, strict=True):
         sd = plate_noise_pct_bw / 100 * st.body_weight
