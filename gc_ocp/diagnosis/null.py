@@ -149,7 +149,9 @@ def _null_draw(d: MismatchDraw, model: tuple) -> MismatchDraw:
     the law's smoothing and friction forms, the plate's hum and the markers' low-pass. Left out:
     the plate threshold (the measurement model finds it in the data and censors it), the marker
     noise and soft-tissue drift (the wild residuals are the observed data's own, kinematic noise
-    included, and the pose correction absorbs a rigid per-stance drift), and, for a model with
+    included, and the draw's truth walks the motion as the observed fit's pose correction
+    corrected it, :mod:`.draws`: the subject's own estimated kinematic error, not a drawn one),
+    and, for a model with
     sole registration, the units off the layout (the sole correction has exactly that freedom: a
     truth with moved units is the parent with other sole offsets). The last two are large
     changes of the force (units 2 mm off: 8-87 % BW) that a refit absorbs almost entirely
