@@ -27,6 +27,9 @@ change. The test's row gained ``null_sd_mismatch_pct`` (the null's spread betwee
 draws, which more stances do not shrink): added to both ``diagnosis.json`` as 0.0, which is
 what the fixtures' own steps-needed figures assumed (their null did not group its replicates
 by draw); the pages do not show it and are unchanged.
+The method text then said that only the null's noise, not its spread between mismatch
+draws, shrinks with more stances: both pages re-rendered (``--rerender``), that sentence the only
+change.
 """
 
 from __future__ import annotations
