@@ -236,7 +236,8 @@ RANKING_KEYS = {
 
 def test_diagnose_cli_writes_json_report_and_figures(tmp_path, capsys):
     out = tmp_path / "diagnosis"
-    assert main(["diagnose", "--effects", "damping", "--out", str(out)]) == 0
+    argv = ["diagnose", "--effects", "damping", "--null-draws", "4", "--workers", "2"]
+    assert main([*argv, "--out", str(out)]) == 0
     captured = capsys.readouterr()
     assert "fitting the base" in captured.err and "round 1" in captured.err  # progress
     assert "report.html" in captured.out and "ranking" in captured.out
@@ -256,6 +257,8 @@ def test_diagnose_cli_writes_json_report_and_figures(tmp_path, capsys):
         assert w["heldout_superior_force_pct_bw"] > 0
         assert all(list(c) == HELDOUT_KEYS for c in w["heldout_rms"].values())
     assert {"base", "final"} <= set(d["where"]) and d["folds"]["n"] >= 1 and d["seconds"] > 0
+    cal = d["calibration"][0]  # --null-draws reached the null: its draws, kept or left out
+    assert cal["mismatch_draws"] + cal["mismatch_draws_left_out"] == 4
     prov = d["provenance"]
     assert prov["command"] == "gc-ocp diagnose" and prov["options"]["effects"] == "damping"
     assert len(prov["trials"][0]["files"][0]["sha256"]) == 64

@@ -114,7 +114,18 @@ def test_the_new_effect_is_fitted_diagnosed_and_injected(copy, tmp_path):
 
     # offered: gc-ocp diagnose --effects ground_tilt ranks it
     out = tmp_path / "diagnosis"
-    _run(copy, "-m", "gc_ocp.cli", "diagnose", "--effects", "ground_tilt", "--out", str(out))
+    _run(
+        copy,
+        "-m",
+        "gc_ocp.cli",
+        "diagnose",
+        "--effects",
+        "ground_tilt",
+        "--null-draws",
+        "4",
+        "--out",
+        str(out),
+    )
     d = json.loads((out / "diagnosis.json").read_text())
     assert [row["effect"] for row in d["ranking"]] == ["ground_tilt"]
     assert "<b>ground_tilt</b>" in (out / "report.html").read_text(encoding="utf-8")

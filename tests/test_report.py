@@ -26,7 +26,7 @@ def diagnosis():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # LLS start / height notes are tested elsewhere
         _, data, _ = fit_data([(trial, compute_kinematics(trial))])
-        return diagnose_stances(data, candidates=["damping"], n_boot=200)
+        return diagnose_stances(data, candidates=["damping"], n_boot=200, mismatch_draws=4)
 
 
 @pytest.fixture(scope="module")

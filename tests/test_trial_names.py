@@ -186,7 +186,14 @@ def test_diagnose_and_confirm_trials_with_the_same_file_name(bts_pairs):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        d = diagnose(bts_pairs[:2], candidates=["damping"], max_effects=0, n_boot=100, workers=1)
+        d = diagnose(
+            bts_pairs[:2],
+            candidates=["damping"],
+            max_effects=0,
+            n_boot=100,
+            workers=1,
+            mismatch_draws=4,
+        )
         c = confirm(bts_pairs[:2], bts_pairs[2:], [], n_boot=100)
     trained = [(1, bts_pairs[0]), (2, bts_pairs[1])]
     assert _labelled(d.folds["stances"], trained) and d.folds["n"] == 4
@@ -228,7 +235,16 @@ def test_cli_fit_and_diagnose_two_trial_folders_with_the_same_file_name(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         assert main(["fit", *common, "--out", str(tmp_path / "fit")]) == 0
-        argv = ["diagnose", *common, "--effects", "damping", "--out", str(tmp_path / "d")]
+        argv = [
+            "diagnose",
+            *common,
+            "--effects",
+            "damping",
+            "--null-draws",
+            "4",
+            "--out",
+            str(tmp_path / "d"),
+        ]
         assert main(argv) == 0
     err = capsys.readouterr().err
     assert "labels must be unique" not in err

@@ -139,6 +139,22 @@ def build_parser() -> argparse.ArgumentParser:
         help="Comma-separated candidate effects (docs/effects.md), e.g. damping,friction. "
         "Default: every effect the base does not have.",
     )
+    p.add_argument(
+        "--null-draws",
+        type=int,
+        default=None,
+        metavar="N",
+        help="Draws of the mismatch family in the calibrated null, each a refit of the base "
+        "(default 32; fewer: faster, with a coarser p-value and a rougher split of the null's "
+        "spread into noise and mismatch; 0: noise only, not calibrated for model mismatch).",
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="Processes for the candidates' fits and the null's draws (default: every core).",
+    )
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
     p.set_defaults(func=cmd_diagnose)
 

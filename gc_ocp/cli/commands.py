@@ -222,7 +222,16 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     trials = _load(args)
     pairs = [(t, _kinematics(t, args)) for t in trials]
     prov = provenance(args, pairs)
-    d = diagnose(pairs, base=args.base, candidates=effects, progress=_progress)
+    kw = {}
+    if args.null_draws is not None:
+        if args.null_draws < 0:
+            raise InputError(f"--null-draws must be 0 or more, but got {args.null_draws}")
+        kw["mismatch_draws"] = args.null_draws
+    if args.workers is not None:
+        if args.workers < 1:
+            raise InputError(f"--workers must be 1 or more, but got {args.workers}")
+        kw["workers"] = args.workers
+    d = diagnose(pairs, base=args.base, candidates=effects, progress=_progress, **kw)
     print(d.summary())
     pngs = report_pngs(d)
     out = OutputSet(args.out, DIAGNOSE_OUTPUTS)

@@ -212,7 +212,11 @@ def solve(
     sol = solver(x0=x_init, lbx=problem.lbx, ubx=problem.ubx)
     seconds = _time.perf_counter() - t0
     stats = solver.stats()
-    x = np.asarray(sol["x"]).ravel()
+    # Ipopt relaxes the bounds by its bound_relax_factor (1e-8, relative): its solution can lie
+    # that far outside them. Clipped back, the result is a point of the problem as declared, so a
+    # warm start from it (clipped too, :func:`~gc_ocp.estimation.starts.rescaled_start`) is the
+    # same point and a nested model reproduces its residual to round-off.
+    x = np.clip(np.asarray(sol["x"]).ravel(), problem.lbx, problem.ubx)
     status = str(stats.get("return_status", "unknown"))
     success = bool(stats.get("success", False)) or status in (
         "Solve_Succeeded",
