@@ -344,7 +344,13 @@ class EstimationProblem:
     def data_jacobian(self, x: np.ndarray):
         """Weighted data residuals ``r`` (n_data,) and their Jacobian in ``x`` (scipy CSR,
         n_data x nx) at ``x``, from the per-frame Jacobians (``J_t A_t``): no symbolic Jacobian
-        of the whole graph is built. Rows are in the order of :attr:`residuals`."""
+        of the whole graph is built. Rows are in the order of :attr:`residuals`. The last call's
+        value is kept (the diagnosis asks twice at one point: whether a candidate reproduces its
+        parent there, then its linearisation); treat it as read-only."""
+        x = np.asarray(x, float)
+        last = self.__dict__.get("_last_data_jacobian")
+        if last is not None and np.array_equal(last[0], x):
+            return last[1].copy(), last[2]
         rs, Js = [], []
         for b in self.blocks:
             ny = b.fm.slots.size
@@ -352,7 +358,9 @@ class EstimationProblem:
             rs.append(res.T.ravel())
             blocks = jac.reshape(6, b.T, ny).transpose(1, 0, 2)  # (T, 6, n_y)
             Js.append(sp.block_diag(list(blocks), format="csr") @ b.A_csr)
-        return np.concatenate(rs), sp.vstack(Js, format="csr")
+        r, J = np.concatenate(rs), sp.vstack(Js, format="csr")
+        self.__dict__["_last_data_jacobian"] = (x.copy(), r.copy(), J)
+        return r, J
 
 
 def _check_stances(stances: list[StanceData]) -> None:
