@@ -7,7 +7,8 @@ The null's spread has a part between the mismatch draws, ``s_b``, that more stan
 shrink (``gc_ocp.diagnosis.null``, module doc): however many stances, a candidate is named only
 when its one-step held-out gain ``T`` exceeds the null's mean ``m`` by more than
 ``z_crit s_b``. For every case whose truth is an effect, this prints the truth's own row: its
-gain, the null's mean and between-draw spread, the *decidable gain* ``m + z_crit s_b`` (what a
+one-step gain (the test's statistic) beside its refit's held-out gain (the ranking's), the
+null's mean and between-draw spread, the *decidable gain* ``m + z_crit s_b`` (what a
 true effect must exceed at any number of stances), the adjusted p-value and the further stances
 the result says would decide it (0: named; None: no number would). For the "none" cases it
 prints, per candidate, the median decidable gain: the size of effect the mismatch family hides.
@@ -47,23 +48,25 @@ def main(args: list[str]) -> None:
         print(f"## {name}\n")
         if effects:
             print(
-                "| truth | magnitude | seed | answer | gain T [%] | null mean [%] | "
-                "between-draw SD [%] | decidable gain [%] | p | more stances |"
+                "| truth | magnitude | seed | answer | gain T [%] | refit's gain [%] | "
+                "null mean [%] | between-draw SD [%] | decidable gain [%] | p | more stances |"
             )
-            print("|---|---|---|---|---|---|---|---|---|---|")
+            print("|---|---|---|---|---|---|---|---|---|---|---|")
             for c in effects:
                 row = next((r for r in c["ranking"] if r["effect"] == c["truth"]), None)
                 t = (row or {}).get("calibrated")
                 if not t:
                     print(
                         f"| {c['truth']} | {c['magnitude']} | {c['seed']} | {c['answer']} |"
-                        " - | - | - | - | - | - |"
+                        " - | - | - | - | - | - | - |"
                     )
                     continue
                 b = _bound(t)
+                refit = row.get("heldout_rms_reduction_pct")
                 print(
                     f"| {c['truth']} | {c['magnitude']} | {c['seed']} | {c['answer']} | "
-                    f"{t['observed_pct']:+.2f} | {t['null_mean_pct']:+.2f} | "
+                    f"{t['observed_pct']:+.2f} | {'-' if refit is None else f'{refit:+.2f}'} | "
+                    f"{t['null_mean_pct']:+.2f} | "
                     f"{t.get('null_sd_mismatch_pct', float('nan')):.2f} | "
                     f"{'-' if b is None else f'{b:+.2f}'} | {t['p_adjusted']:.3f} | "
                     f"{t['more_stances']} |"

@@ -164,6 +164,16 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
     assert _verdict(far) == "not named (p = 0.12); about 400 more steps would decide at this gain"
     within = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=None))
     assert "within what noise and model mismatch give" in _verdict(within)
+    # the test's one-step statistic has no gain, the refit has: both figures are said
+    flat = dataclasses.replace(
+        within, calibrated=dataclasses.replace(within.calibrated, observed_pct=-0.1)
+    )
+    assert _verdict(flat) == (
+        "not named (p = 0.12): no gain one step from the parent's solution (the test's "
+        "statistic, -0.1 %), although the refit gains +1.5 %"
+    )
+    lost = dataclasses.replace(flat, heldout_rms_reduction_pct=-0.4)
+    assert _verdict(lost) == "no gain (p = 0.12)"
     named = dataclasses.replace(
         weak,
         passes=True,

@@ -99,7 +99,7 @@ class RankRow:
     def verdict(self) -> str:
         """What the calibrated test says, in words: ``"named (p = 0.004)"``, ``"inconclusive;
         about 14 more steps would decide"``, ``"not decidable by more steps: within what model
-        mismatch gives"``, ``"no gain"``."""
+        mismatch gives"``, ``"no gain"`` (with the refit's gain when only the refit has one)."""
         c = self.calibrated
         if self.not_evaluable is not None:
             return "not evaluable"
@@ -118,6 +118,14 @@ class RankRow:
             return (
                 f"not named ({p}); its gain is within what noise and model mismatch give: "
                 "more steps would not decide"
+            )
+        refit = self.heldout_rms_reduction_pct
+        if refit is not None and refit > 0:
+            # the refit gains but one step from the parent's solution does not: a gain reached
+            # only by moving the other parameters far (docs/diagnosis.md, "like for like")
+            return (
+                f"not named ({p}): no gain one step from the parent's solution (the test's "
+                f"statistic, {c.observed_pct:+.1f} %), although the refit gains {refit:+.1f} %"
             )
         return f"no gain ({p})"
 
