@@ -38,13 +38,19 @@ def _draw(m: dict | None) -> str:
     )
 
 
+def _median_case(cases: list[dict]) -> str:
+    """The median time of a case (data made and diagnosed) [s], "-" where the runs lack it."""
+    t = [c["seconds_generate"] + c["seconds_diagnose"] for c in cases if "seconds_diagnose" in c]
+    return f"{sorted(t)[len(t) // 2]:.0f}" if t else "-"
+
+
 def main(args: list[str]) -> None:
     print('# Mismatch benchmark: "none" truths that differ from the model by the mismatch family\n')
     print(
         "| run | cases | effect named by the rule (false claims) | by the calibrated test alone "
-        "| by the effect-size floor alone | errors | case time [min] |"
+        "| by the effect-size floor alone | errors | run time [min] | median case [s] |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     details = []
     runs = {}
     pairs = [a.split(":")[1:] for a in args if a.startswith("paired:")]
@@ -63,7 +69,8 @@ def main(args: list[str]) -> None:
         floor = [c for c in cases if any(clears_floor(r) for r in c["ranking"])]
         print(
             f"| {name} | {n} | {_share(len(claims), n)} | {_share(len(alone), n)} | "
-            f"{_share(len(floor), n)} | {len(errors)} | {d['seconds']['cases_total'] / 60:.0f} |"
+            f"{_share(len(floor), n)} | {len(errors)} | {d['seconds']['cases_total'] / 60:.0f} | "
+            f"{_median_case(cases)} |"
         )
         details += [(name, c) for c in claims]
     print(
