@@ -170,7 +170,7 @@ def nested_point(problem, parent: EstimationResult, parent_r: np.ndarray) -> np.
             zero[s.slice] = np.clip(0.0, s.lb, s.ub)
     scale = max(float(np.linalg.norm(parent_r)), 1e-300)
     for x0 in (zero, x):
-        r, _ = problem.data_jacobian(x0)
+        r = problem.data_residuals(x0)
         if r.shape == parent_r.shape and np.linalg.norm(r - parent_r) <= NESTED_RTOL * scale:
             return x0
     return None

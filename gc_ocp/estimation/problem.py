@@ -310,10 +310,7 @@ class EstimationProblem:
     def costs(self, x: np.ndarray) -> tuple[float, float]:
         """``(data cost, prior cost)`` at ``x``: the two halves of the objective."""
         x = np.asarray(x, float)
-        data = 0.0
-        for b in self.blocks:
-            res = np.asarray(b.fm.frame.map(b.T)(b.D, b.Y(x))[0])
-            data += 0.5 * float(np.sum(res**2))
+        data = 0.5 * float(np.sum(self.data_residuals(x) ** 2))
         prior = 0.5 * float(np.sum((self.prior_weights * (x - self.prior_means)) ** 2))
         return data, prior
 
@@ -344,13 +341,7 @@ class EstimationProblem:
     def data_jacobian(self, x: np.ndarray):
         """Weighted data residuals ``r`` (n_data,) and their Jacobian in ``x`` (scipy CSR,
         n_data x nx) at ``x``, from the per-frame Jacobians (``J_t A_t``): no symbolic Jacobian
-        of the whole graph is built. Rows are in the order of :attr:`residuals`. The last call's
-        value is kept (the diagnosis asks twice at one point: whether a candidate reproduces its
-        parent there, then its linearisation); treat it as read-only."""
-        x = np.asarray(x, float)
-        last = self.__dict__.get("_last_data_jacobian")
-        if last is not None and np.array_equal(last[0], x):
-            return last[1].copy(), last[2]
+        of the whole graph is built. Rows are in the order of :attr:`residuals`."""
         rs, Js = [], []
         for b in self.blocks:
             ny = b.fm.slots.size
@@ -358,9 +349,14 @@ class EstimationProblem:
             rs.append(res.T.ravel())
             blocks = jac.reshape(6, b.T, ny).transpose(1, 0, 2)  # (T, 6, n_y)
             Js.append(sp.block_diag(list(blocks), format="csr") @ b.A_csr)
-        r, J = np.concatenate(rs), sp.vstack(Js, format="csr")
-        self.__dict__["_last_data_jacobian"] = (x.copy(), r.copy(), J)
-        return r, J
+        return np.concatenate(rs), sp.vstack(Js, format="csr")
+
+    def data_residuals(self, x: np.ndarray) -> np.ndarray:
+        """Weighted data residuals ``r`` (n_data,) at ``x``, as :meth:`data_jacobian` gives them,
+        without the Jacobian."""
+        return np.concatenate(
+            [np.asarray(b.fm.frame.map(b.T)(b.D, b.Y(x))[0]).T.ravel() for b in self.blocks]
+        )
 
 
 def _check_stances(stances: list[StanceData]) -> None:
