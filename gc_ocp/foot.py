@@ -95,6 +95,28 @@ def points_in_lab(
 
 
 @dataclass(frozen=True)
+class PoseNoise:
+    """What the markers' white noise leaves in a foot's pose (measured per trial, see
+    :mod:`gc_ocp.kinematics.marker_error`).
+
+    cov: ``(6, 6)`` per-frame covariance of the hindfoot pose's error *before* the low-pass
+    (translation of the hindfoot origin [m], rotation vector [rad]; hindfoot axes); rate [Hz],
+    cutoff_hz [Hz], order: the zero-lag low-pass the kinematics went through; sigma_marker [m]:
+    the markers' measured white noise it comes from."""
+
+    cov: np.ndarray
+    rate: float
+    cutoff_hz: float
+    order: int
+    sigma_marker: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "cov", _ro(self.cov))
+        if self.cov.shape != (6, 6):
+            raise ModelError(f"PoseNoise.cov must be (6, 6), but got {self.cov.shape}")
+
+
+@dataclass(frozen=True)
 class FootKinematics:
     """Kinematics of one foot over a trial.
 
@@ -103,7 +125,9 @@ class FootKinematics:
     hindfoot_twist, toes_twist: ``(n, 6)`` in ``lab`` at each frame origin [m/s, rad/s];
     points_local: ``(m, 3)`` unit positions in their parent frame [m], one row per unit of ``layout``;
     positions, velocities: ``(n, m, 3)`` unit trajectories in ``lab`` [m], [m/s];
-    layout: the units' names and parents (default: the seed's five units).
+    layout: the units' names and parents (default: the seed's five units);
+    pose_noise: what the markers' white noise leaves in the hindfoot's pose (None: not measured,
+    or the markers do not fix the pose; the estimator then has the smooth correction only).
     """
 
     side: str
@@ -116,6 +140,7 @@ class FootKinematics:
     positions: np.ndarray = field(default=None)  # type: ignore[assignment]
     velocities: np.ndarray = field(default=None)  # type: ignore[assignment]
     layout: SoleLayout = SEED_LAYOUT
+    pose_noise: PoseNoise | None = None
 
     def __post_init__(self) -> None:
         if np.shape(self.points_local) != (self.layout.n, 3):

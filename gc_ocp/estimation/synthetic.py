@@ -23,6 +23,7 @@ from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.starts import rescaled_start
 from gc_ocp.foot import FootKinematics
 from gc_ocp.geometry import kabsch
+from gc_ocp.kinematics.marker_error import foot_pose_noise, white_noise
 from gc_ocp.stance import PLATE_SIGNAL_MARGIN, StanceData
 from gc_ocp.synthetic_foot import NOMINAL_POINTS, nominal_points, rolling_foot
 from gc_ocp.trial import GRAVITY
@@ -107,7 +108,8 @@ def plate_signal(time: np.ndarray, wrench: np.ndarray, rate: float = 1000.0):
 def noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) -> FootKinematics:
     """``foot`` as a marker pipeline would see it: the hindfoot pose re-estimated (Kabsch) from 4
     virtual markers with iid noise ``sigma`` [m], low-passed at 6 Hz; the same rigid error moves
-    the toes (the toes are not tracked separately)."""
+    the toes (the toes are not tracked separately). Its ``pose_noise`` is what the pipeline
+    measures from those raw markers (:mod:`gc_ocp.kinematics.marker_error`), not ``sigma``."""
     mk = np.array(
         [[-0.07, 0.0, -0.03], [0.16, 0.0, -0.04], [0.0, -0.04, 0.0], [0.10, -0.045, -0.04]]
     )
@@ -124,7 +126,10 @@ def noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) -> 
     dR = Rotation.from_matrix(np.einsum("nji,njk->nik", P[:, :3, :3], Rs)).as_rotvec()
     dR = filtfilt(b, a, dR, axis=0)
     do = filtfilt(b, a, os_ - P[:, :3, 3], axis=0)
-    return with_pose_error(foot, dR, do)
+    # what the pipeline would measure: the markers' white noise, from the raw markers
+    measured = float(np.median(white_noise(obs, rate)))
+    noise = foot_pose_noise(mk, measured, rate, 6.0, order=4)
+    return replace(with_pose_error(foot, dR, do), pose_noise=noise)
 
 
 def with_pose_error(

@@ -26,6 +26,7 @@ other markers of the same foot (:func:`fill_foot_gaps`).
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
@@ -35,6 +36,7 @@ from gc_ocp.foot import SEED_LAYOUT, UNITS, FootKinematics, TrialKinematics
 from gc_ocp.gaps import fill_rigid_gaps
 from gc_ocp.kinematics.filtering import DEFAULT_CUTOFF_HZ, lowpass
 from gc_ocp.kinematics.ik import MarkerModel, solve_ik
+from gc_ocp.kinematics.marker_error import MarkerError, foot_pose_noise, white_noise
 from gc_ocp.kinematics.scaling import build_marker_model, estimate_height, register_markers
 from gc_ocp.model.anthropometry import FOOT_LENGTH_RATIO, FOOT_WIDTH_RATIO
 from gc_ocp.model.body import BodyModel
@@ -210,6 +212,27 @@ def foot_kinematics(
         twists["toes"],
         points_local,
     )
+
+
+def _foot_noise(mm, markerset, names, white, q, foot, side, rate, cutoff_hz):
+    """The :class:`~gc_ocp.foot.PoseNoise` of ``side``'s foot: its markers' median white noise,
+    their positions in the hindfoot frame (from the model at the trial's middle frame: the foot's
+    segments are welded), the pipeline's low-pass. None when fewer than three foot markers fix
+    it (the foot is then posed through the shank and ankle; its noise is not modelled yet)."""
+    idx = [
+        i
+        for i, n in enumerate(names)
+        if markerset.markers[n].is_foot and markerset.markers[n].side == side
+    ]
+    sig = white[idx] if idx else np.zeros(0)
+    sig = sig[np.isfinite(sig)]
+    if len(idx) < 3 or not sig.size:
+        return None
+    k = len(q) // 2
+    x = mm.positions(q[k])[idx]
+    H = foot.hindfoot_pose[k]
+    local = (x - H[:3, 3]) @ H[:3, :3]
+    return foot_pose_noise(local, float(np.median(sig)), rate, cutoff_hz, order=4)
 
 
 def fill_foot_gaps(
@@ -388,6 +411,21 @@ def compute_kinematics(
         pts = calibrate_sole_height(body, side, qs, pts, floors)
         sole_info[side] = src
         feet[side] = foot_kinematics(body, q, t, side, pts)
+    # ---- the markers' error, measured (white noise per marker; what it leaves in each foot)
+    white = white_noise(np.asarray(trial.markers)[:, idx], trial.marker_rate)  # before gap fills
+    merr = MarkerError(
+        {n: float(v) * 1e3 for n, v in zip(names, white, strict=True)},
+        {n: markerset.markers[n].segment for n in names},
+    )
+    for f in merr.outliers():
+        say(f)
+    for side in ("left", "right"):
+        feet[side] = replace(
+            feet[side],
+            pose_noise=_foot_noise(
+                mm, markerset, names, white, q, feet[side], side, trial.marker_rate, cutoff_hz
+            ),
+        )
     info = {
         "height": height,
         "mass": trial.mass,
@@ -401,5 +439,18 @@ def compute_kinematics(
         "body": body,
         "marker_model": mm,
         "residuals": res.residuals,
+        "marker_error": merr.to_json(),
+        "foot_pose_noise": {
+            side: None
+            if feet[side].pose_noise is None
+            else {
+                "sigma_marker_mm": feet[side].pose_noise.sigma_marker * 1e3,
+                "translation_mm": (np.sqrt(np.diag(feet[side].pose_noise.cov)[:3]) * 1e3).tolist(),
+                "rotation_deg": np.rad2deg(
+                    np.sqrt(np.diag(feet[side].pose_noise.cov)[3:])
+                ).tolist(),
+            }
+            for side in feet
+        },
     }
     return TrialKinematics(trial.name, t, q, res.marker_rms, feet, cutoff_hz, tuple(names), info)

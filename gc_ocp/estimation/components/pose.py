@@ -11,6 +11,12 @@ from scipy.interpolate import BSpline
 
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.components.base import Component, DecodeContext, unique_labels
+from gc_ocp.kinematics.marker_error import (
+    MIN_UNIT_NOISE_M,
+    filter_gain,
+    noise_knot_spacing,
+    unit_noise_sd,
+)
 from gc_ocp.trial import SIDES
 
 POSE_SLOTS = ("pose_dp", "pose_dth", "pose_ddp", "pose_ddth")
@@ -57,6 +63,17 @@ class PoseCorrection(Component):
     the Toeplitz correlation matrix and ``z ~ N(0, I)`` the decision variables (still linear).
     Scope ``"stance"``: a held-out stance re-estimates it. Neutral value: zero (no effect).
 
+    marker_noise: where a stance's foot carries its measured marker noise
+    (:attr:`~gc_ocp.foot.FootKinematics.pose_noise`), the correction has a second part that
+    follows it: the low-passed white noise of the pose, ``M Phi(t) z`` with ``Phi`` a spline
+    spanning the filter's band (:func:`gc_ocp.kinematics.marker_error.noise_knot_spacing`), ``M`` the
+    Cholesky factor of the per-frame covariance (hindfoot axes at the stance's middle frame,
+    turned into ``lab``) and ``z ~ N(0, I)``. The B-spline part is then the smooth error the
+    markers cannot see (soft tissue). Without it, velocities of a few mm/s of filtered noise bias
+    the exponent and the friction coefficient (``docs/quality.md``): the smooth part, with knots
+    0.1 s apart, cannot follow a 6 Hz error. Noise too small to matter
+    (:data:`~gc_ocp.kinematics.marker_error.MIN_UNIT_NOISE_M`) is left out.
+
     As the candidate effect ``kinematic_correction`` (against the bare seed base) it is an error
     of the *data*: the benchmark's fitter sees the foot through marker noise and a soft-tissue
     drift (:meth:`benchmark_kinematic_error`), the truth model is the base itself.
@@ -67,6 +84,7 @@ class PoseCorrection(Component):
     knot_spacing: float = 0.1
     bound_sigmas: float = 6.0
     knot_correlation: tuple[float, ...] | None = None
+    marker_noise: bool = True
     name: str = "pose"
     scope = "stance"
     neutral_at_zero = True
@@ -134,6 +152,20 @@ class PoseCorrection(Component):
             variables.prior_variable(
                 (self.name, st.label, "rot"), 3 * K, sr_, self.bound_sigmas * sr_
             )
+            nb = self.noise_basis(st)
+            if nb is not None:
+                n = 6 * nb[0].shape[1]
+                variables.prior_variable((self.name, st.label, "noise"), n, 1.0, self.bound_sigmas)
+
+    def noise_basis(self, stance) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """``(Phi (T, K), dPhi/dt (T, K), M (6, 6))`` of the marker-noise part (class doc), or
+        None (off, or no measured noise)."""
+        noise = stance.foot.pose_noise
+        if not self.marker_noise or noise is None:
+            return None
+        if unit_noise_sd(noise, stance.foot.points_local) < MIN_UNIT_NOISE_M:
+            return None  # too small to move anything (MIN_UNIT_NOISE_M)
+        return _noise_part(stance.foot, noise)
 
     def slot_sizes(self, layout) -> dict[str, int]:
         return {s: 3 for s in POSE_SLOTS}
@@ -146,7 +178,14 @@ class PoseCorrection(Component):
         B, dB = B @ L, dB @ L
         tr = ca.reshape(variables.get((self.name, stance.label, "trans")), 3, K)
         rot = ca.reshape(variables.get((self.name, stance.label, "rot")), 3, K)
-        return tr @ B.T, rot @ B.T, tr @ dB.T, rot @ dB.T
+        d, th, dd, dth = tr @ B.T, rot @ B.T, tr @ dB.T, rot @ dB.T
+        nb = self.noise_basis(stance)
+        if nb is not None:
+            Phi, dPhi, M = nb
+            z = ca.reshape(variables.get((self.name, stance.label, "noise")), 6, Phi.shape[1])
+            e, de = ca.DM(M) @ z @ Phi.T, ca.DM(M) @ z @ dPhi.T
+            d, th, dd, dth = d + e[:3, :], th + e[3:, :], dd + de[:3, :], dth + de[3:, :]
+        return d, th, dd, dth
 
     def slots(self, variables, index, stance) -> dict:
         return dict(zip(POSE_SLOTS, self.trajectories(variables, index, stance), strict=True))
@@ -185,5 +224,35 @@ class PoseCorrection(Component):
         }
         return {"rms": rms, "stances": per}
 
+
+def _noise_part(foot, noise) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Phi, dPhi/dt, M) of :meth:`PoseCorrection.noise_basis` (cached per stance: the same
+    stance is built into many problems)."""
+    key = (
+        foot.time.tobytes(),
+        foot.hindfoot_pose.tobytes(),
+        noise.cov.tobytes(),
+        noise.rate,
+        noise.cutoff_hz,
+        noise.order,
+    )
+    hit = _NOISE_CACHE.get(key)
+    if hit is None:
+        B, dB = _bspline_basis(foot.time.tobytes(), noise_knot_spacing(noise))
+        scale = np.sqrt(filter_gain(noise) / float(np.mean(np.sum(B**2, axis=1))))
+        Phi, dPhi = B * scale, dB * scale
+        R = foot.hindfoot_pose[foot.time.size // 2, :3, :3]
+        Rb = np.zeros((6, 6))
+        Rb[:3, :3] = Rb[3:, 3:] = R
+        M = Rb @ np.linalg.cholesky(noise.cov + 1e-30 * np.eye(6))
+        for a in (Phi, dPhi, M):
+            a.flags.writeable = False
+        if len(_NOISE_CACHE) > 512:
+            _NOISE_CACHE.clear()
+        hit = _NOISE_CACHE[key] = (Phi, dPhi, M)
+    return hit
+
+
+_NOISE_CACHE: dict = {}
 
 __all__ = ["PoseCorrection"]
