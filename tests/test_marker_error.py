@@ -136,3 +136,23 @@ def test_modelling_the_measured_noise_removes_the_friction_bias():
         err[on] = res.params["shared"]["mu"] - truth["mu"]
     assert abs(err[True]) < 0.03  # 4 x the 0.007 spread of benchmarks/coverage_output.md
     assert abs(err[True]) < abs(err[False])
+
+
+def test_a_noisy_marker_is_named_and_every_trial_reports_its_markers_noise():
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.workflow.fitting import marker_notes
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = load_trial()
+        j = t.marker_names.index("LTOE")
+        m = np.array(t.markers, float)
+        m[:, j] += np.random.default_rng(5).normal(0, 3e-3, m[:, j].shape)  # a loose marker
+        notes = marker_notes(t.source, compute_kinematics(dataclasses.replace(t, markers=m)))
+    assert "markers' white noise [mm] per segment" in notes[0] and "left:" in notes[0]
+    named = [n for n in notes[1:] if "marker LTOE" in n]
+    # measured 3 mm within 15 % (one marker, ~300 frames), far above its segment's ~0.005 mm
+    assert len(named) == 1 and len(notes) == 2
+    mm = float(named[0].split("white noise ")[1].split(" mm")[0])
+    assert mm == pytest.approx(3.0, rel=0.15)

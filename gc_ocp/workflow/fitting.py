@@ -27,6 +27,7 @@ from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls
 from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
+from gc_ocp.kinematics.marker_error import MIN_UNIT_NOISE_M, unit_noise_sd
 from gc_ocp.stance import StanceData, fit_stances
 from gc_ocp.trial import Trial
 
@@ -118,8 +119,35 @@ def fit_data(
                 )
                 notes.append(note)
                 say(f"check: {note}")
+    for t, k in trials:
+        for note in marker_notes(t.source, k):
+            notes.append(note)
+            say(f"check: {note}")
     data = fit_stances(trials, margin=margin, min_frames=5, names=names, censor_below=thresholds)
     return trials, data, notes
+
+
+def marker_notes(source, kin: TrialKinematics) -> list[str]:
+    """What the markers' measured error is (per segment) and where the estimator models what it
+    leaves in the foot's pose (:mod:`gc_ocp.kinematics.marker_error`); the markers far above
+    their segment's noise, named."""
+    err = kin.info.get("marker_error")
+    if not err:
+        return []
+    per = ", ".join(f"{c} {v:.3f}" for c, v in err["white_mm_per_class"].items())
+    modelled = []
+    for side, foot in kin.feet.items():
+        if foot.pose_noise is None:
+            modelled.append(f"{side}: not (fewer than 3 foot markers, or none measured)")
+            continue
+        sd = unit_noise_sd(foot.pose_noise, foot.points_local) * 1e3
+        verdict = "modelled" if sd >= MIN_UNIT_NOISE_M * 1e3 else "too small to model"
+        modelled.append(f"{side}: {sd:.3f} mm at the contact units, {verdict}")
+    return [
+        f"{source}: markers' white noise [mm] per segment: {per}; the foot pose noise it leaves "
+        f"(after the {kin.cutoff_hz:g} Hz low-pass): " + "; ".join(modelled),
+        *(f"{source}: {o}" for o in err["outliers"]),
+    ]
 
 
 def fit(
