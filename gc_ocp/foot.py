@@ -97,7 +97,7 @@ def points_in_lab(
 @dataclass(frozen=True)
 class PoseNoise:
     """What the markers' white noise leaves in a foot's pose (measured per trial, see
-    :mod:`gc_ocp.kinematics.marker_error`).
+    :mod:`gc_ocp.marker_noise`).
 
     cov: ``(6, 6)`` per-frame covariance of the hindfoot pose's error *before* the low-pass
     (translation of the hindfoot origin [m], rotation vector [rad]; hindfoot axes); rate [Hz],

@@ -1,5 +1,5 @@
 """The markers' error measured per trial, and the pose noise it leaves modelled in the estimator
-(``gc_ocp/kinematics/marker_error.py``, ``docs/quality.md``)."""
+(``gc_ocp/marker_noise.py``, ``docs/quality.md``)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 
 from gc_ocp.geometry import kabsch
 from gc_ocp.kinematics.filtering import lowpass
-from gc_ocp.kinematics.marker_error import (
+from gc_ocp.marker_noise import (
     MIN_UNIT_NOISE_M,
     pose_covariance,
     unit_noise_sd,
@@ -111,25 +111,14 @@ def test_the_pipeline_measures_each_foot_and_models_the_noise_only_where_it_matt
 def test_modelling_the_measured_noise_removes_the_friction_bias():
     """0.5 mm of marker noise biased mu by -0.056 (40 draws, spread 0.010) before; with the noise
     part one draw's error is within 4 spreads of 0 and smaller than without it."""
-    from gc_ocp.estimation import (
-        ContactLaw,
-        Param,
-        PoseCorrection,
-        SoleCorrection,
-        build_estimation,
-    )
+    from gc_ocp.estimation import build_estimation
     from gc_ocp.estimation.solve import IpoptOptions, solve
+    from gc_ocp.estimation.synthetic import recovery_model
 
     sts, truth = _stances(np.random.default_rng(4), 0.5e-3)
-    law = ContactLaw(
-        k=Param("unit", 2e5, 1e2, 1e9, prior_sigma=2.0),
-        n=Param("shared", 1.3, 1, 3),
-        c=Param("shared", 0.5, 0, 10),
-        mu=Param("shared", 0.6, 0, 1.5),
-    )
     err = {}
     for on in (True, False):
-        model = (law, SoleCorrection(), PoseCorrection(marker_noise=on))
+        model = recovery_model(marker_noise=on)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             res = solve(build_estimation(sts, model), IpoptOptions())
@@ -156,3 +145,32 @@ def test_a_noisy_marker_is_named_and_every_trial_reports_its_markers_noise():
     assert len(named) == 1 and len(notes) == 2
     mm = float(named[0].split("white noise ")[1].split(" mm")[0])
     assert mm == pytest.approx(3.0, rel=0.15)
+
+
+@pytest.mark.parametrize("drift_mm", [0.0, 4.0])
+def test_the_pose_width_follows_the_kinematic_error_in_the_data(drift_mm):
+    """Type-II ML of the pose correction's smooth width (gc_ocp/estimation/pose_scale.py): with
+    exact kinematics the data ask for less than the guessed 2 mm / 1 deg; with a 4 mm
+    soft-tissue drift, for more (the direction is the check; the sizes depend on the draw)."""
+    from gc_ocp.diagnosis.mismatch import drift
+    from gc_ocp.estimation import build_estimation
+    from gc_ocp.estimation.pose_scale import estimate_pose_scale
+    from gc_ocp.estimation.solve import IpoptOptions, solve
+    from gc_ocp.estimation.synthetic import recovery_model
+
+    rng = np.random.default_rng(6)
+    sts, _ = _stances(rng, 0.0)
+    if drift_mm:
+        sts = drift(sts, drift_mm * 1e-3, 0.25 * drift_mm, rng)
+    model = recovery_model()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = solve(build_estimation(sts, model), IpoptOptions())
+        _, res2, scale = estimate_pose_scale(sts, model, res)
+    mm = np.mean(scale.sigma_mm)
+    if drift_mm:
+        assert mm > 2.0
+        # a wider prior makes the same correction cheaper: the refit ends lower
+        assert res2.objective < res.objective
+    else:
+        assert mm < 2.0 and np.mean(scale.sigma_deg) < 1.0

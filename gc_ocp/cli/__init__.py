@@ -102,6 +102,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--holdout", help='Stance to hold out, e.g. "right@0.407s" (see `gc-ocp info`).')
     p.add_argument(
+        "--fixed-pose-width",
+        action="store_true",
+        help="Keep the foot-pose correction's prior width (2 mm, 1 deg) instead of estimating "
+        "it from the stances (docs/quality.md).",
+    )
+    p.add_argument(
         "--effects",
         metavar="A,B,...",
         help="Comma-separated effects (docs/effects.md) fitted with the full model, e.g. "

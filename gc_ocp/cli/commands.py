@@ -127,7 +127,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
             # start, so that adding effects cannot end above the model without them
             extends = None if model is None else full_model()
             report = fit(
-                pairs, model=model, holdout=args.holdout, progress=_progress, extends=extends
+                pairs,
+                model=model,
+                holdout=args.holdout,
+                progress=_progress,
+                extends=extends,
+                pose_scale=not args.fixed_pose_width,
             )
         except SolveError as e:
             if e.result is not None:

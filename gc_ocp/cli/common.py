@@ -155,7 +155,7 @@ def provenance(args: argparse.Namespace, pairs) -> dict:
                 "load_notes": list(t.load_notes),
                 "marker_cutoff_hz": kin.cutoff_hz,
                 # the markers' measured noise and what it leaves in each foot's pose
-                # (gc_ocp.kinematics.marker_error)
+                # (gc_ocp.marker_noise)
                 "marker_error": kin.info.get("marker_error"),
                 "foot_pose_noise": kin.info.get("foot_pose_noise"),
                 # what the lab's processing did, as detected (the measurement model uses the

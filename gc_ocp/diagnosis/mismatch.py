@@ -395,19 +395,19 @@ def drift(
     rotation_deg: float,
     rng: np.random.Generator,
     stride_variation: float = 0.25,
+    pattern: dict | None = None,
 ) -> list[StanceData]:
     """``stances`` with a slow rigid soft-tissue drift of the foot: per axis an offset plus a
     linear trend over the stance, RMS ~``translation`` [m] and ``rotation_deg`` per axis. The
     pattern is the foot's (soft-tissue artefacts repeat from stride to stride of a subject and
-    task, Leardini et al. 2005), and each stance varies it by ``stride_variation`` of its size."""
+    task, Leardini et al. 2005; :func:`drift_pattern`, drawn here unless given), and each stance
+    varies it by ``stride_variation`` of its size."""
 
     def coefficients(sd):
         return rng.normal(0.0, sd / np.sqrt(2), (2, 3))
 
-    pattern = {
-        side: (coefficients(translation), coefficients(np.deg2rad(rotation_deg)))
-        for side in sorted({st.side for st in stances})
-    }
+    if pattern is None:
+        pattern = drift_pattern({st.side for st in stances}, translation, rotation_deg, rng)
     out = []
     for st in stances:
         t = st.time
@@ -417,6 +417,19 @@ def drift(
         rot = rot + stride_variation * coefficients(np.deg2rad(rotation_deg))
         out.append(st.with_foot(with_pose_error(st.foot, rot[0] + rot[1] * s, tr[0] + tr[1] * s)))
     return out
+
+
+def drift_pattern(sides, translation: float, rotation_deg: float, rng: np.random.Generator) -> dict:
+    """``{side: (translation (2, 3) [m], rotation (2, 3) [rad])}``: each foot's soft-tissue
+    pattern of :func:`drift` (row 0 the offset, row 1 the trend's coefficient; translation in
+    ``lab``, rotation a rotation vector in the hindfoot frame)."""
+    return {
+        side: (
+            rng.normal(0.0, translation / np.sqrt(2), (2, 3)),
+            rng.normal(0.0, np.deg2rad(rotation_deg) / np.sqrt(2), (2, 3)),
+        )
+        for side in sorted(sides)
+    }
 
 
 def seen_motion(

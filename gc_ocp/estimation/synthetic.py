@@ -18,12 +18,13 @@ from scipy.spatial.transform import Rotation
 
 from gc_ocp.contact.equivalent_wrench import LawParams, model_wrench
 from gc_ocp.contact.laws import Smoothing
+from gc_ocp.estimation.components import ContactLaw, Param, PoseCorrection, SoleCorrection
 from gc_ocp.estimation.problem import build_estimation
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.starts import rescaled_start
 from gc_ocp.foot import FootKinematics
 from gc_ocp.geometry import kabsch
-from gc_ocp.kinematics.marker_error import foot_pose_noise, white_noise
+from gc_ocp.marker_noise import foot_pose_noise, white_noise
 from gc_ocp.stance import PLATE_SIGNAL_MARGIN, StanceData
 from gc_ocp.synthetic_foot import NOMINAL_POINTS, nominal_points, rolling_foot
 from gc_ocp.trial import GRAVITY
@@ -109,7 +110,7 @@ def noisy_pose(foot: FootKinematics, sigma: float, rng: np.random.Generator) -> 
     """``foot`` as a marker pipeline would see it: the hindfoot pose re-estimated (Kabsch) from 4
     virtual markers with iid noise ``sigma`` [m], low-passed at 6 Hz; the same rigid error moves
     the toes (the toes are not tracked separately). Its ``pose_noise`` is what the pipeline
-    measures from those raw markers (:mod:`gc_ocp.kinematics.marker_error`), not ``sigma``."""
+    measures from those raw markers (:mod:`gc_ocp.marker_noise`), not ``sigma``."""
     mk = np.array(
         [[-0.07, 0.0, -0.03], [0.16, 0.0, -0.04], [0.0, -0.04, 0.0], [0.10, -0.045, -0.04]]
     )
@@ -238,6 +239,20 @@ def default_truth(seed: int = 0, body_weight: float = 700.0) -> dict:
     return {"k": rng.uniform(0.6, 1.4, 5) * 3.0e5, "n": 1.5, "c": 1.0, "mu": 0.8}
 
 
+def recovery_model(marker_noise: bool = True) -> tuple:
+    """The model the synthetic recovery checks fit to :func:`default_truth`'s stances: k per
+    unit (weak log prior), shared n, c, mu started away from the truth (1.3, 0.5, 0.6), sole and
+    pose corrections (``marker_noise``: the pose correction's measured-noise part,
+    :class:`~gc_ocp.estimation.components.pose.PoseCorrection`)."""
+    law = ContactLaw(
+        k=Param("unit", 2e5, 1e2, 1e9, prior_sigma=2.0),
+        n=Param("shared", 1.3, 1, 3),
+        c=Param("shared", 0.5, 0, 10),
+        mu=Param("shared", 0.6, 0, 1.5),
+    )
+    return (law, SoleCorrection(), PoseCorrection(marker_noise=marker_noise))
+
+
 __all__ = [
     "NOMINAL_POINTS",
     "PLATE_NOISE_PCT_BW",
@@ -246,6 +261,7 @@ __all__ = [
     "rolling_foot",
     "synthetic_stance",
     "default_truth",
+    "recovery_model",
     "nominal_points",
     "noisy_pose",
     "with_pose_error",

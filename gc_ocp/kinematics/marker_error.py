@@ -1,49 +1,12 @@
-"""The markers' error, measured per trial, and what it leaves in the foot's pose (issue 23).
-
-**White part.** A marker's white noise (camera reconstruction) is measured from its raw
-trajectory above the band of walking: the residual of a zero-lag low-pass at
-:data:`NOISE_BAND_HZ` holds the noise above that frequency and almost no movement (foot markers'
-power above 20 Hz is the impact's, a few frames per stance, which the median ignores). For white
-noise of standard deviation ``sigma`` the residual's standard deviation is ``sigma sqrt(g)``
-with ``g`` the residual filter's noise gain (computed from its impulse response), so
-``sigma = 1.4826 MAD / sqrt(g)`` per axis, pooled over the three axes. A lab that already
-low-passed its markers shows (almost) none: its remaining error is smooth and is left to the
-smooth part.
-
-**What it leaves in the foot's pose.** The foot's pose is (to first order) the rigid fit of its
-markers; marker noise ``sigma`` gives the pose a per-frame error of covariance ``sigma^2
-(A^T A)^-1`` (``A`` stacks ``[I, -[m_k]x]`` over the markers' positions ``m_k`` about the
-hindfoot origin), then the pipeline's low-pass correlates it in time: the error over a stance
-is ``H e`` with ``H`` the zero-lag filter's operator and ``e`` white. Its Karhunen-Loeve basis
-is dense in time; a spline spans the same band locally (:func:`noise_knot_spacing`). The estimator's pose correction
-(:class:`~gc_ocp.estimation.components.pose.PoseCorrection`) uses both, so that the correction
-can follow exactly the error the markers allow and no more: in the objective this is the
-markers' own likelihood (for a linear-Gaussian marker model the two are the same quadratic).
-"""
+"""The markers' error of a trial as the fit reports it (:mod:`gc_ocp.marker_noise` measures it)."""
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import butter, filtfilt
 
-from gc_ocp.foot import PoseNoise
-
-NOISE_BAND_HZ = 20.0
-"""Markers' noise is measured above this frequency (walking's movement lies below ~15 Hz;
-Winter's residual analysis puts lower-limb markers at 4-7 Hz), or above 0.3 x the rate when the
-rate is below 67 Hz."""
-
-MIN_UNIT_NOISE_M = 3e-5
-"""The estimator models the pose noise only where it gives some contact unit a per-frame
-displacement of at least this standard deviation [m] after the low-pass
-(:func:`unit_noise_sd`). Below, it moves no parameter: on the synthetic foot of
-``benchmarks/coverage.py`` (4 markers, 6 Hz) marker noise of 0.1 mm gives 0.034 mm and biases
-nothing without the noise part (n -0.012 +- 0.007, mu -0.000 +- 0.003 over 4 draws, as without
-noise), 0.2 mm gives 0.067 mm and biases mu by -0.011 +- 0.003. Labs whose markers were
-low-passed before export measure ~0.005-0.03 mm of marker noise and stay below (no cost)."""
+from gc_ocp.marker_noise import NOISE_BAND_HZ
 
 OUTLIER_FACTOR = 3.0
 """A marker whose white noise exceeds this many times its class's median, and
@@ -54,104 +17,6 @@ OUTLIER_MM = 1.0
 """[mm] Below this a marker's noise is not worth a word whatever its class's median (current
 camera systems reconstruct markers to 0.05-0.5 mm; a lab that low-passed its markers shows
 ~0.01 mm, and a ratio to that alone would name ordinary markers)."""
-
-
-@functools.lru_cache(maxsize=64)
-def _impulse(rate: float, cutoff_hz: float, order: int, n: int) -> np.ndarray:
-    """``(n, n)`` the zero-lag low-pass operator (``filtfilt`` of an ``order/2`` Butterworth, as
-    :func:`gc_ocp.kinematics.filtering.lowpass`) on ``n`` samples: column ``j`` is the response to
-    a unit impulse at ``j``."""
-    b, a = butter(order // 2, cutoff_hz / (rate / 2))
-    H = filtfilt(b, a, np.eye(n), axis=0)
-    H.flags.writeable = False
-    return H
-
-
-def _noise_gain(rate: float, cutoff_hz: float, order: int = 4) -> float:
-    """``g``: the variance that ``x - lowpass(x)`` keeps of unit white noise (module doc), away
-    from the ends."""
-    n = int(8 * rate / cutoff_hz) | 1
-    h = _impulse(rate, cutoff_hz, order, n)[:, n // 2]
-    e = -h.copy()
-    e[n // 2] += 1.0
-    return float(e @ e)
-
-
-def white_noise(markers: np.ndarray, rate: float) -> np.ndarray:
-    """``(m,)`` the white noise [m] of each of ``markers`` ``(n, m, 3)`` [m] at ``rate`` [Hz]
-    (module doc); NaN for a marker with fewer than 20 visible frames. Gaps are skipped: every
-    visible run of at least 20 frames is filtered separately."""
-    x = np.asarray(markers, float)
-    fh = min(NOISE_BAND_HZ, 0.3 * rate)
-    b, a = butter(2, fh / (rate / 2))
-    g = _noise_gain(rate, fh)
-    out = np.full(x.shape[1], np.nan)
-    for j in range(x.shape[1]):
-        res = []
-        good = np.isfinite(x[:, j]).all(axis=1)
-        edges = np.flatnonzero(np.diff(np.r_[0, good.astype(int), 0]))
-        for s, e in zip(edges[::2], edges[1::2], strict=True):
-            if e - s >= 20:
-                r = x[s:e, j] - filtfilt(b, a, x[s:e, j], axis=0)
-                res.append(r[5:-5])  # the filter's ends
-        if res:
-            r = np.concatenate(res)
-            mad = np.median(np.abs(r - np.median(r, axis=0)), axis=0)
-            out[j] = float(np.sqrt(np.mean((1.4826 * mad) ** 2) / g))
-    return out
-
-
-def pose_covariance(local: np.ndarray, sigma: float) -> np.ndarray | None:
-    """``(6, 6)`` per-frame covariance of a rigid fit's pose (translation of the frame's
-    origin [m], rotation vector [rad], in the frame's axes) from markers at ``local`` ``(m, 3)``
-    [m] (in that frame) with white noise ``sigma`` [m]; None with fewer than three
-    non-collinear markers (the fit does not fix the pose)."""
-    m = np.asarray(local, float)
-    if m.shape[0] < 3:
-        return None
-    A = np.concatenate([np.hstack([np.eye(3), -_skew(p)]) for p in m])
-    AtA = A.T @ A
-    if np.linalg.cond(AtA) > 1e10:
-        return None
-    return sigma**2 * np.linalg.inv(AtA)
-
-
-def _skew(p: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -p[2], p[1]], [p[2], 0.0, -p[0]], [-p[1], p[0], 0.0]])
-
-
-KNOTS_PER_CYCLE = 4.0
-"""Knots of the noise's spline per period of the low-pass cutoff (knot spacing ``1 / (4
-cutoff)``, 42 ms at 6 Hz): a cubic spline with that spacing follows the band the filter passes."""
-
-
-def noise_knot_spacing(noise: PoseNoise) -> float:
-    """[s] The knot spacing of the pose noise's spline in the estimator (``1 / (KNOTS_PER_CYCLE
-    cutoff)``): a cubic spline with independent N(0, 1) coefficients, scaled so that each frame
-    has the variance the low-passed unit white noise has (:func:`filter_gain`), spans the band
-    the filter passes with local support. Its spectrum is not the filter's, but the Hessian keeps
-    banded per-stance blocks: a Karhunen-Loeve basis of the filtered noise, exact in covariance,
-    couples every frame of a stance and made the fit 6x slower for the same bias
-    (``docs/quality.md``)."""
-    return 1.0 / (KNOTS_PER_CYCLE * float(noise.cutoff_hz))
-
-
-def filter_gain(noise: PoseNoise) -> float:
-    """The variance the pipeline's low-pass keeps of unit white noise (``sum_j h_j^2``)."""
-    n = int(8 * noise.rate / noise.cutoff_hz) | 1
-    h = _impulse(float(noise.rate), float(noise.cutoff_hz), int(noise.order), n)[:, n // 2]
-    return float(h @ h)
-
-
-def unit_noise_sd(noise: PoseNoise, points_local: np.ndarray) -> float:
-    """The largest per-frame standard deviation [m] (RMS over the axes) that the low-passed pose
-    noise gives a contact unit at ``points_local`` ``(m, 3)`` (hindfoot frame)."""
-    g = filter_gain(noise)
-    sds = []
-    for p in np.asarray(points_local, float):
-        G = np.hstack([np.eye(3), -_skew(p)])
-        sds.append(np.sqrt(g * np.trace(G @ noise.cov @ G.T) / 3.0))
-    return float(max(sds))
 
 
 @dataclass(frozen=True)
@@ -189,30 +54,8 @@ class MarkerError:
             "white_mm_per_class": self.per_class(),
             "white_mm": {n: (None if not np.isfinite(v) else v) for n, v in self.white_mm.items()},
             "outliers": self.outliers(),
-            "method": f"MAD of the residual above {NOISE_BAND_HZ:g} Hz (gc_ocp.kinematics.marker_error)",
+            "method": f"MAD of the residual above {NOISE_BAND_HZ:g} Hz (gc_ocp.marker_noise)",
         }
 
 
-def foot_pose_noise(
-    local: np.ndarray, sigma: float, rate: float, cutoff_hz: float, order: int = 4
-) -> PoseNoise | None:
-    """The :class:`PoseNoise` of a foot tracked by markers at ``local`` ``(m, 3)`` [m] (in the
-    hindfoot frame, about its origin) with white noise ``sigma`` [m], low-passed as the pipeline
-    does; None when the markers do not fix the pose or the noise is not finite."""
-    if not np.isfinite(sigma):
-        return None
-    cov = pose_covariance(local, sigma)
-    if cov is None:
-        return None
-    return PoseNoise(cov, float(rate), float(cutoff_hz), int(order), float(sigma))
-
-
-__all__ = [
-    "MarkerError",
-    "foot_pose_noise",
-    "filter_gain",
-    "noise_knot_spacing",
-    "unit_noise_sd",
-    "pose_covariance",
-    "white_noise",
-]
+__all__ = ["MarkerError"]

@@ -36,8 +36,9 @@ from gc_ocp.foot import SEED_LAYOUT, UNITS, FootKinematics, TrialKinematics
 from gc_ocp.gaps import fill_rigid_gaps
 from gc_ocp.kinematics.filtering import DEFAULT_CUTOFF_HZ, lowpass
 from gc_ocp.kinematics.ik import MarkerModel, solve_ik
-from gc_ocp.kinematics.marker_error import MarkerError, foot_pose_noise, white_noise
+from gc_ocp.kinematics.marker_error import MarkerError
 from gc_ocp.kinematics.scaling import build_marker_model, estimate_height, register_markers
+from gc_ocp.marker_noise import foot_pose_noise, white_noise
 from gc_ocp.model.anthropometry import FOOT_LENGTH_RATIO, FOOT_WIDTH_RATIO
 from gc_ocp.model.body import BodyModel
 from gc_ocp.model.markerset import MarkerSet, detect_markerset, load_markerset

@@ -20,6 +20,7 @@ from collections.abc import Callable, Sequence
 
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.components import full_model
+from gc_ocp.estimation.pose_scale import PoseScale, estimate_pose_scale
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, solve
@@ -27,7 +28,7 @@ from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls
 from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
-from gc_ocp.kinematics.marker_error import MIN_UNIT_NOISE_M, unit_noise_sd
+from gc_ocp.marker_noise import MIN_UNIT_NOISE_M, unit_noise_sd
 from gc_ocp.stance import StanceData, fit_stances
 from gc_ocp.trial import Trial
 
@@ -43,9 +44,12 @@ class FitReport:
     heldout: EstimationResult | None = None
     heldout_label: str | None = None
     checks: list = dataclasses.field(default_factory=list)
+    pose_scale: PoseScale | None = None
 
     def to_json(self) -> dict:
         d = self.result.to_json()
+        if self.pose_scale is not None:
+            d["pose_scale"] = self.pose_scale.to_json()
         if self.heldout is not None:
             d["heldout_rms"] = self.heldout.rms
             d["heldout_cop_rms_mm"] = self.heldout.cop_rms_mm
@@ -59,6 +63,8 @@ class FitReport:
         s = self.result.summary()
         if self.checks:
             s = "input checks:\n" + "\n".join(f"  - {c}" for c in self.checks) + "\n" + s
+        if self.pose_scale is not None:
+            s += "\n" + self.pose_scale.message() + "\n"
         if self.heldout is not None:
             s += f"\nheld-out stance {self.heldout_label}:\n" + self.heldout.summary()
         return s
@@ -129,7 +135,7 @@ def fit_data(
 
 def marker_notes(source, kin: TrialKinematics) -> list[str]:
     """What the markers' measured error is (per segment) and where the estimator models what it
-    leaves in the foot's pose (:mod:`gc_ocp.kinematics.marker_error`); the markers far above
+    leaves in the foot's pose (:mod:`gc_ocp.marker_noise`); the markers far above
     their segment's noise, named."""
     err = kin.info.get("marker_error")
     if not err:
@@ -161,6 +167,7 @@ def fit(
     margin: float = MARGIN,
     start: EstimationResult | None = None,
     extends: tuple | None = None,
+    pose_scale: bool = True,
 ) -> FitReport:
     """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
 
@@ -170,6 +177,9 @@ def fit(
     extends: a model this one extends (e.g. :func:`full_model` for the full model plus effects),
     fitted first on the same stances when no ``start`` is given; its optimum is then that start,
     so that the problem's non-convexity cannot leave the extended model above it.
+    pose_scale: estimate the pose correction's smooth width from the fitted stances
+    (:mod:`gc_ocp.estimation.pose_scale`; the held-out stance then uses it too); False keeps the
+    component's prior.
     """
     say = progress or (lambda s: None)
     model = model or full_model()
@@ -199,7 +209,18 @@ def fit(
     say(f"solving with Ipopt: {len(data)} stances, {sum(d.n for d in data)} frames")
     res = best_of(data, model, weights, options, strategies, progress=say, start=start)
     say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
-    report = FitReport(res, checks=notes)
+    scale = None
+    if pose_scale:
+        model, res, scale = estimate_pose_scale(data, model, res, weights, options, say)
+        if scale is not None and not scale.plausible:
+            res.flags.append(
+                {
+                    "code": "pose_width_at_limit",
+                    "what": "pose correction",
+                    "message": scale.message(),
+                }
+            )
+    report = FitReport(res, checks=notes, pose_scale=scale)
     if held is not None:
         hp = build_estimation([held], frozen_model(model, res), weights)
         hres = solve(hp, options)

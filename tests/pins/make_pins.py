@@ -17,9 +17,12 @@ see ``docs/architecture.md``); issue 22, plates the lab zeroed below a threshold
 below about 10 N): bundled 394.50 -> 394.46 (held out 290.21 -> 290.00), Plug-in Gait
 599.52 -> 599.31, Rajagopal and Gait2392 unchanged (their MOT zeros rise continuously: no
 level to censor); issue 23, the markers' measured noise modelled in the pose correction
-where it matters (``gc_ocp/kinematics/marker_error.py``): Rajagopal 691.35 -> 672.04 (its
+where it matters (``gc_ocp/marker_noise.py``): Rajagopal 691.35 -> 672.04 (its
 markers measure 0.13 mm of white noise), the others unchanged to round-off (their markers were
-low-passed before export).
+low-passed before export); issue 23, the pose correction's smooth width estimated from the
+stances by default (``gc_ocp/estimation/pose_scale.py``): bundled 394.46 -> see the json (its
+held-out stance too), Plug-in Gait 599.31 -> 275.29, Rajagopal 672.04 -> 333.53, Gait2392
+321.38 -> 217.32 (the objective's prior term is in units of the estimated, wider widths).
 """
 
 from __future__ import annotations

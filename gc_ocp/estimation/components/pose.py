@@ -11,7 +11,7 @@ from scipy.interpolate import BSpline
 
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.components.base import Component, DecodeContext, unique_labels
-from gc_ocp.kinematics.marker_error import (
+from gc_ocp.marker_noise import (
     MIN_UNIT_NOISE_M,
     filter_gain,
     noise_knot_spacing,
@@ -66,13 +66,13 @@ class PoseCorrection(Component):
     marker_noise: where a stance's foot carries its measured marker noise
     (:attr:`~gc_ocp.foot.FootKinematics.pose_noise`), the correction has a second part that
     follows it: the low-passed white noise of the pose, ``M Phi(t) z`` with ``Phi`` a spline
-    spanning the filter's band (:func:`gc_ocp.kinematics.marker_error.noise_knot_spacing`), ``M`` the
+    spanning the filter's band (:func:`gc_ocp.marker_noise.noise_knot_spacing`), ``M`` the
     Cholesky factor of the per-frame covariance (hindfoot axes at the stance's middle frame,
     turned into ``lab``) and ``z ~ N(0, I)``. The B-spline part is then the smooth error the
     markers cannot see (soft tissue). Without it, velocities of a few mm/s of filtered noise bias
     the exponent and the friction coefficient (``docs/quality.md``): the smooth part, with knots
     0.1 s apart, cannot follow a 6 Hz error. Noise too small to matter
-    (:data:`~gc_ocp.kinematics.marker_error.MIN_UNIT_NOISE_M`) is left out.
+    (:data:`~gc_ocp.marker_noise.MIN_UNIT_NOISE_M`) is left out.
 
     As the candidate effect ``kinematic_correction`` (against the bare seed base) it is an error
     of the *data*: the benchmark's fitter sees the foot through marker noise and a soft-tissue

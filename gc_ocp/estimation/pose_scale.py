@@ -1,0 +1,184 @@
+"""The size of the foot pose's smooth error, estimated from the stances (type-II maximum
+likelihood), instead of a guessed prior (issue 23).
+
+The pose correction's smooth part (:class:`~gc_ocp.estimation.components.pose.PoseCorrection`,
+a B-spline per stance) has a Gaussian prior whose width per axis (translation x, y, z [mm],
+rotation about x, y, z [deg]) was a guess (2 mm, 1 deg). Across the stances of a fit, its
+coefficients are many draws of the same prior, so the width can be estimated: MacKay's fixed
+point of the evidence (type-II maximum likelihood), per axis ``a``,
+
+    sigma_a^2  <-  sum_j  c_j^2  /  gamma_a,      gamma_a = sum_j (1 - S_jj / sigma_a^2)
+
+over the axis's coefficients ``c_j`` of every stance, ``S`` the posterior covariance
+(Gauss-Newton, at the fit) and ``gamma_a`` the number of coefficients the data determine (a
+coefficient the data do not inform has ``S_jj = sigma^2`` and counts 0). The fit is then
+repeated with the new widths, warm, until they change by less than :data:`RTOL`. The widths
+are then *measured per lab and subject*: what the markers' soft tissue and the rigid-foot
+simplification leave in the pose, as far as the forces can tell.
+
+**What it can absorb.** The forces inform the pose; so a width estimated from them also takes in
+whatever of the contact model's misfit a smooth pose change can mimic. So the width stays
+within what soft tissue can do (:data:`MIN_MM` to :data:`PLAUSIBLE_MM`, :data:`MIN_DEG` to
+:data:`PLAUSIBLE_DEG`); a width stopped at the upper limit is flagged: the fit would read part of
+the model's error as kinematics, and an effect (a toe joint, a flexible sole, the sole's height)
+is the likelier reading.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from gc_ocp.estimation.components.pose import PoseCorrection
+from gc_ocp.estimation.problem import Weights, build_estimation
+from gc_ocp.estimation.result import EstimationResult
+from gc_ocp.estimation.solve import IpoptOptions, solve
+from gc_ocp.estimation.starts import rescaled_start
+from gc_ocp.stance import StanceData
+
+RTOL = 0.05
+"""The rounds stop when no width changes by more than this fraction (a 5 % change of a prior
+width moves the fitted parameters by far less than their standard errors)."""
+
+MAX_ROUNDS = 8
+"""At most this many refits (the bundled trial settles in 4-6)."""
+
+MIN_GAMMA = 1.0
+"""An axis whose coefficients the data determine less than one of keeps its width (no
+information to estimate it from)."""
+
+PLAUSIBLE_MM = 5.0
+PLAUSIBLE_DEG = 5.0
+"""Soft tissue moves skin-mounted foot marker clusters by up to ~5 mm and ~5 deg in walking
+(calcaneus and forefoot markers against bone pins: Nester et al. 2007; Leardini et al. 2005;
+Chiari et al. 2005). The estimated width stops there, flagged (module doc): without the limit,
+three shared labs' fits took 10-25 mm and up to 10 deg (Rajagopal's vertical 24.5 mm), reading
+a misfit of the contact model or of the sole's height as kinematics; the contact parameters
+then describe a foot displaced by that much."""
+
+MIN_MM = 0.2
+MIN_DEG = 0.1
+"""Nor below these: markers are reconstructed to ~0.1-0.5 mm, so no lab's smooth pose error is
+smaller, and a width near 0 would stop the estimate (a coefficient at 0 stays there)."""
+
+
+@dataclass(frozen=True)
+class PoseScale:
+    """The estimated widths [mm] x, y, z and [deg] about x, y, z, the coefficients each axis's
+    data determine (``gamma``, of ``n_coefficients``), the rounds' history and the flag."""
+
+    sigma_mm: tuple[float, float, float]
+    sigma_deg: tuple[float, float, float]
+    gamma: tuple[float, ...]
+    n_coefficients: int
+    rounds: list[dict]
+    n_stances: int
+
+    @property
+    def plausible(self) -> bool:
+        """No width stopped at the soft tissue's limit (:data:`PLAUSIBLE_MM`, ``_DEG``)."""
+        return (
+            max(self.sigma_mm) < PLAUSIBLE_MM * 0.999
+            and max(self.sigma_deg) < PLAUSIBLE_DEG * 0.999
+        )
+
+    def message(self) -> str:
+        s = (
+            f"pose correction's smooth width, estimated over {self.n_stances} stances (type-II ML, "
+            f"{len(self.rounds)} rounds): translation x/y/z "
+            + "/".join(f"{v:.1f}" for v in self.sigma_mm)
+            + " mm, rotation "
+            + "/".join(f"{v:.1f}" for v in self.sigma_deg)
+            + " deg"
+        )
+        if not self.plausible:
+            s += (
+                f"; the forces ask for more than soft tissue moves a foot (stopped at "
+                f"{PLAUSIBLE_MM:g} mm, {PLAUSIBLE_DEG:g} deg): the contact model misfits these "
+                "stances (run the diagnosis: an unmodelled effect, or the sole's height)"
+            )
+        return s
+
+    def to_json(self) -> dict:
+        return {
+            "sigma_mm": list(self.sigma_mm),
+            "sigma_deg": list(self.sigma_deg),
+            "gamma": list(self.gamma),
+            "n_coefficients": self.n_coefficients,
+            "n_stances": self.n_stances,
+            "plausible": self.plausible,
+            "rounds": self.rounds,
+            "message": self.message(),
+        }
+
+
+def _axis_columns(problem, name: str, kind: str) -> list[np.ndarray]:
+    """Per axis (x, y, z), the columns of the ``(name, label, kind)`` coefficient blocks
+    (stored 3 x K column-major: x, y, z of knot 0, then knot 1, ...)."""
+    out: list[list[int]] = [[], [], []]
+    for s in problem.variables.specs:
+        if s.key[0] == name and s.key[-1] == kind:
+            for j in range(s.size):
+                out[j % 3].append(s.start + j)
+    return [np.asarray(o, int) for o in out]
+
+
+def mackay_update(problem, x: np.ndarray, pose: PoseCorrection) -> tuple[tuple, tuple, tuple, int]:
+    """One fixed-point step (module doc) at the fit ``x`` of ``problem``: the new widths
+    (mm, deg), ``gamma`` per axis and the coefficients per axis."""
+    _, J = problem.data_jacobian(x)
+    H = (J.T @ J).toarray() + np.diag(problem.prior_weights**2)
+    Sd = np.diag(np.linalg.inv(H))  # stored units: the prior's variance is 1
+    widths, gammas, n = [], [], 0
+    for kind, old in (("trans", pose.sigma_mm), ("rot", pose.sigma_deg)):
+        old = np.broadcast_to(np.asarray(old, float), 3)
+        for a, cols in enumerate(_axis_columns(problem, pose.name, kind)):
+            n = cols.size
+            g = float(np.sum(1.0 - Sd[cols]))
+            z2 = float(np.sum(x[cols] ** 2))
+            w = float(old[a] * np.sqrt(z2 / g)) if g >= MIN_GAMMA else float(old[a])
+            lo, hi = (MIN_MM, PLAUSIBLE_MM) if kind == "trans" else (MIN_DEG, PLAUSIBLE_DEG)
+            widths.append(float(np.clip(w, lo, hi)))
+            gammas.append(g)
+    return tuple(widths[:3]), tuple(widths[3:]), tuple(gammas), n
+
+
+def estimate_pose_scale(
+    data: list[StanceData],
+    model: tuple,
+    result: EstimationResult,
+    weights: Weights | None = None,
+    options: IpoptOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[tuple, EstimationResult, PoseScale | None]:
+    """The model with the pose correction's widths estimated on ``data`` (module doc), its fit
+    (warm-started from ``result``, the fit with the current widths) and the estimate; the input
+    unchanged (and None) when the model has no pose correction."""
+    say = progress or (lambda s: None)
+    pose = next((c for c in model if isinstance(c, PoseCorrection)), None)
+    if pose is None:
+        return model, result, None
+    rounds = []
+    prob = build_estimation(data, model, weights)
+    for k in range(MAX_ROUNDS):
+        mm, deg, gamma, n = mackay_update(prob, result.x, pose)
+        old = np.r_[np.broadcast_to(pose.sigma_mm, 3), np.broadcast_to(pose.sigma_deg, 3)]
+        change = float(np.max(np.abs(np.r_[mm, deg] / old - 1.0)))
+        pose = replace(pose, sigma_mm=mm, sigma_deg=deg)
+        model = tuple(pose if isinstance(c, PoseCorrection) else c for c in model)
+        prob = build_estimation(data, model, weights)
+        result = solve(prob, options, x0=rescaled_start(result, prob))
+        rounds.append({"sigma_mm": list(mm), "sigma_deg": list(deg), "objective": result.objective})
+        say(
+            f"pose width round {k + 1}: {', '.join(f'{v:.2f}' for v in mm)} mm, "
+            f"{', '.join(f'{v:.2f}' for v in deg)} deg; J = {result.objective:.1f}"
+        )
+        if change < RTOL:
+            break
+    est = PoseScale(mm, deg, gamma, n, rounds, len(data))
+    return model, result, est
+
+
+__all__ = ["PoseScale", "estimate_pose_scale", "mackay_update"]
