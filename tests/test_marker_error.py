@@ -174,3 +174,12 @@ def test_the_pose_width_follows_the_kinematic_error_in_the_data(drift_mm):
         assert res2.objective < res.objective
     else:
         assert mm < 2.0 and np.mean(scale.sigma_deg) < 1.0
+
+
+def test_the_diagnosis_refuses_an_unknown_pose_width():
+    from gc_ocp.diagnosis import diagnose_stances
+    from gc_ocp.errors import ModelError
+
+    sts, _ = _stances(np.random.default_rng(7), 0.0)
+    with pytest.raises(ModelError, match="pose_width"):
+        diagnose_stances(sts, pose_width="guessed")

@@ -216,11 +216,13 @@ def run_case(
     workers: int | None = None,
     files: Sequence[str] | None = None,
     stances_per_foot: int | None = None,
+    pose_width: str = "prior",
 ) -> dict:
     """Generate one case's data and diagnose it blind: the case with ``answer``, ``correct``,
     the ranking rows and timing. ``files``: trials of one subject whose motion the case uses
     (default: the bundled trial); ``stances_per_foot``: that many stances of each foot
-    (:func:`~gc_ocp.bench.truth.per_foot`; None: the motion's own)."""
+    (:func:`~gc_ocp.bench.truth.per_foot`; None: the motion's own); ``pose_width``: the
+    diagnosis's."""
     t0 = time.perf_counter()
     truth_name, mag = case["truth"], case["magnitude"]
     data, draw, kin_err = case_data(case, base, realism, files, stances_per_foot)
@@ -237,6 +239,7 @@ def run_case(
             n_boot=n_boot,
             progress=progress,
             workers=workers,
+            pose_width=pose_width,
         )
     answer = d.selected[0] if d.selected else NONE
     rows = [{k: v for k, v in r.to_json().items() if k in CASE_ROW_KEYS} for r in d.ranking]
@@ -304,6 +307,7 @@ def run_benchmark(
     first_seed: int = 0,
     files: Sequence[str] | None = None,
     stances_per_foot: int | None = None,
+    pose_width: str = "prior",
 ) -> dict:
     """Run every case of :func:`plan`; ``DIR/confusion.json`` is rewritten atomically after each
     case (``resume``: keep the cases of an earlier run with the same settings), then
@@ -311,7 +315,8 @@ def run_benchmark(
     processes per diagnosis round (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`);
     ``files``: trials of one subject whose real motion the cases use (default: the bundled
     trial; more stances per foot give the held-out score more folds); ``stances_per_foot``: that
-    many stances of each foot (:func:`~gc_ocp.bench.truth.per_foot`)."""
+    many stances of each foot (:func:`~gc_ocp.bench.truth.per_foot`); ``pose_width``: the
+    diagnosis's (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`)."""
     say = progress or (lambda s: None)
     out = check_writable(out)
     files = None if files is None else tuple(str(f) for f in files)
@@ -332,6 +337,8 @@ def run_benchmark(
         + ("; its sole offsets baked into the sole points" if base == "seed" else ""),
         "n_boot": n_boot,
         "decision": "top-1 = first effect selected by diagnose_stances(max_effects=1)",
+        # only when not the default, so that earlier runs resume unchanged
+        **({} if pose_width == "prior" else {"pose_width": pose_width}),
     }
     done: list[dict] = []
     path = Path(out) / "confusion.json"
@@ -374,6 +381,7 @@ def run_benchmark(
                 workers=workers,
                 files=files,
                 stances_per_foot=stances_per_foot,
+                pose_width=pose_width,
             )
         except GcOcpError as e:
             # a case whose diagnosis cannot finish (the base's fit did not converge on its

@@ -146,6 +146,14 @@ def build_parser() -> argparse.ArgumentParser:
         "Default: every effect the base does not have.",
     )
     p.add_argument(
+        "--pose-width",
+        choices=("prior", "estimated"),
+        default="prior",
+        help="The base's foot-pose correction width: its prior (2 mm, 1 deg; default) or "
+        "estimated on every stance first (docs/quality.md; its false-claim rate is being "
+        "measured before it becomes the default).",
+    )
+    p.add_argument(
         "--null-draws",
         type=int,
         default=None,
@@ -224,6 +232,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SCALE",
         help="Also make every truth differ from the model by a draw of the mismatch family at "
         "this scale (1: the documented family; default: none; docs/diagnosis.md).",
+    )
+    p.add_argument(
+        "--pose-width",
+        choices=("prior", "estimated"),
+        default="prior",
+        help="The base's foot-pose correction width: its prior (2 mm, 1 deg; default) or "
+        "estimated on every stance first (docs/quality.md; its false-claim rate is being "
+        "measured before it becomes the default).",
     )
     p.set_defaults(func=cmd_benchmark_diagnosis)
     return parser

@@ -227,7 +227,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     trials = _load(args)
     pairs = [(t, _kinematics(t, args)) for t in trials]
     prov = provenance(args, pairs)
-    kw = {}
+    kw = {"pose_width": args.pose_width}
     if args.null_draws is not None:
         if args.null_draws < 0:
             raise InputError(f"--null-draws must be 0 or more, but got {args.null_draws}")
@@ -282,6 +282,7 @@ def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
         files=args.trial or None,
         realism=realism,
         stances_per_foot=args.stances_per_foot,
+        pose_width=args.pose_width,
     )
     print(report(res))
     print(f"wrote {args.out / 'confusion.json'} and {args.out / 'confusion.png'}")

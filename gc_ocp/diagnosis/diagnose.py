@@ -59,6 +59,7 @@ from gc_ocp.estimation.components import (
     model_from_names,
 )
 from gc_ocp.estimation.measurement import measurement_of
+from gc_ocp.estimation.pose_scale import with_estimated_width
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.solve import IpoptOptions
 from gc_ocp.estimation.starts import with_lls_start
@@ -109,6 +110,7 @@ def diagnose_stances(
     mismatch: MismatchFamily | None = DEFAULT_FAMILY,
     max_folds: int = MAX_FOLDS,
     mismatch_draws: int = MISMATCH_DRAWS,
+    pose_width: str = "prior",
 ) -> Diagnosis:
     """The diagnosis of ``stances`` (one subject; see the module doc). ``alpha``: the
     family-wise rate of a false claim per round (:mod:`.null`); ``n_replicates``: the null's
@@ -121,7 +123,11 @@ def diagnose_stances(
     process). ``executor``: a :class:`concurrent.futures.Executor` to run them on instead (e.g.
     a ``dask.distributed.Client(...).get_executor()``; ``workers`` is then ignored).
     ``max_folds``: most training fits per model; more stances to hold out are held out in that
-    many groups (:func:`~gc_ocp.diagnosis.compare.fold_plan`)."""
+    many groups (:func:`~gc_ocp.diagnosis.compare.fold_plan`). ``pose_width``: the base's
+    pose-correction width, ``"prior"`` (its component's, 2 mm / 1 deg) or ``"estimated"`` on
+    every stance first (:func:`~gc_ocp.estimation.pose_scale.with_estimated_width`; the
+    nuisance of every model and fold then has that size; not yet the default: its false-claim
+    rate is being measured, ``docs/diagnosis.md``)."""
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
     base_label, base_model_ = resolve_base(base)
@@ -129,6 +135,13 @@ def diagnose_stances(
     plan = fold_plan(stances, max_folds)
     rate = 1.0 / float(np.median(np.diff(stances[0].time)))
     notes = []
+    if pose_width not in ("prior", "estimated"):
+        raise ModelError(f'pose_width must be "prior" or "estimated", but got {pose_width!r}')
+    if pose_width == "estimated":
+        say("estimating the pose correction's width on every stance (the nuisance's size)")
+        base_model_, scale = with_estimated_width(stances, base_model_, weights, options, say)
+        if scale is not None:
+            notes.append(scale.message())
     if not plan:
         notes.append(
             "No stance could be held out (every foot has a single stance): effects are scored "

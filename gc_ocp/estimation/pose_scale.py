@@ -35,7 +35,7 @@ from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, solve
-from gc_ocp.estimation.starts import rescaled_start
+from gc_ocp.estimation.starts import best_of, rescaled_start, with_lls_start
 from gc_ocp.stance import StanceData
 
 RTOL = 0.05
@@ -181,4 +181,23 @@ def estimate_pose_scale(
     return model, result, est
 
 
-__all__ = ["PoseScale", "estimate_pose_scale", "mackay_update"]
+def with_estimated_width(
+    data: list[StanceData],
+    model: tuple,
+    weights: Weights | None = None,
+    options: IpoptOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[tuple, PoseScale | None]:
+    """``model`` with its pose correction's widths estimated on ``data`` (fitted from the one
+    start path, then :func:`estimate_pose_scale`), and the estimate; ``model`` unchanged (and
+    None) without a pose correction. The diagnosis's nuisance then has the size these stances
+    ask for (``docs/quality.md``)."""
+    if not any(isinstance(c, PoseCorrection) for c in model):
+        return model, None
+    start = best_of(data, with_lls_start(model, data), weights, options, covariance=False)
+    fitted, _, scale = estimate_pose_scale(data, model, start, weights, options, progress)
+    pose = next(c for c in fitted if isinstance(c, PoseCorrection))
+    return tuple(pose if isinstance(c, PoseCorrection) else c for c in model), scale
+
+
+__all__ = ["PoseScale", "estimate_pose_scale", "mackay_update", "with_estimated_width"]
