@@ -48,23 +48,24 @@ low-passed before export measure ~0.005-0.03 mm of marker noise and stay below (
 
 
 @functools.lru_cache(maxsize=64)
-def _impulse(rate: float, cutoff_hz: float, order: int, n: int) -> np.ndarray:
-    """``(n, n)`` the zero-lag low-pass operator (``filtfilt`` of an ``order/2`` Butterworth, as
-    :func:`gc_ocp.kinematics.filtering.lowpass`) on ``n`` samples: column ``j`` is the response to
-    a unit impulse at ``j``."""
+def _kernel(rate: float, cutoff_hz: float, order: int) -> np.ndarray:
+    """``h``: the zero-lag low-pass (``filtfilt`` of an ``order/2`` Butterworth, as
+    :func:`gc_ocp.kinematics.filtering.lowpass`) applied to a unit impulse in the middle of
+    ``8 / cutoff_hz`` seconds of samples (far enough from the ends that they do not reach it)."""
+    n = int(8 * rate / cutoff_hz) | 1
+    e = np.zeros(n)
+    e[n // 2] = 1.0
     b, a = butter(order // 2, cutoff_hz / (rate / 2))
-    H = filtfilt(b, a, np.eye(n), axis=0)
-    H.flags.writeable = False
-    return H
+    h = filtfilt(b, a, e)
+    h.flags.writeable = False
+    return h
 
 
 def _noise_gain(rate: float, cutoff_hz: float, order: int = 4) -> float:
     """``g``: the variance that ``x - lowpass(x)`` keeps of unit white noise (module doc), away
     from the ends."""
-    n = int(8 * rate / cutoff_hz) | 1
-    h = _impulse(rate, cutoff_hz, order, n)[:, n // 2]
-    e = -h.copy()
-    e[n // 2] += 1.0
+    e = -_kernel(rate, cutoff_hz, order)
+    e[e.size // 2] += 1.0
     return float(e @ e)
 
 
@@ -129,8 +130,7 @@ def noise_knot_spacing(noise: PoseNoise) -> float:
 
 def filter_gain(noise: PoseNoise) -> float:
     """The variance the pipeline's low-pass keeps of unit white noise (``sum_j h_j^2``)."""
-    n = int(8 * noise.rate / noise.cutoff_hz) | 1
-    h = _impulse(float(noise.rate), float(noise.cutoff_hz), int(noise.order), n)[:, n // 2]
+    h = _kernel(float(noise.rate), float(noise.cutoff_hz), int(noise.order))
     return float(h @ h)
 
 
@@ -143,6 +143,12 @@ def unit_noise_sd(noise: PoseNoise, points_local: np.ndarray) -> float:
         G = np.hstack([np.eye(3), -_skew(p)])
         sds.append(np.sqrt(g * np.trace(G @ noise.cov @ G.T) / 3.0))
     return float(max(sds))
+
+
+def noise_modelled(noise: PoseNoise, points_local: np.ndarray) -> bool:
+    """Whether the estimator models ``noise`` for a foot whose units sit at ``points_local``:
+    it moves some unit by at least :data:`MIN_UNIT_NOISE_M` (:func:`unit_noise_sd`)."""
+    return unit_noise_sd(noise, points_local) >= MIN_UNIT_NOISE_M
 
 
 def foot_pose_noise(
@@ -163,6 +169,7 @@ __all__ = [
     "foot_pose_noise",
     "filter_gain",
     "noise_knot_spacing",
+    "noise_modelled",
     "unit_noise_sd",
     "pose_covariance",
     "white_noise",

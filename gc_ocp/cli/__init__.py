@@ -31,6 +31,18 @@ from gc_ocp.cli.common import _add_trial_args
 from gc_ocp.errors import GcOcpError, SolveError
 
 
+def _pose_width_argument(p: argparse.ArgumentParser) -> None:
+    """``--pose-width`` of the diagnosis (``diagnose`` and ``benchmark-diagnosis``)."""
+    p.add_argument(
+        "--pose-width",
+        choices=("prior", "estimated"),
+        default="prior",
+        help="The base's foot-pose correction width: its prior (2 mm, 1 deg; default) or "
+        "estimated on every stance first (docs/quality.md; its false-claim rate is being "
+        "measured before it becomes the default).",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="gc-ocp",
@@ -145,14 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="Comma-separated candidate effects (docs/effects.md), e.g. damping,friction. "
         "Default: every effect the base does not have.",
     )
-    p.add_argument(
-        "--pose-width",
-        choices=("prior", "estimated"),
-        default="prior",
-        help="The base's foot-pose correction width: its prior (2 mm, 1 deg; default) or "
-        "estimated on every stance first (docs/quality.md; its false-claim rate is being "
-        "measured before it becomes the default).",
-    )
+    _pose_width_argument(p)
     p.add_argument(
         "--null-draws",
         type=int,
@@ -233,14 +238,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="Also make every truth differ from the model by a draw of the mismatch family at "
         "this scale (1: the documented family; default: none; docs/diagnosis.md).",
     )
-    p.add_argument(
-        "--pose-width",
-        choices=("prior", "estimated"),
-        default="prior",
-        help="The base's foot-pose correction width: its prior (2 mm, 1 deg; default) or "
-        "estimated on every stance first (docs/quality.md; its false-claim rate is being "
-        "measured before it becomes the default).",
-    )
+    _pose_width_argument(p)
     p.set_defaults(func=cmd_benchmark_diagnosis)
     return parser
 

@@ -225,9 +225,10 @@ def _foot_noise(mm, markerset, names, white, q, foot, side, rate, cutoff_hz):
         for i, n in enumerate(names)
         if markerset.markers[n].is_foot and markerset.markers[n].side == side
     ]
-    sig = white[idx] if idx else np.zeros(0)
-    sig = sig[np.isfinite(sig)]
-    if len(idx) < 3 or not sig.size:
+    if len(idx) < 3:
+        return None
+    sig = white[idx][np.isfinite(white[idx])]
+    if not sig.size:
         return None
     k = len(q) // 2
     x = mm.positions(q[k])[idx]

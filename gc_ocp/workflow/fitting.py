@@ -28,7 +28,7 @@ from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls
 from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
-from gc_ocp.marker_noise import MIN_UNIT_NOISE_M, unit_noise_sd
+from gc_ocp.marker_noise import noise_modelled, unit_noise_sd
 from gc_ocp.stance import StanceData, fit_stances
 from gc_ocp.trial import Trial
 
@@ -147,7 +147,11 @@ def marker_notes(source, kin: TrialKinematics) -> list[str]:
             modelled.append(f"{side}: not (fewer than 3 foot markers, or none measured)")
             continue
         sd = unit_noise_sd(foot.pose_noise, foot.points_local) * 1e3
-        verdict = "modelled" if sd >= MIN_UNIT_NOISE_M * 1e3 else "too small to model"
+        verdict = (
+            "modelled"
+            if noise_modelled(foot.pose_noise, foot.points_local)
+            else "too small to model"
+        )
         modelled.append(f"{side}: {sd:.3f} mm at the contact units, {verdict}")
     return [
         f"{source}: markers' white noise [mm] per segment: {per}; the foot pose noise it leaves "

@@ -11,12 +11,7 @@ from scipy.interpolate import BSpline
 
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.components.base import Component, DecodeContext, unique_labels
-from gc_ocp.marker_noise import (
-    MIN_UNIT_NOISE_M,
-    filter_gain,
-    noise_knot_spacing,
-    unit_noise_sd,
-)
+from gc_ocp.marker_noise import filter_gain, noise_knot_spacing, noise_modelled
 from gc_ocp.trial import SIDES
 
 POSE_SLOTS = ("pose_dp", "pose_dth", "pose_ddp", "pose_ddth")
@@ -163,7 +158,7 @@ class PoseCorrection(Component):
         noise = stance.foot.pose_noise
         if not self.marker_noise or noise is None:
             return None
-        if unit_noise_sd(noise, stance.foot.points_local) < MIN_UNIT_NOISE_M:
+        if not noise_modelled(noise, stance.foot.points_local):
             return None  # too small to move anything (MIN_UNIT_NOISE_M)
         return _noise_part(stance.foot, noise)
 
@@ -226,33 +221,35 @@ class PoseCorrection(Component):
 
 
 def _noise_part(foot, noise) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Phi, dPhi/dt, M) of :meth:`PoseCorrection.noise_basis` (cached per stance: the same
-    stance is built into many problems)."""
-    key = (
+    """(Phi, dPhi/dt, M) of :meth:`PoseCorrection.noise_basis`."""
+    R = np.ascontiguousarray(foot.hindfoot_pose[foot.time.size // 2, :3, :3])
+    return _noise_arrays(
         foot.time.tobytes(),
-        foot.hindfoot_pose.tobytes(),
+        R.tobytes(),
         noise.cov.tobytes(),
-        noise.rate,
-        noise.cutoff_hz,
-        noise.order,
+        noise_knot_spacing(noise),
+        filter_gain(noise),
     )
-    hit = _NOISE_CACHE.get(key)
-    if hit is None:
-        B, dB = _bspline_basis(foot.time.tobytes(), noise_knot_spacing(noise))
-        scale = np.sqrt(filter_gain(noise) / float(np.mean(np.sum(B**2, axis=1))))
-        Phi, dPhi = B * scale, dB * scale
-        R = foot.hindfoot_pose[foot.time.size // 2, :3, :3]
-        Rb = np.zeros((6, 6))
-        Rb[:3, :3] = Rb[3:, 3:] = R
-        M = Rb @ np.linalg.cholesky(noise.cov + 1e-30 * np.eye(6))
-        for a in (Phi, dPhi, M):
-            a.flags.writeable = False
-        if len(_NOISE_CACHE) > 512:
-            _NOISE_CACHE.clear()
-        hit = _NOISE_CACHE[key] = (Phi, dPhi, M)
-    return hit
 
 
-_NOISE_CACHE: dict = {}
+@functools.lru_cache(maxsize=512)
+def _noise_arrays(
+    time_bytes: bytes, rotation_bytes: bytes, cov_bytes: bytes, knot_spacing: float, gain: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Phi, dPhi/dt, M) for the frame times, the hindfoot's middle-frame rotation and the
+    per-frame covariance (float64 bytes; cached, read-only: the same stance is built into many
+    problems)."""
+    B, dB = _bspline_basis(time_bytes, knot_spacing)
+    scale = np.sqrt(gain / float(np.mean(np.sum(B**2, axis=1))))
+    Phi, dPhi = B * scale, dB * scale
+    R = np.frombuffer(rotation_bytes, dtype=float).reshape(3, 3)
+    cov = np.frombuffer(cov_bytes, dtype=float).reshape(6, 6)
+    Rb = np.zeros((6, 6))
+    Rb[:3, :3] = Rb[3:, 3:] = R
+    M = Rb @ np.linalg.cholesky(cov + 1e-30 * np.eye(6))
+    for a in (Phi, dPhi, M):
+        a.flags.writeable = False
+    return Phi, dPhi, M
+
 
 __all__ = ["PoseCorrection"]
