@@ -137,6 +137,47 @@ def test_a_variable_at_its_bound_stays_there_in_the_one_step_fit():
     assert 5 < crossed < 35  # both cases occur in the draw
 
 
+def test_the_bounded_step_with_several_variables_at_bounds_is_the_constrained_optimum():
+    """Three variables at bounds (two lower, one upper) with priors on some columns: every face
+    is solved from one factorisation (``step``'s doc); each replicate's step is the bounded
+    least-squares optimum (scipy's bounded solver on the stacked data and prior rows)."""
+    rng = np.random.default_rng(4)
+    n, nx = 80, 7
+    J = rng.normal(size=(n, nx))
+    pw = np.array([0.5, 2.0])
+    prior = np.array([1, 5])
+    R = rng.normal(size=(n, 60))
+    lin = onestep.Linear(
+        r=np.zeros(n),
+        J=sp.csr_matrix(J),
+        prior_idx=prior,
+        pw=pw,
+        p0=np.zeros(2),
+        rows=(slice(0, n),),
+        nuisance=(np.zeros(0, int),),
+        at_lower=np.array([0, 3]),
+        at_upper=np.array([5]),
+        nested=True,
+        x0=np.zeros(nx),
+        keys={},
+    )
+    P = np.zeros((2, nx))
+    P[[0, 1], prior] = pw
+    d = onestep.step(J.T @ J + P.T @ P, J.T @ R, lin)
+    lo = np.full(nx, -np.inf)
+    hi = np.full(nx, np.inf)
+    lo[[0, 3]] = 0.0
+    hi[5] = 0.0
+    A = np.vstack([J, P])
+    active = 0
+    for b in range(R.shape[1]):
+        ref = so.lsq_linear(A, -np.concatenate([R[:, b], np.zeros(2)]), bounds=(lo, hi))
+        # the constrained optimum, to the solver's tolerance (lsq_linear's default 1e-10)
+        np.testing.assert_allclose(d[:, b], ref.x, atol=1e-7)
+        active += np.count_nonzero(ref.active_mask)
+    assert active > 20  # faces with one, two and three bounds active all occur in the draw
+
+
 def test_a_null_test_round_trips_through_json():
     t = null.NullTest(1.2, 0.1, 0.4, 2.75, 0.01, 2.4, 0, 6)
     assert null.NullTest(**t.to_json()) == t
