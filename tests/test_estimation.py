@@ -11,6 +11,7 @@ from conftest import assert_matches_pins  # noqa: E402
 
 from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.components import (
+    EFFECTS,
     ContactLaw,
     Param,
     PoseCorrection,
@@ -435,3 +436,51 @@ def test_extended_model_started_from_the_base_never_ends_higher():
             pose_scale=False,
         ).result
     assert ext2.objective == pytest.approx(ext.objective, rel=1e-12)  # the same start and solves
+
+
+@pytest.mark.parametrize("effect", [None, *EFFECTS])
+def test_problems_that_differ_only_in_plate_data_share_their_slot_maps(bundled, effect):
+    """The linear maps ``Y = A x + y0`` are cached per motion and model (``SLOT_MAP_CACHE``):
+    a stance's slots never read the plate's data (``PLATE_FIELDS``). For the base and the base
+    with every candidate effect, a build on other plate data (measured wrench, plate signal,
+    threshold changed) reuses the maps and equals a build without the cache exactly; other
+    kinematics do not hit it."""
+    import dataclasses
+    import warnings
+
+    from gc_ocp.estimation import problem as pm
+    from gc_ocp.estimation.components import base_model, model_from_names
+    from gc_ocp.estimation.starts import with_lls_start
+    from gc_ocp.workflow.fitting import fit_data
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the fit's notes are tested elsewhere
+        _, data, _ = fit_data([bundled])
+    model = base_model() if effect is None else model_from_names([effect], base_model())
+    model = with_lls_start(model, data)
+    other = [
+        dataclasses.replace(
+            st,
+            measured=1.1 * st.measured + 3.0,
+            plate_wrench=None if st.plate_wrench is None else 0.9 * st.plate_wrench,
+            censor_below=15.0,
+        )
+        for st in data
+    ]
+    pm.build_estimation(data, model)
+    hits = len(pm._SLOT_MAPS)
+    cached = pm.build_estimation(other, model)
+    assert len(pm._SLOT_MAPS) == hits  # reused, not added
+    pm._SLOT_MAPS.clear()
+    fresh = pm.build_estimation(other, model)
+    for a, b in zip(cached.blocks, fresh.blocks, strict=True):
+        assert (a.A_csr != b.A_csr).nnz == 0
+        np.testing.assert_array_equal(a._y0, b._y0)
+        np.testing.assert_array_equal(a.D, b.D)
+    x = fresh.x0
+    np.testing.assert_array_equal(cached.data_residuals(x), fresh.data_residuals(x))
+    moved = [
+        st.with_foot(st.foot.with_points(st.foot.points_local + 1e-3, st.layout)) for st in data
+    ]
+    pm.build_estimation(moved, model)
+    assert len(pm._SLOT_MAPS) == 2  # another motion: a new entry

@@ -226,7 +226,10 @@ class Component:
         return {}
 
     def slots(self, variables: Variables, index: int, stance: StanceData) -> dict:
-        """``{slot: MX (size, 1) or (size, T)}`` for stance ``index``; linear in ``variables.x``."""
+        """``{slot: MX (size, 1) or (size, T)}`` for stance ``index``; linear in ``variables.x``.
+        Never from the plate's data (the stance's
+        :data:`~gc_ocp.estimation.problem.PLATE_FIELDS`): they enter through :meth:`data`, and
+        problems that differ only there share their slots' linear maps."""
         return {}
 
     def data_sizes(self, layout: SoleLayout) -> dict[str, int]:
