@@ -8,7 +8,10 @@ Sole points (``PL, PM, AL, AM`` on the hindfoot, ``TT`` on the toes) in their se
   the toe-tip marker when there is one, else at heel marker + foot length (0.152 H).
 * Y (medio-lateral): lateral/medial metatarsal markers give the anterior units directly; with a
   single forefoot marker the anterior units are at +-half the foot width (0.055 H) around it
-  (lateral marker: the medial unit one foot width medial of it); posterior units at +-
+  when it is on the mid-line (second metatarsal, toe); a lateral (fifth metatarsal) marker
+  places the lateral unit and the medial one a foot width medial of it, a medial (first
+  metatarsal, as the Davis protocol's) the medial unit and the lateral one a foot width lateral
+  of it; posterior units at +-
   ``POSTERIOR_HALF_WIDTH`` foot widths around the heel marker. ``TT`` on the anterior mid-line.
 * Z (height): the known floor plane. With a static trial (feet flat on the floor), each unit's
   local Z is chosen so that its mean lab height over the static frames equals the floor height
@@ -136,6 +139,8 @@ def sole_points_xy(
         yal, yam = mtl[1], mtm[1]
     elif mtl is not None:
         yal, yam = mtl[1], mtl[1] - lat * W
+    elif mtm is not None:  # the first metatarsal head alone (e.g. a Davis foot): it is medial
+        yal, yam = mtm[1] + lat * W, mtm[1]
     elif fore:
         yal, yam = fore[0][1] + lat * W / 2, fore[0][1] - lat * W / 2
     else:
