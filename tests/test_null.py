@@ -178,6 +178,36 @@ def test_the_bounded_step_with_several_variables_at_bounds_is_the_constrained_op
     assert active > 20  # faces with one, two and three bounds active all occur in the draw
 
 
+def test_a_variable_fixed_by_equal_bounds_stays_fixed_in_the_bounded_step():
+    """A variable with ``lb == ub`` is at both bounds: it stays at 0 on every face, and the
+    others are the bounded optimum without it (scipy's bounded solver on the other columns)."""
+    rng = np.random.default_rng(5)
+    n, nx = 50, 5
+    J = rng.normal(size=(n, nx))
+    R = rng.normal(size=(n, 30))
+    lin = onestep.Linear(
+        r=np.zeros(n),
+        J=sp.csr_matrix(J),
+        prior_idx=np.zeros(0, int),
+        pw=np.zeros(0),
+        p0=np.zeros(0),
+        rows=(slice(0, n),),
+        nuisance=(np.zeros(0, int),),
+        at_lower=np.array([1, 3]),
+        at_upper=np.array([3]),
+        nested=True,
+        x0=np.zeros(nx),
+        keys={},
+    )
+    d = onestep.step(J.T @ J, J.T @ R, lin)
+    np.testing.assert_array_equal(d[3], 0.0)
+    keep = [0, 1, 2, 4]
+    for b in range(R.shape[1]):
+        ref = so.lsq_linear(J[:, keep], -R[:, b], bounds=([-np.inf, 0, -np.inf, -np.inf], np.inf))
+        # to the solver's tolerance (lsq_linear's default 1e-10)
+        np.testing.assert_allclose(d[keep, b], ref.x, atol=1e-7)
+
+
 def test_a_null_test_round_trips_through_json():
     t = null.NullTest(1.2, 0.1, 0.4, 2.75, 0.01, 2.4, 0, 6)
     assert null.NullTest(**t.to_json()) == t

@@ -218,21 +218,27 @@ def step(G: np.ndarray, rhs: np.ndarray, lin: Linear) -> np.ndarray:
     unit columns of the ``k`` bounded variables), fixing a subset ``F`` at 0 gives
     ``d = d0 - W_F mu`` with ``(G^-1)_FF mu = d0_F`` (the Lagrange multipliers of ``d_F = 0``),
     and raises the objective by ``1/2 d0_F^T mu``: a ``|F|``-sized solve per face instead of an
-    ``n``-sized one (the same optimum to round-off)."""
-    lo, hi = lin.at_lower, lin.at_upper
-    bounded = np.concatenate([lo, hi]).astype(int)
+    ``n``-sized one (the same optimum to round-off). A variable at both bounds (``lb == ub``) is
+    fixed on every face."""
+    pinned = np.intersect1d(lin.at_lower, lin.at_upper)  # lb == ub: fixed on every face
+    lo, hi = np.setdiff1d(lin.at_lower, pinned), np.setdiff1d(lin.at_upper, pinned)
+    bounded = np.concatenate([lo, hi, pinned]).astype(int)
     if not bounded.size:
         return -_solve(G, rhs)
     sign = np.concatenate([np.ones(lo.size), -np.ones(hi.size)])  # side: sign * d >= 0
-    k, B = bounded.size, rhs.shape[1]
-    E = np.zeros((G.shape[0], k))
-    E[bounded, np.arange(k)] = 1.0
+    k, B = lo.size + hi.size, rhs.shape[1]  # the faces: subsets of the first k
+    E = np.zeros((G.shape[0], bounded.size))
+    E[bounded, np.arange(bounded.size)] = 1.0
     sol = _solve(G, np.hstack([rhs, E]))
     d0, W = -sol[:, :B], sol[:, B:]
     S = W[bounded]  # (G^-1) restricted to the bounded variables
+    always = np.r_[np.zeros(k, bool), np.ones(pinned.size, bool)]
 
-    def face(fixed: np.ndarray, cols=slice(None)) -> tuple[np.ndarray, np.ndarray]:
-        """The face's stationary point and its objective raise, for the columns ``cols``."""
+    def face(free_fixed: np.ndarray, cols=slice(None)) -> tuple[np.ndarray, np.ndarray]:
+        """The stationary point of the face fixing ``free_fixed`` (of the first ``k``) and the
+        pinned variables, and its objective raise, for the columns ``cols``."""
+        fixed = always.copy()
+        fixed[:k] = free_fixed
         a = d0[:, cols]
         if not fixed.any():
             return a, np.zeros(a.shape[1])
@@ -242,17 +248,19 @@ def step(G: np.ndarray, rhs: np.ndarray, lin: Linear) -> np.ndarray:
         return d, 0.5 * np.sum(a[bounded[fixed]] * mu, axis=0)
 
     if k > MAX_ACTIVE_SET:
-        d = d0.copy()
-        bad = (sign[:, None] * d0[bounded]) < 0
+        d0f = face(np.zeros(k, bool))[0]
+        d = d0f.copy()
+        bad = (sign[:, None] * d0f[bounded[:k]]) < 0
         for j in np.flatnonzero(bad.any(axis=0)):
             d[:, j : j + 1] = face(bad[:, j], slice(j, j + 1))[0]
         return d
     best = np.full(B, np.inf)
     out = np.zeros_like(d0)
+    bounded_k = bounded[:k]
     for mask in range(2**k):
         fixed = np.array([(mask >> b) & 1 for b in range(k)], bool)
         dd, raise_ = face(fixed)
-        ok = np.all(sign[~fixed, None] * dd[bounded[~fixed]] >= -1e-12, axis=0)
+        ok = np.all(sign[~fixed, None] * dd[bounded_k[~fixed]] >= -1e-12, axis=0)
         take = ok & (raise_ < best)
         out[:, take] = dd[:, take]
         best[take] = raise_[take]
