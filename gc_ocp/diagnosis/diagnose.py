@@ -44,6 +44,7 @@ from gc_ocp.diagnosis.null import (
 from gc_ocp.diagnosis.onestep import fold_prior_means, linearize_parent
 from gc_ocp.diagnosis.result import Diagnosis, RankRow, WaterfallStep
 from gc_ocp.diagnosis.selection import (
+    MIN_REDUCTION_PCT,
     best_passing,
     flag_non_additive,
     rank,
@@ -267,6 +268,7 @@ def diagnose_stances(
         evaluations=evaluations,
         notes=notes,
         max_effects=max_effects,
+        floor_pct=MIN_REDUCTION_PCT,
     )
 
 

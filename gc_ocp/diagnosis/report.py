@@ -238,7 +238,7 @@ def _method(d) -> dict:
     n_scored = len(f.get("heldout", []) if f.get("n") else f.get("stances", []))
     return {
         "alpha": f"{d.alpha:g}",
-        "floor": f"{selection.MIN_REDUCTION_PCT:g} %",
+        "floor": f"{d.floor_pct:g} %",
         "replicates": d.calibration[0]["replicates"] if d.calibration else "–",
         "mismatch": (
             f", plus one of {d.calibration[0]['mismatch_draws']} draws of the mismatch family "

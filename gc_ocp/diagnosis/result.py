@@ -179,7 +179,8 @@ class Diagnosis:
     ranking: every candidate against the base (round 1), best first; rounds: the ranking of every
     forward-selection round; selected: effects added, in order; waterfall: held-out RMS after each
     step; where: the residual map of the base (held-out stances) and of the final model;
-    evaluations: ``{label: Evaluation}`` (fits; not written to JSON)."""
+    alpha, floor_pct: the rule's family-wise rate and effect-size floor [%] as this diagnosis
+    applied them; evaluations: ``{label: Evaluation}`` (fits; not written to JSON)."""
 
     base: str
     base_components: list[str]
@@ -197,6 +198,7 @@ class Diagnosis:
     evaluations: dict = dataclasses.field(default_factory=dict, repr=False)
     notes: list[str] = dataclasses.field(default_factory=list)
     max_effects: int | None = None
+    floor_pct: float = 2.0
 
     @property
     def inconclusive(self) -> list[str]:
@@ -234,6 +236,7 @@ class Diagnosis:
             "where": self.where,
             "folds": self.folds,
             "alpha": self.alpha,
+            "floor_pct": self.floor_pct,
             "calibration": self.calibration,
             "measurement": self.measurement,
             "max_effects": self.max_effects,
@@ -276,6 +279,8 @@ class Diagnosis:
             measurement=dict(d.get("measurement", {})),
             notes=list(d["notes"]),
             max_effects=d["max_effects"],
+            # a diagnosis.json without it was run with the 2 % floor of those versions
+            floor_pct=d.get("floor_pct", 2.0),
         )
 
     @property

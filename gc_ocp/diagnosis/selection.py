@@ -11,14 +11,16 @@ score with a 95 % bootstrap interval, and its in-sample reduction for reference
 wrong in ways that are not candidates, gives on replicates of the subject's own data, with a
 family-wise rate of a false claim among the round's candidates of at most ``alpha``) *and*,
 fully refitted, it does reduce the held-out score (in-sample when no stance can be held out).
-*and* the former effect-size rule holds too: a held-out reduction of at least
+*and* a small effect-size floor holds too: a held-out reduction of at least
 :data:`MIN_REDUCTION_PCT`, the lower end of its interval above 0, an in-sample reduction of at
-least :data:`MIN_REDUCTION_PCT`. The floor stays until the test holds its rate on every kind of
-null: on clean data of a truth inside the model but far from its priors (the bundled motion's
-registered truth, sole offsets 4-5 prior sigmas) the fitted base misfits the truth
-systematically and damping absorbs +0.12-0.14 % of it, on replicates of the fitted base it
-does not (null mean 0.00-0.04 %), so the test alone named damping on five of eight noise-free
-or noise-only datasets (``docs/diagnosis.md``, Decision rule). The result gives, for every
+least :data:`MIN_REDUCTION_PCT`. The test alone does not hold its rate on one kind of null:
+clean data of a truth inside the model but far from its priors (the registered truth, sole
+offsets 4-5 prior sigmas), where the fitted base misfits the truth systematically and damping
+absorbs +0.14-0.18 % of it while on replicates of the fitted base it does not; the floor
+rejects those. It was 2 %, an effect-size rule under which a real gain of 1 % is never named
+however many stances there are; it is now the smallest floor that rejects the "none" cases of
+one benchmark motion, chosen there and scored on the other (``docs/diagnosis.md``, Decision
+rule; ``benchmarks/rule_variants_output.md``). The result gives, for every
 candidate that does not pass, the further stances that would decide the test. A candidate
 that fails, yet whose one-step reduction is above the null's mean and a practical number of
 stances would decide it, or that the test names below the floor, is *inconclusive*.
@@ -71,9 +73,12 @@ smaller at least this fraction of the larger): an effect that repairs a sliver o
 another repairs in full does not stand in for it. On the seed base, where nearly every
 candidate repairs a little of the missing registration, this keeps the flag specific."""
 
-MIN_REDUCTION_PCT = 2.0
+MIN_REDUCTION_PCT = 0.5
 """Effect-size floor [%] of the held-out and in-sample reductions a named effect also needs
-(module doc: kept until the calibrated test holds its rate on prior-biased truths)."""
+(module doc): the smallest of 0, 0.5, 1, ... % that rejects at least 95 % of the "none" cases
+(mismatch and prior-biased) of one benchmark motion, the same chosen on either motion and
+scored on the other (``benchmarks/rule_variants.py``). The gains it rejects there are
+0.14-0.18 %; the 2 % it replaces left moderate damping (+1.0 % held out, p = 0.01) unnamed."""
 
 NON_ADDITIVE_FRACTION = 0.5
 """An effect whose gain on top of another falls below this fraction of its gain alone is
