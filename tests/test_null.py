@@ -104,6 +104,26 @@ def test_a_gain_the_mismatch_alone_can_give_is_not_decided_by_more_steps():
     assert needed(n0 + more) <= t - m < needed(n0 + more - 1)
 
 
+def _single_stance(J, at_lower=(), at_upper=(), prior_idx=(), pw=(), r=None) -> onestep.Linear:
+    """A one-stance linearised model on the dense Jacobian ``J`` (no nuisance), nested, with
+    the given variables at their bounds and priors of weights ``pw`` (prior residual 0)."""
+    n, nx = J.shape
+    return onestep.Linear(
+        r=np.zeros(n) if r is None else r,
+        J=sp.csr_matrix(J),
+        prior_idx=np.asarray(prior_idx, int),
+        pw=np.asarray(pw, float),
+        p0=np.zeros(len(pw)),
+        rows=(slice(0, n),),
+        nuisance=(np.zeros(0, int),),
+        at_lower=np.asarray(at_lower, int),
+        at_upper=np.asarray(at_upper, int),
+        nested=True,
+        x0=np.zeros(nx),
+        keys={},
+    )
+
+
 def test_a_variable_at_its_bound_stays_there_in_the_one_step_fit():
     """The damping of a candidate starts at its neutral value 0, its lower bound: on replicates
     whose step would make it negative it stays at 0 and the others are fitted without it (the
@@ -112,20 +132,7 @@ def test_a_variable_at_its_bound_stays_there_in_the_one_step_fit():
     n, nx = 60, 4
     J = rng.normal(size=(n, nx))
     R = rng.normal(size=(n, 40))
-    lin = onestep.Linear(
-        r=np.zeros(n),
-        J=sp.csr_matrix(J),
-        prior_idx=np.zeros(0, int),
-        pw=np.zeros(0),
-        p0=np.zeros(0),
-        rows=(slice(0, n),),
-        nuisance=(np.zeros(0, int),),
-        at_lower=np.array([2]),
-        at_upper=np.zeros(0, int),
-        nested=True,
-        x0=np.zeros(nx),
-        keys={},
-    )
+    lin = _single_stance(J, at_lower=[2])
     d = onestep.step(J.T @ J, J.T @ R, lin)
     assert (d[2] >= -1e-12).all()
     crossed = 0
@@ -147,20 +154,7 @@ def test_the_bounded_step_with_several_variables_at_bounds_is_the_constrained_op
     pw = np.array([0.5, 2.0])
     prior = np.array([1, 5])
     R = rng.normal(size=(n, 60))
-    lin = onestep.Linear(
-        r=np.zeros(n),
-        J=sp.csr_matrix(J),
-        prior_idx=prior,
-        pw=pw,
-        p0=np.zeros(2),
-        rows=(slice(0, n),),
-        nuisance=(np.zeros(0, int),),
-        at_lower=np.array([0, 3]),
-        at_upper=np.array([5]),
-        nested=True,
-        x0=np.zeros(nx),
-        keys={},
-    )
+    lin = _single_stance(J, at_lower=[0, 3], at_upper=[5], prior_idx=prior, pw=pw)
     P = np.zeros((2, nx))
     P[[0, 1], prior] = pw
     d = onestep.step(J.T @ J + P.T @ P, J.T @ R, lin)
@@ -185,20 +179,7 @@ def test_a_variable_fixed_by_equal_bounds_stays_fixed_in_the_bounded_step():
     n, nx = 50, 5
     J = rng.normal(size=(n, nx))
     R = rng.normal(size=(n, 30))
-    lin = onestep.Linear(
-        r=np.zeros(n),
-        J=sp.csr_matrix(J),
-        prior_idx=np.zeros(0, int),
-        pw=np.zeros(0),
-        p0=np.zeros(0),
-        rows=(slice(0, n),),
-        nuisance=(np.zeros(0, int),),
-        at_lower=np.array([1, 3]),
-        at_upper=np.array([3]),
-        nested=True,
-        x0=np.zeros(nx),
-        keys={},
-    )
+    lin = _single_stance(J, at_lower=[1, 3], at_upper=[3])
     d = onestep.step(J.T @ J, J.T @ R, lin)
     np.testing.assert_array_equal(d[3], 0.0)
     keep = [0, 1, 2, 4]
@@ -219,22 +200,7 @@ def test_a_null_test_round_trips_through_json():
 def test_the_wild_bootstrap_keeps_the_residual_size_and_skips_censored_samples(T):
     rng = np.random.default_rng(2)
     e = rng.normal(size=6 * T)
-    lin = dataclasses.replace(
-        onestep.Linear(
-            r=e,
-            J=sp.csr_matrix((6 * T, 1)),
-            prior_idx=np.zeros(0, int),
-            pw=np.zeros(0),
-            p0=np.zeros(0),
-            rows=(slice(0, 6 * T),),
-            nuisance=(np.zeros(0, int),),
-            at_lower=np.zeros(0, int),
-            at_upper=np.zeros(0, int),
-            nested=True,
-            x0=np.zeros(1),
-            keys={},
-        )
-    )
+    lin = _single_stance(np.zeros((6 * T, 1)), r=e)
     measured = np.full((T, 6), 100.0)
     measured[: T // 3, 2] = 0.0  # zeroed below a 20 N threshold
     fit = {"measured": measured, "censor_below": 20.0}
