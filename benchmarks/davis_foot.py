@@ -53,10 +53,10 @@ def oracle_layout(trial, full, davis):
                     a.time <= st.t_on + FOOT_FLAT[1] * st.duration
                 )
         pts = b.points_local.copy()
-        Ha, Hb = a.hindfoot_pose[w], b.hindfoot_pose[w]
+        Hb = b.hindfoot_pose[w]
         for i, u in enumerate(a.layout.units):
             if a.layout.parent(u) == "hindfoot":
-                lab = np.einsum("tij,j->ti", Ha[:, :3, :3], a.points_local[i]) + Ha[:, :3, 3]
+                lab = a.positions[w, i]  # the full-marker unit in the lab
                 pts[i] = np.einsum("tji,tj->ti", Hb[:, :3, :3], lab - Hb[:, :3, 3]).mean(0)
         feet[side] = b.with_points(pts)
     return dataclasses.replace(davis, feet=feet)
