@@ -105,39 +105,27 @@ def baseline(prob, budget_s: float, x0: np.ndarray | None = None):
 def baseline_joint(data, model, first: dict, budget_s: float) -> dict:
     """The joint estimator's own rounds (:func:`gc_ocp.estimation.pose_scale.estimate_pose_scale`:
     MacKay's update of the pose widths, then a warm refit, until no width moves ``RTOL``) with
-    every solve the FD baseline's, starting from the FD fit ``first`` of ``model``. The update
+    every refit the FD baseline's, starting from the FD fit ``first`` of ``model``. The update
     itself uses the exact Jacobian (one evaluation per round; the solves are what FD makes dear)."""
-    from dataclasses import replace
-
-    from gc_ocp.estimation.components import PoseCorrection
-    from gc_ocp.estimation.pose_scale import MAX_ROUNDS, RTOL, mackay_update
+    from gc_ocp.estimation.pose_scale import estimate_pose_scale
     from gc_ocp.estimation.solve import result_at
-    from gc_ocp.estimation.starts import rescaled_start
+
+    counts = {"nfev": first["nfev"], "capped": first["capped"]}
+
+    def fd_refit(prob, x0):
+        b = baseline(prob, budget_s, x0=x0)
+        counts["nfev"] += b["nfev"]
+        counts["capped"] |= b["capped"]
+        return result_at(prob, b["x"], covariance=False)
 
     t0 = time.perf_counter()
-    pose = next(c for c in model if isinstance(c, PoseCorrection))
-    prob = build_estimation(data, model)
-    x, obj, nfev, capped, rounds = first["x"], first["obj"], first["nfev"], first["capped"], 0
-    for _ in range(MAX_ROUNDS):
-        mm, deg, _, _ = mackay_update(prob, x, pose)
-        old = np.r_[np.broadcast_to(pose.sigma_mm, 3), np.broadcast_to(pose.sigma_deg, 3)]
-        change = float(np.max(np.abs(np.r_[mm, deg] / old - 1.0)))
-        pose = replace(pose, sigma_mm=mm, sigma_deg=deg)
-        model = tuple(pose if isinstance(c, PoseCorrection) else c for c in model)
-        new = build_estimation(data, model)
-        start = rescaled_start(result_at(prob, x, covariance=False), new)
-        b = baseline(new, budget_s, x0=start)
-        prob, x, obj, rounds = new, b["x"], b["obj"], rounds + 1
-        nfev += b["nfev"]
-        capped |= b["capped"]
-        if change < RTOL:
-            break
+    start = result_at(build_estimation(data, model), first["x"], covariance=False)
+    _, fitted, scale = estimate_pose_scale(data, model, start, refit=fd_refit)
     return dict(
         total=first["total"] + time.perf_counter() - t0,
-        obj=obj,
-        rounds=rounds,
-        nfev=nfev,
-        capped=capped,
+        obj=fitted.objective,
+        rounds=len(scale.rounds),
+        **counts,
     )
 
 

@@ -152,11 +152,19 @@ def estimate_pose_scale(
     weights: Weights | None = None,
     options: IpoptOptions | None = None,
     progress: Callable[[str], None] | None = None,
+    refit: Callable[[object, np.ndarray], EstimationResult] | None = None,
 ) -> tuple[tuple, EstimationResult, PoseScale | None]:
     """The model with the pose correction's widths estimated on ``data`` (module doc), its fit
     (warm-started from ``result``, the fit with the current widths) and the estimate; the input
-    unchanged (and None) when the model has no pose correction."""
+    unchanged (and None) when the model has no pose correction. ``refit(problem, x0)``: each
+    round's warm refit (default: Ipopt, :func:`~gc_ocp.estimation.solve.solve`; a benchmark
+    passes another solver to time the same rounds)."""
     say = progress or (lambda s: None)
+    if refit is None:
+
+        def refit(prob, x0):
+            return solve(prob, options, x0=x0)
+
     pose = next((c for c in model if isinstance(c, PoseCorrection)), None)
     if pose is None:
         return model, result, None
@@ -169,7 +177,7 @@ def estimate_pose_scale(
         pose = replace(pose, sigma_mm=mm, sigma_deg=deg)
         model = tuple(pose if isinstance(c, PoseCorrection) else c for c in model)
         prob = build_estimation(data, model, weights)
-        result = solve(prob, options, x0=rescaled_start(result, prob))
+        result = refit(prob, rescaled_start(result, prob))
         rounds.append({"sigma_mm": list(mm), "sigma_deg": list(deg), "objective": result.objective})
         say(
             f"pose width round {k + 1}: {', '.join(f'{v:.2f}' for v in mm)} mm, "
