@@ -194,13 +194,9 @@ def linearize_child(
     return linearize(problem, rescaled_start(own, problem), nested=False)
 
 
-def _regularised(G: np.ndarray) -> np.ndarray:
-    eps = 1e-10 * max(float(np.trace(G)) / max(G.shape[0], 1), 1e-300)
-    return G + eps * np.eye(G.shape[0])
-
-
 def _solve(G: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    return np.linalg.solve(_regularised(G), rhs)
+    eps = 1e-10 * max(float(np.trace(G)) / max(G.shape[0], 1), 1e-300)
+    return np.linalg.solve(G + eps * np.eye(G.shape[0]), rhs)
 
 
 MAX_ACTIVE_SET = 6

@@ -172,6 +172,10 @@ class WaterfallStep:
         }
 
 
+FORMER_FLOOR_PCT = 2.0
+"""The effect-size floor [%] of the versions whose ``diagnosis.json`` has no ``floor_pct``."""
+
+
 @dataclasses.dataclass
 class Diagnosis:
     """The result of :func:`~gc_ocp.diagnosis.diagnose`: plain data plus the evaluations behind it.
@@ -198,7 +202,7 @@ class Diagnosis:
     evaluations: dict = dataclasses.field(default_factory=dict, repr=False)
     notes: list[str] = dataclasses.field(default_factory=list)
     max_effects: int | None = None
-    floor_pct: float = 2.0
+    floor_pct: float = FORMER_FLOOR_PCT
 
     @property
     def inconclusive(self) -> list[str]:
@@ -279,8 +283,7 @@ class Diagnosis:
             measurement=dict(d.get("measurement", {})),
             notes=list(d["notes"]),
             max_effects=d["max_effects"],
-            # a diagnosis.json without it was run with the 2 % floor of those versions
-            floor_pct=d.get("floor_pct", 2.0),
+            floor_pct=d.get("floor_pct", FORMER_FLOOR_PCT),
         )
 
     @property
