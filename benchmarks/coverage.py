@@ -55,7 +55,7 @@ def ar1(rng, T, rho, sd, shape):
     return e
 
 
-def draw(rng, truth, disp, rho, marker_noise, drift_mm=0.0, drift_deg=0.0):
+def draw(rng, truth, disp, rho, marker_noise, drift_mm=0.0, drift_deg=0.0, independent=False):
     sts = []
     for side, t_off in (("left", 0.0), ("right", 0.55)):
         for j in range(3):
@@ -75,8 +75,12 @@ def draw(rng, truth, disp, rho, marker_noise, drift_mm=0.0, drift_deg=0.0):
         # soft tissue first (a smooth rigid drift of the marker cluster, the pattern shared by a
         # foot's stances), then the markers' noise on what the skin carries
         pattern = drift_pattern(SIDES, drift_mm * 1e-3, drift_deg, rng)
+        variation = 0.25
+        if independent:  # no pattern shared by a foot's strides: each stance its own drift
+            pattern = {s: (0.0 * tr, 0.0 * rot) for s, (tr, rot) in pattern.items()}
+            variation = 1.0
         seen = {s: seen_displacement(sts, s, pattern[s], disp[s]) for s in SIDES}
-        sts = drift(sts, drift_mm * 1e-3, drift_deg, rng, pattern=pattern)
+        sts = drift(sts, drift_mm * 1e-3, drift_deg, rng, variation, pattern=pattern)
         sts = [st.with_foot(noisy_pose(st.foot, marker_noise, rng)) for st in sts]
     out = []
     for st in sts:
@@ -142,6 +146,12 @@ def main() -> None:
         "--drift-deg", type=float, default=None, help="[deg] (default: 0.25 x drift-mm)"
     )
     ap.add_argument(
+        "--drift-independent",
+        action="store_true",
+        help="each stance its own drift (default: a pattern shared by a foot's strides, 25 %% "
+        "stride variation)",
+    )
+    ap.add_argument(
         "--fixed-width",
         action="store_true",
         help="keep the pose correction's guessed width (the estimator before issue 23)",
@@ -161,7 +171,16 @@ def main() -> None:
     done = 0
     for i in range(args.draws):
         rng = np.random.default_rng(100 + i)
-        data, seen = draw(rng, truth, disp, args.rho, args.marker_noise, args.drift_mm, drift_deg)
+        data, seen = draw(
+            rng,
+            truth,
+            disp,
+            args.rho,
+            args.marker_noise,
+            args.drift_mm,
+            drift_deg,
+            args.drift_independent,
+        )
         pb = build_estimation(data, model)
         try:
             res = solve(pb, IpoptOptions())

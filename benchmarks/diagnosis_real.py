@@ -205,6 +205,44 @@ def _ci(ci) -> str:
     return f"[{ci[0]:+.1f}, {ci[1]:+.1f}]"
 
 
+def _p(row: dict) -> str:
+    """`` p 0.012`` for a ranking row with the calibrated test, else nothing."""
+    c = row.get("calibrated")
+    return f" p {c['p_adjusted']:.3f}" if c else ""
+
+
+def changes(results: list[dict], previous: Path) -> list[str]:
+    """Markdown: per trial, the answer of the run in ``previous`` (a cache of an earlier run)
+    beside this one's, and this run's verdict on each effect the earlier one selected."""
+    from gc_ocp.diagnosis.result import RankRow
+
+    lines = [
+        "## What changed against the earlier run",
+        "",
+        f"Earlier run: the cache in `{previous}`. Verdicts are this run's (round 1).",
+        "",
+        "| trial | earlier: selected (final superior % BW) | now: selected (final) "
+        "| now, on each earlier selection |",
+        "|---|---|---|---|",
+    ]
+    for r in results:
+        path = previous / f"{r['trial']}.json"
+        if not path.exists():
+            continue
+        old, new = json.loads(path.read_text())["diagnosis"], r["diagnosis"]
+        rows = {x["effect"]: x for x in new["ranking"]}
+
+        def answer(d):
+            fin = d["waterfall"][-1]["heldout_superior_force_pct_bw"]
+            return f"{', '.join(d['selected']) or 'none'} ({fin:.2f})"
+
+        why = "; ".join(
+            f"{e}: {RankRow.from_json(rows[e]).verdict()}" for e in old["selected"] if e in rows
+        )
+        lines.append(f"| {r['trial']} | {answer(old)} | {answer(new)} | {why or '-'} |")
+    return lines + [""]
+
+
 def _steps_cells(steps: list[dict]) -> tuple[str, str]:
     """A confirmation's held-out superior RMS per step (``base 2.4 → +x 2.1``) and its total
     reduction with the interval."""
@@ -224,13 +262,16 @@ def markdown(results: list[dict]) -> str:
         "Base `registered` (seed law with k per unit and a fitted mu; sole and pose "
         "registration; belt speed on the treadmill). Reductions are of the held-out combined "
         "score (all six channels, nuisance prior and Occam terms), with the 95 % paired block "
-        "bootstrap interval; PASS (bold) = reduction >= threshold, interval above 0 and in-sample "
-        "reduction >= threshold. Superior RMS: "
-        "held-out superior force, both feet pooled, % BW.",
+        "bootstrap interval, and the calibrated test's family-wise adjusted p-value (`p`; a "
+        "diagnosis written before the calibrated test has none). PASS (bold) = the rule of the "
+        "run names it (`docs/diagnosis.md`, *Decision rule*: the calibrated test at 5 % and the "
+        "effect-size floor of the run). Superior RMS: held-out superior force, both feet "
+        "pooled, % BW.",
         "",
         "## Diagnosis per trial",
         "",
-        "| trial | folds | top 3 (reduction %, 95 % CI) | selected | waterfall (superior % BW) | final |",
+        "| trial | folds | top 3 (reduction %, 95 % CI, p) | selected | waterfall (superior % BW) "
+        "| final |",
         "|---|---|---|---|---|---|",
     ]
     for r in results:
@@ -238,6 +279,7 @@ def markdown(results: list[dict]) -> str:
         top = "; ".join(
             f"{'**' if x['passes'] else ''}{x['effect']}{'**' if x['passes'] else ''} "
             f"{x['heldout_rms_reduction_pct']:+.1f} {_ci(x['heldout_rms_reduction_ci'])}"
+            + _p(x)
             + (f" (conf. {', '.join(x['confounded_with'])})" if x["confounded_with"] else "")
             for x in d["ranking"][:3]
         )
@@ -343,6 +385,12 @@ def main() -> None:
         help="stop the forward selection after that many effects (compute budget)",
     )
     ap.add_argument("--fresh", action="store_true", help="rerun the diagnoses found in --cache")
+    ap.add_argument(
+        "--previous",
+        type=Path,
+        default=None,
+        help="a cache of an earlier run: also print what changed against it",
+    )
     args = ap.parse_args()
 
     def say(s):
@@ -359,6 +407,8 @@ def main() -> None:
             path.unlink()
         results.append(run(name, args.cache, args.candidates, say, args.max_effects))
     print(markdown(results))
+    if args.previous is not None:
+        print("\n".join(changes(results, args.previous)))
 
 
 if __name__ == "__main__":
