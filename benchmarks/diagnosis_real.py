@@ -29,7 +29,9 @@ Vicon Plug-in Gait trials of BTKData):
 
 Each trial's result is cached as JSON in ``--cache`` (default ``benchmarks/diagnosis_real/``) so
 the markdown (stdout) can be rebuilt (``--report``) and a trial rerun alone; a cached diagnosis is
-reused (only the confirmation is redone) unless ``--fresh``.
+reused (only the confirmation is redone) unless ``--fresh``. ``--no-nested`` skips step 2's
+nested confirmations (each a further diagnosis per held-out stance; a compute budget), not the
+BTS subject's confirmation on its other trials.
 """
 
 from __future__ import annotations
@@ -159,7 +161,9 @@ def confirm(stances, holdout: int, candidates, say) -> dict:
     }
 
 
-def run(name: str, cache: Path, candidates, say, max_effects: int | None = None) -> dict:
+def run(
+    name: str, cache: Path, candidates, say, max_effects: int | None = None, nested: bool = True
+) -> dict:
     from gc_ocp.diagnosis import diagnose
     from gc_ocp.workflow.fitting import fit_data
 
@@ -188,6 +192,8 @@ def run(name: str, cache: Path, candidates, say, max_effects: int | None = None)
             c = confirm_trials(tk, new, out["diagnosis"]["selected"], progress=say)
             out["confirmation"] = []
             out["confirmation_trials"] = c
+        elif not nested:  # --no-nested: the confirmation is not run (a compute budget)
+            out["confirmation"] = None
         else:
             _, stances, _ = fit_data(tk)
             sides = [s.side for s in stances]
@@ -353,6 +359,9 @@ def markdown(results: list[dict]) -> str:
                 f"| {tot} |"
             )
             continue
+        if r["confirmation"] is None:
+            lines.append(f"| {r['trial']} | not run (`--no-nested`) | | | |")
+            continue
         if not r["confirmation"]:
             lines.append(f"| {r['trial']} | none | not possible: one stance per foot | | |")
             continue
@@ -386,6 +395,11 @@ def main() -> None:
     )
     ap.add_argument("--fresh", action="store_true", help="rerun the diagnoses found in --cache")
     ap.add_argument(
+        "--no-nested",
+        action="store_true",
+        help="skip the nested confirmation of single trials (a diagnosis per held-out stance)",
+    )
+    ap.add_argument(
         "--previous",
         type=Path,
         default=None,
@@ -405,7 +419,9 @@ def main() -> None:
             continue
         if args.fresh and path.exists():
             path.unlink()
-        results.append(run(name, args.cache, args.candidates, say, args.max_effects))
+        results.append(
+            run(name, args.cache, args.candidates, say, args.max_effects, not args.no_nested)
+        )
     print(markdown(results))
     if args.previous is not None:
         print("\n".join(changes(results, args.previous)))
