@@ -294,13 +294,12 @@ def test_confirmation_on_an_unseen_stance_shrinks_the_gap_of_a_true_effect(bundl
 
 
 def test_parallel_rounds_give_the_serial_answer(bundled):
-    """The parallel rounds (one task per candidate, on processes *spawned*, which inherit
-    nothing: every input travels as an argument) compute the same fits as the serial ones: the
-    same rankings in every round, to round-off, and the same selection; later rounds screen the
-    same candidates; the null's mismatch draws (tasks on the same executor, each a refit) give
-    the same p-values."""
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
+    """The parallel rounds on the Dask layer (one task per candidate, on the worker processes
+    of a real ``distributed.LocalCluster``, which inherit nothing: every input travels as an
+    argument) compute the same fits as the serial ones: the same rankings in every round, to
+    round-off, and the same selection; later rounds screen the same candidates; the null's
+    mismatch draws (tasks on the same executor, each a refit) give the same p-values."""
+    from distributed import Client, LocalCluster
 
     stances, truth = bundled
     data = simulate(stances, (*truth, Damping(fixed=1.0)), np.random.default_rng(1))
@@ -308,12 +307,14 @@ def test_parallel_rounds_give_the_serial_answer(bundled):
     # that a second round (screening) is compared too
     kw = {"candidates": ["damping", "stiffness_exponent"], "n_boot": 100, "mismatch_draws": 4}
     kw["alpha"] = 0.2
-    spawn = multiprocessing.get_context("spawn")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         serial = diagnose_stances(data, workers=1, **kw)
-        with ProcessPoolExecutor(2, mp_context=spawn) as pool:
-            parallel = diagnose_stances(data, executor=pool, **kw)
+        with (
+            LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster,
+            Client(cluster) as client,
+        ):
+            parallel = diagnose_stances(data, executor=client.get_executor(), **kw)
     assert parallel.selected == serial.selected
     assert len(parallel.rounds) == len(serial.rounds) >= 2
     for rs, rp in zip(serial.rounds, parallel.rounds, strict=True):

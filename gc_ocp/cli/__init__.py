@@ -20,6 +20,7 @@ import warnings
 from pathlib import Path
 
 from gc_ocp.cli.commands import (
+    cmd_batch,
     cmd_benchmark_diagnosis,
     cmd_diagnose,
     cmd_fit,
@@ -240,6 +241,42 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _pose_width_argument(p)
     p.set_defaults(func=cmd_benchmark_diagnosis)
+
+    p = sub.add_parser(
+        "batch",
+        help="A study: fit (and diagnose) every subject of a manifest on Dask, resumable.",
+        description="Fit every subject of MANIFEST (a CSV or TOML manifest, or a folder with "
+        "one subfolder per subject; docs/batch.md) with its trials together, on a local Dask "
+        "cluster or a running scheduler. Writes OUT/<subject>/ (fit.json, figures; "
+        "diagnosis.json with --diagnose), OUT/summary.csv and OUT/summary.parquet. A rerun skips "
+        "the subjects already complete for the same inputs and settings; a subject that fails "
+        "is recorded (OUT/<subject>/error.json and the summary) and the others go on.",
+    )
+    p.add_argument("manifest", type=Path, metavar="MANIFEST")
+    p.add_argument("--out", type=Path, required=True, help="Output folder.")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="Worker processes of the local cluster (default: the cores available).",
+    )
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        default=None,
+        help="A running Dask scheduler (e.g. tcp://10.0.0.5:8786) instead of a local cluster; "
+        "its workers need gc_ocp and the study's files at the same paths (docs/batch.md).",
+    )
+    p.add_argument(
+        "--diagnose", action="store_true", help="Also run the diagnosis on every subject."
+    )
+    p.add_argument(
+        "--fixed-pose-width",
+        action="store_true",
+        help="Keep the pose correction's prior width instead of estimating it (as gc-ocp fit "
+        "--fixed-pose-width; faster).",
+    )
+    p.set_defaults(func=cmd_batch)
     return parser
 
 

@@ -69,20 +69,6 @@ def cmd_reproduce_seed(args: argparse.Namespace) -> int:
     return 0
 
 
-FIT_OUTPUTS = (
-    "fit.json",
-    "landmarks.json",
-    "fit_failed.json",
-    "fit_wrench.png",
-    "fit_sole.png",
-    "fit_pose_corrections.png",
-    "heldout_wrench.png",
-    "sensitivity.json",
-    "sensitivity.md",
-)
-"""Every file ``gc-ocp fit`` may write: a run replaces the whole set (stale ones are removed)."""
-
-
 def fit_model(effects: list[str] | None) -> tuple | None:
     """``gc-ocp fit``'s model: :func:`~gc_ocp.estimation.components.full_model` plus the
     registered ``effects`` (None: the full model itself); an effect the full model already has
@@ -105,9 +91,9 @@ def fit_model(effects: list[str] | None) -> tuple | None:
 
 def cmd_fit(args: argparse.Namespace) -> int:
     from gc_ocp.estimation.components import full_model
-    from gc_ocp.estimation.plots import plot_fit, plot_pose_corrections, plot_sole_fit
     from gc_ocp.io.checks import require_stances
     from gc_ocp.outputs import OutputSet, check_writable
+    from gc_ocp.workflow.fit_files import FIT_OUTPUTS, write_fit
     from gc_ocp.workflow.fitting import fit
 
     check_writable(args.out)  # before any computation
@@ -147,17 +133,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
                 )
             raise
         print(report.summary())
-        figs = {
-            "fit_wrench.png": plot_fit(report.result),
-            "fit_sole.png": plot_sole_fit(report.result),
-            "fit_pose_corrections.png": plot_pose_corrections(report.result),
-        }
-        if report.heldout is not None:
-            figs["heldout_wrench.png"] = plot_fit(
-                report.heldout, title=f"held-out {report.heldout_label}"
-            )
-        out.text("fit.json", json.dumps({**report.to_json(), "provenance": prov}, indent=2))
-        out.text("landmarks.json", json.dumps(landmarks, indent=2))
+        write_fit(out, report, prov, landmarks)
         if args.sensitivity:
             from gc_ocp.io import load_static
             from gc_ocp.kinematics import compute_kinematics
@@ -177,14 +153,13 @@ def cmd_fit(args: argparse.Namespace) -> int:
             )
             out.text("sensitivity.json", json.dumps(sens.to_json(), indent=2))
             out.text("sensitivity.md", sens.summary() + "\n")
-        for name, fig in figs.items():
-            out.figure(name, fig, dpi=100)
         written = out.commit()
     finally:
         out.discard()
     n_flags = len(report.result.flags) + (len(report.heldout.flags) if report.heldout else 0)
+    n_figs = sum(p.suffix == ".png" for p in written)
     print(
-        f"wrote {len(written)} files to {args.out} (fit.json and {len(figs)} figures); {n_flags} flags"
+        f"wrote {len(written)} files to {args.out} (fit.json and {n_figs} figures); {n_flags} flags"
     )
     return 0
 
@@ -287,3 +262,25 @@ def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
     print(report(res))
     print(f"wrote {args.out / 'confusion.json'} and {args.out / 'confusion.png'}")
     return 0
+
+
+def cmd_batch(args: argparse.Namespace) -> int:
+    from gc_ocp.batch import Settings, run
+
+    result = run(
+        args.manifest,
+        args.out,
+        settings=Settings(diagnose=args.diagnose, pose_scale=not args.fixed_pose_width),
+        workers=args.workers,
+        scheduler=args.scheduler,
+        progress=_progress,
+    )
+    counts = ", ".join(f"{v} {k}" for k, v in sorted(result.counts().items()))
+    print(
+        f"{len(result.subjects)} subjects ({counts}) in {result.seconds:.0f} s; "
+        f"summary: {args.out / 'summary.csv'}"
+    )
+    for s in result.failed():
+        e = s["error"]
+        print(f"  {s['subject']}: {e['type']}: {e['message']} -> {e['fix']}")
+    return 1 if result.failed() else 0

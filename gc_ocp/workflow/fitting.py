@@ -95,6 +95,17 @@ def with_detected_censoring(stances: Sequence[StanceData]) -> list[StanceData]:
     ]
 
 
+def auto_holdout(data: Sequence[StanceData]) -> str | None:
+    """The stance a study holds out when none is named: the last of the foot with the most
+    stances (in the order of ``data``: trials in order, stances in time), the right foot on a
+    tie, when that foot has at least two; else None (a foot needs a stance left to fit)."""
+    counts = {side: sum(d.side == side for d in data) for side in ("right", "left")}
+    side = max(counts, key=lambda s: counts[s])  # dicts keep order: "right" wins a tie
+    if counts[side] < 2:
+        return None
+    return [d for d in data if d.side == side][-1].label
+
+
 def fit_data(
     trials: list[tuple[Trial, TrialKinematics]],
     margin: float = MARGIN,
@@ -175,7 +186,9 @@ def fit(
 ) -> FitReport:
     """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
 
-    holdout: label (or unique prefix/substring) of a stance to hold out, see the module doc.
+    holdout: label (or unique prefix/substring) of a stance to hold out, see the module doc;
+    ``"auto"``: the last stance of the foot with the most stances (of the right foot on a tie),
+    when that foot has at least two (else none: :func:`auto_holdout`).
     margin: unloaded frames kept each side of a stance [s] (:data:`MARGIN`).
     start: a fit of a model this one extends, tried as one more start (:func:`best_of`).
     extends: a model this one extends (e.g. :func:`full_model` for the full model plus effects),
@@ -189,6 +202,8 @@ def fit(
     model = model or full_model()
     trials, data, notes = fit_data(trials, margin, say)
     held = None
+    if holdout == "auto":
+        holdout = auto_holdout(data)
     if holdout is not None:
         matches = [d for d in data if d.label == holdout or holdout in d.label]
         if len(matches) != 1:
@@ -236,4 +251,4 @@ def fit(
     return report
 
 
-__all__ = ["MARGIN", "FitReport", "fit", "fit_data"]
+__all__ = ["MARGIN", "FitReport", "auto_holdout", "fit", "fit_data"]

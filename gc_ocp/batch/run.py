@@ -1,0 +1,223 @@
+"""Run a study on Dask: one task per subject (:func:`~gc_ocp.batch.subject.process_subject`),
+on a local cluster of worker processes or on a running scheduler, with progress, and the
+summary table at the end.
+
+* **Where it runs.** ``scheduler=None``: a ``distributed.LocalCluster`` of ``workers`` processes
+  (default: the cores this process may use), one thread each (a fit is compiled code and Ipopt:
+  threads would only contend), started here and closed at the end. ``scheduler="tcp://host:8786"``:
+  the tasks go to that cluster (its workers need gc_ocp installed and the study's files at the
+  same paths, e.g. a shared file system; ``docs/batch.md``). ``client=``: a
+  ``distributed.Client`` of the caller's, used as it is.
+* **A worker's compiled functions** are built once per worker process: a model's per-frame
+  functions are compiled to the machine's disk cache the first time (``estimation/compiled.py``)
+  and kept loaded by the worker for its next subjects.
+* **Resumable.** A subject whose results are complete for the same inputs and settings is
+  skipped (its rows are read back); a subject whose task raised is recorded and the others go
+  on; a worker that dies takes only its running subject with it (recorded as failed: rerun to
+  redo it). Ctrl-C cancels what runs, closes the cluster and writes no summary; every finished
+  subject stays on disk and a rerun skips it.
+* **Progress** on stderr when it is a terminal (or with ``progress=``): subjects done, skipped,
+  failed, running and remaining, and the estimated time left; nothing otherwise.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from gc_ocp.batch.manifest import Subject, read_manifest
+from gc_ocp.batch.subject import Settings, process_subject
+from gc_ocp.batch.summary import error_rows, write_summary
+from gc_ocp.errors import InputError
+from gc_ocp.outputs import check_writable
+
+
+@dataclasses.dataclass
+class BatchResult:
+    """A study's outcome as plain data: ``rows`` (the summary table, one dict per subject and
+    foot, :data:`~gc_ocp.batch.summary.COLUMNS`), ``subjects`` (per subject: status, seconds,
+    error), the output folder and the wall time."""
+
+    rows: list[dict]
+    subjects: list[dict]
+    out: Path
+    seconds: float
+
+    def counts(self) -> dict[str, int]:
+        """Subjects per status (``done``, ``skipped``, ``failed``)."""
+        out: dict[str, int] = {}
+        for s in self.subjects:
+            out[s["status"]] = out.get(s["status"], 0) + 1
+        return out
+
+    def failed(self) -> list[dict]:
+        return [s for s in self.subjects if s["status"] == "failed"]
+
+
+class Progress:
+    """Counts of a run and the line that reports them (module doc)."""
+
+    def __init__(self, total: int, say: Callable[[str], None] | None) -> None:
+        self.total, self.say = total, say
+        self.status: dict[str, int] = {}
+        self.t0 = time.perf_counter()
+        self.work: list[float] = []  # seconds of the subjects fitted in this run
+
+    def update(self, outcome: dict) -> None:
+        self.status[outcome["status"]] = self.status.get(outcome["status"], 0) + 1
+        if outcome["status"] == "done" and outcome.get("seconds"):
+            self.work.append(float(outcome["seconds"]))
+        if self.say is not None:
+            self.say(self.line(outcome))
+
+    def line(self, outcome: dict) -> str:
+        finished = sum(self.status.values())
+        left = self.total - finished
+        elapsed = time.perf_counter() - self.t0
+        fitted = self.status.get("done", 0) + self.status.get("failed", 0)
+        eta = ""
+        if left and fitted:
+            eta = f", about {_duration(elapsed / fitted * left)} left"
+        what = outcome["status"]
+        if outcome.get("error"):
+            what += f" ({outcome['error']['type']}: {outcome['error']['message'][:120]})"
+        return (
+            f"[{finished}/{self.total}] {outcome['subject']} {what}; "
+            f"done {self.status.get('done', 0)}, skipped {self.status.get('skipped', 0)}, "
+            f"failed {self.status.get('failed', 0)}, remaining {left}{eta}"
+        )
+
+
+def _duration(s: float) -> str:
+    return f"{s:.0f} s" if s < 90 else f"{s / 60:.0f} min" if s < 5400 else f"{s / 3600:.1f} h"
+
+
+def default_workers() -> int:
+    """Worker processes of the local cluster: the cores this process may use."""
+    n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, n or 1)
+
+
+def clean_stale(out: Path, ids: Sequence[str]) -> list[Path]:
+    """Remove what a killed run may have left of these subjects: the staging folders of their
+    file sets (``OUT/.<id>.*``, :class:`~gc_ocp.outputs.OutputSet`) and half-written temporary
+    files (``OUT/<id>/.*.tmp*``, :func:`~gc_ocp.outputs.atomic_write`). Never a finished file.
+    (One run per output folder at a time: a concurrent run's staging would look stale.)"""
+    import shutil
+
+    removed = []
+    for sid in ids:
+        for p in out.glob(f".{sid}.*"):
+            if p.is_dir():
+                shutil.rmtree(p, ignore_errors=True)
+                removed.append(p)
+        for p in (out / sid).glob(".*.tmp*"):
+            p.unlink(missing_ok=True)
+            removed.append(p)
+    return removed
+
+
+def _progress_default() -> Callable[[str], None] | None:
+    if sys.stderr.isatty():
+        return lambda s: print(s, file=sys.stderr, flush=True)
+    return None
+
+
+def run(
+    manifest: str | Path | Sequence[Subject],
+    out: str | Path,
+    *,
+    diagnose: bool = False,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    client=None,
+    settings: Settings | None = None,
+    progress: Callable[[str], None] | None | str = "auto",
+) -> BatchResult:
+    """Fit every subject of ``manifest`` (a manifest file, a study folder or a list of
+    :class:`~gc_ocp.batch.manifest.Subject`) into ``out`` (module doc) and write
+    ``out/summary.csv`` and ``out/summary.parquet``. ``diagnose``: also diagnose each subject
+    (the same as ``settings.diagnose``); ``settings``: how every subject is fitted.
+    ``progress``: a function called with each progress line, None for silence, "auto" for
+    stderr when it is a terminal."""
+    from distributed import Client, LocalCluster, as_completed
+
+    subjects = list(manifest) if not isinstance(manifest, (str, Path)) else read_manifest(manifest)
+    ids = [s.id for s in subjects]
+    dup = sorted({i for i in ids if ids.count(i) > 1})
+    if dup:
+        raise InputError(f"Subject id(s) {', '.join(dup)} appear twice; give each subject once.")
+    out = check_writable(out)
+    out.mkdir(parents=True, exist_ok=True)
+    clean_stale(out, ids)
+    settings = settings or Settings()
+    if diagnose:
+        settings = dataclasses.replace(settings, diagnose=True)
+    if workers is not None and workers < 1:
+        raise InputError(f"workers must be 1 or more, but got {workers}")
+    say = _progress_default() if progress == "auto" else progress
+    t0 = time.perf_counter()
+    cluster = None
+    own = client is None
+    if own:
+        if scheduler:
+            client = Client(scheduler)
+        else:
+            cluster = LocalCluster(
+                n_workers=workers or default_workers(),
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+            )
+            client = Client(cluster)
+    bar = Progress(len(subjects), say)
+    outcomes: dict[str, dict] = {}
+    futures = {}
+    try:
+        for s in subjects:
+            f = client.submit(process_subject, s, str(out), settings, pure=False, retries=0)
+            futures[f] = s
+        for f in as_completed(futures):
+            s = futures[f]
+            try:
+                outcome = f.result()
+            except Exception as e:  # the worker died (KilledWorker) or could not run the task
+                err = {
+                    "type": type(e).__name__,
+                    "message": str(e),
+                    "fix": "the worker running it died (memory?); rerun to redo this subject",
+                }
+                outcome = {
+                    "subject": s.id,
+                    "status": "failed",
+                    "rows": error_rows(s, err, float("nan")),
+                    "seconds": None,
+                    "error": err,
+                }
+            outcomes[s.id] = outcome
+            bar.update(outcome)
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        raise
+    finally:
+        if own:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    ordered = [outcomes[s.id] for s in subjects]
+    rows = [r for o in ordered for r in o["rows"]]
+    write_summary(rows, out)
+    return BatchResult(
+        rows=rows,
+        subjects=[{k: o[k] for k in ("subject", "status", "seconds", "error")} for o in ordered],
+        out=out,
+        seconds=time.perf_counter() - t0,
+    )
+
+
+__all__ = ("BatchResult", "clean_stale", "default_workers", "run")

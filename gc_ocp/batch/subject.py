@@ -1,0 +1,285 @@
+"""One subject of a study, as one task: load its trials, compute (or reuse) their kinematics,
+fit them together, optionally diagnose, and write everything under ``OUT/<subject>/``.
+
+:func:`process_subject` is a pure function of picklable arguments (a
+:class:`~gc_ocp.batch.manifest.Subject`, the output root, :class:`Settings`), so it runs on any
+worker of the execution layer (:mod:`gc_ocp.batch.run`). What it guarantees:
+
+* **Complete or not at all.** A subject's files are staged and moved in together
+  (:class:`~gc_ocp.outputs.OutputSet`); ``done.json`` is written last, so a subject whose
+  ``done.json`` exists is complete. A task killed midway leaves the previous set (or nothing).
+* **Resumable.** ``done.json`` carries the subject's *key*: the SHA-256 of the package version,
+  the settings, the subject's values and the *content* of every input file (a renamed or moved
+  file keeps its key; an edited one does not). A later run with the same key reads the subject's
+  summary rows from ``done.json`` and does nothing else.
+* **A failure is a result.** Any error of the subject (a bad file, a fit that does not
+  converge, a bug) is caught, written to ``OUT/<subject>/error.json`` (type, message, fix) and
+  returned as the subject's rows with its status; the other subjects go on. Interrupts
+  (Ctrl-C) are not caught.
+* **Kinematics cached on disk** under ``OUT/.cache/kinematics/``, keyed by the trial's files'
+  content and the kinematics settings: a rerun with other fit settings (or a diagnosis after a
+  fit) does not recompute them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import pickle
+import time
+import traceback
+import types
+from pathlib import Path
+
+from gc_ocp.batch.manifest import Subject
+from gc_ocp.batch.summary import error_rows, subject_rows
+from gc_ocp.errors import GcOcpError, InputError, SolveError
+from gc_ocp.outputs import OutputSet, atomic_write, atomic_write_text
+
+DONE = "done.json"
+ERROR = "error.json"
+DIAGNOSIS_OUTPUTS = ("diagnosis.json", "diagnosis_report.html")
+KINEMATICS_CACHE = Path(".cache") / "kinematics"
+
+
+@dataclasses.dataclass(frozen=True)
+class Settings:
+    """What every subject of a run is fitted with: ``diagnose`` (also run the sim-to-real
+    diagnosis on the subject's trials), ``pose_scale`` (estimate the pose correction's width,
+    as ``gc-ocp fit`` does by default)."""
+
+    diagnose: bool = False
+    pose_scale: bool = True
+
+    def to_json(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def _file_hash(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _digest(obj) -> str:
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def subject_key(subject: Subject, settings: Settings) -> str:
+    """The key of a subject's results (module doc): version, settings, values, file contents."""
+    from gc_ocp import __version__
+
+    values = {
+        f.name: getattr(subject, f.name)
+        for f in dataclasses.fields(subject)
+        if f.name not in ("trials", "static", "id")
+    }
+    files = [[_file_hash(t.path), _file_hash(t.grf) if t.grf else None] for t in subject.trials]
+    static = _file_hash(subject.static) if subject.static else None
+    return _digest(
+        {
+            "version": __version__,
+            "settings": settings.to_json(),
+            "values": values,
+            "files": files,
+            "static": static,
+        }
+    )
+
+
+def completed(folder: Path, key: str) -> dict | None:
+    """``done.json`` of ``folder`` when it is complete and valid for ``key`` (every file it
+    lists present), else None."""
+    path = folder / DONE
+    try:
+        done = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    if done.get("key") != key or not all((folder / f).is_file() for f in done.get("files", [])):
+        return None
+    return done
+
+
+def _kinematics(trial, subject: Subject, spec, cache_root: Path):
+    """The trial's kinematics, from the disk cache when the same files and settings made them."""
+    from gc_ocp import __version__
+    from gc_ocp.io import load_static
+    from gc_ocp.kinematics import compute_kinematics
+
+    key = _digest(
+        {
+            "version": __version__,
+            "trial": _file_hash(spec.path),
+            "grf": _file_hash(spec.grf) if spec.grf else None,
+            "static": _file_hash(subject.static) if subject.static else None,
+            "markerset": subject.markerset,
+            "cutoff": subject.cutoff,
+            "mass": subject.mass,
+            "height": subject.height,
+            "belt_speed": subject.belt_speed,
+        }
+    )
+    path = cache_root / f"{key}.pkl"
+    try:
+        return pickle.loads(path.read_bytes())
+    except (OSError, pickle.UnpicklingError, EOFError, AttributeError):
+        pass
+    kw = {} if subject.cutoff is None else {"cutoff_hz": subject.cutoff}
+    static = load_static(subject.static, trial) if subject.static is not None else None
+    kin = compute_kinematics(trial, markerset=subject.markerset, static=static, **kw)
+    atomic_write(path, lambda tmp: tmp.write_bytes(pickle.dumps(kin)))
+    return kin
+
+
+def load_subject(subject: Subject, cache_root: Path) -> list:
+    """``[(Trial, TrialKinematics), ...]`` of the subject (ground reactions paired as
+    ``gc-ocp fit`` pairs them)."""
+    from gc_ocp.io import load_trial
+    from gc_ocp.io.pairing import TrialFiles, pair_trials
+
+    explicit = [t.grf for t in subject.trials if t.grf is not None]
+    if explicit and len(explicit) != sum(t.path.suffix.lower() == ".trc" for t in subject.trials):
+        files = [TrialFiles(t.path, t.grf, "manifest") for t in subject.trials]
+    else:
+        files = pair_trials([t.path for t in subject.trials], explicit or None)
+    pairs = []
+    for f, spec in zip(files, subject.trials, strict=True):
+        trial = load_trial(
+            f.trial,
+            grf=f.grf,
+            mass=subject.mass,
+            height=subject.height,
+            belt_speed=subject.belt_speed,
+        )
+        spec = dataclasses.replace(spec, grf=f.grf)
+        pairs.append((trial, _kinematics(trial, subject, spec, cache_root)))
+    return pairs
+
+
+def _fix(error: BaseException) -> str:
+    """What the user can do about a subject's error, by its kind."""
+    if isinstance(error, InputError):
+        return "fix the input as the message says, then rerun (finished subjects are kept)"
+    if isinstance(error, SolveError):
+        return (
+            "the fit did not converge: look at the subject's trials (gc-ocp fit on them alone "
+            "prints the checks and flags); a trial with few usable stances is the usual cause"
+        )
+    if isinstance(error, GcOcpError):
+        return "see the message; rerun after fixing it (finished subjects are kept)"
+    return "unexpected: report it with this error.json (it holds the traceback)"
+
+
+def process_subject(subject: Subject, out_root: str | Path, settings: Settings) -> dict:
+    """The task (module doc): ``{"subject", "status" ("done", "skipped" or "failed"),
+    "rows", "seconds", "error"}``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    out_root = Path(out_root)
+    folder = out_root / subject.id
+    t0 = time.perf_counter()
+    key = subject_key(subject, settings)
+    done = completed(folder, key)
+    if done is not None:
+        return {
+            "subject": subject.id,
+            "status": "skipped",
+            "rows": done["rows"],
+            "seconds": done.get("seconds"),
+            "error": None,
+        }
+    try:
+        rows, files = _fit_subject(subject, folder, out_root / KINEMATICS_CACHE, settings)
+    except Exception as e:  # every error of one subject is its result (module doc)
+        seconds = time.perf_counter() - t0
+        err = {
+            "type": type(e).__name__,
+            "message": str(e),
+            "fix": _fix(e),
+            "traceback": traceback.format_exc(),
+        }
+        folder.mkdir(parents=True, exist_ok=True)
+        stale = folder / DONE
+        if stale.exists():
+            stale.unlink()
+        atomic_write_text(folder / ERROR, json.dumps({"key": key, **err}, indent=2))
+        return {
+            "subject": subject.id,
+            "status": "failed",
+            "rows": error_rows(subject, err, seconds),
+            "seconds": seconds,
+            "error": {k: err[k] for k in ("type", "message", "fix")},
+        }
+    seconds = time.perf_counter() - t0
+    for r in rows:
+        r["seconds"] = seconds
+    doc = {"key": key, "subject": subject.id, "files": files, "rows": rows, "seconds": seconds}
+    atomic_write_text(folder / DONE, json.dumps(doc, indent=2))
+    stale = folder / ERROR
+    if stale.exists():
+        stale.unlink()
+    return {
+        "subject": subject.id,
+        "status": "done",
+        "rows": rows,
+        "seconds": seconds,
+        "error": None,
+    }
+
+
+def _fit_subject(
+    subject: Subject, folder: Path, cache_root: Path, settings: Settings
+) -> tuple[list[dict], list[str]]:
+    """Fit (and diagnose) one subject; its files committed into ``folder``. Returns the summary
+    rows and the names of the files written."""
+    from gc_ocp.cli.common import provenance
+    from gc_ocp.io.checks import require_stances
+    from gc_ocp.workflow.fit_files import FIT_OUTPUTS, write_fit
+    from gc_ocp.workflow.fitting import fit
+
+    pairs = load_subject(subject, cache_root)
+    for t, _ in pairs:
+        require_stances(t)
+    options = types.SimpleNamespace(
+        command="batch",
+        subject=subject.id,
+        **{k: v for k, v in dataclasses.asdict(subject).items() if k not in ("id", "trials")},
+        **settings.to_json(),
+    )
+    prov = provenance(options, pairs)
+    out = OutputSet(folder, FIT_OUTPUTS + DIAGNOSIS_OUTPUTS + (ERROR,))
+    try:
+        report = fit(pairs, holdout=subject.holdout, pose_scale=settings.pose_scale)
+        fit_doc = write_fit(
+            out, report, prov, {"trials": [kin.info.get("landmarks") for _, kin in pairs]}
+        )
+        diagnosis = None
+        if settings.diagnose:
+            diagnosis = _diagnose(pairs)
+            out.text("diagnosis.json", json.dumps({**diagnosis, "provenance": prov}, indent=2))
+        written = [p.name for p in out.commit()]
+    finally:
+        out.discard()
+    return subject_rows(subject, fit_doc, diagnosis), written
+
+
+def _diagnose(pairs) -> dict:
+    """The subject's diagnosis as ``diagnosis.json`` has it, its candidate fits and null draws
+    as tasks on the same execution layer when this runs on a Dask worker."""
+    from distributed import get_worker, worker_client
+
+    from gc_ocp.diagnosis import diagnose
+
+    try:
+        get_worker()
+    except ValueError:  # not on a Dask worker: in this process
+        return diagnose(pairs, workers=1).to_json()
+    with worker_client() as client:  # leaves the worker's slot to the diagnosis's own tasks
+        return diagnose(pairs, executor=client.get_executor()).to_json()
+
+
+__all__ = ("Settings", "completed", "load_subject", "process_subject", "subject_key")

@@ -1,0 +1,199 @@
+"""A study's summary table: one row per subject and foot, as plain data (a list of dicts with
+the same keys, :data:`COLUMNS`), written as ``summary.csv`` and ``summary.parquet``.
+
+Forces in % body weight, torques in % body weight x height (as the fits report them), COP in
+mm; a value the subject does not have (a foot not held out, a failed subject) is empty in the
+CSV and null in the Parquet file.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+from gc_ocp.outputs import atomic_write, atomic_write_text
+
+CHANNELS = (
+    "anterior_force_pct_bw",
+    "superior_force_pct_bw",
+    "lateral_force_pct_bw",
+    "anteroposterior_torque_pct_bwh",
+    "longitudinal_torque_pct_bwh",
+    "mediolateral_torque_pct_bwh",
+)
+UNITS = ("PL", "PM", "AL", "AM", "TT")
+SHARED = ("n", "c", "mu")
+
+COLUMNS = (
+    "subject",
+    "foot",
+    "status",
+    "trials",
+    "stances",
+    "mass_kg",
+    "height_m",
+    *(f"{p}{s}" for p in SHARED for s in ("", "_se")),
+    *(f"f_ref_{u}_N{s}" for u in UNITS for s in ("", "_se")),
+    *(f"rms_{c}" for c in CHANNELS),
+    "cop_rms_mm",
+    "heldout_stance",
+    *(f"heldout_rms_{c}" for c in CHANNELS),
+    "heldout_cop_rms_mm",
+    "flags",
+    "flag_codes",
+    "diagnosis_selected",
+    "solver_status",
+    "iterations",
+    "seconds",
+    "error_type",
+    "error_message",
+    "error_fix",
+)
+"""The summary's columns, in order (``f_ref``: a unit's force at the reference depth [N])."""
+
+NUMERIC = frozenset(
+    c
+    for c in COLUMNS
+    if c
+    not in (
+        "subject",
+        "foot",
+        "status",
+        "heldout_stance",
+        "flag_codes",
+        "diagnosis_selected",
+        "solver_status",
+        "error_type",
+        "error_message",
+        "error_fix",
+    )
+)
+
+
+def _row(**values) -> dict:
+    row = dict.fromkeys(COLUMNS)
+    unknown = set(values) - set(COLUMNS)
+    if unknown:
+        raise KeyError(f"not summary columns: {sorted(unknown)}")
+    row.update(values)
+    return row
+
+
+def subject_rows(subject, fit_doc: dict, diagnosis: dict | None) -> list[dict]:
+    """The rows of a fitted subject: ``fit_doc`` is its ``fit.json``, ``diagnosis`` its
+    ``diagnosis.json`` (None: not diagnosed)."""
+    trials = fit_doc["provenance"]["trials"]
+    mass = trials[0]["mass_kg"] if trials else None
+    height = trials[0]["height_m"] if trials else None
+    shared = fit_doc["params"].get("shared", {})
+    held = fit_doc.get("heldout_rms") or {}
+    held_cop = fit_doc.get("heldout_cop_rms_mm") or {}
+    fits = fit_doc.get("stance_fits", [])
+    rows = []
+    for foot in sorted(fit_doc["rms"]):
+        units = fit_doc["params"].get(foot, {})
+        flags = [
+            f
+            for f in [*fit_doc.get("flags", []), *fit_doc.get("heldout_flags", [])]
+            if foot in str(f.get("what", "")) or "/" not in str(f.get("what", ""))
+        ]
+        values = {
+            "subject": subject.id,
+            "foot": foot,
+            "status": "done",
+            "trials": len(trials),
+            "stances": sum(f.get("side") == foot for f in fits),
+            "mass_kg": mass,
+            "height_m": height,
+            "cop_rms_mm": fit_doc.get("cop_rms_mm", {}).get(foot),
+            "heldout_stance": fit_doc.get("heldout_stance") if foot in held else None,
+            "heldout_cop_rms_mm": held_cop.get(foot),
+            "flags": len(flags),
+            "flag_codes": "; ".join(sorted({f["code"] for f in flags})),
+            "diagnosis_selected": None
+            if diagnosis is None
+            else (", ".join(diagnosis["selected"]) or "none"),
+            "solver_status": fit_doc["solver"]["status"],
+            "iterations": fit_doc["solver"]["iterations"],
+        }
+        for p in SHARED:
+            values[p], values[f"{p}_se"] = shared.get(p), shared.get(f"{p}_se")
+        for u in UNITS:
+            e = units.get(u, {})
+            values[f"f_ref_{u}_N"], values[f"f_ref_{u}_N_se"] = e.get("f_ref"), e.get("f_ref_se")
+        for c in CHANNELS:
+            values[f"rms_{c}"] = fit_doc["rms"][foot].get(c)
+            values[f"heldout_rms_{c}"] = held.get(foot, {}).get(c)
+        rows.append(_row(**values))
+    return rows
+
+
+def error_rows(subject, error: dict, seconds: float) -> list[dict]:
+    """The row of a subject that failed (one, foot empty)."""
+    return [
+        _row(
+            subject=subject.id,
+            status="failed",
+            trials=len(subject.trials),
+            seconds=seconds,
+            error_type=error["type"],
+            error_message=error["message"],
+            error_fix=error["fix"],
+        )
+    ]
+
+
+def _cell(v) -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return ""
+    return repr(v) if isinstance(v, float) else str(v)
+
+
+def to_csv(rows: Sequence[dict]) -> str:
+    """The rows as CSV text (header :data:`COLUMNS`)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(COLUMNS)
+    for r in rows:
+        w.writerow([_cell(r.get(c)) for c in COLUMNS])
+    return buf.getvalue()
+
+
+def to_arrow(rows: Sequence[dict]):
+    """The rows as a ``pyarrow.Table`` (numbers as float64, text as string; None as null)."""
+    import pyarrow as pa
+
+    arrays = {}
+    for c in COLUMNS:
+        vals = [r.get(c) for r in rows]
+        if c in NUMERIC:
+            arrays[c] = pa.array([None if v is None else float(v) for v in vals], pa.float64())
+        else:
+            arrays[c] = pa.array([None if v is None else str(v) for v in vals], pa.string())
+    return pa.table(arrays)
+
+
+def write_summary(rows: Sequence[dict], folder: str | Path) -> list[Path]:
+    """``summary.csv`` and ``summary.parquet`` in ``folder``, each written atomically."""
+    import pyarrow.parquet as pq
+
+    folder = Path(folder)
+    table = to_arrow(rows)
+    return [
+        atomic_write_text(folder / "summary.csv", to_csv(rows)),
+        atomic_write(folder / "summary.parquet", lambda tmp: pq.write_table(table, tmp)),
+    ]
+
+
+__all__ = (
+    "CHANNELS",
+    "COLUMNS",
+    "error_rows",
+    "subject_rows",
+    "to_arrow",
+    "to_csv",
+    "write_summary",
+)

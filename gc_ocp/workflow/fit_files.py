@@ -1,0 +1,59 @@
+"""The files of a fit: ``fit.json``, ``landmarks.json`` and its figures, written into an
+:class:`~gc_ocp.outputs.OutputSet` (complete or not at all). One definition for ``gc-ocp fit``
+and for every subject of ``gc-ocp batch``."""
+
+from __future__ import annotations
+
+import json
+
+from gc_ocp.outputs import OutputSet
+from gc_ocp.workflow.fitting import FitReport
+
+FIT_OUTPUTS = (
+    "fit.json",
+    "landmarks.json",
+    "fit_failed.json",
+    "fit_wrench.png",
+    "fit_sole.png",
+    "fit_pose_corrections.png",
+    "heldout_wrench.png",
+    "sensitivity.json",
+    "sensitivity.md",
+)
+"""Every file a fit may write (one set, replaced as a whole)."""
+
+FIGURE_DPI = 100
+
+
+def fit_figures(report: FitReport) -> dict:
+    """``{file name: matplotlib figure}`` of a fit: the wrench, sole and pose-correction plots,
+    and the held-out stance's wrench when there is one."""
+    from gc_ocp.estimation.plots import plot_fit, plot_pose_corrections, plot_sole_fit
+
+    figs = {
+        "fit_wrench.png": plot_fit(report.result),
+        "fit_sole.png": plot_sole_fit(report.result),
+        "fit_pose_corrections.png": plot_pose_corrections(report.result),
+    }
+    if report.heldout is not None:
+        figs["heldout_wrench.png"] = plot_fit(
+            report.heldout, title=f"held-out {report.heldout_label}"
+        )
+    return figs
+
+
+def write_fit(out: OutputSet, report: FitReport, provenance: dict, landmarks: dict) -> dict:
+    """Stage ``fit.json`` (the report with its ``provenance``), ``landmarks.json`` and the
+    figures in ``out`` (the caller commits); returns the JSON written as ``fit.json``."""
+    import matplotlib.pyplot as plt
+
+    doc = {**report.to_json(), "provenance": provenance}
+    out.text("fit.json", json.dumps(doc, indent=2))
+    out.text("landmarks.json", json.dumps(landmarks, indent=2))
+    for name, fig in fit_figures(report).items():
+        out.figure(name, fig, dpi=FIGURE_DPI)
+        plt.close(fig)
+    return doc
+
+
+__all__ = ("FIT_OUTPUTS", "fit_figures", "write_fit")

@@ -1,0 +1,196 @@
+"""Studies on Dask (gc_ocp.batch): manifests, a real ``distributed.LocalCluster``, a broken
+trial recorded while the others complete, a killed run restarted without redoing finished
+subjects. (The diagnosis's answers on the Dask layer against one process:
+``tests/test_diagnosis.py::test_parallel_rounds_give_the_serial_answer``.)"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import gc_ocp
+from gc_ocp.batch import Settings, Subject, TrialSpec, read_manifest, run
+from gc_ocp.batch.manifest import STATIC_SPEED, marker_speed
+from gc_ocp.errors import InputError
+
+EXAMPLE = Path(gc_ocp.__file__).parent / "data" / "test_small.c3d"
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+FAST = Settings(pose_scale=False)  # the fit() path without the width's refits: a faster subject
+
+
+def _broken(folder: Path) -> Path:
+    """A C3D cut before its data section (what an interrupted copy leaves)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    p = folder / "broken.c3d"
+    p.write_bytes(EXAMPLE.read_bytes()[:5000])
+    return p
+
+
+# --- manifests ---------------------------------------------------------------------------------
+
+
+def test_csv_manifest_groups_trials_by_subject_and_types_the_values(tmp_path):
+    (tmp_path / "a").mkdir()
+    for name in ("a/w1.c3d", "a/w2.c3d", "b.c3d"):
+        shutil.copy(EXAMPLE, tmp_path / name)
+    m = tmp_path / "study.csv"
+    m.write_text("subject,trial,mass,height\nS1,a/w1.c3d,70,\nS1,a/w2.c3d,,1.8\nS2,b.c3d,,\n")
+    subs = read_manifest(m)
+    assert [s.id for s in subs] == ["S1", "S2"]
+    assert [t.path for t in subs[0].trials] == [tmp_path / "a/w1.c3d", tmp_path / "a/w2.c3d"]
+    assert subs[0].mass == 70.0 and subs[0].height == 1.8  # a value may stand on any row
+    assert subs[1].mass is None and subs[1].holdout == "auto"
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ("subject,file\nS1,x.c3d\n", ["no trial column"]),
+        ("subject,trial,weight\nS1,x.c3d,70\n", ["unknown column", "weight"]),
+        ("subject,trial,mass\nS1,x.c3d,70\nS1,x.c3d,71\n", ["row 2", "row 3", "mass"]),
+        ("subject,trial,mass\nS1,x.c3d,heavy\n", ["row 2", "mass", "kg"]),
+        ("subject,trial\nS 1,x.c3d\n", ["row 2", "folder name"]),
+        ("subject,trial\nS1,missing.c3d\n", ["subject S1", "missing.c3d", "does not exist"]),
+    ],
+)
+def test_a_bad_manifest_names_the_row_and_the_fix(tmp_path, text, words):
+    shutil.copy(EXAMPLE, tmp_path / "x.c3d")
+    m = tmp_path / "m.csv"
+    m.write_text(text)
+    with pytest.raises(InputError) as e:
+        read_manifest(m)
+    for w in words:
+        assert w in str(e.value)
+
+
+def test_toml_manifest(tmp_path):
+    shutil.copy(EXAMPLE, tmp_path / "w.c3d")
+    m = tmp_path / "m.toml"
+    m.write_text('[[subject]]\nid = "S1"\ntrials = ["w.c3d"]\nbelt_speed = 1.2\n')
+    (s,) = read_manifest(m)
+    assert s.trials == (TrialSpec(tmp_path / "w.c3d"),) and s.belt_speed == 1.2
+    m.write_text('[[subject]]\nid = "S1"\ntrials = ["w.c3d"]\nspeed = 1.2\n')
+    with pytest.raises(InputError, match="unknown key"):
+        read_manifest(m)
+
+
+@pytest.mark.skipif(not DATA.is_dir(), reason="needs ../shared/data")
+def test_a_study_folder_finds_the_static_trial_by_its_markers_standing_still(tmp_path):
+    # every static file of the shared data stands still, every walking file moves: the rule is
+    # the markers' speed (physics), not the file names, which these copies do not keep
+    sub = tmp_path / "P01"
+    sub.mkdir()
+    shutil.copy(DATA / "bts_unipd_5trials" / "Static1.c3d", sub / "a.c3d")
+    shutil.copy(DATA / "bts_unipd_5trials" / "Walking1.c3d", sub / "b.c3d")
+    (s,) = read_manifest(tmp_path)
+    assert s.id == "P01" and s.static == sub / "a.c3d"
+    assert [t.path for t in s.trials] == [sub / "b.c3d"]
+    assert (
+        marker_speed(sub / "a.c3d")
+        < STATIC_SPEED / 3
+        < 3 * STATIC_SPEED
+        < marker_speed(sub / "b.c3d")
+    )
+
+
+# --- runs on a real LocalCluster -----------------------------------------------------------
+
+
+def _rows(out: Path) -> dict:
+    import pyarrow.parquet as pq
+
+    t = pq.read_table(out / "summary.parquet").to_pylist()
+    return {(r["subject"], r["foot"]): r for r in t}
+
+
+def test_a_broken_trial_is_recorded_and_the_others_complete_then_a_rerun_skips_them(tmp_path):
+    from distributed import Client, LocalCluster
+
+    good = tmp_path / "in" / "good.c3d"
+    good.parent.mkdir()
+    shutil.copy(EXAMPLE, good)
+    subjects = [
+        Subject("S1", (TrialSpec(good),)),
+        Subject("BAD", (TrialSpec(_broken(tmp_path / "in" / "bad")),)),
+    ]
+    out = tmp_path / "out"
+    with (
+        LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster,
+        Client(cluster) as client,
+    ):
+        first = run(subjects, out, client=client, settings=FAST, progress=None)
+        assert first.counts() == {"done": 1, "failed": 1}
+        rows = _rows(out)
+        assert {k[0] for k in rows} == {"S1", "BAD"}
+        bad = rows[("BAD", None)]
+        assert bad["status"] == "failed" and bad["error_type"] == "InputError"
+        assert "truncated" in bad["error_message"] and bad["error_fix"]
+        err = json.loads((out / "BAD" / "error.json").read_text())
+        assert err["type"] == "InputError" and "broken.c3d" in err["message"]
+        for foot in ("left", "right"):
+            r = rows[("S1", foot)]
+            assert r["status"] == "done" and np.isfinite(r["n"]) and r["n_se"] > 0
+            assert 0 < r["rms_superior_force_pct_bw"] < 10  # % BW: a fit, not a failure
+        assert rows[("S1", "right")]["heldout_stance"]  # "auto": the right foot has two
+        done = out / "S1" / "done.json"
+        stamp = done.stat().st_mtime_ns
+        second = run(subjects, out, client=client, settings=FAST, progress=None)
+    assert second.counts() == {"skipped": 1, "failed": 1}
+    assert done.stat().st_mtime_ns == stamp  # not redone
+    again = _rows(out)
+    assert again[("S1", "left")]["n"] == rows[("S1", "left")]["n"]  # read back, not refitted
+    csv = (out / "summary.csv").read_text().splitlines()
+    assert csv[0].startswith("subject,foot,status") and len(csv) == 1 + 3  # header + 3 rows
+
+
+def test_a_killed_run_restarts_without_redoing_finished_subjects(tmp_path):
+    trials = tmp_path / "in"
+    trials.mkdir()
+    lines = ["subject,trial"]
+    for k in range(3):
+        shutil.copy(EXAMPLE, trials / f"w{k}.c3d")
+        lines.append(f"S{k},in/w{k}.c3d")
+    manifest = tmp_path / "study.csv"
+    manifest.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "gc_ocp.cli", "batch", str(manifest), "--out", str(out)]
+    cmd.append("--fixed-pose-width")  # faster subjects; the resumption is what is tested
+    proc = subprocess.Popen(
+        [*cmd, "--workers", "1"],
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        deadline = time.monotonic() + 600
+        while not any(out.glob("S*/done.json")):
+            assert proc.poll() is None, "the run ended before any subject finished"
+            assert time.monotonic() < deadline
+            time.sleep(0.5)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)  # the command, its scheduler and workers
+        proc.wait()
+    finished = {p.parent.name: p.stat().st_mtime_ns for p in out.glob("S*/done.json")}
+    assert finished and len(finished) < 3
+    assert not (out / "summary.csv").exists()  # no summary of a run that did not end
+    for sid in ("S0", "S1", "S2"):  # nothing half-written is taken for a result
+        folder = out / sid
+        if sid not in finished and folder.exists():
+            assert not (folder / "fit.json").exists() or not (folder / "done.json").exists()
+    res = subprocess.run([*cmd, "--workers", "2"], capture_output=True, text=True, timeout=900)
+    assert res.returncode == 0, res.stderr[-2000:]
+    status = {r["subject"]: r["status"] for r in _rows(out).values()}
+    assert status == dict.fromkeys(("S0", "S1", "S2"), "done")  # every subject complete
+    for sid, stamp in finished.items():
+        assert (out / sid / "done.json").stat().st_mtime_ns == stamp  # not redone
+    assert "skipped" in res.stdout
+    assert not list(out.glob(".S*"))  # no staging folder left behind
