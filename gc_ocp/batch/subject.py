@@ -36,6 +36,7 @@ from gc_ocp.batch.manifest import Subject
 from gc_ocp.batch.summary import error_rows, subject_rows
 from gc_ocp.errors import GcOcpError, InputError, SolveError
 from gc_ocp.outputs import OutputSet, atomic_write, atomic_write_text
+from gc_ocp.workflow.provenance import sha256
 
 DONE = "done.json"
 ERROR = "error.json"
@@ -57,11 +58,7 @@ class Settings:
 
 
 def _file_hash(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
+    return sha256(path)
 
 
 def _digest(obj) -> str:
@@ -236,10 +233,10 @@ def _fit_subject(
 ) -> tuple[list[dict], list[str]]:
     """Fit (and diagnose) one subject; its files committed into ``folder``. Returns the summary
     rows and the names of the files written."""
-    from gc_ocp.cli.common import provenance
     from gc_ocp.io.checks import require_stances
     from gc_ocp.workflow.fit_files import FIT_OUTPUTS, write_fit
     from gc_ocp.workflow.fitting import fit
+    from gc_ocp.workflow.provenance import provenance
 
     pairs = load_subject(subject, cache_root)
     for t, _ in pairs:

@@ -14,9 +14,9 @@ from gc_ocp.cli.common import (
     _load,
     _print_landmarks,
     _progress,
-    provenance,
 )
 from gc_ocp.errors import InputError, SolveError
+from gc_ocp.workflow.provenance import provenance
 
 
 def cmd_info(args: argparse.Namespace) -> int:

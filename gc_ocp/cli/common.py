@@ -1,5 +1,6 @@
 """What the subcommands share: the trial arguments, loading and pairing the trials, progress on
-stderr, the provenance written beside every output, the ``--effects`` list."""
+stderr, the ``--effects`` list (the provenance written beside every output:
+:mod:`gc_ocp.workflow.provenance`)."""
 
 from __future__ import annotations
 
@@ -105,79 +106,6 @@ def _print_landmarks(kin) -> None:
 
     if "landmarks" in kin.info:
         print(format_mapping(kin.info["landmarks"]))
-
-
-def _sha256(path) -> str:
-    import hashlib
-
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
-def provenance(args: argparse.Namespace, pairs) -> dict:
-    """What a ``fit.json`` (or ``diagnosis.json``) was computed from: inputs with content
-    hashes, command and options, subject values and their sources, stances used and excluded
-    (with the reason), package version, date."""
-    import datetime
-    import platform
-
-    from gc_ocp import __version__
-    from gc_ocp.io.processing import detect_processing
-    from gc_ocp.stance import trial_names
-
-    trials = []
-    for (t, kin), name in zip(pairs, trial_names([t.source for t, _ in pairs]), strict=True):
-        files = [p for p in (t.source, t.grf_source) if p is not None]
-        trials.append(
-            {
-                "name": name,  # as in the stance labels (name:side@t_on)
-                "files": [{"path": str(Path(p).resolve()), "sha256": _sha256(p)} for p in files],
-                "mass_kg": t.mass,
-                "mass_source": t.mass_source,
-                "height_m": t.height if t.height is not None else kin.info.get("height"),
-                "height_source": t.height_source
-                or ("estimated from markers" if t.height is None else ""),
-                "belt_velocity_m_s": list(map(float, t.belt_velocity)),
-                "stances_used": [s.label for s in t.stances],
-                "stances_excluded": [
-                    {
-                        "side": e.side,
-                        "plate": e.plate,
-                        "t_on": e.t_on,
-                        "t_off": e.t_off,
-                        "reason": e.reason,
-                    }
-                    for e in t.excluded_stances
-                ],
-                "load_notes": list(t.load_notes),
-                "marker_cutoff_hz": kin.cutoff_hz,
-                # the markers' measured noise and what it leaves in each foot's pose
-                # (gc_ocp.marker_noise)
-                "marker_error": kin.info.get("marker_error"),
-                "foot_pose_noise": kin.info.get("foot_pose_noise"),
-                # what the lab's processing did, as detected (the measurement model uses the
-                # plates' zero thresholds: gc_ocp.io.processing)
-                "processing": detect_processing(t).to_json(),
-            }
-        )
-
-    def plain(v):
-        if isinstance(v, Path):
-            return str(v)
-        return [plain(x) for x in v] if isinstance(v, (list, tuple)) else v
-
-    options = {k: plain(v) for k, v in vars(args).items() if k not in ("func", "command")}
-    return {
-        "gc_ocp_version": __version__,
-        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "python": platform.python_version(),
-        "command": f"gc-ocp {args.command}",
-        "options": options,
-        "trials": trials,
-    }
 
 
 def _effect_list(text: str, option: str = "--effects") -> list[str]:
