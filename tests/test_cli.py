@@ -138,6 +138,7 @@ def test_fit_outputs_are_one_consistent_set(tmp_path):
     out = tmp_path / "fit"
     assert main(["fit", "--holdout", "right@0.407", "--out", str(out)]) == 0
     assert (out / "heldout_wrench.png").exists()
+    _check_fit_report(out)
     (out / "fit_failed.json").write_text("{}")  # stale, from an imagined earlier failed run
     (out / "notes.txt").write_text("mine")
     old = os.umask(0o022)
@@ -153,6 +154,7 @@ def test_fit_outputs_are_one_consistent_set(tmp_path):
         "fit_wrench.png",
         "landmarks.json",
         "notes.txt",
+        "report.html",
     ]
     assert json.loads((out / "landmarks.json").read_text())["trials"][0]["markerset"] == (
         "plugingait"
@@ -163,6 +165,27 @@ def test_fit_outputs_are_one_consistent_set(tmp_path):
     assert len(trial["files"][0]["sha256"]) == 64 and trial["mass_source"]
     assert d["provenance"]["gc_ocp_version"] and isinstance(d["flags"], list)
     assert not list(tmp_path.glob(".fit.*"))  # no staging folder left
+
+
+def _check_fit_report(out):
+    """``report.html`` of a fit: self-contained (no link, no script; every figure embedded), and
+    it says what fit.json says: each shared parameter with its SE, every flag's code, the
+    held-out stance and its superior-force RMS."""
+    import json
+    import re
+
+    page = (out / "report.html").read_text(encoding="utf-8")
+    d = json.loads((out / "fit.json").read_text())
+    assert "<script" not in page and not re.search(r"(src|href)=\"(?!data:)", page)
+    assert page.count('src="data:image/png;base64,') == 4  # wrench, sole, pose, held-out
+    for p in ("n", "c", "mu"):
+        v, se = d["params"]["shared"][p], d["params"]["shared"][p + "_se"]
+        assert f"{v:.4g} ± {se:.2g}" in page
+    for f in d["flags"]:
+        assert f["code"] in page
+    held = d["heldout_stance"]
+    assert held in page
+    assert f"{d['heldout_rms']['right']['superior_force_pct_bw']:.2f} % BW" in page
 
 
 def test_fit_with_an_effect_shows_its_block(tmp_path, capsys):

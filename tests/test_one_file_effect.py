@@ -104,7 +104,7 @@ def test_the_new_effect_is_fitted_diagnosed_and_injected(copy, tmp_path):
         copy,
         "-c",
         "import json; from gc_ocp.estimation.result import EstimationResult; "
-        "from gc_ocp.diagnosis.fit_tables import effect_blocks; "
+        "from gc_ocp.html.fit_tables import effect_blocks; "
         f"print(json.dumps(effect_blocks(EstimationResult.from_json({str(out / 'fit.json')!r}))))",
     )
     [shown_block] = [b for b in json.loads(r.stdout) if b["name"] == "ground_tilt"]

@@ -213,7 +213,7 @@ def test_report_states_the_rule_the_code_applies(diagnosis, page):
 def test_effect_block_values_carry_their_standard_errors():
     """A standard error (``key_se``) is shown as ``value ± SE`` beside its value, not as a
     parameter of its own; a zero SE says fixed."""
-    from gc_ocp.diagnosis.fit_tables import flatten_block
+    from gc_ocp.html.fit_tables import flatten_block
 
     rows = dict(
         flatten_block(
@@ -323,8 +323,8 @@ def test_diagnosis_json_is_written_back_byte_for_byte(case):
 def test_each_effect_block_is_shown_by_its_component(case):
     """Every row a component gives of its block (``Component.describe``: label, value ± SE
     with its unit) is on the page; the fixture's final model has effects of its own."""
-    from gc_ocp.diagnosis.fit_tables import pm_value
     from gc_ocp.diagnosis.report import report_html
+    from gc_ocp.html.fit_tables import pm_value
 
     _, _, js, d, final = _fixture(case)
     described = final.block_rows()

@@ -18,19 +18,14 @@ numbers (the template's ``num`` filter).
 
 from __future__ import annotations
 
-import base64
-import datetime
-import io
 import math
 import os
 from pathlib import Path
 
-import jinja2
-
-from gc_ocp import __version__
 from gc_ocp.diagnosis import selection
 from gc_ocp.diagnosis.compare import BLOCK_SECONDS, MIN_CLUSTERS, resamples_stances
-from gc_ocp.diagnosis.fit_tables import (
+from gc_ocp.html import FIGURE_DPI, data_uri, environment, pngs, provenance_context
+from gc_ocp.html.fit_tables import (
     CHANNEL_KEYS,
     channel_name,
     channel_unit,
@@ -43,8 +38,6 @@ from gc_ocp.diagnosis.fit_tables import (
 )
 from gc_ocp.outputs import atomic_write_text
 from gc_ocp.trial import SIDES
-
-FIGURE_DPI = 100
 
 TEMPLATE = "report.html.j2"
 """The page's template, in ``gc_ocp/diagnosis/templates``."""
@@ -69,23 +62,7 @@ def report_figures(diagnosis) -> dict:
 def report_pngs(diagnosis, dpi: int = FIGURE_DPI) -> dict[str, bytes]:
     """:func:`report_figures` rendered as PNG bytes (the figures are closed): what the page
     embeds and what the CLI writes beside it."""
-    import matplotlib.pyplot as plt
-
-    figs = report_figures(diagnosis)
-    try:
-        out = {}
-        for name, fig in figs.items():
-            buf = io.BytesIO()
-            fig.savefig(buf, format="png", dpi=dpi)
-            out[name] = buf.getvalue()
-        return out
-    finally:
-        for fig in figs.values():
-            plt.close(fig)
-
-
-def _data_uri(png: bytes) -> str:
-    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+    return pngs(report_figures(diagnosis), dpi)
 
 
 # --- what the page says, as data -------------------------------------------------------------
@@ -260,28 +237,6 @@ def _method(d) -> dict:
     }
 
 
-def _provenance(prov: dict | None, d) -> dict:
-    """The provenance section: the CLI's record (inputs, options, date), or, without one, the
-    version, the time of writing and the stances."""
-    if not prov:
-        now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-        return {"cli": False, "version": __version__, "now": now}
-    trials = [
-        {
-            **t,
-            "excluded": "; ".join(
-                f"{e['side']} {e['t_on']:.2f}-{e['t_off']:.2f} s: {e['reason']}"
-                for e in t.get("stances_excluded", [])
-            ),
-        }
-        for t in prov.get("trials", [])
-    ]
-    opts = ", ".join(
-        f"{k}={v}" for k, v in prov.get("options", {}).items() if v not in (None, [], False)
-    )
-    return {"cli": True, "record": prov, "trials": trials, "options": opts}
-
-
 def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
     """Everything the template shows, prepared: ``d`` a
     :class:`~gc_ocp.diagnosis.result.Diagnosis`, ``res`` its final model's fit on all stances,
@@ -309,7 +264,7 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
             for k, rows in enumerate(d.rounds[1:], 2)
         ],
         "waterfall": _waterfall(wf),
-        "figures": {name: _data_uri(png) for name, png in pngs.items()},
+        "figures": {name: data_uri(png) for name, png in pngs.items()},
         "res": res,
         "rms": rms_table(res, wf[-1].heldout_rms if d.folds.get("n") else None),
         "contact": contact_tables(res.params),
@@ -319,24 +274,13 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         ],
         "effects": effect_blocks(res),
         "method": _method(d),
-        "provenance": _provenance(provenance, d),
+        "provenance": provenance_context(provenance),
     }
 
 
 def _environment():
-    """The jinja2 environment of the page (made per call: no module state). Autoescaping is on;
-    ``num`` formats a number (:func:`fmt_num`: "–" when missing), ``fmt`` is :func:`format`."""
-    env = jinja2.Environment(
-        loader=jinja2.PackageLoader("gc_ocp.diagnosis", "templates"),
-        autoescape=True,
-        undefined=jinja2.StrictUndefined,
-        trim_blocks=True,
-        lstrip_blocks=True,
-        keep_trailing_newline=True,
-    )
-    env.filters["num"] = fmt_num
-    env.filters["fmt"] = format
-    return env
+    """The page's jinja2 environment (:func:`gc_ocp.html.environment`)."""
+    return environment("gc_ocp.diagnosis")
 
 
 # --- the page --------------------------------------------------------------------------------

@@ -1,4 +1,5 @@
-"""The files of a fit: ``fit.json``, ``landmarks.json`` and its figures, written into an
+"""The files of a fit: ``fit.json``, ``landmarks.json``, its figures and ``report.html`` (the
+same figures embedded in one self-contained page, :mod:`gc_ocp.workflow.fit_report`), written into an
 :class:`~gc_ocp.outputs.OutputSet` (complete or not at all). One definition for ``gc-ocp fit``
 and for every subject of ``gc-ocp batch``."""
 
@@ -6,11 +7,13 @@ from __future__ import annotations
 
 import json
 
-from gc_ocp.outputs import OutputSet
+from gc_ocp.html import FIGURE_DPI, pngs
+from gc_ocp.outputs import OutputSet, atomic_write
 from gc_ocp.workflow.fitting import FitReport
 
 FIT_OUTPUTS = (
     "fit.json",
+    "report.html",
     "landmarks.json",
     "fit_failed.json",
     "fit_wrench.png",
@@ -21,8 +24,6 @@ FIT_OUTPUTS = (
     "sensitivity.md",
 )
 """Every file a fit may write (one set, replaced as a whole)."""
-
-FIGURE_DPI = 100
 
 
 def fit_figures(report: FitReport) -> dict:
@@ -43,16 +44,18 @@ def fit_figures(report: FitReport) -> dict:
 
 
 def write_fit(out: OutputSet, report: FitReport, provenance: dict, landmarks: dict) -> dict:
-    """Stage ``fit.json`` (the report with its ``provenance``), ``landmarks.json`` and the
-    figures in ``out`` (the caller commits); returns the JSON written as ``fit.json``."""
-    import matplotlib.pyplot as plt
+    """Stage ``fit.json`` (the report with its ``provenance``), ``landmarks.json``, the figures
+    and ``report.html`` in ``out`` (the caller commits); returns the JSON written as
+    ``fit.json``."""
+    from gc_ocp.workflow.fit_report import fit_report_html
 
     doc = {**report.to_json(), "provenance": provenance}
     out.text("fit.json", json.dumps(doc, indent=2))
     out.text("landmarks.json", json.dumps(landmarks, indent=2))
-    for name, fig in fit_figures(report).items():
-        out.figure(name, fig, dpi=FIGURE_DPI)
-        plt.close(fig)
+    images = pngs(fit_figures(report), FIGURE_DPI)
+    for name, png in images.items():
+        atomic_write(out.path(name), lambda tmp, png=png: tmp.write_bytes(png))
+    out.text("report.html", fit_report_html(report, provenance, images))
     return doc
 
 
