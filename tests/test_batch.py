@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -141,6 +142,12 @@ def test_a_broken_trial_is_recorded_and_the_others_complete_then_a_rerun_skips_t
             assert r["status"] == "done" and np.isfinite(r["n"]) and r["n_se"] > 0
             assert 0 < r["rms_superior_force_pct_bw"] < 10  # % BW: a fit, not a failure
         assert rows[("S1", "right")]["heldout_stance"]  # "auto": the right foot has two
+        page = (out / "summary.html").read_text(encoding="utf-8")
+        # self-contained but for the subjects' own reports beside it
+        assert set(re.findall(r'href="([^"]+)"', page)) == {"S1/report.html"}  # one per foot row
+        assert "<script" not in page and page.count('src="data:image/png;base64,') == 2
+        assert "broken.c3d" in page and "InputError" in page
+        assert (out / "S1" / "report.html").is_file()
         done = out / "S1" / "done.json"
         stamp = done.stat().st_mtime_ns
         second = run(subjects, out, client=client, settings=FAST, progress=None)

@@ -30,10 +30,11 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from gc_ocp.batch.manifest import Subject, read_manifest
+from gc_ocp.batch.page import summary_html
 from gc_ocp.batch.subject import Settings, process_subject
 from gc_ocp.batch.summary import error_rows, write_summary
 from gc_ocp.errors import InputError
-from gc_ocp.outputs import check_writable
+from gc_ocp.outputs import atomic_write_text, check_writable
 
 
 @dataclasses.dataclass
@@ -210,14 +211,17 @@ def run(
             if cluster is not None:
                 cluster.close()
     ordered = [outcomes[s.id] for s in subjects]
-    rows = [r for o in ordered for r in o["rows"]]
-    write_summary(rows, out)
-    return BatchResult(
-        rows=rows,
+    result = BatchResult(
+        rows=[r for o in ordered for r in o["rows"]],
         subjects=[{k: o[k] for k in ("subject", "status", "seconds", "error")} for o in ordered],
         out=out,
         seconds=time.perf_counter() - t0,
     )
+    write_summary(result.rows, out)
+    atomic_write_text(
+        out / "summary.html", summary_html(result.rows, result.subjects, result.seconds)
+    )
+    return result
 
 
 __all__ = ("BatchResult", "clean_stale", "default_workers", "run")

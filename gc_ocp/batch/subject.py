@@ -256,17 +256,21 @@ def _fit_subject(
         )
         diagnosis = None
         if settings.diagnose:
-            diagnosis = _diagnose(pairs)
+            from gc_ocp.diagnosis.report import report_html
+
+            d = _diagnose(pairs)
+            diagnosis = d.to_json()
             out.text("diagnosis.json", json.dumps({**diagnosis, "provenance": prov}, indent=2))
+            out.text("diagnosis_report.html", report_html(d, provenance=prov))
         written = [p.name for p in out.commit()]
     finally:
         out.discard()
     return subject_rows(subject, fit_doc, diagnosis), written
 
 
-def _diagnose(pairs) -> dict:
-    """The subject's diagnosis as ``diagnosis.json`` has it, its candidate fits and null draws
-    as tasks on the same execution layer when this runs on a Dask worker."""
+def _diagnose(pairs):
+    """The subject's :class:`~gc_ocp.diagnosis.Diagnosis`, its candidate fits and null draws as
+    tasks on the same execution layer when this runs on a Dask worker."""
     from distributed import get_worker, worker_client
 
     from gc_ocp.diagnosis import diagnose
@@ -274,9 +278,9 @@ def _diagnose(pairs) -> dict:
     try:
         get_worker()
     except ValueError:  # not on a Dask worker: in this process
-        return diagnose(pairs, workers=1).to_json()
+        return diagnose(pairs, workers=1)
     with worker_client() as client:  # leaves the worker's slot to the diagnosis's own tasks
-        return diagnose(pairs, executor=client.get_executor()).to_json()
+        return diagnose(pairs, executor=client.get_executor())
 
 
 __all__ = ("Settings", "completed", "load_subject", "process_subject", "subject_key")
