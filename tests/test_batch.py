@@ -163,7 +163,7 @@ def test_a_killed_run_restarts_without_redoing_finished_subjects(tmp_path):
     trials = tmp_path / "in"
     trials.mkdir()
     lines = ["subject,trial"]
-    for k in range(3):
+    for k in range(2):
         shutil.copy(EXAMPLE, trials / f"w{k}.c3d")
         lines.append(f"S{k},in/w{k}.c3d")
     manifest = tmp_path / "study.csv"
@@ -187,16 +187,16 @@ def test_a_killed_run_restarts_without_redoing_finished_subjects(tmp_path):
         os.killpg(proc.pid, signal.SIGKILL)  # the command, its scheduler and workers
         proc.wait()
     finished = {p.parent.name: p.stat().st_mtime_ns for p in out.glob("S*/done.json")}
-    assert finished and len(finished) < 3
+    assert len(finished) == 1  # one worker: the second subject was running
     assert not (out / "summary.csv").exists()  # no summary of a run that did not end
-    for sid in ("S0", "S1", "S2"):  # nothing half-written is taken for a result
+    for sid in ("S0", "S1"):  # nothing half-written is taken for a result
         folder = out / sid
         if sid not in finished and folder.exists():
             assert not (folder / "fit.json").exists() or not (folder / "done.json").exists()
     res = subprocess.run([*cmd, "--workers", "2"], capture_output=True, text=True, timeout=900)
     assert res.returncode == 0, res.stderr[-2000:]
     status = {r["subject"]: r["status"] for r in _rows(out).values()}
-    assert status == dict.fromkeys(("S0", "S1", "S2"), "done")  # every subject complete
+    assert status == dict.fromkeys(("S0", "S1"), "done")  # every subject complete
     for sid, stamp in finished.items():
         assert (out / sid / "done.json").stat().st_mtime_ns == stamp  # not redone
     assert "skipped" in res.stdout

@@ -41,7 +41,8 @@ from gc_ocp.outputs import atomic_write_text, check_writable
 class BatchResult:
     """A study's outcome as plain data: ``rows`` (the summary table, one dict per subject and
     foot, :data:`~gc_ocp.batch.summary.COLUMNS`), ``subjects`` (per subject: status, seconds,
-    error), the output folder and the wall time."""
+    error, the peak memory of the worker process that ran it), the output folder and the wall
+    time."""
 
     rows: list[dict]
     subjects: list[dict]
@@ -198,6 +199,7 @@ def run(
                     "rows": error_rows(s, err, float("nan")),
                     "seconds": None,
                     "error": err,
+                    "peak_rss_mb": None,
                 }
             outcomes[s.id] = outcome
             bar.update(outcome)
@@ -213,7 +215,10 @@ def run(
     ordered = [outcomes[s.id] for s in subjects]
     result = BatchResult(
         rows=[r for o in ordered for r in o["rows"]],
-        subjects=[{k: o[k] for k in ("subject", "status", "seconds", "error")} for o in ordered],
+        subjects=[
+            {k: o[k] for k in ("subject", "status", "seconds", "error", "peak_rss_mb")}
+            for o in ordered
+        ],
         out=out,
         seconds=time.perf_counter() - t0,
     )

@@ -27,6 +27,7 @@ import dataclasses
 import hashlib
 import json
 import pickle
+import sys
 import time
 import traceback
 import types
@@ -170,13 +171,27 @@ def _fix(error: BaseException) -> str:
     return "unexpected: report it with this error.json (it holds the traceback)"
 
 
+def _peak_rss_mb() -> float | None:
+    """[MB] The peak resident memory of this (worker) process so far; None where unknown."""
+    try:
+        import resource
+    except ImportError:  # not on POSIX
+        return None
+    kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # kilobytes on Linux
+    return kb / 1024.0 if sys.platform != "darwin" else kb / 2**20
+
+
 def process_subject(subject: Subject, out_root: str | Path, settings: Settings) -> dict:
-    """The task (module doc): ``{"subject", "status" ("done", "skipped" or "failed"),
-    "rows", "seconds", "error"}``."""
+    """The task (module doc). Returns ``{"subject", "status" ("done", "skipped" or "failed"),
+    "rows", "seconds", "error", "peak_rss_mb"}`` (the last: the worker process's peak memory
+    so far, for the study's benchmark)."""
+    return {**_process(subject, Path(out_root), settings), "peak_rss_mb": _peak_rss_mb()}
+
+
+def _process(subject: Subject, out_root: Path, settings: Settings) -> dict:
     import matplotlib
 
     matplotlib.use("Agg")
-    out_root = Path(out_root)
     folder = out_root / subject.id
     t0 = time.perf_counter()
     key = subject_key(subject, settings)
