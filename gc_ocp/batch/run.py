@@ -23,7 +23,6 @@ summary table at the end.
 from __future__ import annotations
 
 import dataclasses
-import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -34,6 +33,7 @@ from gc_ocp.batch.page import summary_html
 from gc_ocp.batch.subject import Settings, process_subject
 from gc_ocp.batch.summary import error_rows, write_summary
 from gc_ocp.errors import InputError
+from gc_ocp.execution import dask_client
 from gc_ocp.outputs import atomic_write_text, check_writable
 
 
@@ -98,12 +98,6 @@ def _duration(s: float) -> str:
     return f"{s:.0f} s" if s < 90 else f"{s / 60:.0f} min" if s < 5400 else f"{s / 3600:.1f} h"
 
 
-def default_workers() -> int:
-    """Worker processes of the local cluster: the cores this process may use."""
-    n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return max(1, n or 1)
-
-
 def clean_stale(out: Path, ids: Sequence[str]) -> list[Path]:
     """Remove what a killed run may have left of these subjects: the staging folders of their
     file sets (``OUT/.<id>.*``, :class:`~gc_ocp.outputs.OutputSet`) and half-written temporary
@@ -129,56 +123,12 @@ def _progress_default() -> Callable[[str], None] | None:
     return None
 
 
-def run(
-    manifest: str | Path | Sequence[Subject],
-    out: str | Path,
-    *,
-    diagnose: bool = False,
-    workers: int | None = None,
-    scheduler: str | None = None,
-    client=None,
-    settings: Settings | None = None,
-    progress: Callable[[str], None] | None | str = "auto",
-) -> BatchResult:
-    """Fit every subject of ``manifest`` (a manifest file, a study folder or a list of
-    :class:`~gc_ocp.batch.manifest.Subject`) into ``out`` (module doc) and write
-    ``out/summary.csv`` and ``out/summary.parquet``. ``diagnose``: also diagnose each subject
-    (the same as ``settings.diagnose``); ``settings``: how every subject is fitted.
-    ``progress``: a function called with each progress line, None for silence, "auto" for
-    stderr when it is a terminal."""
-    from distributed import Client, LocalCluster, as_completed
+def _gather(client, subjects, out: Path, settings: Settings, bar, outcomes: dict, futures: dict):
+    """Submit one task per subject to ``client`` and record each outcome as it arrives (a task
+    that could not run, e.g. its worker died, as a failed subject); on any interruption the
+    tasks still queued or running are cancelled."""
+    from distributed import as_completed
 
-    subjects = list(manifest) if not isinstance(manifest, (str, Path)) else read_manifest(manifest)
-    ids = [s.id for s in subjects]
-    dup = sorted({i for i in ids if ids.count(i) > 1})
-    if dup:
-        raise InputError(f"Subject id(s) {', '.join(dup)} appear twice; give each subject once.")
-    out = check_writable(out)
-    out.mkdir(parents=True, exist_ok=True)
-    clean_stale(out, ids)
-    settings = settings or Settings()
-    if diagnose:
-        settings = dataclasses.replace(settings, diagnose=True)
-    if workers is not None and workers < 1:
-        raise InputError(f"workers must be 1 or more, but got {workers}")
-    say = _progress_default() if progress == "auto" else progress
-    t0 = time.perf_counter()
-    cluster = None
-    own = client is None
-    if own:
-        if scheduler:
-            client = Client(scheduler)
-        else:
-            cluster = LocalCluster(
-                n_workers=workers or default_workers(),
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-            )
-            client = Client(cluster)
-    bar = Progress(len(subjects), say)
-    outcomes: dict[str, dict] = {}
-    futures = {}
     try:
         for s in subjects:
             f = client.submit(process_subject, s, str(out), settings, pure=False, retries=0)
@@ -207,11 +157,45 @@ def run(
         for f in futures:
             f.cancel()
         raise
-    finally:
-        if own:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+
+
+def run(
+    manifest: str | Path | Sequence[Subject],
+    out: str | Path,
+    *,
+    diagnose: bool = False,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    client=None,
+    settings: Settings | None = None,
+    progress: Callable[[str], None] | None | str = "auto",
+) -> BatchResult:
+    """Fit every subject of ``manifest`` (a manifest file, a study folder or a list of
+    :class:`~gc_ocp.batch.manifest.Subject`) into ``out`` (module doc) and write
+    ``out/summary.csv`` and ``out/summary.parquet``. ``diagnose``: also diagnose each subject
+    (the same as ``settings.diagnose``); ``settings``: how every subject is fitted.
+    ``progress``: a function called with each progress line, None for silence, "auto" for
+    stderr when it is a terminal."""
+    subjects = list(manifest) if not isinstance(manifest, (str, Path)) else read_manifest(manifest)
+    ids = [s.id for s in subjects]
+    dup = sorted({i for i in ids if ids.count(i) > 1})
+    if dup:
+        raise InputError(f"Subject id(s) {', '.join(dup)} appear twice; give each subject once.")
+    out = check_writable(out)
+    out.mkdir(parents=True, exist_ok=True)
+    clean_stale(out, ids)
+    settings = settings or Settings()
+    if diagnose:
+        settings = dataclasses.replace(settings, diagnose=True)
+    if workers is not None and workers < 1:
+        raise InputError(f"workers must be 1 or more, but got {workers}")
+    say = _progress_default() if progress == "auto" else progress
+    t0 = time.perf_counter()
+    bar = Progress(len(subjects), say)
+    outcomes: dict[str, dict] = {}
+    futures = {}
+    with dask_client(workers, scheduler, client) as client:
+        _gather(client, subjects, out, settings, bar, outcomes, futures)
     ordered = [outcomes[s.id] for s in subjects]
     result = BatchResult(
         rows=[r for o in ordered for r in o["rows"]],
@@ -229,4 +213,4 @@ def run(
     return result
 
 
-__all__ = ("BatchResult", "clean_stale", "default_workers", "run")
+__all__ = ("BatchResult", "clean_stale", "run")

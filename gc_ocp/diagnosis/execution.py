@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
-import os
 import time
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -43,6 +42,7 @@ from gc_ocp.errors import InputError, ModelError, SolveError
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions
+from gc_ocp.execution import available_cores
 from gc_ocp.stance import StanceData
 
 MAX_WORKERS = 4
@@ -207,10 +207,9 @@ def evaluate_round(
 
 
 def default_workers() -> int:
-    """Processes for the candidates of a round: the CPU cores this process may use, at most
-    :data:`MAX_WORKERS`."""
-    n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    return max(1, min(MAX_WORKERS, n or 1))
+    """Processes for the candidates of a round: the CPU cores this process may use
+    (:func:`gc_ocp.execution.available_cores`), at most :data:`MAX_WORKERS`."""
+    return min(MAX_WORKERS, available_cores())
 
 
 @contextlib.contextmanager

@@ -1,0 +1,55 @@
+"""Where work runs: the cores this process may use, and a Dask client (a local cluster of worker
+processes, a running scheduler, or the caller's own client).
+
+A task the package sends out is a plain function of picklable plain data (a subject of a study,
+:func:`gc_ocp.batch.subject.process_subject`; a candidate's fits or a null draw of the
+diagnosis, :mod:`gc_ocp.diagnosis.execution`), so it runs on any
+:class:`concurrent.futures.Executor`, a Dask client's (``client.get_executor()``) included.
+
+Workers are processes with one thread each: a fit is compiled code and Ipopt, threads would only
+contend. A local cluster's workers are *spawned* (Dask's default), so a Python script that
+starts one needs the ``if __name__ == "__main__":`` guard; a notebook and the ``gc-ocp`` command
+do not.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Iterator
+
+
+def available_cores() -> int:
+    """The CPU cores this process may use (its affinity where the platform tells it)."""
+    n = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, n or 1)
+
+
+@contextlib.contextmanager
+def dask_client(workers: int | None = None, scheduler: str | None = None, client=None) -> Iterator:
+    """A ``distributed.Client`` for the ``with`` block: ``client`` as it is (the caller's; left
+    open), else one connected to ``scheduler`` (an address such as ``tcp://host:8786``), else a
+    ``LocalCluster`` of ``workers`` single-threaded processes (default: :func:`available_cores`)
+    started here; what is started here is closed at the end of the block."""
+    if client is not None:
+        yield client
+        return
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        with Client(scheduler) as c:
+            yield c
+        return
+    with (
+        LocalCluster(
+            n_workers=workers or available_cores(),
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+        ) as cluster,
+        Client(cluster) as c,
+    ):
+        yield c
+
+
+__all__ = ("available_cores", "dask_client")
