@@ -32,6 +32,7 @@ import json
 import re
 from collections import Counter, defaultdict
 from pathlib import Path
+from statistics import median
 
 from gc_ocp.diagnosis.null import ALPHA
 
@@ -78,7 +79,7 @@ def main(root: Path = HERE) -> None:
     )
     print(
         '| motion | stances per foot | cases | top-1, moderate | top-1, strong | "none" rejected '
-        "| case time [min] |"
+        "| time [min]: all cases, median case |"
     )
     print("|---|---|---|---|---|---|---|")
     for (motion, n), res in sorted(runs.items()):
@@ -90,7 +91,8 @@ def main(root: Path = HERE) -> None:
             f"| {motion} | {n} | {len(cs)} | {_pct(sum(c['correct'] for c in mod), len(mod))} | "
             f"{_pct(sum(c['correct'] for c in strong), len(strong))} | "
             f"{_pct(sum(c['correct'] for c in non), len(non))} | "
-            f"{res['seconds']['cases_total'] / 60:.0f} |"
+            f"{res['seconds']['cases_total'] / 60:.0f}, "
+            f"{median(c['seconds_generate'] + c['seconds_diagnose'] for c in cs) / 60:.1f} |"
         )
     for motion in motions:
         sizes = sorted(n for m, n in runs if m == motion)
