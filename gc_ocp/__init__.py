@@ -15,7 +15,8 @@ Layers (each importable on its own): :mod:`gc_ocp.io` (trial loading), :mod:`gc_
 27-DOF body model), :mod:`gc_ocp.kinematics` (IK, sole points), :mod:`gc_ocp.stance` (the stance
 type), :mod:`gc_ocp.contact` (contact laws, equivalent wrench, the seed's study),
 :mod:`gc_ocp.estimation` (composable joint kinematics-contact estimation, CasADi + Ipopt),
-:mod:`gc_ocp.diagnosis` (where the model-data gap lies, which effect causes it, how far it shrinks).
+:mod:`gc_ocp.diagnosis` (where the model-data gap lies, which effect causes it, how far it shrinks),
+:mod:`gc_ocp.batch` (studies of many subjects on Dask: ``gc_ocp.batch.run(manifest, out)``).
 Names are imported on first use, so ``import gc_ocp`` stays light.
 """
 
@@ -75,10 +76,13 @@ _PUBLIC = {
 }
 
 _SUBPACKAGES = (
+    "batch",
     "bench",
     "contact",
     "diagnosis",
     "estimation",
+    "execution",
+    "html",
     "io",
     "kinematics",
     "model",
