@@ -124,8 +124,9 @@ def test_a_broken_trial_is_recorded_and_the_others_complete_then_a_rerun_skips_t
         Subject("BAD", (TrialSpec(_broken(tmp_path / "in" / "bad")),)),
     ]
     out = tmp_path / "out"
+    # one worker: the broken subject fails at once, the good one runs after or beside it
     with (
-        LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster,
+        LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster,
         Client(cluster) as client,
     ):
         first = run(subjects, out, client=client, settings=FAST, progress=None)
@@ -193,7 +194,7 @@ def test_a_killed_run_restarts_without_redoing_finished_subjects(tmp_path):
         folder = out / sid
         if sid not in finished and folder.exists():
             assert not (folder / "fit.json").exists() or not (folder / "done.json").exists()
-    res = subprocess.run([*cmd, "--workers", "2"], capture_output=True, text=True, timeout=900)
+    res = subprocess.run([*cmd, "--workers", "1"], capture_output=True, text=True, timeout=900)
     assert res.returncode == 0, res.stderr[-2000:]
     status = {r["subject"]: r["status"] for r in _rows(out).values()}
     assert status == dict.fromkeys(("S0", "S1"), "done")  # every subject complete
