@@ -58,10 +58,6 @@ class Settings:
         return dataclasses.asdict(self)
 
 
-def _file_hash(path: Path) -> str:
-    return sha256(path)
-
-
 def _digest(obj) -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()
 
@@ -75,8 +71,8 @@ def subject_key(subject: Subject, settings: Settings) -> str:
         for f in dataclasses.fields(subject)
         if f.name not in ("trials", "static", "id")
     }
-    files = [[_file_hash(t.path), _file_hash(t.grf) if t.grf else None] for t in subject.trials]
-    static = _file_hash(subject.static) if subject.static else None
+    files = [[sha256(t.path), sha256(t.grf) if t.grf else None] for t in subject.trials]
+    static = sha256(subject.static) if subject.static else None
     return _digest(
         {
             "version": __version__,
@@ -110,9 +106,9 @@ def _kinematics(trial, subject: Subject, spec, cache_root: Path):
     key = _digest(
         {
             "version": __version__,
-            "trial": _file_hash(spec.path),
-            "grf": _file_hash(spec.grf) if spec.grf else None,
-            "static": _file_hash(subject.static) if subject.static else None,
+            "trial": sha256(spec.path),
+            "grf": sha256(spec.grf) if spec.grf else None,
+            "static": sha256(subject.static) if subject.static else None,
             "markerset": subject.markerset,
             "cutoff": subject.cutoff,
             "mass": subject.mass,

@@ -14,17 +14,13 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
+from gc_ocp.contact.channels import CHANNELS as WRENCH_CHANNELS
+from gc_ocp.contact.channels import TABLE_KEYS
+from gc_ocp.foot import UNITS
 from gc_ocp.outputs import atomic_write, atomic_write_text
 
-CHANNELS = (
-    "anterior_force_pct_bw",
-    "superior_force_pct_bw",
-    "lateral_force_pct_bw",
-    "anteroposterior_torque_pct_bwh",
-    "longitudinal_torque_pct_bwh",
-    "mediolateral_torque_pct_bwh",
-)
-UNITS = ("PL", "PM", "AL", "AM", "TT")
+CHANNELS = tuple(TABLE_KEYS[c] for c in WRENCH_CHANNELS)
+"""The six channels' keys as ``fit.json`` has them (``superior_force_pct_bw``, ...)."""
 SHARED = ("n", "c", "mu")
 
 COLUMNS = (
