@@ -1,0 +1,350 @@
+"""Synthetic subjects through the batch (issue 24): real motion, known truth, files on disk.
+
+Usage::
+
+    PYTHONPATH=. python benchmarks/batch_synthetic.py [--subjects 40] [--work DIR] [--skip-loop]
+
+**The subjects.** Each is one walking trial written as OpenSim files (``.trc`` markers and a
+``.mot`` of ground reactions, one force set per foot), made from a real trial of
+``../shared/data`` (the motions of :data:`MOTIONS`, in turn):
+
+1. the real trial's markers with white noise of :data:`MARKER_NOISE` per coordinate (each
+   subject its own draw, so each has its own inverse kinematics, as in a real study), written
+   as a TRC and loaded back as the batch loads it; the kinematics computed from it are the
+   truth's motion (the fitter sees the same: no error in the kinematics);
+2. the truth: the default model (``full_model()``) fitted to the real trial and frozen
+   (:func:`motion_truth`: the per-stance pose corrections at their fitted values), then per
+   subject the stiffness of every unit scaled by one factor
+   ``s`` (log-normal, SD :data:`STIFFNESS_SPREAD`) and the friction coefficient drawn
+   uniformly in :data:`MU_RANGE` (mass scaled by ``s`` too, so the forces stay near one body
+   weight);
+3. the plates: the truth's wrench on the real trial's stance windows (the frames each fitted
+   stance spans, margins included), white noise of ``PLATE_NOISE_PCT_BW`` (forces; moments
+   that times 20 mm), set to zero below 20 N (a thresholded plate) and zero elsewhere, written
+   in OpenSim's external-loads layout (``gc_ocp.export.write_grf``).
+
+**The runs.** The manifest (CSV: subject, trial, grf, mass, height) goes to
+``gc_ocp.batch.run`` with 1 and 2 workers (fresh output folders, measured in one run), then
+to a loop of ``gc-ocp fit`` commands (``--skip-loop`` leaves it out).
+
+**The z-scores.** From the 2-worker run's ``summary.csv``: for every subject and foot,
+``z = (estimate - truth) / SE`` of each unit's force at the reference depth (``f_ref``) and of
+the shared ``n``, ``c`` and ``mu``; their mean, SD and the share within +-1.96 (a 95 %
+interval's coverage; 95 % if the SEs are right, binomial spread sqrt(.95 .05 / N)). What the
+fit itself reports as not identified (a unit flagged ``unit_not_identified``, a parameter
+``at_bound``: its SE is not meaningful, the report says so) is left out and counted, as a
+user reading the report would leave it out; so is a truth on a bound (its z is not normal).
+One trial per subject: a unit that hardly touches the ground in two or three stances is not
+identified, in the real fit the truth comes from as in the synthetic one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "data"
+MOTIONS = (
+    ("plugingait_overground/test_small.c3d", None, None),
+    ("vicon_plugingait_btk/PiG_Motion3_FF.c3d", None, None),
+    ("motionanalysis_helenhayes/Gait.c3d", None, None),
+    ("opensim_rajagopal_overground/motion_capture_walk.trc", "grf_walk.mot", 85.07),
+)
+"""(trial, its GRF file for a TRC, mass [kg] where the files lack it): the real motions."""
+MARKER_NOISE = 0.5e-3
+"""[m] White noise per marker coordinate of a subject's TRC (a good lab's reconstruction)."""
+STIFFNESS_SPREAD = 0.25
+"""SD of log(s), the subject's stiffness factor (about +-25 %)."""
+MU_RANGE = (0.4, 0.9)
+"""The true friction coefficient's range."""
+THRESHOLD = 20.0
+"""[N] The plates' zero threshold."""
+
+
+def motion_truth(spec):
+    """(trial, kinematics, stances, frozen truth, its fit) of one real motion: the default
+    model fitted to the real stances, every component frozen at the fit but the per-stance pose
+    correction, which the truth's data take at the fit's values (``simulate(at=fit)``): the
+    true foot moves as the recorded kinematics corrected by it, the fitter sees the recorded
+    kinematics (without it, a stance whose fit leant on its correction is pushed centimetres
+    into the ground, with forces of many body weights)."""
+    from gc_ocp.estimation.components import full_model
+    from gc_ocp.estimation.starts import estimate, frozen_model, with_lls_start
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.workflow.fitting import fit_data
+
+    path, grf, mass = spec
+    path = DATA / path
+    trial = load_trial(path, None if grf is None else path.parent / grf, mass=mass)
+    kin = compute_kinematics(trial)
+    _, stances, _ = fit_data([(trial, kin)])
+    model = with_lls_start(full_model(), stances)
+    res = estimate(stances, model)
+    return trial, kin, stances, frozen_model(model, res), res
+
+
+def subject_truth(truth: tuple, rng) -> tuple[tuple, float]:
+    """(the subject's truth, its stiffness factor s): module doc, 2."""
+    from gc_ocp.estimation.components.contact import Param
+
+    s = float(np.exp(rng.normal(0.0, STIFFNESS_SPREAD)))
+    out = []
+    for c in truth:
+        if c.name == "contact":
+            k = {side: {u: v * s for u, v in ks.items()} for side, ks in c.k.value.items()}
+            c = dataclasses.replace(
+                c, k=Param("fixed", k), mu=Param("fixed", float(rng.uniform(*MU_RANGE)))
+            )
+        out.append(c)
+    return tuple(out), s
+
+
+def true_values(truth: tuple) -> dict:
+    """``{side: {unit: f_ref}, "n": .., "c": .., "mu": ..}`` of a frozen truth."""
+    law = next(c for c in truth if c.name == "contact")
+    n = float(law.n.value)
+    out = {
+        side: {u: k * law.reference_depth**n for u, k in ks.items()}
+        for side, ks in law.k.value.items()
+    }
+    out.update(n=n, c=float(law.c.value), mu=float(law.mu.value))
+    return out
+
+
+def make_subject(j: int, spec, motion, folder: Path) -> dict:
+    """Write subject ``j``'s files (module doc) and return its manifest row and truth."""
+    from gc_ocp.estimation.synthetic import PLATE_NOISE_PCT_BW, TORQUE_NOISE_LENGTH, simulate
+    from gc_ocp.export import write_grf, write_trc
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+
+    trial, _, stances, base, fitted = motion
+    rng = np.random.default_rng(1000 + j)
+    truth, s = subject_truth(base, rng)
+    sid = f"syn{j:02d}"
+    folder.mkdir(parents=True, exist_ok=True)
+    trc = folder / f"{sid}_walk.trc"
+    grf = folder / f"{sid}_walk_grf.mot"
+    noisy = trial.markers + rng.normal(0.0, MARKER_NOISE, trial.markers.shape)
+    write_trc(trc, trial.marker_names, noisy, trial.marker_time)
+    # the kinematics the fitter will compute from this TRC (the truth moves as they say); the
+    # stance windows and reference points are the real trial's
+    seen = load_trial(trc, _real_grf(spec), mass=trial.mass, height=trial.height)
+    kin = compute_kinematics(seen)
+    cut = []
+    for st in stances:
+        foot = kin.feet[st.side].window(st.time[0], st.time[-1])
+        if foot.time.shape != st.time.shape:
+            raise RuntimeError(f"{trc}: stance {st.label} has other frames in the TRC's kinematics")
+        cut.append(st.with_foot(foot))
+    sim = simulate(cut, truth, rng, plate_noise_pct_bw=0.0, at=fitted)
+    t = kin.time
+    wrench = {side: np.zeros((t.size, 6)) for side in ("left", "right")}
+    height = {side: np.zeros(t.size) for side in ("left", "right")}
+    bw = trial.body_weight * s
+    sd = PLATE_NOISE_PCT_BW / 100 * bw * np.array([1, 1, 1, *3 * [TORQUE_NOISE_LENGTH]])
+    for st in sim:
+        idx = np.searchsorted(t, st.time)
+        f = st.measured[:, :3]
+        m = st.measured[:, 3:] + np.cross(st.reference_point, f)  # about the lab origin
+        w = np.c_[f, m] + rng.normal(0.0, 1.0, (idx.size, 6)) * sd
+        wrench[st.side][idx] = w
+        height[st.side][idx] = st.ground_height
+    write_grf(grf, t, wrench, height, min_force=THRESHOLD)
+    row = {
+        "subject": sid,
+        "trial": trc.name,
+        "grf": grf.name,
+        "mass": f"{trial.mass * s:.4f}",
+        "height": "" if trial.height is None else f"{trial.height:.4f}",
+    }
+    return {"row": row, "truth": true_values(truth), "s": s, "motion": spec[0]}
+
+
+def _real_grf(spec):
+    """The real trial's plates as OpenSim files hold them, for loading the subject's TRC only to
+    compute its kinematics (a TRC needs a GRF file to load)."""
+    return _real_grf.files[spec[0]]
+
+
+def write_study(n: int, work: Path) -> tuple[Path, list[dict]]:
+    from gc_ocp.export import write_grf
+
+    data = work / "subjects"
+    motions = {}
+    _real_grf.files = {}
+    for spec in MOTIONS:
+        motions[spec[0]] = motion_truth(spec)
+        trial = motions[spec[0]][0]
+        # the real plates, per foot, for loading (module doc): any GRF the loader accepts
+        p = work / "real" / (Path(spec[0]).stem + "_grf.mot")
+        p.parent.mkdir(parents=True, exist_ok=True)
+        t = trial.marker_time
+        w = {side: np.zeros((t.size, 6)) for side in ("left", "right")}
+        for stc in trial.stances:
+            sel = (t >= stc.t_on) & (t <= stc.t_off)
+            w[stc.side][sel] = (
+                trial.stance_wrench(stc, t[sel])
+                + np.c_[
+                    np.zeros((sel.sum(), 3)),
+                    np.cross(stc.reference_point, trial.stance_wrench(stc, t[sel])[:, :3]),
+                ]
+            )
+        write_grf(p, t, w, trial.floor_height)
+        _real_grf.files[spec[0]] = p
+    subjects = []
+    for j in range(n):
+        spec = MOTIONS[j % len(MOTIONS)]
+        subjects.append(make_subject(j, spec, motions[spec[0]], data))
+        print(f"  subject {j + 1}/{n} written ({spec[0]})", flush=True)
+    manifest = data / "study.csv"
+    with manifest.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(subjects[0]["row"]))
+        w.writeheader()
+        for s in subjects:
+            w.writerow(s["row"])
+    return manifest, subjects
+
+
+def _unidentified(fit_json: Path) -> set[str]:
+    """What the fit itself flags as not identified: ``"left/PM"`` (a unit), ``"n"`` (a shared
+    parameter at a bound)."""
+    import json
+
+    out = set()
+    for f in json.loads(fit_json.read_text()).get("flags", []):
+        what = str(f.get("what", ""))
+        if f["code"] == "unit_not_identified":
+            out.add(what)
+        elif f["code"] == "at_bound" and what.startswith("contact/"):
+            parts = what.split("/")[1:]
+            out.add("/".join(parts[1:]) if parts[0] == "k" else parts[0])
+    return out
+
+
+def z_scores(out: Path, subjects: list[dict]) -> tuple[dict[str, list[float]], dict[str, int]]:
+    """z-scores of every parameter the fit reports as identified, and how many were left out
+    (the fit flags it: a unit not identified, a parameter at its bound; or the truth on a
+    bound)."""
+    from gc_ocp.foot import UNITS
+
+    truth = {s["row"]["subject"]: s["truth"] for s in subjects}
+    bounds = {"n": (1.0, 3.0), "c": (0.0, 10.0), "mu": (0.0, 1.5)}
+    z: dict[str, list[float]] = {"f_ref": [], "n": [], "c": [], "mu": []}
+    left_out: dict[str, int] = dict.fromkeys(z, 0)
+    seen = set()
+    with (out / "summary.csv").open() as fh:
+        for r in csv.DictReader(fh):
+            if r["status"] != "done":
+                continue
+            sid, foot = r["subject"], r["foot"]
+            tr = truth[sid]
+            flagged = _unidentified(out / sid / "fit.json")
+            for u in UNITS:
+                est, se = r[f"f_ref_{u}_N"], r[f"f_ref_{u}_N_se"]
+                if f"{foot}/{u}" in flagged or not (est and se and float(se) > 0):
+                    left_out["f_ref"] += 1
+                    continue
+                z["f_ref"].append((float(est) - tr[foot][u]) / float(se))
+            if sid in seen:
+                continue
+            seen.add(sid)
+            for p in ("n", "c", "mu"):
+                if not r[p] or not r[f"{p}_se"]:
+                    continue
+                lo, hi = bounds[p]
+                if p in flagged or not lo + 1e-6 < tr[p] < hi - 1e-6 or float(r[f"{p}_se"]) <= 0:
+                    left_out[p] += 1
+                    continue
+                z[p].append((float(r[p]) - tr[p]) / float(r[f"{p}_se"]))
+    return z, left_out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--subjects", type=int, default=40)
+    ap.add_argument("--work", type=Path, default=None)
+    ap.add_argument("--skip-loop", action="store_true")
+    args = ap.parse_args()
+    work = args.work or Path(tempfile.mkdtemp(prefix="batch_synthetic_"))
+    warnings.simplefilter("ignore")
+    from gc_ocp.batch import run
+    from gc_ocp.batch.manifest import read_manifest
+
+    t0 = time.perf_counter()
+    manifest, subjects = write_study(args.subjects, work)
+    print("# Synthetic subjects through the batch (`benchmarks/batch_synthetic.py`)\n")
+    print(
+        f"{len(subjects)} subjects written in {time.perf_counter() - t0:.0f} s "
+        f"(motions: {', '.join(m[0] for m in MOTIONS)}); manifest {manifest}.\n"
+    )
+    rows = []
+    for workers in (1, 2):
+        out = work / f"out_{workers}"
+        t = time.perf_counter()
+        res = run(manifest, out, workers=workers)
+        wall = time.perf_counter() - t
+        mem = [s.get("peak_rss_mb") for s in res.subjects if s.get("peak_rss_mb")]
+        status = {}
+        for s in res.subjects:
+            status[s["status"]] = status.get(s["status"], 0) + 1
+        rows.append((f"batch, {workers} worker(s)", wall, max(mem) if mem else None, status))
+    if not args.skip_loop:
+        t = time.perf_counter()
+        ok = 0
+        for sub in read_manifest(manifest):
+            spec = sub.trials[0]
+            cmd = [
+                sys.executable,
+                "-m",
+                "gc_ocp",
+                "fit",
+                str(spec.path),
+                "--grf",
+                str(spec.grf),
+                "--mass",
+                str(sub.mass),
+                "--out",
+                str(work / "loop" / sub.id),
+            ]
+            if sub.height:
+                cmd += ["--height", str(sub.height)]
+            ok += subprocess.run(cmd, capture_output=True).returncode == 0
+        rows.append(("loop of `gc-ocp fit`", time.perf_counter() - t, None, f"{ok} exit 0"))
+    n = len(subjects)
+    print("| run | wall time [s] | per subject [s] | peak memory of a worker [MB] | subjects |")
+    print("|---|---|---|---|---|")
+    for name, wall, mem, status in rows:
+        m = "-" if mem is None else f"{mem:.0f}"
+        print(f"| {name} | {wall:.0f} | {wall / n:.1f} | {m} | {status} |")
+    z, left_out = z_scores(work / "out_2", subjects)
+    print("\nz = (estimate - truth) / SE, 2-worker run, of what each fit reports identified:\n")
+    print("| parameter | z-scores | mean | SD | within +-1.96 | left out: flagged by the fit |")
+    print("|---|---|---|---|---|---|")
+    for p, v in z.items():
+        v = np.asarray(v)
+        if v.size == 0:
+            print(f"| {p} | 0 | - | - | - | {left_out[p]} |")
+            continue
+        cov = np.mean(np.abs(v) < 1.96)
+        spread = np.sqrt(0.95 * 0.05 / v.size)
+        print(
+            f"| {p} | {v.size} | {v.mean():+.2f} | {v.std(ddof=1):.2f} | {cov:.0%} "
+            f"(+-{spread:.0%} binomial at 95 %) | {left_out[p]} |"
+        )
+    print(f"\nTotal {time.perf_counter() - t0:.0f} s. Work folder: {work}")
+
+
+if __name__ == "__main__":
+    main()
