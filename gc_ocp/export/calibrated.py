@@ -1,0 +1,155 @@
+"""The calibrated contact model of a fit, as plain data the exports share: the law with every
+parameter at its fitted value, each unit's fitted point on its segment, the ground and the
+subject; read from a fit in memory (:class:`~gc_ocp.workflow.fitting.FitReport` or
+:class:`~gc_ocp.estimation.result.EstimationResult`) or from its ``fit.json``.
+
+What a simulator can take over is the contact law with its sole (the sole corrections are in
+the units' points) and, on a treadmill, the belt. A fit with an effect beyond these (a clock
+offset, a ground offset, a toe hinge, another friction law, a denser sole) is refused with the
+reason: those change the data or the foot, not only the law, and have no OpenSim counterpart
+yet (the CasADi export carries the law of any fit: :mod:`gc_ocp.export.casadi_export`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from gc_ocp.errors import InputError
+from gc_ocp.estimation.components.contact import ContactLaw, Param
+from gc_ocp.foot import SEED_LAYOUT, TrialKinematics
+
+EXPORTABLE = {
+    "contact": "ContactLaw",
+    "sole": "SoleCorrection",
+    "pose": "PoseCorrection",
+    "belt": "BeltSpeed",
+}
+"""The components a calibrated model may have (the default fit's; the pose correction is the
+per-stance registration of the markers, not part of the foot: a simulator leaves it out)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class CalibratedContact:
+    """law: the contact law, every parameter fixed at the fit; points: ``{side: (5, 3)}`` each
+    unit's point in its parent segment's frame [m] (``parents``: ``{side: ("hindfoot", ...)}``)
+    with the sole corrections; ground_height [m]; belt_speed [m/s] (0 overground);
+    body_weight [N], height [m], mass [kg]; provenance: the fit's (which trials, settings)."""
+
+    law: ContactLaw
+    points: Mapping[str, np.ndarray]
+    parents: Mapping[str, tuple[str, ...]]
+    ground_height: float
+    belt_speed: float
+    body_weight: float
+    height: float
+    mass: float
+    provenance: Mapping = dataclasses.field(default_factory=dict)
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        return SEED_LAYOUT.units
+
+    def value(self, param: str, side: str, unit: str | None = None) -> float:
+        """The law's ``param`` (``"k"``, ``"n"``, ``"c"``, ``"mu"``) for ``side`` (and unit)."""
+        return float(getattr(self.law, param).value_for(side, unit))
+
+    def model(self) -> tuple:
+        """The components a simulation runs: the frozen law (the points are in the feet:
+        :meth:`feet`)."""
+        return (self.law,)
+
+    def feet(self, kin: TrialKinematics) -> TrialKinematics:
+        """``kin`` with each foot's units at the fitted points."""
+        feet = {s: f.with_points(np.asarray(self.points[s])) for s, f in kin.feet.items()}
+        return dataclasses.replace(kin, feet=feet)
+
+    # --- from a fit ------------------------------------------------------------------------
+    @classmethod
+    def from_fit(cls, fit, provenance: Mapping | None = None) -> CalibratedContact:
+        """From a ``FitReport``, an ``EstimationResult``, a ``fit.json`` dict or its path."""
+        if isinstance(fit, str | Path):
+            path = Path(fit)
+            if not path.is_file():
+                raise InputError(f"Fit file {path} does not exist; give the fit.json of a fit.")
+            try:
+                fit = json.loads(path.read_text())
+            except json.JSONDecodeError as e:
+                raise InputError(
+                    f"{path} is not a fit.json ({e}); give the file gc-ocp fit wrote."
+                ) from None
+        if hasattr(fit, "result"):  # FitReport
+            fit = fit.result
+        doc = fit if isinstance(fit, Mapping) else fit.to_json()
+        for key in ("components", "blocks", "stance_fits"):
+            if key not in doc:
+                raise InputError(f"the fit has no {key!r}: it is not a gc-ocp fit.json")
+        extra = {n: c for n, c in doc["components"].items() if EXPORTABLE.get(n) != c}
+        if extra:
+            raise InputError(
+                f"the fit has effects a simulator cannot take over: {extra}. Export the fit of "
+                "the default model (gc-ocp fit without --effects), or use the CasADi export, "
+                "which carries any fitted law."
+            )
+        block = doc["blocks"]["contact"]
+        shared = block.get("shared", {})
+        sides = [s for s in ("left", "right") if s in block]
+        kw = {
+            "k": Param(
+                "fixed", {s: {u: block[s][u]["k"] for u in SEED_LAYOUT.units} for s in sides}
+            )
+        }
+        for p in ("n", "c", "mu"):
+            if p in shared:
+                kw[p] = Param("fixed", float(shared[p]))
+            else:
+                kw[p] = Param("fixed", {s: float(block[s][p]) for s in sides})
+        law = dataclasses.replace(ContactLaw(), **kw)
+        points, parents, heights = {}, {}, set()
+        for sf in doc["stance_fits"]:
+            side = sf["side"]
+            p = np.asarray(sf["points_local"], float)
+            if side in points and not np.allclose(points[side], p, atol=1e-9):
+                raise InputError(
+                    f"the fit's {side} stances have different unit points: a per-stance sole "
+                    "cannot be exported"
+                )
+            points[side] = p
+            parents[side] = tuple(sf["parents"])
+            heights.add(round(float(sf["ground_height"]), 6))
+        if len(heights) > 1:
+            raise InputError(
+                f"the fit's plates are at different heights {sorted(heights)} m; a simulator has "
+                "one floor"
+            )
+        first = doc["stance_fits"][0]
+        prov = dict(provenance or doc.get("provenance") or {})
+        trials = prov.get("trials") or [{}]
+        mass = trials[0].get("mass_kg") or first["body_weight"] / 9.81
+        belt = doc["blocks"].get("belt", {}) or {}
+        speed = (
+            float(belt.get("speed", 0.0))
+            if isinstance(belt.get("speed", 0.0), int | float)
+            else 0.0
+        )
+        if not speed:
+            v = np.asarray(trials[0].get("belt_velocity_m_s", [0.0, 0.0, 0.0]), float)
+            speed = float(np.linalg.norm(v))
+        return cls(
+            law=law,
+            points=points,
+            parents=parents,
+            ground_height=heights.pop(),
+            belt_speed=speed,
+            body_weight=float(first["body_weight"]),
+            height=float(first["height"]),
+            mass=float(mass),
+            provenance=prov,
+        )
+
+
+__all__ = ("EXPORTABLE", "CalibratedContact")

@@ -1,0 +1,499 @@
+"""``gc-ocp export opensim``: the calibrated contact model and the trial as OpenSim files, and
+OpenSim's own contact forces compared with the package's.
+
+Files written into the output folder (all or none, :class:`~gc_ocp.outputs.OutputSet`):
+
+* ``model.osim``: the subject's body (the URDF the kinematics used) with one
+  ``SmoothSphereHalfSpaceForce`` per contact unit (:mod:`gc_ocp.export.opensim_worker`, which
+  says how the fitted law is mapped onto OpenSim's);
+* ``coordinates.mot``: the coordinates over the trial (the package's inverse kinematics;
+  radians and metres, ``inDegrees=no``);
+* ``sole_points.sto``: each unit's fitted point over the trial (OpenSim's ground frame, m);
+* ``grf_plates.mot`` / ``grf_model.mot``: the plates' and the calibrated model's ground
+  reactions per foot in OpenSim's external-loads layout, each with its ``ExternalLoads`` file
+  (``external_loads_plates.xml``, ``external_loads_model.xml``) applying them to the hindfoot
+  bodies, for OpenSim's inverse dynamics or a Moco tracking problem;
+* ``export.json``: the mapping of each unit's law (stiffness, dissipation, friction, transition
+  velocity; how well the Hertzian curve matches the fitted one over the penetrations visited)
+  and, unless ``compare=False``, the RMS difference per channel between OpenSim's contact
+  forces on the trial's kinematics and the package's (% BW, % BW x H), over the trial's
+  stances; ``opensim_vs_gc_ocp.png`` shows both.
+
+OpenSim runs in a separate process (its wheel's CasADi library and the ``casadi`` package
+cannot share one): see :mod:`gc_ocp.export.opensim_worker`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import subprocess
+import sys
+import tempfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from gc_ocp.contact.channels import channel_rms_pct
+from gc_ocp.errors import InputError, ModelError
+from gc_ocp.export import opensim_worker as worker
+from gc_ocp.export.calibrated import CalibratedContact
+from gc_ocp.export.forward import foot_wrenches
+from gc_ocp.export.opensim_files import (
+    LAB_TO_Y_UP,
+    external_loads_xml,
+    write_grf,
+    write_table,
+)
+from gc_ocp.io._common import Y_UP_TO_LAB
+from gc_ocp.outputs import OutputSet
+
+OUTPUTS = (
+    "model.osim",
+    "coordinates.mot",
+    "sole_points.sto",
+    "grf_plates.mot",
+    "grf_model.mot",
+    "external_loads_plates.xml",
+    "external_loads_model.xml",
+    "export.json",
+    "opensim_vs_gc_ocp.png",
+)
+"""Every file the OpenSim export may write (one set, replaced as a whole)."""
+
+HINDFOOT = {"left": "hindfoot_l", "right": "hindfoot_r"}
+"""The body each foot's ground reaction is applied to."""
+
+
+# --- the law, mapped ---------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class UnitMapping:
+    """One unit's OpenSim parameters and how well its Hertzian curve matches the fitted law
+    over the penetrations the unit visited: ``curve_rms_pct`` (RMS of the difference over the
+    fitted force's RMS, visited frames), ``frames`` visited, ``max_depth_mm``."""
+
+    sphere: worker.SphereUnit
+    curve_rms_pct: float
+    frames: int
+    max_depth_mm: float
+
+    def to_json(self) -> dict:
+        s = self.sphere
+        return {
+            "side": s.side,
+            "unit": s.unit,
+            "body": s.body,
+            "sphere_centre_m": [float(v) for v in s.location],
+            "stiffness": s.stiffness,
+            "dissipation": s.dissipation,
+            "dynamic_friction": s.friction,
+            "static_friction": s.static_friction,
+            "transition_velocity": s.transition_velocity,
+            "curve_rms_pct": self.curve_rms_pct,
+            "frames_in_contact": self.frames,
+            "max_depth_mm": self.max_depth_mm,
+        }
+
+
+def fit_friction(v: np.ndarray, w: np.ndarray, eps: float) -> tuple[float, float]:
+    """``(v_t, s)``: OpenSim's friction ramp ``min(r, 1) (1 + 2 (s - 1) / (1 + r^2))``,
+    ``r = v / v_t`` (static friction ``s`` times the dynamic one) that best matches the fitted
+    friction's ``v / sqrt(v^2 + eps^2)`` over the slip speeds ``v``, weighted by the force ``w``
+    (grid search). With ``s < 1`` the ramp bends as the fitted law does: on a uniform grid of
+    speeds its RMS difference is 0.038 of the friction force against 0.048 with ``s = 1``."""
+    target = v / np.sqrt(v * v + eps * eps)
+    best = (np.inf, eps, 1.0)
+    for vt in np.geomspace(eps / 20, eps * 20, 200):
+        r = v / vt
+        ramp = np.minimum(r, 1.0)
+        bend = 2.0 / (1.0 + r * r)
+        for s in np.linspace(0.2, 1.2, 51):
+            cost = float(np.sum(w * (ramp * (1.0 + (s - 1.0) * bend) - target) ** 2))
+            if cost < best[0]:
+                best = (cost, float(vt), float(s))
+    return best[1], best[2]
+
+
+def map_law(
+    cal: CalibratedContact, trial, kin, radius: float = worker.DEFAULT_RADIUS
+) -> list[UnitMapping]:
+    """Each unit's ``SmoothSphereHalfSpaceForce`` parameters (module doc of
+    :mod:`~gc_ocp.export.opensim_worker`): the Hertzian stiffness fitted in least squares to
+    ``k d^n`` over the penetrations ``d`` the unit visits on the stances of ``trial`` (the frames
+    the fit was calibrated on; at the reference depth when it never touches), the dissipation ``c / 1.5``, the friction coefficient, and the transition
+    velocity fitted to the fitted friction's smoothing over the slip speeds visited. The sphere's
+    centre is ``R`` above the unit's point along the floor's normal as the segment meets the
+    floor (its mean direction in the segment over the stances): the segment's own axes need not
+    be square to the sole (the hindfoot is pitched about 25-30 deg in stance on the bundled
+    trial), and a centre on the segment's Z axis would press ``R (1 - cos 27 deg)`` deeper,
+    +12 % force at 5 mm radius."""
+    kin = cal.feet(kin)
+    eps = cal.law.slip_smoothing
+    out = []
+    for side in sorted(kin.feet):
+        foot = kin.feet[side]
+        pos, vel = foot.unit_trajectories(np.asarray(cal.points[side]))
+        belt = np.array([-cal.belt_speed, 0.0, 0.0])
+        n, c, mu = (cal.value(p, side) for p in ("n", "c", "mu"))
+        stance = np.zeros(foot.time.size, bool)
+        for st_side, idx, _ in _stance_frames(trial, foot.time):
+            if st_side == side:
+                stance[idx] = True
+        up = {}  # the floor's normal in each segment's frame, as the foot stands on the floor
+        for seg, pose in (("hindfoot", foot.hindfoot_pose), ("toes", foot.toes_pose)):
+            rows = pose[stance if stance.any() else slice(None), 2, :3]
+            u = np.nanmean(rows, axis=0)
+            up[seg] = u / np.linalg.norm(u)
+        for i, unit in enumerate(cal.units):
+            k = cal.value("k", side, unit)
+            d = cal.ground_height - pos[:, i, 2]
+            on = stance & np.isfinite(d) & (d > 0)
+            if on.sum() >= 3:
+                dd = d[on]
+                K = float(np.sum(k * dd**n * dd**1.5) / np.sum(dd**3))
+                f = k * dd**n
+                rms = float(100 * np.sqrt(np.mean((K * dd**1.5 - f) ** 2)) / np.sqrt(np.mean(f**2)))
+                slip = np.linalg.norm((vel[on, i] - belt)[:, :2], axis=1)
+                vt, s_static = fit_friction(slip, f, eps)
+            else:
+                K = k * cal.law.reference_depth ** (n - 1.5)
+                rms, vt, s_static, dd = float("nan"), eps, 1.0, np.zeros(1)
+            parent = cal.parents[side][i]
+            out.append(
+                UnitMapping(
+                    worker.SphereUnit(
+                        side=side,
+                        unit=unit,
+                        body=f"{parent}_{side[0]}",
+                        location=np.asarray(cal.points[side][i], float) + radius * up[parent],
+                        stiffness=K / (worker.HERTZ_GAIN * np.sqrt(radius)),
+                        dissipation=c / 1.5,
+                        friction=mu,
+                        static_friction=s_static * mu,
+                        transition_velocity=vt,
+                    ),
+                    rms,
+                    int(on.sum()),
+                    float(1e3 * dd.max()),
+                )
+            )
+    return out
+
+
+# --- OpenSim, in its own process ---------------------------------------------------------
+
+
+def run_worker(job: dict) -> dict:
+    """Run :mod:`~gc_ocp.export.opensim_worker` on ``job`` in a fresh Python process (module
+    doc) and return its reply; its failure is a :class:`ModelError` with OpenSim's message."""
+    with tempfile.TemporaryDirectory(prefix="gc_ocp_opensim_") as tmp:
+        path = Path(tmp) / "job.json"
+        path.write_text(json.dumps(job))
+        proc = subprocess.run(
+            [sys.executable, "-I", worker.__file__, str(path)], capture_output=True, text=True
+        )
+    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
+    reply = json.loads(lines[-1]) if lines else {}
+    if proc.returncode != 0 or "error" in reply:
+        why = reply.get("error") or proc.stderr.strip().splitlines()[-1:] or ["no output"]
+        raise ModelError(f"OpenSim could not carry out the export: {why}")
+    return reply
+
+
+def _sphere_json(s: worker.SphereUnit) -> dict:
+    d = dataclasses.asdict(s)
+    d["location"] = [float(v) for v in s.location]
+    return d
+
+
+def opensim_forces(
+    urdf: str, mapping: Sequence[UnitMapping], cal: CalibratedContact, kin, radius: float
+) -> dict[str, np.ndarray]:
+    """OpenSim's contact wrench on each foot over the frames of ``kin`` (``{side: (n, 6)}``,
+    force [N] and moment [N m] about the ``lab`` origin, in ``lab``), computed by OpenSim from
+    the coordinates ``kin.q`` and their rates."""
+    body = kin.info["body"]
+    q = np.asarray(kin.q, float)
+    qdot = np.gradient(q, kin.time, axis=0)
+    with tempfile.TemporaryDirectory(prefix="gc_ocp_opensim_") as tmp:
+        frames, out = Path(tmp) / "frames.npz", Path(tmp) / "forces.npz"
+        np.savez(frames, coordinates=np.array(body.joint_names), q=q, qdot=qdot)
+        run_worker(
+            {
+                "urdf": urdf,
+                "name": "gc_ocp_subject",
+                "floor_height": cal.ground_height,
+                "radius": radius,
+                "spheres": [_sphere_json(m.sphere) for m in mapping],
+                "forces": {"frames": str(frames), "out": str(out)},
+            }
+        )
+        with np.load(out) as per_sphere:
+            forces = {k: per_sphere[k] for k in per_sphere.files}
+    total = {side: np.zeros((q.shape[0], 6)) for side in kin.feet}
+    for m in mapping:
+        w = forces[m.sphere.name]
+        total[m.sphere.side] += np.c_[w[:, :3] @ Y_UP_TO_LAB.T, w[:, 3:] @ Y_UP_TO_LAB.T]
+    return total
+
+
+# --- the comparison ----------------------------------------------------------------------
+
+
+def _stance_frames(trial, time):
+    """``[(side, frame indices, reference point)]`` of the trial's stances."""
+    out = []
+    for st in trial.stances:
+        idx = np.flatnonzero((time >= st.t_on - 1e-9) & (time <= st.t_off + 1e-9))
+        if idx.size:
+            out.append((st.side, idx, np.asarray(st.reference_point, float)))
+    return out
+
+
+def compare(trial, time, ours: dict, theirs: dict, cal: CalibratedContact) -> dict:
+    """RMS of OpenSim's minus the package's wrench per channel over the trial's stances, each
+    stance's moments about its reference point (as every fit reports them): ``{"all": {channel:
+    value}, side: {...}}`` in % BW and % BW x H."""
+    a, b, sides = [], [], []
+    for side, idx, ref in _stance_frames(trial, time):
+        for w, acc in ((ours[side][idx], a), (theirs[side][idx], b)):
+            acc.append(np.c_[w[:, :3], w[:, 3:] - np.cross(ref, w[:, :3])])
+        sides += [side] * idx.size
+    if not a:
+        raise InputError(f"{trial.source}: no stance to compare the forces on")
+    a, b, sides = np.concatenate(a), np.concatenate(b), np.asarray(sides)
+    ok = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
+    bwh = cal.body_weight * cal.height
+    out = {"all": channel_rms_pct(a[ok], b[ok], cal.body_weight, bwh)}
+    for side in ("left", "right"):
+        sel = ok & (sides == side)
+        if sel.any():
+            out[side] = channel_rms_pct(a[sel], b[sel], cal.body_weight, bwh)
+    return out
+
+
+def plot_comparison(time, ours: dict, theirs: dict, plates: dict, cal: CalibratedContact):
+    """Figure: the vertical and anterior force of each foot [% BW]: the plates, the package's
+    model and OpenSim's."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(2, 2, figsize=(10, 6), sharex=True, constrained_layout=True)
+    for j, side in enumerate(("left", "right")):
+        for i, (col, what) in enumerate(((2, "vertical"), (0, "anterior"))):
+            ax = axes[i, j]
+            if side in plates:
+                ax.plot(
+                    time,
+                    100 * plates[side][:, col] / cal.body_weight,
+                    color="0.6",
+                    lw=3,
+                    label="plates",
+                )
+            if side in ours:
+                ax.plot(
+                    time,
+                    100 * ours[side][:, col] / cal.body_weight,
+                    color="C0",
+                    label="gc_ocp model",
+                )
+            if side in theirs:
+                ax.plot(
+                    time,
+                    100 * theirs[side][:, col] / cal.body_weight,
+                    "--",
+                    color="C3",
+                    label="OpenSim (SmoothSphereHalfSpaceForce)",
+                )
+            ax.set_title(f"{side}: {what} force")
+            ax.set_ylabel("% BW")
+    axes[0, 0].legend(fontsize=8)
+    for ax in axes[-1]:
+        ax.set_xlabel("time [s]")
+    return fig
+
+
+# --- the export --------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class OpenSimExport:
+    """What :func:`export_opensim` wrote and measured: ``files``; ``mapping`` (per unit);
+    ``rms``: OpenSim against the package per channel (None without the comparison)."""
+
+    files: list[Path]
+    mapping: list[UnitMapping]
+    rms: dict | None
+
+    def summary(self) -> str:
+        lines = [f"wrote {len(self.files)} files to {self.files[0].parent}"]
+        if self.rms is not None:
+            lines.append(
+                "OpenSim's contact forces against gc_ocp's on the trial's stances (RMS): "
+                + ", ".join(f"{c} {v:.2f}" for c, v in self.rms["all"].items())
+            )
+        return "\n".join(lines)
+
+
+def plate_wrenches(trial, time) -> dict[str, np.ndarray]:
+    """The plates' wrench per foot over ``time`` (about the ``lab`` origin; zero off the
+    stances)."""
+    out = {s: np.zeros((time.size, 6)) for s in ("left", "right")}
+    for st in trial.stances:
+        sel = (time >= st.t_on) & (time <= st.t_off)
+        if not sel.any():
+            continue
+        w = trial.stance_wrench(st, time[sel])
+        out[st.side][sel] = np.c_[w[:, :3], w[:, 3:] + np.cross(st.reference_point, w[:, :3])]
+    return out
+
+
+def export_opensim(
+    fit,
+    out: str | Path,
+    pairs: Sequence | None = None,
+    radius: float = worker.DEFAULT_RADIUS,
+    compare_forces: bool = True,
+    progress: Callable[[str], None] | None = None,
+) -> OpenSimExport:
+    """Write the OpenSim files of ``fit`` (module doc) into ``out``.
+
+    fit: a ``FitReport``, an ``EstimationResult``, a ``fit.json`` dict or its path; pairs: the
+    fit's ``[(Trial, TrialKinematics)]`` (default: loaded again from the fit's provenance, as
+    the fit loaded them; the first trial is exported); radius: the contact spheres' [m];
+    compare_forces: also compute the contact forces with OpenSim on the trial and compare."""
+    say = progress or (lambda s: None)
+    cal = CalibratedContact.from_fit(fit)
+    if pairs is None:
+        pairs = fit_pairs(cal, say)
+    trial, kin = pairs[0]
+    body = kin.info.get("body")
+    if body is None:
+        raise InputError("the kinematics carry no body model; compute them with gc_ocp")
+    feet = cal.feet(kin)
+    mapping = map_law(cal, trial, kin, radius)
+    outset = OutputSet(out, OUTPUTS)
+    try:
+        say("OpenSim: building the model")
+        run_worker(
+            {
+                "urdf": body.urdf,
+                "name": f"gc_ocp_{trial.name}",
+                "floor_height": cal.ground_height,
+                "radius": radius,
+                "spheres": [_sphere_json(m.sphere) for m in mapping],
+                "osim": str(outset.path("model.osim")),
+            }
+        )
+        time = np.asarray(kin.time, float)
+        write_table(
+            outset.path("coordinates.mot"),
+            ["time", *body.joint_names],
+            np.c_[time, kin.q],
+            "coordinates",
+        )
+        cols, blocks = ["time"], [time[:, None]]
+        for side, foot in sorted(feet.feet.items()):
+            pos, _ = foot.unit_trajectories(np.asarray(cal.points[side]))
+            for i, u in enumerate(cal.units):
+                cols += [f"{side}_{u}_{a}" for a in "xyz"]
+                blocks.append(pos[:, i] @ LAB_TO_Y_UP.T)
+        write_table(
+            outset.path("sole_points.sto"), cols, np.concatenate(blocks, axis=1), "sole_points"
+        )
+        ours = foot_wrenches(cal.model(), trial, feet, cal.ground_height).wrench
+        plates = plate_wrenches(trial, time)
+        for name, w in (("plates", plates), ("model", ours)):
+            grf = outset.path(f"grf_{name}.mot")
+            write_grf(grf, time, {s: np.nan_to_num(v) for s, v in w.items()}, cal.ground_height)
+            outset.text(
+                f"external_loads_{name}.xml",
+                external_loads_xml(grf, {s: HINDFOOT[s] for s in w}, f"ground_reactions_{name}"),
+            )
+        rms = None
+        if compare_forces:
+            say("OpenSim: contact forces on the trial's kinematics")
+            theirs = opensim_forces(body.urdf, mapping, cal, kin, radius)
+            rms = compare(trial, time, ours, theirs, cal)
+            outset.figure("opensim_vs_gc_ocp.png", plot_comparison(time, ours, theirs, plates, cal))
+        doc = {
+            "trial": str(trial.source),
+            "radius_m": radius,
+            "force": "SmoothSphereHalfSpaceForce",
+            "floor_height_m": cal.ground_height,
+            "belt_speed_m_s": cal.belt_speed,
+            "units": [m.to_json() for m in mapping],
+            "opensim_vs_gc_ocp_rms": rms,
+            "notes": _notes(cal),
+        }
+        outset.text("export.json", json.dumps(doc, indent=2))
+        files = outset.commit()
+    finally:
+        outset.discard()
+    return OpenSimExport(files, mapping, rms)
+
+
+def _notes(cal: CalibratedContact) -> list[str]:
+    notes = []
+    if cal.belt_speed > 0:
+        notes.append(
+            f"treadmill ({cal.belt_speed:.2f} m/s): OpenSim's half space does not move, so its "
+            "friction acts on the foot's speed over the ground, not over the belt; the "
+            "comparison's shear forces show the difference"
+        )
+    return notes
+
+
+def fit_pairs(cal: CalibratedContact, say=lambda s: None) -> list:
+    """The fit's trials and kinematics, loaded again from its provenance (files, mass, height,
+    belt speed, static trial, marker set and cutoff as the fit used them)."""
+    from gc_ocp.batch.manifest import Subject, TrialSpec
+    from gc_ocp.batch.subject import load_subject
+
+    prov = cal.provenance
+    trials = prov.get("trials") or []
+    if not trials:
+        raise InputError(
+            "the fit.json has no provenance of its trials; give the trials in Python "
+            "(export_opensim(fit, out, pairs=[(trial, kinematics)]))."
+        )
+    opts = prov.get("options") or {}
+    specs = []
+    for t in trials:
+        files = [Path(f["path"]) for f in t.get("files", [])]
+        missing = [str(f) for f in files if not f.is_file()]
+        if missing:
+            raise InputError(
+                f"the fit's trial files {missing} are gone; export where the fit ran, or give "
+                "the trials in Python (pairs=...)."
+            )
+        specs.append(TrialSpec(files[0], files[1] if len(files) > 1 else None))
+    static = opts.get("static")
+    subject = Subject(
+        id="export",
+        trials=tuple(specs),
+        static=None if static is None else Path(static),
+        mass=trials[0].get("mass_kg"),
+        height=trials[0].get("height_m"),
+        belt_speed=opts.get("belt_speed"),
+        markerset=opts.get("markerset"),
+        cutoff=opts.get("cutoff"),
+    )
+    say("loading the fit's trials and computing their kinematics")
+    with tempfile.TemporaryDirectory(prefix="gc_ocp_export_") as tmp:
+        return load_subject(subject, Path(tmp))
+
+
+__all__ = (
+    "OUTPUTS",
+    "OpenSimExport",
+    "UnitMapping",
+    "compare",
+    "export_opensim",
+    "fit_pairs",
+    "map_law",
+    "opensim_forces",
+    "plate_wrenches",
+)
