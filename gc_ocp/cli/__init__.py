@@ -23,6 +23,7 @@ from gc_ocp.cli.commands import (
     cmd_batch,
     cmd_benchmark_diagnosis,
     cmd_diagnose,
+    cmd_export,
     cmd_fit,
     cmd_info,
     cmd_kinematics,
@@ -277,6 +278,45 @@ def build_parser() -> argparse.ArgumentParser:
         "--fixed-pose-width; faster).",
     )
     p.set_defaults(func=cmd_batch)
+
+    p = sub.add_parser(
+        "export",
+        help="The calibrated contact model where users simulate: OpenSim or CasADi.",
+        description="Export a fit (FIT.json, written by gc-ocp fit or gc-ocp batch). "
+        "'opensim': the subject's body with one SmoothSphereHalfSpaceForce per contact unit "
+        "(model.osim), the coordinates and the plates' and the model's ground reactions as "
+        "OpenSim files with their ExternalLoads, and OpenSim's own contact forces compared with "
+        "gc_ocp's (export.json). 'casadi': a serialized casadi.Function from foot poses and "
+        "velocities to each foot's wrench and unit forces (docs/export.md).",
+    )
+    p.add_argument("target", choices=("opensim", "casadi"))
+    p.add_argument("fit_json", type=Path, metavar="FIT.json")
+    p.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="Output folder (opensim) or .casadi file (casadi).",
+    )
+    p.add_argument(
+        "--radius",
+        type=float,
+        default=None,
+        metavar="M",
+        help="Contact sphere radius [m] (opensim; default 0.005).",
+    )
+    p.add_argument(
+        "--hertz",
+        action="store_true",
+        help="(opensim) Refit the model with the penetration exponent fixed at OpenSim's 1.5 "
+        "before exporting, so that OpenSim's law is the fitted law (the fit's trials are "
+        "loaded again).",
+    )
+    p.add_argument(
+        "--no-compare",
+        action="store_true",
+        help="(opensim) Do not compute OpenSim's contact forces on the trial.",
+    )
+    p.set_defaults(func=cmd_export)
     return parser
 
 

@@ -284,3 +284,35 @@ def cmd_batch(args: argparse.Namespace) -> int:
         e = s["error"]
         print(f"  {s['subject']}: {e['type']}: {e['message']} -> {e['fix']}")
     return 1 if result.failed() else 0
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    if args.target == "casadi":
+        from gc_ocp.export.casadi_export import casadi_function, write_casadi
+
+        path = args.out if args.out.suffix == ".casadi" else args.out / "contact.casadi"
+        write_casadi(args.fit_json, path)
+        print(casadi_function(args.fit_json))
+        print(f"wrote {path}")
+        return 0
+    from gc_ocp.export.calibrated import CalibratedContact
+    from gc_ocp.export.opensim_export import DEFAULT_RADIUS, export_opensim, fit_pairs, hertz_refit
+    from gc_ocp.outputs import check_writable
+
+    check_writable(args.out)
+    fit = args.fit_json
+    pairs = None
+    if args.hertz:
+        pairs = fit_pairs(CalibratedContact.from_fit(fit), _progress)
+        fit = hertz_refit(pairs, progress=_progress)
+        print(fit.summary())
+    ex = export_opensim(
+        fit,
+        args.out,
+        pairs=pairs,
+        radius=DEFAULT_RADIUS if args.radius is None else args.radius,
+        compare_forces=not args.no_compare,
+        progress=_progress,
+    )
+    print(ex.summary())
+    return 0

@@ -159,8 +159,10 @@ class Frame:
             raise ModelError("no component set the unit force law (the model needs a contact law)")
         force = ca.SX.zeros(3)
         moment = ca.SX.zeros(3)
+        self.unit_forces = []
         for i in range(self.layout.n):
             fi = self.unit_force(self, i)
+            self.unit_forces.append(fi)
             force += fi
             moment += ca.cross(self.points[i] - self.reference, fi)
         return ca.vertcat(force, moment)
@@ -170,8 +172,9 @@ class Frame:
 class FrameModel:
     """The composed per-frame functions of one model and the layouts of their inputs.
 
-    frame: ``(D, y) -> (res, wrench, measured)`` (SX; ``measured``: what the wrench is compared
-    with, after every ``edit_measured``); grad, hess: gradient and Hessian in ``y`` of
+    frame: ``(D, y) -> (res, wrench, measured, unit_forces)`` (SX; ``measured``: what the wrench
+    is compared with, after every ``edit_measured``; ``unit_forces``: ``3 x n``, each unit's
+    force in ``lab``); grad, hess: gradient and Hessian in ``y`` of
     ``1/2 |res|^2`` (compiled to C when possible); jac: ``(D, y) -> (res, d res / d y)`` (SX);
     data, slots: the named layouts of ``D`` and ``y``.
     """
@@ -201,7 +204,11 @@ def _compose(layout: SoleLayout, components: tuple, data_entries, slot_entries) 
         c.edit_measured(f)
     res = ca.vertcat(*residual(wrench, f.measured, f.inv_sigma, f.censor_below, CASADI))
     return ca.Function(
-        "foot_frame", [D, y], [res, wrench, f.measured], ["D", "y"], ["res", "wrench", "measured"]
+        "foot_frame",
+        [D, y],
+        [res, wrench, f.measured, ca.horzcat(*f.unit_forces)],
+        ["D", "y"],
+        ["res", "wrench", "measured", "unit_forces"],
     )
 
 

@@ -46,6 +46,7 @@ from gc_ocp.export.opensim_files import (
     write_grf,
     write_table,
 )
+from gc_ocp.export.opensim_worker import DEFAULT_RADIUS
 from gc_ocp.io._common import Y_UP_TO_LAB
 from gc_ocp.outputs import OutputSet
 
@@ -118,7 +119,7 @@ def fit_friction(v: np.ndarray, w: np.ndarray, eps: float) -> tuple[float, float
 
 
 def map_law(
-    cal: CalibratedContact, trial, kin, radius: float = worker.DEFAULT_RADIUS
+    cal: CalibratedContact, trial, kin, radius: float = DEFAULT_RADIUS
 ) -> list[UnitMapping]:
     """Each unit's ``SmoothSphereHalfSpaceForce`` parameters (module doc of
     :mod:`~gc_ocp.export.opensim_worker`): the Hertzian stiffness fitted in least squares to
@@ -354,7 +355,7 @@ def export_opensim(
     fit,
     out: str | Path,
     pairs: Sequence | None = None,
-    radius: float = worker.DEFAULT_RADIUS,
+    radius: float = DEFAULT_RADIUS,
     compare_forces: bool = True,
     progress: Callable[[str], None] | None = None,
 ) -> OpenSimExport:
@@ -446,6 +447,22 @@ def _notes(cal: CalibratedContact) -> list[str]:
     return notes
 
 
+def hertz_refit(pairs: Sequence, progress: Callable[[str], None] | None = None):
+    """The default model refitted to ``pairs`` with the penetration exponent fixed at
+    OpenSim's Hertzian 1.5 (a ``FitReport``; no held-out stance): exported, OpenSim's law is
+    the fitted law and only the sphere's geometry and the smoothings differ. Its in-sample RMS
+    against the free exponent's is the price, in the fit's own terms."""
+    from gc_ocp.estimation.components import full_model
+    from gc_ocp.estimation.components.contact import Param
+    from gc_ocp.workflow.fitting import fit
+
+    model = full_model()
+    model = tuple(
+        dataclasses.replace(c, n=Param("fixed", 1.5)) if c.name == "contact" else c for c in model
+    )
+    return fit(list(pairs), model=model, holdout=None, progress=progress)
+
+
 def fit_pairs(cal: CalibratedContact, say=lambda s: None) -> list:
     """The fit's trials and kinematics, loaded again from its provenance (files, mass, height,
     belt speed, static trial, marker set and cutoff as the fit used them)."""
@@ -487,12 +504,14 @@ def fit_pairs(cal: CalibratedContact, say=lambda s: None) -> list:
 
 
 __all__ = (
+    "DEFAULT_RADIUS",
     "OUTPUTS",
     "OpenSimExport",
     "UnitMapping",
     "compare",
     "export_opensim",
     "fit_pairs",
+    "hertz_refit",
     "map_law",
     "opensim_forces",
     "plate_wrenches",

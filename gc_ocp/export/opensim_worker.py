@@ -43,6 +43,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -369,8 +370,34 @@ def body_poses(model, coordinates, q, bodies) -> dict:
     return out
 
 
+def inverse_dynamics(job: dict) -> str:
+    """OpenSim's inverse dynamics on an exported folder: ``job`` gives the ``model``,
+    ``coordinates``, ``external_loads`` files, the ``results`` folder and the time range;
+    the model's own forces (the contact spheres) are excluded, the ground reactions being the
+    external loads. Returns the generalized forces' file."""
+    osim = _require_opensim()
+    model = osim.Model(job["model"])
+    tool = osim.InverseDynamicsTool()
+    tool.setModel(model)
+    tool.setCoordinatesFileName(job["coordinates"])
+    tool.setExternalLoadsFileName(job["external_loads"])
+    tool.setStartTime(job["start"])
+    tool.setEndTime(job["end"])
+    tool.setLowpassCutoffFrequency(-1.0)
+    excluded = osim.ArrayStr()
+    excluded.append("All")
+    tool.setExcludedForces(excluded)
+    tool.setResultsDir(job["results"])
+    tool.setOutputGenForceFileName("inverse_dynamics.sto")
+    if not tool.run():
+        raise RuntimeError("OpenSim's InverseDynamicsTool reported a failure")
+    return str(Path(job["results"]) / "inverse_dynamics.sto")
+
+
 def run(job: dict) -> dict:
     """Carry out one job (module doc) and return the reply."""
+    if "inverse_dynamics" in job:
+        return {"inverse_dynamics": inverse_dynamics(job["inverse_dynamics"])}
     spheres = [
         SphereUnit(**{**s, "location": np.asarray(s["location"], float)}) for s in job["spheres"]
     ]
