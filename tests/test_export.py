@@ -226,7 +226,11 @@ def test_opensim_inverse_dynamics_reads_the_exported_files(exported, bundled):
     carried = np.interp(data[:, 0], t_grf, fy) > 0.9 * trial.body_weight
     assert carried.sum() > 20
     residual = data[carried, cols.index("pelvis_tz_force")]  # lab Z: the vertical
-    assert np.median(np.abs(residual)) < 0.5 * trial.body_weight, np.median(np.abs(residual))
+    share = float(np.median(np.abs(residual)) / trial.body_weight)
+    print(
+        f"inverse dynamics: vertical pelvis residual, median over {carried.sum()} frames: {share:.2f} BW"
+    )
+    assert share < 0.5, share
 
 
 def test_export_refuses_a_fit_it_cannot_carry(bundled):
