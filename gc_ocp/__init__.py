@@ -16,7 +16,8 @@ Layers (each importable on its own): :mod:`gc_ocp.io` (trial loading), :mod:`gc_
 type), :mod:`gc_ocp.contact` (contact laws, equivalent wrench, the seed's study),
 :mod:`gc_ocp.estimation` (composable joint kinematics-contact estimation, CasADi + Ipopt),
 :mod:`gc_ocp.diagnosis` (where the model-data gap lies, which effect causes it, how far it shrinks),
-:mod:`gc_ocp.batch` (studies of many subjects on Dask: ``gc_ocp.batch.run(manifest, out)``).
+:mod:`gc_ocp.batch` (studies of many subjects on Dask: ``gc_ocp.batch.run(manifest, out)``),
+:mod:`gc_ocp.export` (the calibrated model for OpenSim and CasADi simulations).
 Names are imported on first use, so ``import gc_ocp`` stays light.
 """
 
@@ -82,6 +83,7 @@ _SUBPACKAGES = (
     "diagnosis",
     "estimation",
     "execution",
+    "export",
     "html",
     "io",
     "kinematics",
