@@ -7,14 +7,19 @@ diagnosis, :mod:`gc_ocp.diagnosis.execution`), so it runs on any
 :class:`concurrent.futures.Executor`, a Dask client's (``client.get_executor()``) included.
 
 Workers are processes with one thread each: a fit is compiled code and Ipopt, threads would only
-contend. A local cluster's workers are *spawned* (Dask's default), so a Python script that
-starts one needs the ``if __name__ == "__main__":`` guard; a notebook and the ``gc-ocp`` command
-do not.
+contend. A study's local cluster (:mod:`gc_ocp.batch`) *spawns* its workers (Dask's default: a
+fresh interpreter each), so a Python script that starts one needs the
+``if __name__ == "__main__":`` guard; a notebook and the ``gc-ocp`` command do not. A diagnosis's
+local cluster (``fork=True``) *forks* them where the platform can (Linux): they start with the
+parent's modules and compiled per-frame functions already loaded, so the cluster is ready in
+about a second, where spawned workers importing gc_ocp and loading the functions again cost a
+diagnosis about 16 s more (``docs/batch.md``, *The diagnosis on Dask*).
 """
 
 from __future__ import annotations
 
 import contextlib
+import multiprocessing
 import os
 from collections.abc import Iterator
 
@@ -26,26 +31,33 @@ def available_cores() -> int:
 
 
 @contextlib.contextmanager
-def dask_client(workers: int | None = None, scheduler: str | None = None, client=None) -> Iterator:
+def dask_client(
+    workers: int | None = None, scheduler: str | None = None, client=None, fork: bool = False
+) -> Iterator:
     """A ``distributed.Client`` for the ``with`` block: ``client`` as it is (the caller's; left
     open), else one connected to ``scheduler`` (an address such as ``tcp://host:8786``), else a
     ``LocalCluster`` of ``workers`` single-threaded processes (default: :func:`available_cores`)
-    started here; what is started here is closed at the end of the block."""
+    started here, forked from this process with ``fork`` where the platform can (module doc);
+    what is started here is closed at the end of the block."""
     if client is not None:
         yield client
         return
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler:
         with Client(scheduler) as c:
             yield c
         return
+    method = "fork" if fork and "fork" in multiprocessing.get_all_start_methods() else None
+    config = {} if method is None else {"distributed.worker.multiprocessing-method": method}
     with (
+        dask.config.set(config),
         LocalCluster(
             n_workers=workers or available_cores(),
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            dashboard_address=":0",  # a free port: no clash with another cluster's 8787
         ) as cluster,
         Client(cluster) as c,
     ):

@@ -126,7 +126,7 @@ def test_a_broken_trial_is_recorded_and_the_others_complete_then_a_rerun_skips_t
     out = tmp_path / "out"
     # one worker: the broken subject fails at once, the good one runs after or beside it
     with (
-        LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster,
+        LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=":0") as cluster,
         Client(cluster) as client,
     ):
         first = run(subjects, out, client=client, settings=FAST, progress=None)

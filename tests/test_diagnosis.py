@@ -311,7 +311,7 @@ def test_parallel_rounds_give_the_serial_answer(bundled):
         warnings.simplefilter("ignore")
         serial = diagnose_stances(data, workers=1, **kw)
         with (
-            LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster,
+            LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=":0") as cluster,
             Client(cluster) as client,
         ):
             parallel = diagnose_stances(data, executor=client.get_executor(), **kw)
@@ -380,11 +380,11 @@ def test_a_round_runs_on_any_executor_the_dearest_first(monkeypatch):
     ]
 
 
-def test_the_diagnosis_executor_is_the_callers_or_a_pool_it_closes():
+def test_the_diagnosis_executor_is_the_callers_or_a_dask_cluster_it_closes():
     """``candidate_executor``: the caller's executor as is (left open), none for one worker,
-    else a process pool whose workers are other processes, shut down after the block."""
+    else the executor of a real local Dask cluster whose workers are two other processes,
+    closed after the block."""
     import os
-    from concurrent.futures import ProcessPoolExecutor
 
     from gc_ocp.diagnosis.execution import candidate_executor
 
@@ -394,10 +394,12 @@ def test_the_diagnosis_executor_is_the_callers_or_a_pool_it_closes():
     with candidate_executor(workers=1) as ex:
         assert ex is None
     with candidate_executor(workers=2) as ex:
-        assert isinstance(ex, ProcessPoolExecutor)
-        assert ex.submit(os.getpid).result() != os.getpid()
-    with pytest.raises(RuntimeError):
-        ex.submit(os.getpid)  # shut down
+        client = ex._client
+        assert type(client).__module__.startswith("distributed")
+        assert len(client.scheduler_info()["workers"]) == 2
+        pids = {ex.submit(os.getpid).result() for _ in range(4)}
+        assert os.getpid() not in pids
+    assert client.status == "closed"
 
 
 def _module_state(mod, source: str) -> list[str]:
