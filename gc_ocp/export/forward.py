@@ -37,6 +37,9 @@ def whole_trial_stances(
     finite frames, reference point at the ``lab`` origin, ground at ``ground_height`` (default:
     the trial's floor), measured wrench zero."""
     h = trial.floor_height if ground_height is None else float(ground_height)
+    # the subject's height, for the problem's reporting: the file's, else the kinematics'
+    # estimate (as the fit uses it)
+    height = trial.height if trial.height is not None else kin.info.get("height", float("nan"))
     time = None
     masks, stances = {}, []
     for side, foot in sorted(kin.feet.items()):
@@ -65,7 +68,7 @@ def whole_trial_stances(
                 belt_velocity=np.asarray(trial.belt_velocity, float),
                 trial=trial.name,
                 body_weight=trial.body_weight,
-                height=float("nan") if trial.height is None else float(trial.height),
+                height=float(height),
             )
         )
     if not stances:
