@@ -84,6 +84,37 @@ def test_toml_manifest(tmp_path):
         read_manifest(m)
 
 
+def test_a_trc_without_its_grf_in_the_manifest_is_paired_as_fit_pairs_it(tmp_path):
+    """A manifest may give the GRF file of some TRC trials only: each other TRC finds its own
+    beside it (as ``gc-ocp fit`` does), a C3D keeps its plates, and a TRC with no GRF anywhere
+    is an error that names the file and the fix."""
+    from gc_ocp.batch.subject import subject_files
+
+    for d in ("w1", "w2"):
+        (tmp_path / d).mkdir()
+        (tmp_path / d / "walk.trc").write_text("x")
+    (tmp_path / "w1" / "grf_given.mot").write_text("x")
+    (tmp_path / "w2" / "walk_grf.mot").write_text("x")
+    shutil.copy(EXAMPLE, tmp_path / "c.c3d")
+    subject = Subject(
+        "S1",
+        (
+            TrialSpec(tmp_path / "w1/walk.trc", tmp_path / "w1/grf_given.mot"),
+            TrialSpec(tmp_path / "w2/walk.trc"),
+            TrialSpec(tmp_path / "c.c3d"),
+        ),
+    )
+    files = subject_files(subject)
+    assert [f.grf for f in files] == [
+        tmp_path / "w1/grf_given.mot",
+        tmp_path / "w2/walk_grf.mot",
+        None,
+    ]
+    (tmp_path / "w2" / "walk_grf.mot").unlink()
+    with pytest.raises(InputError, match="w2/walk.trc.*--grf"):
+        subject_files(subject)
+
+
 @pytest.mark.skipif(not DATA.is_dir(), reason="needs ../shared/data")
 def test_a_study_folder_finds_the_static_trial_by_its_markers_standing_still(tmp_path):
     # every static file of the shared data stands still, every walking file moves: the rule is

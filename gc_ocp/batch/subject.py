@@ -128,17 +128,26 @@ def _kinematics(trial, subject: Subject, spec, cache_root: Path):
     return kin
 
 
+def subject_files(subject: Subject) -> list:
+    """Each trial's files (:class:`~gc_ocp.io.pairing.TrialFiles`): a TRC whose GRF file the
+    manifest gives keeps it; the others are paired as ``gc-ocp fit`` pairs them (the file beside
+    the TRC); a C3D carries its plates."""
+    from gc_ocp.io.pairing import TrialFiles, pair_trials
+
+    unpaired = [t.path for t in subject.trials if t.grf is None]
+    found = iter(pair_trials(unpaired) if unpaired else [])
+    return [
+        TrialFiles(t.path, t.grf, "manifest") if t.grf is not None else next(found)
+        for t in subject.trials
+    ]
+
+
 def load_subject(subject: Subject, cache_root: Path) -> list:
     """``[(Trial, TrialKinematics), ...]`` of the subject (ground reactions paired as
     ``gc-ocp fit`` pairs them)."""
     from gc_ocp.io import load_trial
-    from gc_ocp.io.pairing import TrialFiles, pair_trials
 
-    explicit = [t.grf for t in subject.trials if t.grf is not None]
-    if explicit and len(explicit) != sum(t.path.suffix.lower() == ".trc" for t in subject.trials):
-        files = [TrialFiles(t.path, t.grf, "manifest") for t in subject.trials]
-    else:
-        files = pair_trials([t.path for t in subject.trials], explicit or None)
+    files = subject_files(subject)
     pairs = []
     for f, spec in zip(files, subject.trials, strict=True):
         trial = load_trial(
@@ -294,4 +303,11 @@ def _diagnose(pairs):
         return diagnose(pairs, executor=client.get_executor())
 
 
-__all__ = ("Settings", "completed", "load_subject", "process_subject", "subject_key")
+__all__ = (
+    "Settings",
+    "completed",
+    "load_subject",
+    "process_subject",
+    "subject_files",
+    "subject_key",
+)

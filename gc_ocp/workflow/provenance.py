@@ -3,10 +3,21 @@ the command line's and the batch's one definition."""
 
 from __future__ import annotations
 
+import functools
+import os
 from pathlib import Path
 
 
 def sha256(path) -> str:
+    """The file's SHA-256 (hex). Hashed once per process for the same file, size and
+    modification time (a study hashes each input for its key, its kinematics cache and its
+    provenance)."""
+    st = os.stat(path)
+    return _sha256(os.path.realpath(path), st.st_size, st.st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=4096)
+def _sha256(path: str, size: int, mtime_ns: int) -> str:
     import hashlib
 
     h = hashlib.sha256()
