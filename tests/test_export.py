@@ -26,12 +26,16 @@ BW_FRACTION_VERTICAL = 0.05
 """OpenSim's vertical force may differ from gc_ocp's by 5 % BW (RMS over the stances) when the
 exponent is Hertz's: the laws are then the same, what remains is the sphere (its lowest point
 leaves the unit's as the foot turns within a stance, R (1 - cos a): 0.2 mm for 15 deg at 5 mm,
-3-5 % of the force at 7 mm depth) and the smoothings (measured 2.4 % BW on this trial)."""
+3-5 % of the force at 7 mm depth) and the smoothings: a unit whose stiffness the data push to
+its bound (flagged not identified) still pushes through the fitted law's smoothing 2 mm above
+the floor, where OpenSim's tanh has long cut off (measured 3.8 % BW on this trial, most of it
+that, on the left stance)."""
 BW_FRACTION_SHEAR = 0.03
 """Shear: the friction ramp ``min(v / v_t, 1)`` against the fitted ``v / sqrt(v^2 + e^2)``
-(their best match still differs by ~4 % of the friction force; measured 1.1 % BW)."""
+(their best match still differs by ~4 % of the friction force; measured 1.7 % BW anterior,
+0.6 % lateral)."""
 BWH_FRACTION_TORQUE = 0.005
-"""Torques [BW x H]: the force differences above at the foot's lever arms (measured 0.2 %)."""
+"""Torques [BW x H]: the force differences above at the foot's lever arms (measured 0.1-0.2 %)."""
 
 
 def _opensim_installed() -> None:
@@ -182,8 +186,9 @@ def test_opensim_body_moves_as_the_package_body(tmp_path, bundled):
 
 
 def test_opensim_contact_forces_agree_with_ours(exported):
-    """OpenSim's own SmoothSphereHalfSpaceForce, on the trial's coordinates, gives the wrench
-    gc_ocp's calibrated model gives, within the bounds above (their reasons), channel by
+    """OpenSim's own SmoothSphereHalfSpaceForce, on the fitted coordinates (each stance's foot
+    where the fit's pose correction put it, reached by the leg's joints exactly), gives the
+    wrench gc_ocp's calibrated model gives, within the bounds above (their reasons), channel by
     channel; and the figure and the JSON say so."""
     out, ex = exported
     rms = ex.rms["all"]
@@ -197,6 +202,8 @@ def test_opensim_contact_forces_agree_with_ours(exported):
     # exponent 1.5: the Hertzian curve is the fitted one over every penetration visited
     assert all(u["curve_rms_pct"] < 1e-6 for u in doc["units"] if u["frames_in_contact"] >= 3)
     assert (out / "opensim_vs_gc_ocp.png").stat().st_size > 0
+    kin = doc["kinematics"]
+    assert kin["frames_corrected"] and kin["foot_placement_residual_mm"] < 1e-6
 
 
 def test_opensim_inverse_dynamics_reads_the_exported_files(exported, bundled):

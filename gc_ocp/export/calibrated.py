@@ -7,7 +7,9 @@ What a simulator can take over is the contact law with its sole (the sole correc
 the units' points) and, on a treadmill, the belt. A fit with an effect beyond these (a clock
 offset, a ground offset, a toe hinge, another friction law, a denser sole) is refused with the
 reason: those change the data or the foot, not only the law, and have no OpenSim counterpart
-yet (the CasADi export carries the law of any fit: :mod:`gc_ocp.export.casadi_export`).
+(the CasADi export could carry them, the estimator's per-frame functions having them, but a
+fit.json does not hold the components' settings to rebuild them; both exports take the same
+calibrated model for now).
 """
 
 from __future__ import annotations
@@ -72,28 +74,15 @@ class CalibratedContact:
     @classmethod
     def from_fit(cls, fit, provenance: Mapping | None = None) -> CalibratedContact:
         """From a ``FitReport``, an ``EstimationResult``, a ``fit.json`` dict or its path."""
-        if isinstance(fit, str | Path):
-            path = Path(fit)
-            if not path.is_file():
-                raise InputError(f"Fit file {path} does not exist; give the fit.json of a fit.")
-            try:
-                fit = json.loads(path.read_text())
-            except json.JSONDecodeError as e:
-                raise InputError(
-                    f"{path} is not a fit.json ({e}); give the file gc-ocp fit wrote."
-                ) from None
-        if hasattr(fit, "result"):  # FitReport
-            fit = fit.result
-        doc = fit if isinstance(fit, Mapping) else fit.to_json()
+        doc = fit_document(fit)
         for key in ("components", "blocks", "stance_fits"):
             if key not in doc:
                 raise InputError(f"the fit has no {key!r}: it is not a gc-ocp fit.json")
         extra = {n: c for n, c in doc["components"].items() if EXPORTABLE.get(n) != c}
         if extra:
             raise InputError(
-                f"the fit has effects a simulator cannot take over: {extra}. Export the fit of "
-                "the default model (gc-ocp fit without --effects), or use the CasADi export, "
-                "which carries any fitted law."
+                f"the fit has effects the exports cannot carry yet: {extra}. Export the fit of "
+                "the default model (gc-ocp fit without --effects)."
             )
         block = doc["blocks"]["contact"]
         shared = block.get("shared", {})
@@ -152,4 +141,22 @@ class CalibratedContact:
         )
 
 
-__all__ = ("EXPORTABLE", "CalibratedContact")
+def fit_document(fit) -> dict:
+    """The JSON document (``fit.json``'s) of a ``FitReport``, an ``EstimationResult``, a
+    ``fit.json`` dict or its path."""
+    if isinstance(fit, str | Path):
+        path = Path(fit)
+        if not path.is_file():
+            raise InputError(f"Fit file {path} does not exist; give the fit.json of a fit.")
+        try:
+            return json.loads(path.read_text())
+        except json.JSONDecodeError as e:
+            raise InputError(
+                f"{path} is not a fit.json ({e}); give the file gc-ocp fit wrote."
+            ) from None
+    if hasattr(fit, "result"):  # FitReport
+        fit = fit.result
+    return dict(fit) if isinstance(fit, Mapping) else fit.to_json()
+
+
+__all__ = ("EXPORTABLE", "CalibratedContact", "fit_document")

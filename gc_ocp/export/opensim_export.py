@@ -38,7 +38,8 @@ import numpy as np
 from gc_ocp.contact.channels import channel_rms_pct
 from gc_ocp.errors import InputError, ModelError
 from gc_ocp.export import opensim_worker as worker
-from gc_ocp.export.calibrated import CalibratedContact
+from gc_ocp.export.calibrated import CalibratedContact, fit_document
+from gc_ocp.export.fitted_kinematics import fitted_kinematics
 from gc_ocp.export.forward import foot_wrenches
 from gc_ocp.export.opensim_files import (
     LAB_TO_Y_UP,
@@ -357,6 +358,7 @@ def export_opensim(
     pairs: Sequence | None = None,
     radius: float = DEFAULT_RADIUS,
     compare_forces: bool = True,
+    fitted: bool = True,
     progress: Callable[[str], None] | None = None,
 ) -> OpenSimExport:
     """Write the OpenSim files of ``fit`` (module doc) into ``out``.
@@ -364,15 +366,20 @@ def export_opensim(
     fit: a ``FitReport``, an ``EstimationResult``, a ``fit.json`` dict or its path; pairs: the
     fit's ``[(Trial, TrialKinematics)]`` (default: loaded again from the fit's provenance, as
     the fit loaded them; the first trial is exported); radius: the contact spheres' [m];
-    compare_forces: also compute the contact forces with OpenSim on the trial and compare."""
+    compare_forces: also compute the contact forces with OpenSim on the trial and compare;
+    fitted: the coordinates are the fitted kinematics (each stance's foot where the fit's pose
+    correction put it, :mod:`gc_ocp.export.fitted_kinematics`), else the inverse kinematics."""
     say = progress or (lambda s: None)
-    cal = CalibratedContact.from_fit(fit)
+    doc = fit_document(fit)
+    cal = CalibratedContact.from_fit(doc)
     if pairs is None:
         pairs = fit_pairs(cal, say)
-    trial, kin = pairs[0]
-    body = kin.info.get("body")
+    trial, ik = pairs[0]
+    body = ik.info.get("body")
     if body is None:
         raise InputError("the kinematics carry no body model; compute them with gc_ocp")
+    fk = fitted_kinematics(doc, ik, cal.points)
+    kin = fk.kin if fitted else ik
     feet = cal.feet(kin)
     mapping = map_law(cal, trial, kin, radius)
     outset = OutputSet(out, OUTPUTS)
@@ -426,6 +433,15 @@ def export_opensim(
             "floor_height_m": cal.ground_height,
             "belt_speed_m_s": cal.belt_speed,
             "units": [m.to_json() for m in mapping],
+            "kinematics": {
+                "source": "fitted (inverse kinematics, each fitted stance's foot moved by the "
+                "fit's pose correction; gc_ocp.export.fitted_kinematics)"
+                if fitted
+                else "inverse kinematics",
+                "frames_corrected": dict(fk.frames) if fitted else {},
+                "foot_placement_residual_mm": fk.residual_mm if fitted else 0.0,
+                "foot_placement_residual_deg": fk.residual_deg if fitted else 0.0,
+            },
             "opensim_vs_gc_ocp_rms": rms,
             "notes": _notes(cal),
         }

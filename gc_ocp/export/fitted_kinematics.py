@@ -1,0 +1,108 @@
+"""The fitted kinematics as joint coordinates: the inverse kinematics with each stance's foot
+moved by the fit's pose correction, the leg's joints solved so that the body carries the foot
+there.
+
+A fit moves each foot in stance by a small rigid correction about the hindfoot origin (the
+marker-registration and soft-tissue error it estimates, :class:`~gc_ocp.estimation.components.
+pose.PoseCorrection`): ``p' = p + dp + dth x (p - o)``. A simulator has no such correction; it
+has coordinates. For every frame of a fitted stance, the target is the hindfoot placed with the
+correction (rotation ``exp(dth)``; the fit's first-order form differs from it by
+``|dth|^2 / 2`` of the lever arm, 0.2 mm for 3 deg at 15 cm), and the six leg joints (hip 3,
+knee, ankle, subtalar) are solved by Gauss-Newton on the hindfoot's placement (Pinocchio's
+frame Jacobian), from the inverse kinematics' angles; the pelvis and the other leg stay. Frames
+outside the fitted stances keep the inverse kinematics. Velocities: the coordinates' rates,
+``np.gradient`` as the pipeline takes them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+
+import numpy as np
+import pinocchio as pin
+
+from gc_ocp.foot import TrialKinematics
+
+LEG_JOINTS = ("hip_flexion", "hip_adduction", "hip_rotation", "knee", "ankle", "subtalar")
+"""The joints solved per side (``_l`` / ``_r``)."""
+TOLERANCE = 1e-10
+"""Gauss-Newton stops when the step is below this (rad, m): exact to the solver's precision."""
+
+
+@dataclasses.dataclass(frozen=True)
+class FittedKinematics:
+    """``kin``: the kinematics with the corrected coordinates and feet; ``frames``: how many
+    frames were corrected per side; ``residual_mm`` / ``residual_deg``: the largest distance
+    between the solved hindfoot and its target (0 up to round-off unless a joint limit or the
+    leg's reach stopped it)."""
+
+    kin: TrialKinematics
+    frames: Mapping[str, int]
+    residual_mm: float
+    residual_deg: float
+
+
+def _solve(body, data, q: np.ndarray, frame: int, cols: list[int], R_t, o_t) -> np.ndarray:
+    for _ in range(30):
+        pin.framesForwardKinematics(body.model, data, q)
+        M = data.oMf[frame]
+        err = np.r_[M.translation - o_t, pin.log3(M.rotation @ R_t.T)]
+        J = pin.computeFrameJacobian(body.model, data, q, frame, pin.LOCAL_WORLD_ALIGNED)
+        step = np.linalg.lstsq(J[:, cols], -err, rcond=None)[0]
+        q = q.copy()
+        q[cols] += step
+        if np.max(np.abs(step)) < TOLERANCE:
+            break
+    return q
+
+
+def fitted_kinematics(fit_doc: Mapping, kin: TrialKinematics, points: Mapping) -> FittedKinematics:
+    """The coordinates of ``kin`` with each fitted stance's foot at the fit's corrected pose
+    (module doc); ``fit_doc``: the fit's JSON (``fit.json`` / ``result.to_json()``); ``points``:
+    each foot's unit points (``{side: (5, 3)}``) for the new feet."""
+    from gc_ocp.kinematics.pipeline import foot_kinematics
+
+    body = kin.info["body"]
+    pose = (fit_doc.get("blocks") or {}).get("pose") or {}
+    per_stance = pose.get("stances") or {}
+    q = np.array(kin.q, float, copy=True)
+    data = body.create_data()
+    frames: dict[str, int] = {}
+    worst_mm = worst_deg = 0.0
+    for sf in fit_doc.get("stance_fits", []):
+        corr = per_stance.get(sf["label"])
+        if corr is None:
+            continue
+        side = sf["side"]
+        suffix = side[0]
+        cols = [body.q_index(f"{j}_{suffix}") for j in LEG_JOINTS]
+        fid = body.frame_id(f"hindfoot_{suffix}")
+        idx = np.searchsorted(kin.time, np.asarray(sf["time"], float))
+        idx = np.clip(idx, 0, kin.time.size - 1)
+        dp = np.asarray(corr["translation_m"], float)
+        dth = np.asarray(corr["rotation_rad"], float)
+        foot = kin.feet[side]
+        for j, k in enumerate(idx):
+            H = foot.hindfoot_pose[k]
+            R_t = pin.exp3(dth[j]) @ H[:3, :3]
+            o_t = H[:3, 3] + dp[j]
+            q[k] = _solve(body, data, q[k], fid, cols, R_t, o_t)
+            pin.framesForwardKinematics(body.model, data, q[k])
+            M = data.oMf[fid]
+            worst_mm = max(worst_mm, 1e3 * float(np.linalg.norm(M.translation - o_t)))
+            worst_deg = max(
+                worst_deg, float(np.degrees(np.linalg.norm(pin.log3(M.rotation @ R_t.T))))
+            )
+        frames[side] = frames.get(side, 0) + idx.size
+    if not frames:
+        return FittedKinematics(kin, {}, 0.0, 0.0)
+    feet = {
+        side: foot_kinematics(body, q, kin.time, side, np.asarray(points[side], float))
+        for side in kin.feet
+    }
+    new = dataclasses.replace(kin, q=q, feet=feet)
+    return FittedKinematics(new, frames, worst_mm, worst_deg)
+
+
+__all__ = ("LEG_JOINTS", "FittedKinematics", "fitted_kinematics")
