@@ -240,6 +240,51 @@ def test_opensim_inverse_dynamics_reads_the_exported_files(exported, bundled):
     assert share < 0.5, share
 
 
+def test_a_users_model_gets_the_spheres_where_its_foot_markers_put_them(
+    tmp_path, exported, bundled, hertz_fit
+):
+    """``model=``: the contact attached to a model the user brings, placed by the foot markers
+    it shares with the trial. Round trip on the exported model itself (it carries the registered
+    markers): every sphere lands on the same body at the same place (the rigid fit of the
+    markers is the identity to round-off); a model without those markers is refused, naming
+    them."""
+    import xml.etree.ElementTree as ET
+
+    from gc_ocp.errors import InputError
+    from gc_ocp.export.opensim_export import export_opensim
+
+    out, _ = exported
+    again = export_opensim(hertz_fit, tmp_path / "again", pairs=[bundled], model=out / "model.osim")
+
+    def spheres(path):
+        root = ET.parse(path).getroot()
+        return {
+            s.get("name"): (
+                s.findtext("socket_frame"),
+                np.array([float(v) for v in s.findtext("location").split()]),
+            )
+            for s in root.iter("ContactSphere")
+        }
+
+    a, b = spheres(out / "model.osim"), spheres(tmp_path / "again" / "model.osim")
+    assert set(a) == set(b) and len(a) == 10
+    for name, (frame, loc) in a.items():
+        body = frame.rsplit("/", 1)[-1]
+        if body.startswith("toes"):
+            continue  # moved onto the hindfoot with --model (welded in this body): checked below
+        assert b[name][0].rsplit("/", 1)[-1] == body
+        np.testing.assert_allclose(b[name][1], loc, atol=1e-9)
+    doc = json.loads((tmp_path / "again" / "export.json").read_text())
+    for side in ("left", "right"):
+        assert doc["user_model"]["feet"][side]["rms_mm"] < 1e-6
+    assert not (tmp_path / "again" / "coordinates.mot").exists() and again.rms is None
+    bare = tmp_path / "bare.osim"
+    text = (out / "model.osim").read_text()
+    bare.write_text(text.replace("<Marker ", "<NotAMarker ").replace("</Marker>", "</NotAMarker>"))
+    with pytest.raises(InputError, match="at least three"):
+        export_opensim(hertz_fit, tmp_path / "bare", pairs=[bundled], model=bare)
+
+
 def test_export_refuses_a_fit_it_cannot_carry(bundled):
     """A fit with an effect OpenSim has no counterpart for is refused with the reason."""
     from gc_ocp.errors import InputError

@@ -312,6 +312,15 @@ def build_parser() -> argparse.ArgumentParser:
         "loaded again).",
     )
     p.add_argument(
+        "--model",
+        type=Path,
+        default=None,
+        metavar="SUBJECT.osim",
+        help="(opensim) Attach the contact to your own OpenSim model instead of the package's "
+        "body: each foot's spheres go on the body holding the foot markers the model shares "
+        "with the trial (at least three, fitted rigidly); no coordinates or comparison then.",
+    )
+    p.add_argument(
         "--no-compare",
         action="store_true",
         help="(opensim) Do not compute OpenSim's contact forces on the trial.",

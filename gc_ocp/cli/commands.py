@@ -312,6 +312,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         pairs=pairs,
         radius=DEFAULT_RADIUS if args.radius is None else args.radius,
         compare_forces=not args.no_compare,
+        model=args.model,
         progress=_progress,
     )
     print(ex.summary())

@@ -242,6 +242,106 @@ def opensim_forces(
     return total
 
 
+# --- a user's own model ------------------------------------------------------------------
+
+REGISTRATION_LIMIT_MM = 10.0
+"""[mm] Largest RMS residual of the markers' rigid fit between the package's foot and the user's
+foot body: beyond it the two do not describe the same foot (another subject, scaling, or
+markers placed elsewhere) and the spheres would land off the sole."""
+
+
+def osim_markers(path: Path) -> dict[str, tuple[str, np.ndarray]]:
+    """``{marker: (body, location in the body)}`` of an ``.osim`` file's marker set (OpenSim 4:
+    ``socket_parent_frame`` ``/bodyset/<body>``; OpenSim 3: ``<body>``)."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError) as e:
+        raise InputError(
+            f"{path} is not a readable OpenSim model ({e}); give a .osim file."
+        ) from None
+    out = {}
+    for m in root.iter("Marker"):
+        frame = m.findtext("socket_parent_frame") or m.findtext("body") or ""
+        parts = [p for p in frame.strip().split("/") if p]
+        if parts[:1] == ["bodyset"]:
+            parts = parts[1:]
+        loc = m.findtext("location")
+        if len(parts) != 1 or loc is None:
+            continue  # on an offset frame or without a location: not used
+        out[m.get("name")] = (parts[0], np.array([float(v) for v in loc.split()], float))
+    return out
+
+
+def register_feet(path: Path, kin, mapping: Sequence[UnitMapping]) -> tuple[list, dict]:
+    """The units of ``mapping`` moved onto the user's model at ``path``: for each foot, the
+    user's body that holds the most of the foot markers both models share (at least three),
+    and the rigid transform from the package's hindfoot frame to it, fitted to those markers
+    (Kabsch). Returns the spheres on the user's bodies and, per side, the body, the markers and
+    the fit's RMS residual [mm]. A foot the markers cannot place is an :class:`InputError`."""
+    from gc_ocp.geometry import kabsch
+
+    theirs = osim_markers(path)
+    mm = kin.info.get("marker_model")
+    if mm is None:
+        raise InputError("the kinematics carry no marker model; compute them with gc_ocp")
+    spheres, report = [], {}
+    for side, foot in sorted(kin.feet.items()):
+        suffix = side[0]
+        to_hind = np.linalg.inv(foot.hindfoot_pose[0]) @ foot.toes_pose[0]  # welded: constant
+        ours = {}
+        for name, seg, loc in zip(mm.names, mm.segments, mm.local, strict=True):
+            if seg == f"hindfoot_{suffix}":
+                ours[name] = np.asarray(loc, float)
+            elif seg == f"toes_{suffix}":
+                ours[name] = to_hind[:3, :3] @ loc + to_hind[:3, 3]
+        shared = [n for n in ours if n in theirs]
+        by_body: dict[str, list[str]] = {}
+        for n in shared:
+            by_body.setdefault(theirs[n][0], []).append(n)
+        body, names = max(by_body.items(), key=lambda kv: len(kv[1]), default=(None, []))
+        if len(names) < 3:
+            raise InputError(
+                f"{path}: the {side} foot cannot be placed on the model: it shares "
+                f"{len(names)} foot markers on one body ({names or 'none'}) with the trial's "
+                f"foot markers {sorted(ours)}; at least three are needed. Name the model's "
+                "foot markers as the trial's, or export without --model."
+            )
+        a = np.array([ours[n] for n in names])
+        b = np.array([theirs[n][1] for n in names])
+        R, t = kabsch(a, b)
+        rms = float(1e3 * np.sqrt(np.mean(np.sum((a @ R.T + t - b) ** 2, axis=1))))
+        if rms > REGISTRATION_LIMIT_MM:
+            raise InputError(
+                f"{path}: the {side} foot markers {names} do not fit the model's {body} as one "
+                f"rigid foot (RMS {rms:.1f} mm > {REGISTRATION_LIMIT_MM:.0f} mm): another "
+                "subject, another scaling or markers placed elsewhere. Scale the model to this "
+                "subject, or export without --model."
+            )
+        report[side] = {"body": body, "markers": names, "rms_mm": rms}
+        for m in mapping:
+            sp = m.sphere
+            if sp.side != side:
+                continue
+            c = np.asarray(sp.location, float)
+            if sp.body.startswith("toes"):
+                c = to_hind[:3, :3] @ c + to_hind[:3, 3]
+            spheres.append(dataclasses.replace(sp, body=body, location=R @ c + t))
+    return spheres, report
+
+
+def _marker_set(kin) -> list[dict]:
+    """The registered markers (the kinematics' marker model) for the exported body."""
+    mm = kin.info.get("marker_model")
+    if mm is None:
+        return []
+    return [
+        {"name": n, "body": seg, "location": [float(v) for v in loc]}
+        for n, seg, loc in zip(mm.names, mm.segments, mm.local, strict=True)
+    ]
+
+
 # --- the comparison ----------------------------------------------------------------------
 
 
@@ -359,6 +459,7 @@ def export_opensim(
     radius: float = DEFAULT_RADIUS,
     compare_forces: bool = True,
     fitted: bool = True,
+    model: str | Path | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> OpenSimExport:
     """Write the OpenSim files of ``fit`` (module doc) into ``out``.
@@ -368,7 +469,11 @@ def export_opensim(
     the fit loaded them; the first trial is exported); radius: the contact spheres' [m];
     compare_forces: also compute the contact forces with OpenSim on the trial and compare;
     fitted: the coordinates are the fitted kinematics (each stance's foot where the fit's pose
-    correction put it, :mod:`gc_ocp.export.fitted_kinematics`), else the inverse kinematics."""
+    correction put it, :mod:`gc_ocp.export.fitted_kinematics`), else the inverse kinematics;
+    model: the user's own ``.osim``: the spheres are attached to its foot bodies, placed by the
+    foot markers it shares with the trial (:func:`register_feet`), and written into a copy of it
+    as ``model.osim``; the coordinates and the comparison (which need the package's body) are
+    then not written."""
     say = progress or (lambda s: None)
     doc = fit_document(fit)
     cal = CalibratedContact.from_fit(doc)
@@ -382,26 +487,37 @@ def export_opensim(
     kin = fk.kin if fitted else ik
     feet = cal.feet(kin)
     mapping = map_law(cal, trial, kin, radius)
+    spheres, registration, loaded = [m.sphere for m in mapping], None, dict(HINDFOOT)
+    if model is not None:
+        model = Path(model)
+        if not model.is_file():
+            raise InputError(f"Model {model} does not exist; give the subject's .osim file.")
+        spheres, registration = register_feet(model, kin, mapping)
+        loaded = {side: r["body"] for side, r in registration.items()}
+        compare_forces = False
     outset = OutputSet(out, OUTPUTS)
     try:
         say("OpenSim: building the model")
         run_worker(
             {
                 "urdf": body.urdf,
+                "model": None if model is None else str(model.resolve()),
                 "name": f"gc_ocp_{trial.name}",
                 "floor_height": cal.ground_height,
                 "radius": radius,
-                "spheres": [_sphere_json(m.sphere) for m in mapping],
+                "spheres": [_sphere_json(s) for s in spheres],
+                "markers": _marker_set(kin),
                 "osim": str(outset.path("model.osim")),
             }
         )
         time = np.asarray(kin.time, float)
-        write_table(
-            outset.path("coordinates.mot"),
-            ["time", *body.joint_names],
-            np.c_[time, kin.q],
-            "coordinates",
-        )
+        if model is None:  # the package's body: its coordinates
+            write_table(
+                outset.path("coordinates.mot"),
+                ["time", *body.joint_names],
+                np.c_[time, kin.q],
+                "coordinates",
+            )
         cols, blocks = ["time"], [time[:, None]]
         for side, foot in sorted(feet.feet.items()):
             pos, _ = foot.unit_trajectories(np.asarray(cal.points[side]))
@@ -418,7 +534,7 @@ def export_opensim(
             write_grf(grf, time, {s: np.nan_to_num(v) for s, v in w.items()}, cal.ground_height)
             outset.text(
                 f"external_loads_{name}.xml",
-                external_loads_xml(grf, {s: HINDFOOT[s] for s in w}, f"ground_reactions_{name}"),
+                external_loads_xml(grf, {s: loaded[s] for s in w}, f"ground_reactions_{name}"),
             )
         rms = None
         if compare_forces:
@@ -443,6 +559,16 @@ def export_opensim(
                 "foot_placement_residual_deg": fk.residual_deg if fitted else 0.0,
             },
             "opensim_vs_gc_ocp_rms": rms,
+            "user_model": None
+            if model is None
+            else {
+                "file": str(model),
+                "feet": registration,
+                "note": "every unit is on the body the foot markers place (the toe tip too: "
+                "a model with a toe joint gets its toe-tip sphere on the hindfoot); the "
+                "ground reactions are in the trial's lab frame, which is the model's ground "
+                "when the trial's files are the ones the model was fitted to",
+            },
             "notes": _notes(cal),
         }
         outset.text("export.json", json.dumps(doc, indent=2))

@@ -239,14 +239,64 @@ def _spatial_transform(osim, chain: list):
     return st
 
 
+def add_contact(model, spheres: list[SphereUnit], floor_height: float, radius: float) -> None:
+    """Add the floor (a ``ContactHalfSpace`` at ``floor_height`` on OpenSim's Y-up ground) and
+    one contact sphere with its ``SmoothSphereHalfSpaceForce`` per unit of ``spheres`` to
+    ``model`` (whose bodies are named by the units' ``body``)."""
+    osim = _require_opensim()
+    bodies = model.getBodySet()
+    floor = osim.ContactHalfSpace(
+        osim.Vec3(0.0, float(floor_height), 0.0),
+        osim.Vec3(0.0, 0.0, -math.pi / 2),  # the half space's x axis points down: solid below
+        model.getGround(),
+        "floor",
+    )
+    model.addContactGeometry(floor)
+    for s in spheres:
+        if not bodies.contains(s.body):
+            raise ModelError(f"contact unit {s.name}: body {s.body} is not in the model")
+        sphere = osim.ContactSphere(
+            radius, osim.Vec3(*s.location), bodies.get(s.body), f"{s.name}_sphere"
+        )
+        model.addContactGeometry(sphere)
+        force = osim.SmoothSphereHalfSpaceForce(s.name, sphere, floor)
+        force.set_stiffness(s.stiffness)
+        force.set_dissipation(s.dissipation)
+        force.set_static_friction(s.friction if s.static_friction is None else s.static_friction)
+        force.set_dynamic_friction(s.friction)
+        force.set_viscous_friction(0.0)
+        force.set_transition_velocity(s.transition_velocity)
+        force.set_constant_contact_force(CONSTANT_CONTACT_FORCE)
+        force.set_hertz_smoothing(HERTZ_SMOOTHING)
+        force.set_hunt_crossley_smoothing(HUNT_CROSSLEY_SMOOTHING)
+        model.addForce(force)
+
+
+def _remove_named(model, spheres: list[SphereUnit]) -> None:
+    """Remove from ``model`` the forces and contact geometry named as this export names its
+    own (an earlier export's), so that exporting into an exported model replaces them; the
+    model's other contact stays."""
+    forces = model.updForceSet()
+    geometry = model.updContactGeometrySet()
+    for s in spheres:
+        if forces.getIndex(s.name) >= 0:
+            forces.remove(forces.getIndex(s.name))
+    for name in ["floor", *(f"{s.name}_sphere" for s in spheres)]:
+        if geometry.getIndex(name) >= 0:
+            geometry.remove(geometry.getIndex(name))
+
+
 def build_model(
     urdf: str,
     spheres: list[SphereUnit],
     floor_height: float,
     radius: float = DEFAULT_RADIUS,
     name: str = "gc_ocp_subject",
+    markers: list[dict] | None = None,
 ):
-    """An ``opensim.Model`` of the URDF's body with ``spheres`` on the floor (module doc)."""
+    """An ``opensim.Model`` of the URDF's body with ``spheres`` on the floor (module doc) and
+    ``markers`` (``{"name", "body", "location"}``: the registered markers, for OpenSim's own
+    inverse kinematics)."""
     osim = _require_opensim()
     links, joints = read_urdf(urdf)
     model = osim.Model()
@@ -275,31 +325,9 @@ def build_model(
             joint = osim.CustomJoint(child, *frames, _spatial_transform(osim, chain))
         model.addJoint(joint)
         kept[child] = body
-    floor = osim.ContactHalfSpace(
-        osim.Vec3(0.0, float(floor_height), 0.0),
-        osim.Vec3(0.0, 0.0, -math.pi / 2),  # the half space's x axis points down: solid below
-        model.getGround(),
-        "floor",
-    )
-    model.addContactGeometry(floor)
-    for s in spheres:
-        if s.body not in kept:
-            raise ModelError(f"contact unit {s.name}: body {s.body} is not in the model")
-        sphere = osim.ContactSphere(
-            radius, osim.Vec3(*s.location), kept[s.body], f"{s.name}_sphere"
-        )
-        model.addContactGeometry(sphere)
-        force = osim.SmoothSphereHalfSpaceForce(s.name, sphere, floor)
-        force.set_stiffness(s.stiffness)
-        force.set_dissipation(s.dissipation)
-        force.set_static_friction(s.friction if s.static_friction is None else s.static_friction)
-        force.set_dynamic_friction(s.friction)
-        force.set_viscous_friction(0.0)
-        force.set_transition_velocity(s.transition_velocity)
-        force.set_constant_contact_force(CONSTANT_CONTACT_FORCE)
-        force.set_hertz_smoothing(HERTZ_SMOOTHING)
-        force.set_hunt_crossley_smoothing(HUNT_CROSSLEY_SMOOTHING)
-        model.addForce(force)
+    for m in markers or []:
+        model.addMarker(osim.Marker(m["name"], kept[m["body"]], osim.Vec3(*m["location"])))
+    add_contact(model, spheres, floor_height, radius)
     model.finalizeConnections()  # the custom joints' coordinates exist from here
     coords = model.updCoordinateSet()
     for j in joints:
@@ -401,7 +429,21 @@ def run(job: dict) -> dict:
     spheres = [
         SphereUnit(**{**s, "location": np.asarray(s["location"], float)}) for s in job["spheres"]
     ]
-    model = build_model(job["urdf"], spheres, job["floor_height"], job["radius"], job["name"])
+    if job.get("model"):  # the user's own model: the contact added to it
+        model = _require_opensim().Model(job["model"])
+        model.setName(job["name"])
+        _remove_named(model, spheres)
+        add_contact(model, spheres, job["floor_height"], job["radius"])
+        model.finalizeConnections()
+    else:
+        model = build_model(
+            job["urdf"],
+            spheres,
+            job["floor_height"],
+            job["radius"],
+            job["name"],
+            job.get("markers"),
+        )
     reply = {}
     if job.get("osim"):
         model.printToXML(job["osim"])
@@ -440,6 +482,7 @@ def main(argv=None) -> int:
 __all__ = (
     "DEFAULT_RADIUS",
     "SphereUnit",
+    "add_contact",
     "body_poses",
     "build_model",
     "contact_forces",
