@@ -40,14 +40,15 @@ def summary_figures(rows: Sequence[dict]) -> dict:
     fig, ax = plt.subplots(figsize=(8, 3.6))
     for j, foot in enumerate(("left", "right")):
         for i, u in enumerate(UNITS):
-            v = _finite(r[f"f_ref_{u}_N"] for r in ok if r["foot"] == foot)
+            v = [x for x in _finite(r[f"f_ref_{u}_N"] for r in ok if r["foot"] == foot) if x > 0]
             x = i + (j - 0.5) * 0.3
             ax.plot([x] * len(v), v, "o", alpha=0.6, color=f"C{j}", label=foot if i == 0 else None)
             if v:
                 ax.plot([x - 0.12, x + 0.12], [sorted(v)[len(v) // 2]] * 2, color="k", lw=2)
     ax.set_xticks(range(len(UNITS)), UNITS)
+    ax.set_yscale("log")  # a unit its stances hardly load can sit decades above the others
     ax.set_ylabel("force at the reference depth [N]")
-    ax.set_title("contact units across subjects (bar: median)")
+    ax.set_title("contact units across subjects (bar: median; log scale)")
     ax.legend()
     fig.tight_layout()
     figs["units"] = fig
