@@ -341,6 +341,53 @@ def z_scores(out: Path, subjects: list[dict]) -> tuple[dict[str, list[float]], d
     return z, left_out
 
 
+def by_motion(work: Path, n: int, design: str) -> None:
+    """Print the z-scores of a finished run by motion (the truths regenerated: they are
+    deterministic, the seeds being the subjects' numbers): the median |z| and coverage of the
+    units' forces, the mean and SD of z for n, c and mu, and the worst units."""
+    from gc_ocp.foot import UNITS
+
+    motions = {spec[0]: motion_truth(spec, design) for spec in MOTIONS}
+    truth = {}
+    for j in range(n):
+        spec = MOTIONS[j % len(MOTIONS)]
+        t, _ = subject_truth(motions[spec[0]][3], np.random.default_rng(1000 + j))
+        truth[f"syn{j:02d}"] = (spec[0], true_values(t))
+    with (work / "out_2" / "summary.csv").open() as fh:
+        rows = [r for r in csv.DictReader(fh) if r["status"] == "done"]
+    print(
+        "| motion | f_ref z | median abs | within +-1.96 | n: mean, SD | c: mean, SD | "
+        "mu: mean, SD | worst unit (z; estimate, truth [N]) |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    for motion in motions:
+        zf, zs = [], {"n": [], "c": [], "mu": []}
+        for r in rows:
+            m, tr = truth[r["subject"]]
+            if m != motion:
+                continue
+            flagged = _unidentified(work / "out_2" / r["subject"] / "fit.json")
+            for u in UNITS:
+                if f"{r['foot']}/{u}" in flagged:
+                    continue
+                est, se = float(r[f"f_ref_{u}_N"]), float(r[f"f_ref_{u}_N_se"])
+                zf.append(
+                    ((est - tr[r["foot"]][u]) / se, f"{r['foot']} {u}", est, tr[r["foot"]][u])
+                )
+            if r["foot"] == "left":
+                for p in zs:
+                    if r[p] and r[f"{p}_se"] and float(r[f"{p}_se"]) > 0:
+                        zs[p].append((float(r[p]) - tr[p]) / float(r[f"{p}_se"]))
+        z = np.array([x[0] for x in zf])
+        w = max(zf, key=lambda x: abs(x[0]))
+        par = " | ".join(f"{np.mean(v):+.2f}, {np.std(v, ddof=1):.2f}" for v in zs.values())
+        print(
+            f"| {motion.split('/')[0]} | {z.size} | {np.median(np.abs(z)):.2f} | "
+            f"{np.mean(np.abs(z) < 1.96):.0%} | {par} | {w[1]} ({w[0]:.0f}; {w[2]:.0f}, "
+            f"{w[3]:.0f}) |"
+        )
+
+
 def loop(manifest: Path, work: Path) -> int:
     """One ``gc-ocp fit`` command per subject, one after the other: how many exited 0."""
     from gc_ocp.batch.manifest import read_manifest
@@ -386,6 +433,11 @@ def main() -> None:
         help="the batch runs, by workers (the z-scores come from the last)",
     )
     ap.add_argument(
+        "--by-motion",
+        action="store_true",
+        help="only the z-scores by motion of the run already in --work (truths regenerated)",
+    )
+    ap.add_argument(
         "--loop-only",
         action="store_true",
         help="only the loop of gc-ocp fit on the subjects already written in --work",
@@ -397,6 +449,9 @@ def main() -> None:
     from gc_ocp.batch.manifest import read_manifest
 
     t0 = time.perf_counter()
+    if args.by_motion:
+        by_motion(work, args.subjects, args.truth)
+        return
     if args.loop_only:
         t = time.perf_counter()
         ok = loop(work / "subjects" / "study.csv", work)
