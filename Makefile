@@ -24,7 +24,7 @@ demo: $(VENV)/.installed
 	@echo "Diagnosis report: $(abspath $(OUT))/diagnosis/report.html (open it in a browser)"
 
 test: lint
-	$(BIN)/python -m pytest -q -W error::RuntimeWarning
+	$(BIN)/python -m pytest -q -n auto -W error::RuntimeWarning
 
 lint: $(VENV)/.installed
 	$(BIN)/ruff format --check .
