@@ -20,6 +20,8 @@ demo: $(VENV)/.installed
 	$(BIN)/gc-ocp fit --holdout right@0.407 --out $(OUT)/fit
 	$(BIN)/gc-ocp reproduce-seed --seeds 5 --out $(OUT)/seed
 	$(BIN)/gc-ocp diagnose --out $(OUT)/diagnosis
+	$(BIN)/gc-ocp export opensim $(OUT)/fit/fit.json --out $(OUT)/opensim
+	$(BIN)/gc-ocp export casadi $(OUT)/fit/fit.json --out $(OUT)/contact.casadi
 	@echo "Demo output written to $(abspath $(OUT))"
 	@echo "Diagnosis report: $(abspath $(OUT))/diagnosis/report.html (open it in a browser)"
 
