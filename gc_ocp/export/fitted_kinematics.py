@@ -9,8 +9,10 @@ has coordinates. For every frame of a fitted stance, the target is the hindfoot 
 correction (rotation ``exp(dth)``; the fit's first-order form differs from it by
 ``|dth|^2 / 2`` of the lever arm, 0.2 mm for 3 deg at 15 cm), and the six leg joints (hip 3,
 knee, ankle, subtalar) are solved by Gauss-Newton on the hindfoot's placement (Pinocchio's
-frame Jacobian), from the inverse kinematics' angles; the pelvis and the other leg stay. Frames
-outside the fitted stances keep the inverse kinematics. Velocities: the coordinates' rates,
+frame Jacobian), frame after frame, each from its neighbour's solution (one branch of the
+leg's inverse kinematics); the pelvis and the other leg stay. Before and after each window the
+correction fades to zero over :data:`RAMP_FRAMES` frames (the foot is in the air there);
+other frames keep the inverse kinematics. Velocities: the coordinates' rates,
 ``np.gradient`` as the pipeline takes them.
 """
 
@@ -26,6 +28,10 @@ from gc_ocp.foot import TrialKinematics
 
 LEG_JOINTS = ("hip_flexion", "hip_adduction", "hip_rotation", "knee", "ankle", "subtalar")
 """The joints solved per side (``_l`` / ``_r``)."""
+RAMP_FRAMES = 10
+"""Frames over which a stance's correction fades to zero before and after its window (the
+foot is in the air there): a correction of millimetres switched on in one frame would give the
+rates, and the damping, a spike."""
 TOLERANCE = 1e-10
 """Gauss-Newton stops when the step is below this (rad, m): exact to the solver's precision."""
 
@@ -82,12 +88,26 @@ def fitted_kinematics(fit_doc: Mapping, kin: TrialKinematics, points: Mapping) -
         idx = np.clip(idx, 0, kin.time.size - 1)
         dp = np.asarray(corr["translation_m"], float)
         dth = np.asarray(corr["rotation_rad"], float)
+        # the window's frames, then the ramps: (frame, translation, rotation), in time order so
+        # that each solve starts from its neighbour's solution (one branch of the leg's IK)
+        plan = [(int(k), dp[j], dth[j]) for j, k in enumerate(idx)]
+        for r in range(1, RAMP_FRAMES + 1):
+            w = 1.0 - r / (RAMP_FRAMES + 1)
+            if idx[0] - r >= 0:
+                plan.insert(0, (int(idx[0]) - r, w * dp[0], w * dth[0]))
+            if idx[-1] + r < kin.time.size:
+                plan.append((int(idx[-1]) + r, w * dp[-1], w * dth[-1]))
         foot = kin.feet[side]
-        for j, k in enumerate(idx):
+        start = None
+        for k, t_corr, r_corr in plan:
             H = foot.hindfoot_pose[k]
-            R_t = pin.exp3(dth[j]) @ H[:3, :3]
-            o_t = H[:3, 3] + dp[j]
-            q[k] = _solve(body, data, q[k], fid, cols, R_t, o_t)
+            R_t = pin.exp3(r_corr) @ H[:3, :3]
+            o_t = H[:3, 3] + t_corr
+            q0 = q[k].copy()
+            if start is not None:
+                q0[cols] = start
+            q[k] = _solve(body, data, q0, fid, cols, R_t, o_t)
+            start = q[k, cols]
             pin.framesForwardKinematics(body.model, data, q[k])
             M = data.oMf[fid]
             worst_mm = max(worst_mm, 1e3 * float(np.linalg.norm(M.translation - o_t)))
