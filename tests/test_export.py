@@ -187,7 +187,7 @@ def test_opensim_body_moves_as_the_package_body(tmp_path, bundled):
 
 def test_opensim_contact_forces_agree_with_ours(exported):
     """OpenSim's own SmoothSphereHalfSpaceForce, on the fitted coordinates (each stance's foot
-    where the fit's pose correction put it, reached by the leg's joints exactly), gives the
+    where the fit's pose correction put it, reached by the leg's joints), gives the
     wrench gc_ocp's calibrated model gives, within the bounds above (their reasons), channel by
     channel; and the figure and the JSON say so."""
     out, ex = exported
@@ -203,7 +203,9 @@ def test_opensim_contact_forces_agree_with_ours(exported):
     assert all(u["curve_rms_pct"] < 1e-6 for u in doc["units"] if u["frames_in_contact"] >= 3)
     assert (out / "opensim_vs_gc_ocp.png").stat().st_size > 0
     kin = doc["kinematics"]
-    assert kin["frames_corrected"] and kin["foot_placement_residual_mm"] < 1e-6
+    # the leg's solve is anchored to the IK angles (1 rad costs as much as 1 mm): where the leg
+    # reaches the corrected foot, a correction of a few degrees leaves hundredths of a mm
+    assert kin["frames_corrected"] and kin["foot_placement_residual_mm"] < 0.1
 
 
 def test_opensim_inverse_dynamics_reads_the_exported_files(exported, bundled):

@@ -9,8 +9,9 @@ has coordinates. For every frame of a fitted stance, the target is the hindfoot 
 correction (rotation ``exp(dth)``; the fit's first-order form differs from it by
 ``|dth|^2 / 2`` of the lever arm, 0.2 mm for 3 deg at 15 cm), and the six leg joints (hip 3,
 knee, ankle, subtalar) are solved by Gauss-Newton on the hindfoot's placement (Pinocchio's
-frame Jacobian), frame after frame, each from its neighbour's solution (one branch of the
-leg's inverse kinematics); the pelvis and the other leg stay. Before and after each window the
+frame Jacobian), each frame anchored to its inverse-kinematics angles (:data:`ANCHOR`: well
+posed near full extension and where the leg cannot reach; as continuous as the inverse
+kinematics); the pelvis and the other leg stay. Before and after each window the
 correction fades to zero over :data:`RAMP_FRAMES` frames (the foot is in the air there);
 other frames keep the inverse kinematics. Velocities: the coordinates' rates,
 ``np.gradient`` as the pipeline takes them.
@@ -49,16 +50,32 @@ class FittedKinematics:
     residual_deg: float
 
 
+ANCHOR = 1e-3
+"""[m per rad] Weight of the leg's joints staying near their inverse-kinematics angles: one
+radian of change costs as much as a millimetre of the foot's error. It makes each frame's
+solve well posed (a leg near full extension has a nearly singular Jacobian, where a free
+solve jumps to another branch, and a target the leg cannot reach has no exact solution) and
+keeps the solved angles as continuous as the inverse kinematics."""
+MAX_STEP = 0.1
+"""[rad] Largest joint step per iteration."""
+
+
 def _solve(body, data, q: np.ndarray, frame: int, cols: list[int], R_t, o_t) -> np.ndarray:
-    for _ in range(30):
+    """Gauss-Newton on the hindfoot's placement error and the anchor to ``q``'s angles."""
+    anchor = q[cols].copy()
+    for _ in range(50):
         pin.framesForwardKinematics(body.model, data, q)
         M = data.oMf[frame]
-        err = np.r_[M.translation - o_t, pin.log3(M.rotation @ R_t.T)]
-        J = pin.computeFrameJacobian(body.model, data, q, frame, pin.LOCAL_WORLD_ALIGNED)
-        step = np.linalg.lstsq(J[:, cols], -err, rcond=None)[0]
+        err = np.r_[M.translation - o_t, pin.log3(M.rotation @ R_t.T), ANCHOR * (q[cols] - anchor)]
+        J = pin.computeFrameJacobian(body.model, data, q, frame, pin.LOCAL_WORLD_ALIGNED)[:, cols]
+        J = np.vstack([J, ANCHOR * np.eye(len(cols))])
+        step = -np.linalg.solve(J.T @ J, J.T @ err)
+        big = np.max(np.abs(step))
+        if big > MAX_STEP:
+            step *= MAX_STEP / big
         q = q.copy()
         q[cols] += step
-        if np.max(np.abs(step)) < TOLERANCE:
+        if big < TOLERANCE:
             break
     return q
 
@@ -88,8 +105,7 @@ def fitted_kinematics(fit_doc: Mapping, kin: TrialKinematics, points: Mapping) -
         idx = np.clip(idx, 0, kin.time.size - 1)
         dp = np.asarray(corr["translation_m"], float)
         dth = np.asarray(corr["rotation_rad"], float)
-        # the window's frames, then the ramps: (frame, translation, rotation), in time order so
-        # that each solve starts from its neighbour's solution (one branch of the leg's IK)
+        # the window's frames and the ramps: (frame, translation, rotation)
         plan = [(int(k), dp[j], dth[j]) for j, k in enumerate(idx)]
         for r in range(1, RAMP_FRAMES + 1):
             w = 1.0 - r / (RAMP_FRAMES + 1)
@@ -98,16 +114,11 @@ def fitted_kinematics(fit_doc: Mapping, kin: TrialKinematics, points: Mapping) -
             if idx[-1] + r < kin.time.size:
                 plan.append((int(idx[-1]) + r, w * dp[-1], w * dth[-1]))
         foot = kin.feet[side]
-        start = None
         for k, t_corr, r_corr in plan:
             H = foot.hindfoot_pose[k]
             R_t = pin.exp3(r_corr) @ H[:3, :3]
             o_t = H[:3, 3] + t_corr
-            q0 = q[k].copy()
-            if start is not None:
-                q0[cols] = start
-            q[k] = _solve(body, data, q0, fid, cols, R_t, o_t)
-            start = q[k, cols]
+            q[k] = _solve(body, data, q[k], fid, cols, R_t, o_t)
             pin.framesForwardKinematics(body.model, data, q[k])
             M = data.oMf[fid]
             worst_mm = max(worst_mm, 1e3 * float(np.linalg.norm(M.translation - o_t)))
