@@ -81,8 +81,8 @@ def main() -> None:
         print(f"{name}: {time.perf_counter() - t0:.0f} s", flush=True)
     print("\n# OpenSim's contact forces against gc_ocp's (`benchmarks/export_opensim.py`)\n")
     print(
-        "RMS of OpenSim's minus gc_ocp's wrench over the trial's stances, both on the trial's "
-        "coordinates (inverse kinematics, no per-stance pose correction). Sphere radius 5 mm.\n"
+        "RMS of OpenSim's minus gc_ocp's wrench over the trial's stances, both on the fitted "
+        "coordinates (each stance's foot where the fit's pose correction put it). Sphere radius 5 mm.\n"
     )
     head = " | ".join(CHANNELS)
     print(f"| trial | fit | n | curve mismatch [%] | fit's vertical RMS [% BW] | {head} |")
