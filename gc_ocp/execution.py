@@ -9,11 +9,12 @@ diagnosis, :mod:`gc_ocp.diagnosis.execution`), so it runs on any
 Workers are processes with one thread each: a fit is compiled code and Ipopt, threads would only
 contend. A study's local cluster (:mod:`gc_ocp.batch`) *spawns* its workers (Dask's default: a
 fresh interpreter each), so a Python script that starts one needs the
-``if __name__ == "__main__":`` guard; a notebook and the ``gc-ocp`` command do not. A diagnosis's
-local cluster (``fork=True``) *forks* them where the platform can (Linux): they start with the
-parent's modules and compiled per-frame functions already loaded, so the cluster is ready in
-about a second, where spawned workers importing gc_ocp and loading the functions again cost a
-diagnosis about 16 s more (``docs/batch.md``, *The diagnosis on Dask*).
+``if __name__ == "__main__":`` guard; a notebook and the ``gc-ocp`` command do not. With
+``fork=True`` the workers are forked where the platform can (Linux): they start with the
+parent's modules and compiled per-frame functions loaded (0.3 s to the first tasks against
+16.9 s spawned, ``benchmarks/dask_start.py``), but a fork from a process that runs other
+threads (a Jupyter kernel) can deadlock, so nothing in the package forks by default
+(``docs/batch.md``, *The diagnosis on Dask*).
 """
 
 from __future__ import annotations
