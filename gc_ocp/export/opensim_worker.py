@@ -77,6 +77,8 @@ LAB_TO_Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 def _require_opensim():
     try:
         import opensim
+
+        opensim.Logger.removeFileSink()  # no opensim.log in the user's working folder
     except ImportError:
         raise ModelError(
             "The OpenSim export needs the opensim package: pip install 'gc_ocp[opensim]' "
