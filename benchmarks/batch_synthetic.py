@@ -185,12 +185,15 @@ def true_values(truth: tuple) -> dict:
     return out
 
 
-def make_subject(j: int, spec, motion, folder: Path) -> dict:
-    """Write subject ``j``'s files (module doc) and return its manifest row and truth."""
+def make_subject(j: int, spec, motion, folder: Path, real_grf: Path) -> dict:
+    """Write subject ``j``'s files (module doc) and return its manifest row and truth;
+    ``real_grf``: the real trial's plates as an OpenSim file, to load the subject's TRC for its
+    kinematics only (a TRC needs a GRF file to load)."""
     from gc_ocp.estimation.synthetic import PLATE_NOISE_PCT_BW, TORQUE_NOISE_LENGTH, simulate
     from gc_ocp.export import write_grf, write_trc
     from gc_ocp.io import load_trial
     from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.wrench import transport_wrench
 
     trial, true_kin, stances, base, fitted = motion
     rng = np.random.default_rng(1000 + j)
@@ -208,7 +211,7 @@ def make_subject(j: int, spec, motion, folder: Path) -> dict:
     write_trc(trc, names, noisy, trial.marker_time)
     # the kinematics the fitter will compute from this TRC (the truth moves as they say); the
     # stance windows and reference points are the real trial's
-    seen = load_trial(trc, _real_grf(spec), mass=trial.mass, height=trial.height)
+    seen = load_trial(trc, real_grf, mass=trial.mass, height=trial.height)
     kin = compute_kinematics(seen)
     cut = []
     for st in stances:
@@ -226,9 +229,8 @@ def make_subject(j: int, spec, motion, folder: Path) -> dict:
     sd = PLATE_NOISE_PCT_BW / 100 * bw * np.array([1, 1, 1, *3 * [TORQUE_NOISE_LENGTH]])
     for st in sim:
         idx = np.searchsorted(t, st.time)
-        f = st.measured[:, :3]
-        m = st.measured[:, 3:] + np.cross(st.reference_point, f)  # about the lab origin
-        w = np.c_[f, m] + rng.normal(0.0, 1.0, (idx.size, 6)) * sd
+        w = transport_wrench(st.measured, st.reference_point, np.zeros(3))  # about the origin
+        w = w + rng.normal(0.0, 1.0, (idx.size, 6)) * sd
         wrench[st.side][idx] = w
         height[st.side][idx] = st.ground_height
     write_grf(grf, t, wrench, height, min_force=THRESHOLD)
@@ -242,41 +244,24 @@ def make_subject(j: int, spec, motion, folder: Path) -> dict:
     return {"row": row, "truth": true_values(truth), "s": s, "motion": spec[0]}
 
 
-def _real_grf(spec):
-    """The real trial's plates as OpenSim files hold them, for loading the subject's TRC only to
-    compute its kinematics (a TRC needs a GRF file to load)."""
-    return _real_grf.files[spec[0]]
-
-
 def write_study(n: int, work: Path, design: str = "fitted-pose") -> tuple[Path, list[dict]]:
     from gc_ocp.export import write_grf
+    from gc_ocp.export.opensim_export import plate_wrenches
 
     data = work / "subjects"
-    motions = {}
-    _real_grf.files = {}
+    motions, real_grf = {}, {}
     for spec in MOTIONS:
         motions[spec[0]] = motion_truth(spec, design)
         trial = motions[spec[0]][0]
-        # the real plates, per foot, for loading (module doc): any GRF the loader accepts
         p = work / "real" / (Path(spec[0]).stem + "_grf.mot")
         p.parent.mkdir(parents=True, exist_ok=True)
         t = trial.marker_time
-        w = {side: np.zeros((t.size, 6)) for side in ("left", "right")}
-        for stc in trial.stances:
-            sel = (t >= stc.t_on) & (t <= stc.t_off)
-            w[stc.side][sel] = (
-                trial.stance_wrench(stc, t[sel])
-                + np.c_[
-                    np.zeros((sel.sum(), 3)),
-                    np.cross(stc.reference_point, trial.stance_wrench(stc, t[sel])[:, :3]),
-                ]
-            )
-        write_grf(p, t, w, trial.floor_height)
-        _real_grf.files[spec[0]] = p
+        write_grf(p, t, plate_wrenches(trial, t), trial.floor_height)
+        real_grf[spec[0]] = p
     subjects = []
     for j in range(n):
         spec = MOTIONS[j % len(MOTIONS)]
-        subjects.append(make_subject(j, spec, motions[spec[0]], data))
+        subjects.append(make_subject(j, spec, motions[spec[0]], data, real_grf[spec[0]]))
         print(f"  subject {j + 1}/{n} written ({spec[0]})", flush=True)
     manifest = data / "study.csv"
     with manifest.open("w", newline="") as fh:

@@ -39,17 +39,11 @@ TRIALS = (
         85.07,
     ),
 )
-CHANNELS = (
-    "anterior_force",
-    "superior_force",
-    "lateral_force",
-    "anteroposterior_torque",
-    "longitudinal_torque",
-    "mediolateral_torque",
-)
 
 
 def main() -> None:
+    from gc_ocp.contact.channels import CHANNELS
+
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "export_opensim")
     args = ap.parse_args()

@@ -22,6 +22,16 @@ def transport_moment(
     return moment + np.cross(np.broadcast_to(r, force.shape), force)
 
 
+def transport_wrench(
+    wrench: np.ndarray, from_point: np.ndarray, to_point: np.ndarray
+) -> np.ndarray:
+    """A wrench ``(n, 6)`` (force, moment about ``from_point``) with its moment moved to
+    ``to_point`` (:func:`transport_moment`)."""
+    wrench = np.asarray(wrench, dtype=float)
+    f = wrench[:, :3]
+    return np.c_[f, transport_moment(f, wrench[:, 3:], from_point, to_point)]
+
+
 def cop_from_wrench(
     force: np.ndarray,
     moment: np.ndarray,

@@ -72,13 +72,12 @@ def exported(tmp_path_factory, bundled, hertz_fit):
 def test_trc_and_grf_files_read_back(tmp_path, bundled):
     """A trial written as OpenSim files (the markers, each foot's plate wrench) loads back with
     the same markers, stances and wrenches."""
+    from gc_ocp.export.opensim_export import plate_wrenches
+    from gc_ocp.wrench import transport_moment
+
     trial, kin = bundled
     t = trial.marker_time
-    wrench = {s: np.zeros((t.size, 6)) for s in ("left", "right")}
-    for st in trial.stances:
-        sel = (t >= st.t_on) & (t <= st.t_off)
-        w = trial.stance_wrench(st, t[sel])
-        wrench[st.side][sel] = np.c_[w[:, :3], w[:, 3:] + np.cross(st.reference_point, w[:, :3])]
+    wrench = plate_wrenches(trial, t)
     write_trc(tmp_path / "walk.trc", trial.marker_names, trial.markers, t)
     write_grf(tmp_path / "walk_grf.mot", t, wrench, trial.floor_height)
     with warnings.catch_warnings():
@@ -90,7 +89,7 @@ def test_trc_and_grf_files_read_back(tmp_path, bundled):
     for a, b in zip(trial.stances, back.stances, strict=True):
         inner = t[(t > max(a.t_on, b.t_on) + 0.02) & (t < min(a.t_off, b.t_off) - 0.02)]
         wa, wb = trial.stance_wrench(a, inner), back.stance_wrench(b, inner)
-        wb[:, 3:] -= np.cross(a.reference_point - b.reference_point, wb[:, :3])
+        wb[:, 3:] = transport_moment(wb[:, :3], wb[:, 3:], b.reference_point, a.reference_point)
         # 9 significant digits in the file: 1e-6 of a body weight's force and moment
         np.testing.assert_allclose(wb, wa, atol=1e-6 * trial.body_weight)
 
@@ -304,6 +303,7 @@ def test_forward_wrench_is_the_fit_model(bundled):
     """The model run forward on the whole trial equals the model on each stance (the same
     per-frame functions), the moments moved to the stance's reference point."""
     from gc_ocp.bench.recovery import bundled_base_truth, simulate
+    from gc_ocp.wrench import transport_wrench
 
     trial, kin = bundled
     stances, truth = bundled_base_truth()
@@ -312,6 +312,6 @@ def test_forward_wrench_is_the_fit_model(bundled):
     for st in sim:
         idx = np.searchsorted(fw.time, st.time)
         w = fw.wrench[st.side][idx]
-        w = np.c_[w[:, :3], w[:, 3:] - np.cross(st.reference_point, w[:, :3])]
+        w = transport_wrench(w, np.zeros(3), st.reference_point)
         np.testing.assert_allclose(w, st.measured, atol=1e-9 * st.body_weight)
     assert dataclasses.is_dataclass(fw)

@@ -124,6 +124,7 @@ class Frame:
         self.velocities: list[ca.SX] = []
         self.law: dict = {}
         self.unit_force: Callable[[Frame, int], ca.SX] | None = None
+        self.unit_forces: list[ca.SX] = []  # each unit's force, set by :meth:`wrench`
         self.unit_ground: dict[int, ca.SX] = {}
         self.tangential: Callable[[Frame, int, ca.SX], ca.SX] | None = None
         self.ground_height = self.data("ground_height")
@@ -159,7 +160,7 @@ class Frame:
             raise ModelError("no component set the unit force law (the model needs a contact law)")
         force = ca.SX.zeros(3)
         moment = ca.SX.zeros(3)
-        self.unit_forces = []
+        self.unit_forces = []  # each call composes them anew
         for i in range(self.layout.n):
             fi = self.unit_force(self, i)
             self.unit_forces.append(fi)

@@ -6,8 +6,8 @@ Files written into the output folder (all or none, :class:`~gc_ocp.outputs.Outpu
 * ``model.osim``: the subject's body (the URDF the kinematics used) with one
   ``SmoothSphereHalfSpaceForce`` per contact unit (:mod:`gc_ocp.export.opensim_worker`, which
   says how the fitted law is mapped onto OpenSim's);
-* ``coordinates.mot``: the coordinates over the trial (the package's inverse kinematics;
-  radians and metres, ``inDegrees=no``);
+* ``coordinates.mot``: the coordinates over the trial, the fitted kinematics
+  (:mod:`gc_ocp.export.fitted_kinematics`; radians and metres, ``inDegrees=no``);
 * ``sole_points.sto``: each unit's fitted point over the trial (OpenSim's ground frame, m);
 * ``grf_plates.mot`` / ``grf_model.mot``: the plates' and the calibrated model's ground
   reactions per foot in OpenSim's external-loads layout, each with its ``ExternalLoads`` file
@@ -15,8 +15,8 @@ Files written into the output folder (all or none, :class:`~gc_ocp.outputs.Outpu
   bodies, for OpenSim's inverse dynamics or a Moco tracking problem;
 * ``export.json``: the mapping of each unit's law (stiffness, dissipation, friction, transition
   velocity; how well the Hertzian curve matches the fitted one over the penetrations visited)
-  and, unless ``compare=False``, the RMS difference per channel between OpenSim's contact
-  forces on the trial's kinematics and the package's (% BW, % BW x H), over the trial's
+  and, unless ``compare_forces=False``, the RMS difference per channel between OpenSim's
+  contact forces on the trial's kinematics and the package's (% BW, % BW x H), over the trial's
   stances; ``opensim_vs_gc_ocp.png`` shows both.
 
 OpenSim runs in a separate process (its wheel's CasADi library and the ``casadi`` package
@@ -50,6 +50,7 @@ from gc_ocp.export.opensim_files import (
 from gc_ocp.export.opensim_worker import DEFAULT_RADIUS
 from gc_ocp.io._common import Y_UP_TO_LAB
 from gc_ocp.outputs import OutputSet
+from gc_ocp.wrench import transport_wrench
 
 OUTPUTS = (
     "model.osim",
@@ -125,8 +126,9 @@ def map_law(
     """Each unit's ``SmoothSphereHalfSpaceForce`` parameters (module doc of
     :mod:`~gc_ocp.export.opensim_worker`): the Hertzian stiffness fitted in least squares to
     ``k d^n`` over the penetrations ``d`` the unit visits on the stances of ``trial`` (the frames
-    the fit was calibrated on; at the reference depth when it never touches), the dissipation ``c / 1.5``, the friction coefficient, and the transition
-    velocity fitted to the fitted friction's smoothing over the slip speeds visited. The sphere's
+    the fit was calibrated on; at the reference depth when it never touches), the dissipation
+    ``c / 1.5``, the friction coefficient, and the transition velocity and static friction
+    fitted to the fitted friction's smoothing over the slip speeds visited (:func:`fit_friction`). The sphere's
     centre is ``R`` above the unit's point along the floor's normal as the segment meets the
     floor (its mean direction in the segment over the stances): the segment's own axes need not
     be square to the sole (the hindfoot is pitched about 25-30 deg in stance on the bundled
@@ -211,28 +213,32 @@ def _sphere_json(s: worker.SphereUnit) -> dict:
     return d
 
 
-def opensim_forces(
-    urdf: str, mapping: Sequence[UnitMapping], cal: CalibratedContact, kin, radius: float
-) -> dict[str, np.ndarray]:
+def model_job(cal: CalibratedContact, kin, spheres, radius: float, name: str, model=None) -> dict:
+    """The worker's job that builds the OpenSim model: the package's body (the URDF ``kin``
+    was computed with, with its registered markers) or the user's ``model`` file, and the
+    ``spheres`` on the floor."""
+    return {
+        "urdf": kin.info["body"].urdf,
+        "model": None if model is None else str(Path(model).resolve()),
+        "name": name,
+        "floor_height": cal.ground_height,
+        "radius": radius,
+        "spheres": [_sphere_json(s) for s in spheres],
+        "markers": _marker_set(kin),
+    }
+
+
+def opensim_forces(job: dict, kin, mapping: Sequence[UnitMapping]) -> dict[str, np.ndarray]:
     """OpenSim's contact wrench on each foot over the frames of ``kin`` (``{side: (n, 6)}``,
     force [N] and moment [N m] about the ``lab`` origin, in ``lab``), computed by OpenSim from
-    the coordinates ``kin.q`` and their rates."""
-    body = kin.info["body"]
+    the coordinates ``kin.q`` and their rates on the model of ``job`` (:func:`model_job`; in
+    the same worker process that writes the model, when the job names an ``osim`` file)."""
     q = np.asarray(kin.q, float)
     qdot = np.gradient(q, kin.time, axis=0)
     with tempfile.TemporaryDirectory(prefix="gc_ocp_opensim_") as tmp:
         frames, out = Path(tmp) / "frames.npz", Path(tmp) / "forces.npz"
-        np.savez(frames, coordinates=np.array(body.joint_names), q=q, qdot=qdot)
-        run_worker(
-            {
-                "urdf": urdf,
-                "name": "gc_ocp_subject",
-                "floor_height": cal.ground_height,
-                "radius": radius,
-                "spheres": [_sphere_json(m.sphere) for m in mapping],
-                "forces": {"frames": str(frames), "out": str(out)},
-            }
-        )
+        np.savez(frames, coordinates=np.array(kin.info["body"].joint_names), q=q, qdot=qdot)
+        run_worker({**job, "forces": {"frames": str(frames), "out": str(out)}})
         with np.load(out) as per_sphere:
             forces = {k: per_sphere[k] for k in per_sphere.files}
     total = {side: np.zeros((q.shape[0], 6)) for side in kin.feet}
@@ -362,7 +368,7 @@ def compare(trial, time, ours: dict, theirs: dict, cal: CalibratedContact) -> di
     a, b, sides = [], [], []
     for side, idx, ref in _stance_frames(trial, time):
         for w, acc in ((ours[side][idx], a), (theirs[side][idx], b)):
-            acc.append(np.c_[w[:, :3], w[:, 3:] - np.cross(ref, w[:, :3])])
+            acc.append(transport_wrench(w, np.zeros(3), ref))
         sides += [side] * idx.size
     if not a:
         raise InputError(f"{trial.source}: no stance to compare the forces on")
@@ -448,7 +454,7 @@ def plate_wrenches(trial, time) -> dict[str, np.ndarray]:
         if not sel.any():
             continue
         w = trial.stance_wrench(st, time[sel])
-        out[st.side][sel] = np.c_[w[:, :3], w[:, 3:] + np.cross(st.reference_point, w[:, :3])]
+        out[st.side][sel] = transport_wrench(w, st.reference_point, np.zeros(3))
     return out
 
 
@@ -497,19 +503,15 @@ def export_opensim(
         compare_forces = False
     outset = OutputSet(out, OUTPUTS)
     try:
-        say("OpenSim: building the model")
-        run_worker(
-            {
-                "urdf": body.urdf,
-                "model": None if model is None else str(model.resolve()),
-                "name": f"gc_ocp_{trial.name}",
-                "floor_height": cal.ground_height,
-                "radius": radius,
-                "spheres": [_sphere_json(s) for s in spheres],
-                "markers": _marker_set(kin),
-                "osim": str(outset.path("model.osim")),
-            }
-        )
+        job = model_job(cal, kin, spheres, radius, f"gc_ocp_{trial.name}", model)
+        job["osim"] = str(outset.path("model.osim"))
+        theirs = None
+        if compare_forces:  # one OpenSim process builds, writes and runs the model
+            say("OpenSim: the model, and its contact forces on the trial's kinematics")
+            theirs = opensim_forces(job, kin, mapping)
+        else:
+            say("OpenSim: building the model")
+            run_worker(job)
         time = np.asarray(kin.time, float)
         if model is None:  # the package's body: its coordinates
             write_table(
@@ -537,9 +539,7 @@ def export_opensim(
                 external_loads_xml(grf, {s: loaded[s] for s in w}, f"ground_reactions_{name}"),
             )
         rms = None
-        if compare_forces:
-            say("OpenSim: contact forces on the trial's kinematics")
-            theirs = opensim_forces(body.urdf, mapping, cal, kin, radius)
+        if theirs is not None:
             rms = compare(trial, time, ours, theirs, cal)
             outset.figure("opensim_vs_gc_ocp.png", plot_comparison(time, ours, theirs, plates, cal))
         doc = {
@@ -655,6 +655,7 @@ __all__ = (
     "fit_pairs",
     "hertz_refit",
     "map_law",
+    "model_job",
     "opensim_forces",
     "plate_wrenches",
 )

@@ -200,7 +200,7 @@ def _chains(links: dict, joints: list) -> list[tuple[str, list]]:
             continue  # inside a chain: taken with its first joint
         chain, cur = [j], j.child
         while links[cur].mass == 0.0:
-            nxt = [k for k in by_parent.get(cur, [])]
+            nxt = by_parent.get(cur, [])
             if not nxt:
                 break  # a unit frame
             if len(nxt) != 1 or np.any(nxt[0].xyz) or not np.allclose(nxt[0].rotation, np.eye(3)):
@@ -340,11 +340,6 @@ def build_model(
                 c.setRangeMax(j.limits[1])
             c.setDefaultValue(0.0)
     return model
-
-
-def coordinate_names(urdf: str) -> list[str]:
-    """The names of the URDF's moving joints, in file order (the package's ``q`` order)."""
-    return [j.name for j in read_urdf(urdf)[1] if j.kind in ("revolute", "prismatic")]
 
 
 # --- the jobs --------------------------------------------------------------------------------
@@ -488,7 +483,6 @@ __all__ = (
     "body_poses",
     "build_model",
     "contact_forces",
-    "coordinate_names",
     "read_urdf",
 )
 
