@@ -286,6 +286,17 @@ def test_a_users_model_gets_the_spheres_where_its_foot_markers_put_them(
         export_opensim(hertz_fit, tmp_path / "bare", pairs=[bundled], model=bare)
 
 
+def test_the_calibrated_belt_is_the_fitted_one(hertz_fit):
+    """A treadmill fit's belt speed is the one the fit estimated (the BeltSpeed block), not the
+    nominal one given; overground it is 0."""
+    from gc_ocp.export.calibrated import fit_document
+
+    doc = fit_document(hertz_fit)
+    assert CalibratedContact.from_fit(doc).belt_speed == 0.0
+    doc["blocks"]["belt"] = {"walk": {"value": 1.17, "se": 0.004, "nominal": 1.056}}
+    assert CalibratedContact.from_fit(doc).belt_speed == pytest.approx(1.17)
+
+
 def test_export_refuses_a_fit_it_cannot_carry(bundled):
     """A fit with an effect OpenSim has no counterpart for is refused with the reason."""
     from gc_ocp.errors import InputError

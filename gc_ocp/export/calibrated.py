@@ -119,13 +119,13 @@ class CalibratedContact:
         prov = dict(provenance or doc.get("provenance") or {})
         trials = prov.get("trials") or [{}]
         mass = trials[0].get("mass_kg") or first["body_weight"] / 9.81
-        belt = doc["blocks"].get("belt", {}) or {}
-        speed = (
-            float(belt.get("speed", 0.0))
-            if isinstance(belt.get("speed", 0.0), int | float)
-            else 0.0
-        )
-        if not speed:
+        # the belt speed the fit used: the BeltSpeed block's fitted value per treadmill trial
+        # ({trial: {"value", "se", ...}}, the first trial's), else the nominal one given
+        belt = doc["blocks"].get("belt") or {}
+        fitted = [v["value"] for v in belt.values() if isinstance(v, Mapping) and "value" in v]
+        if fitted:
+            speed = float(fitted[0])
+        else:
             v = np.asarray(trials[0].get("belt_velocity_m_s", [0.0, 0.0, 0.0]), float)
             speed = float(np.linalg.norm(v))
         return cls(
