@@ -286,6 +286,47 @@ def test_a_users_model_gets_the_spheres_where_its_foot_markers_put_them(
         export_opensim(hertz_fit, tmp_path / "bare", pairs=[bundled], model=bare)
 
 
+def test_fitted_kinematics_move_only_the_exported_trials_stances(bundled, hertz_fit):
+    """In a fit of several trials, only the exported trial's stances correct its frames: a
+    stance of another trial at the same times must not move this trial's feet."""
+    from gc_ocp.export.calibrated import fit_document
+    from gc_ocp.export.fitted_kinematics import fitted_kinematics
+
+    trial, kin = bundled
+    doc = fit_document(hertz_fit)
+    cal = CalibratedContact.from_fit(doc)
+    assert {sf["trial"] for sf in doc["stance_fits"]} == {trial.name}
+    own = fitted_kinematics(doc, kin, cal.points, trial.name)
+    assert sum(own.frames.values()) == sum(len(sf["time"]) for sf in doc["stance_fits"])
+    other = fitted_kinematics(doc, kin, cal.points, "another_trial")
+    assert other.frames == {} and np.array_equal(other.kin.q, kin.q)
+
+
+def test_each_trial_of_a_fit_keeps_its_own_unit_points(hertz_fit):
+    """Each trial of a fit has its own kinematics, whose sole calibration places the units: a
+    second trial with other points is no contradiction; the trial asked for gives its points,
+    and an unknown trial is an error naming the fit's trials."""
+    import copy
+
+    from gc_ocp.errors import InputError
+    from gc_ocp.export.calibrated import fit_document
+
+    doc = fit_document(hertz_fit)
+    first = doc["stance_fits"][0]["trial"]
+    other = copy.deepcopy(doc["stance_fits"])
+    for sf in other:
+        sf["trial"] = "second"
+        sf["points_local"] = (np.asarray(sf["points_local"]) + 0.002).tolist()
+    doc["stance_fits"] = doc["stance_fits"] + other
+    a = CalibratedContact.from_fit(doc)
+    b = CalibratedContact.from_fit(doc, trial="second")
+    for side in a.points:
+        np.testing.assert_allclose(b.points[side] - a.points[side], 0.002)
+    assert CalibratedContact.from_fit(doc, trial=first).points.keys() == a.points.keys()
+    with pytest.raises(InputError, match="second"):
+        CalibratedContact.from_fit(doc, trial="third")
+
+
 def test_the_calibrated_belt_is_the_fitted_one(hertz_fit):
     """A treadmill fit's belt speed is the one the fit estimated (the BeltSpeed block), not the
     nominal one given; overground it is 0."""

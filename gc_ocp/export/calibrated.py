@@ -72,8 +72,12 @@ class CalibratedContact:
 
     # --- from a fit ------------------------------------------------------------------------
     @classmethod
-    def from_fit(cls, fit, provenance: Mapping | None = None) -> CalibratedContact:
-        """From a ``FitReport``, an ``EstimationResult``, a ``fit.json`` dict or its path."""
+    def from_fit(
+        cls, fit, provenance: Mapping | None = None, trial: str | None = None
+    ) -> CalibratedContact:
+        """From a ``FitReport``, an ``EstimationResult``, a ``fit.json`` dict or its path.
+        ``trial``: the fit's name of the trial whose unit points are taken (each trial has its
+        own kinematics, whose sole calibration places the points; default: the first)."""
         doc = fit_document(fit)
         for key in ("components", "blocks", "stance_fits"):
             if key not in doc:
@@ -99,13 +103,21 @@ class CalibratedContact:
                 kw[p] = Param("fixed", {s: float(block[s][p]) for s in sides})
         law = dataclasses.replace(ContactLaw(), **kw)
         points, parents, heights = {}, {}, set()
-        for sf in doc["stance_fits"]:
+        fits = doc["stance_fits"]
+        if not fits:
+            raise InputError("the fit has no stance fits: nothing to export")
+        trial = fits[0]["trial"] if trial is None else trial
+        fits = [sf for sf in fits if sf["trial"] == trial]
+        if not fits:
+            names = sorted({sf["trial"] for sf in doc["stance_fits"]})
+            raise InputError(f"the fit has no trial {trial!r}; its trials are {names}")
+        for sf in fits:
             side = sf["side"]
             p = np.asarray(sf["points_local"], float)
             if side in points and not np.allclose(points[side], p, atol=1e-9):
                 raise InputError(
-                    f"the fit's {side} stances have different unit points: a per-stance sole "
-                    "cannot be exported"
+                    f"the fit's {side} stances of {trial} have different unit points: a "
+                    "per-stance sole cannot be exported"
                 )
             points[side] = p
             parents[side] = tuple(sf["parents"])
@@ -115,7 +127,7 @@ class CalibratedContact:
                 f"the fit's plates are at different heights {sorted(heights)} m; a simulator has "
                 "one floor"
             )
-        first = doc["stance_fits"][0]
+        first = fits[0]
         prov = dict(provenance or doc.get("provenance") or {})
         trials = prov.get("trials") or [{}]
         mass = trials[0].get("mass_kg") or first["body_weight"] / 9.81

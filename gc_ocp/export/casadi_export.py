@@ -109,11 +109,17 @@ def _foot_expressions(side: str, cal: CalibratedContact, reference: ca.SX):
     return inputs, out[1], out[3]
 
 
-def casadi_function(fit, sides: tuple[str, ...] | None = None, name: str = "gc_ocp_contact"):
+def casadi_function(
+    fit,
+    sides: tuple[str, ...] | None = None,
+    name: str = "gc_ocp_contact",
+    trial: str | None = None,
+):
     """The calibrated contact model of ``fit`` (a ``FitReport``, an ``EstimationResult``, a
     ``fit.json`` dict or path) as a ``casadi.Function`` (signature: module doc); ``sides``:
-    the feet (default both the fit has)."""
-    cal = CalibratedContact.from_fit(fit)
+    the feet (default both the fit has); ``trial``: the fit's trial whose unit points are baked
+    in (a fit of several trials: each trial's kinematics place the points; default the first)."""
+    cal = CalibratedContact.from_fit(fit, trial=trial)
     sides = tuple(sides or sorted(cal.points))
     unknown = [s for s in sides if s not in cal.points]
     if unknown:
@@ -129,11 +135,13 @@ def casadi_function(fit, sides: tuple[str, ...] | None = None, name: str = "gc_o
     return ca.Function(name, [*syms_in, reference], exprs, [*names_in, "reference"], names_out)
 
 
-def write_casadi(fit, path: str | Path, sides: tuple[str, ...] | None = None) -> Path:
+def write_casadi(
+    fit, path: str | Path, sides: tuple[str, ...] | None = None, trial: str | None = None
+) -> Path:
     """Save :func:`casadi_function` of ``fit`` to ``path`` (``.casadi``; complete or absent):
     ``casadi.Function.load(path)`` gives it back, in any CasADi of the same major version."""
     path = Path(path)
-    f = casadi_function(fit, sides)
+    f = casadi_function(fit, sides, trial=trial)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     os.close(fd)

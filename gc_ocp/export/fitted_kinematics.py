@@ -80,10 +80,14 @@ def _solve(body, data, q: np.ndarray, frame: int, cols: list[int], R_t, o_t) -> 
     return q
 
 
-def fitted_kinematics(fit_doc: Mapping, kin: TrialKinematics, points: Mapping) -> FittedKinematics:
+def fitted_kinematics(
+    fit_doc: Mapping, kin: TrialKinematics, points: Mapping, trial: str | None = None
+) -> FittedKinematics:
     """The coordinates of ``kin`` with each fitted stance's foot at the fit's corrected pose
     (module doc); ``fit_doc``: the fit's JSON (``fit.json`` / ``result.to_json()``); ``points``:
-    each foot's unit points (``{side: (5, 3)}``) for the new feet."""
+    each foot's unit points (``{side: (5, 3)}``) for the new feet; ``trial``: the name the fit
+    gave ``kin``'s trial (its stances' ``trial``), when the fit has several trials: only that
+    trial's stances are matched to ``kin``'s frames (None: every stance, a one-trial fit)."""
     from gc_ocp.kinematics.pipeline import foot_kinematics
 
     body = kin.info["body"]
@@ -95,7 +99,7 @@ def fitted_kinematics(fit_doc: Mapping, kin: TrialKinematics, points: Mapping) -
     worst_mm = worst_deg = 0.0
     for sf in fit_doc.get("stance_fits", []):
         corr = per_stance.get(sf["label"])
-        if corr is None:
+        if corr is None or (trial is not None and sf.get("trial") != trial):
             continue
         side = sf["side"]
         suffix = side[0]

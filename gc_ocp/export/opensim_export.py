@@ -50,6 +50,7 @@ from gc_ocp.export.opensim_files import (
 from gc_ocp.export.opensim_worker import DEFAULT_RADIUS
 from gc_ocp.io._common import Y_UP_TO_LAB
 from gc_ocp.outputs import OutputSet
+from gc_ocp.stance import trial_names
 from gc_ocp.wrench import transport_wrench
 
 OUTPUTS = (
@@ -482,14 +483,17 @@ def export_opensim(
     then not written."""
     say = progress or (lambda s: None)
     doc = fit_document(fit)
-    cal = CalibratedContact.from_fit(doc)
     if pairs is None:
-        pairs = fit_pairs(cal, say)
+        pairs = fit_pairs(CalibratedContact.from_fit(doc), say)
     trial, ik = pairs[0]
     body = ik.info.get("body")
     if body is None:
         raise InputError("the kinematics carry no body model; compute them with gc_ocp")
-    fk = fitted_kinematics(doc, ik, cal.points)
+    # the fit's name of the exported trial: several trials of one subject each have their own
+    # kinematics (their points, their stances)
+    name = trial_names([t.source for t, _ in pairs])[0]
+    cal = CalibratedContact.from_fit(doc, trial=name)
+    fk = fitted_kinematics(doc, ik, cal.points, name)
     kin = fk.kin if fitted else ik
     feet = cal.feet(kin)
     mapping = map_law(cal, trial, kin, radius)
