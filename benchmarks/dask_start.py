@@ -1,5 +1,6 @@
-"""What a diagnosis's local Dask cluster costs before its first fit: spawned against forked
-workers (issue 24; ``gc_ocp.execution.dask_client(fork=...)``).
+"""What a diagnosis's local Dask cluster costs before its first fit, by how its workers start:
+spawned, forked from a server that preloads gc_ocp (the package's default), or forked from
+this process (issue 24; ``gc_ocp.execution.dask_client(start=...)``).
 
 Usage::
 
@@ -32,11 +33,11 @@ def first_task(_: int) -> float:
     return time.perf_counter() - t
 
 
-def measure(fork: bool) -> tuple[float, float]:
+def measure(start: str) -> tuple[float, float]:
     from gc_ocp.execution import dask_client
 
     t0 = time.perf_counter()
-    with dask_client(workers=2, fork=fork) as client:
+    with dask_client(workers=2, start=start) as client:
         client.wait_for_workers(2)
         t1 = time.perf_counter()
         ex = client.get_executor()
@@ -53,18 +54,21 @@ def main() -> None:
     first_task(0)  # the parent, as before a diagnosis's first round
     print(f"parent: gc_ocp imported and the base problem built in {time.perf_counter() - t:.1f} s")
     rows = {}
-    for fork in (False, True):
-        runs = [measure(fork) for _ in range(args.repeats)]
-        rows["forked" if fork else "spawned"] = (
+    for start in ("spawn", "forkserver", "fork"):
+        runs = [measure(start) for _ in range(args.repeats)]
+        if start == "forkserver":
+            rows["forkserver, first cluster of the session"] = runs[0]
+            runs = runs[1:] or runs
+        rows[start] = (
             statistics.median(r[0] for r in runs),
             statistics.median(r[1] for r in runs),
         )
-    print("\n| workers | cluster ready [s] | first two tasks [s] | total [s] |")
+    print("\n| workers started by | cluster ready [s] | first two tasks [s] | total [s] |")
     print("|---|---|---|---|")
     for name, (a, b) in rows.items():
         print(f"| {name} | {a:.1f} | {b:.1f} | {a + b:.1f} |")
-    s, f = (sum(rows[k]) for k in ("spawned", "forked"))
-    print(f"\nForked against spawned: {s - f:.1f} s less before the first fit ({s / f:.1f}x).")
+    s, f = (sum(rows[k]) for k in ("spawn", "forkserver"))
+    print(f"\nForkserver against spawned: {s - f:.1f} s less before the first fit ({s / f:.1f}x).")
 
 
 if __name__ == "__main__":

@@ -1,5 +1,7 @@
 """Where work runs: the cores this process may use, and a Dask client (a local cluster of worker
-processes, a running scheduler, or the caller's own client).
+processes, a running scheduler, or the caller's own client). Every parallel path of the package
+goes through :func:`dask_client`: a study's subjects (:mod:`gc_ocp.batch`) and a diagnosis's
+candidate fits and null draws (:func:`gc_ocp.diagnosis.execution.candidate_executor`).
 
 A task the package sends out is a plain function of picklable plain data (a subject of a study,
 :func:`gc_ocp.batch.subject.process_subject`; a candidate's fits or a null draw of the
@@ -7,14 +9,22 @@ diagnosis, :mod:`gc_ocp.diagnosis.execution`), so it runs on any
 :class:`concurrent.futures.Executor`, a Dask client's (``client.get_executor()``) included.
 
 Workers are processes with one thread each: a fit is compiled code and Ipopt, threads would only
-contend. A study's local cluster (:mod:`gc_ocp.batch`) *spawns* its workers (Dask's default: a
-fresh interpreter each), so a Python script that starts one needs the
-``if __name__ == "__main__":`` guard; a notebook and the ``gc-ocp`` command do not. With
-``fork=True`` the workers are forked where the platform can (Linux): they start with the
-parent's modules and compiled per-frame functions loaded (0.3 s to the first tasks against
-16.9 s spawned, ``benchmarks/dask_start.py``), but a fork from a process that runs other
-threads (a Jupyter kernel) can deadlock, so nothing in the package forks by default
-(``docs/batch.md``, *The diagnosis on Dask*).
+contend. How a local cluster starts its worker processes (``start``):
+
+* ``"forkserver"`` (the default where the platform has it: Linux, macOS): each worker is forked
+  from a *server* process that Python starts once per session as a fresh, single-threaded
+  interpreter and that imports gc_ocp first (:data:`PRELOAD`). Workers start with the package
+  loaded (what a spawned worker spends most of its start on, ``benchmarks/dask_start.py``), and
+  nothing is forked from the calling process, which may run threads (a Jupyter kernel: a fork
+  of it copies locks other threads hold, and deadlocked notebook 03 when Dask's workers were
+  forked from it).
+* ``"spawn"`` (Dask's own default; the only one on Windows): a fresh interpreter per worker.
+* ``"fork"``: forked from this process: the fastest start, but unsafe where this process runs
+  other threads (above); only on request.
+
+With ``forkserver`` and ``spawn`` a worker imports the caller's main *script* again, so a
+script that starts a cluster (``gc_ocp.batch.run``, a parallel ``gc_ocp.diagnose``) needs the
+``if __name__ == "__main__":`` guard; a notebook and the ``gc-ocp`` command do not.
 """
 
 from __future__ import annotations
@@ -24,6 +34,13 @@ import multiprocessing
 import os
 from collections.abc import Iterator
 
+START_METHODS = ("forkserver", "spawn", "fork")
+"""How a local cluster may start its workers (module doc), the package's choice first."""
+
+PRELOAD = ("distributed", "gc_ocp.diagnosis", "gc_ocp.batch.subject")
+"""What the forkserver imports before it forks a worker: Dask's worker and the modules of the
+package's tasks (the diagnosis's candidate fits and null draws, a study's subject)."""
+
 
 def available_cores() -> int:
     """The CPU cores this process may use (its affinity where the platform tells it)."""
@@ -31,15 +48,51 @@ def available_cores() -> int:
     return max(1, n or 1)
 
 
+def start_method(start: str | None = None) -> str:
+    """The start method a local cluster uses: ``start`` (one of :data:`START_METHODS`), or the
+    first of them this platform has."""
+    have = multiprocessing.get_all_start_methods()
+    if start is None:
+        return next(m for m in START_METHODS if m in have)
+    if start not in START_METHODS:
+        raise ValueError(f"start={start!r}: use one of {', '.join(START_METHODS)}")
+    if start not in have:
+        raise ValueError(
+            f"start={start!r}: this platform starts processes only by {', '.join(have)}"
+        )
+    return start
+
+
+def _prepare(method: str) -> None:
+    """Dask's multiprocessing context for ``method``, with the forkserver's preload extended by
+    :data:`PRELOAD` (distributed sets its own list once, the first time it is asked for the
+    forkserver context; the list is read when the server starts, at the first worker)."""
+    import dask
+    from distributed.utils import get_mp_context
+
+    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
+        ctx = get_mp_context()
+    if method == "forkserver":
+        from multiprocessing import forkserver
+
+        # distributed's list, without the user's script (``__main__``: Python's own default)
+        have = getattr(forkserver._forkserver, "_preload_modules", None) or []
+        keep = [m for m in have if m != "__main__"]
+        ctx.set_forkserver_preload(list(dict.fromkeys([*keep, *PRELOAD])))
+
+
 @contextlib.contextmanager
 def dask_client(
-    workers: int | None = None, scheduler: str | None = None, client=None, fork: bool = False
+    workers: int | None = None,
+    scheduler: str | None = None,
+    client=None,
+    start: str | None = None,
 ) -> Iterator:
     """A ``distributed.Client`` for the ``with`` block: ``client`` as it is (the caller's; left
     open), else one connected to ``scheduler`` (an address such as ``tcp://host:8786``), else a
     ``LocalCluster`` of ``workers`` single-threaded processes (default: :func:`available_cores`)
-    started here, forked from this process with ``fork`` where the platform can (module doc);
-    what is started here is closed at the end of the block."""
+    started here by ``start`` (:func:`start_method`; module doc); what is started here is closed
+    at the end of the block."""
     if client is not None:
         yield client
         return
@@ -50,10 +103,10 @@ def dask_client(
         with Client(scheduler) as c:
             yield c
         return
-    method = "fork" if fork and "fork" in multiprocessing.get_all_start_methods() else None
-    config = {} if method is None else {"distributed.worker.multiprocessing-method": method}
+    method = start_method(start)
+    _prepare(method)
     with (
-        dask.config.set(config),
+        dask.config.set({"distributed.worker.multiprocessing-method": method}),
         LocalCluster(
             n_workers=workers or available_cores(),
             threads_per_worker=1,
@@ -65,4 +118,4 @@ def dask_client(
         yield c
 
 
-__all__ = ("available_cores", "dask_client")
+__all__ = ("PRELOAD", "START_METHODS", "available_cores", "dask_client", "start_method")

@@ -380,13 +380,17 @@ def test_a_round_runs_on_any_executor_the_dearest_first(monkeypatch):
     ]
 
 
-def test_the_diagnosis_executor_is_the_callers_or_a_pool_it_closes():
+def test_the_diagnosis_executor_is_the_callers_or_a_dask_cluster_it_closes():
     """``candidate_executor``: the caller's executor as is (left open), none for one worker,
-    else a process pool whose workers are other processes, shut down after the block."""
+    else a real local Dask cluster's executor whose workers are other processes, forked from
+    a server that has imported gc_ocp (never from this process), closed after the block."""
     import os
-    from concurrent.futures import ProcessPoolExecutor
+    import sys
 
     from gc_ocp.diagnosis.execution import candidate_executor
+
+    def loaded() -> tuple[int, int, bool]:
+        return os.getpid(), os.getppid(), "gc_ocp.diagnosis" in sys.modules
 
     mine = _PicklingExecutor()
     with candidate_executor(workers=4, executor=mine) as ex:
@@ -394,10 +398,14 @@ def test_the_diagnosis_executor_is_the_callers_or_a_pool_it_closes():
     with candidate_executor(workers=1) as ex:
         assert ex is None
     with candidate_executor(workers=2) as ex:
-        assert isinstance(ex, ProcessPoolExecutor)
-        assert ex.submit(os.getpid).result() != os.getpid()
-    with pytest.raises(RuntimeError):
-        ex.submit(os.getpid)  # shut down
+        pid, parent, has_package = ex.submit(loaded).result()
+        assert pid != os.getpid()
+        assert parent != os.getpid()  # the forkserver's child, not this process's
+        assert has_package  # preloaded by the server
+    from distributed.client import ClosedClientError
+
+    with pytest.raises(ClosedClientError):
+        ex.submit(os.getpid)  # its client is closed
 
 
 def _module_state(mod, source: str) -> list[str]:

@@ -8,16 +8,16 @@ residual for the null). It returns the
 :class:`~gc_ocp.diagnosis.compare.Evaluation` and the warnings the fits raised, which
 :func:`evaluate_round` raises again in the calling process (under its filters, as if the fits
 had run there). Nothing travels through module globals and no start method is assumed, so the
-executor may be a local process pool (:func:`candidate_executor`), the caller's own one (any
-start method: ``tests/test_diagnosis.py`` runs a diagnosis on ``spawn``ed processes), or a
-cluster's (``dask.distributed.Client(...).get_executor()``).
+executor may be the package's local Dask cluster (:func:`candidate_executor`), the caller's
+own executor of any kind (``tests/test_diagnosis.py`` runs a diagnosis on ``spawn``ed
+processes), or a running cluster's (``dask.distributed.Client(...).get_executor()``; a study's
+diagnoses run on the study's cluster).
 
 A worker process derives a model's per-frame functions and loads them compiled from the disk
 cache the first time it fits that model (``estimation/compiled.py``), and keeps them for its
-next tasks. The local pool uses the platform's default start method: ``fork`` on Linux (up to
-Python 3.13), whose workers start with the parent's functions already loaded; with ``spawn``
-each worker imports gc_ocp and derives them again, which cost a full diagnosis of the bundled
-trial a few seconds more (``docs/diagnosis.md``, *Speed*).
+next tasks. The local cluster's workers are forked from a server process that has imported
+gc_ocp (:mod:`gc_ocp.execution`), so they start with the package loaded but derive each
+model's functions once themselves.
 
 One task per *fit* (a candidate's folds spread over the processes) was tried and measured
 slower than one task per candidate (bundled trial 63.6 s against 49.5 s; three BTS trials
@@ -32,7 +32,7 @@ import dataclasses
 import time
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from concurrent.futures import Executor, as_completed
 
 import numpy as np
 
@@ -42,7 +42,7 @@ from gc_ocp.errors import InputError, ModelError, SolveError
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions
-from gc_ocp.execution import available_cores
+from gc_ocp.execution import available_cores, dask_client
 from gc_ocp.stance import StanceData
 
 MAX_WORKERS = 4
@@ -218,8 +218,9 @@ def candidate_executor(
 ) -> Iterator[Executor | None]:
     """The executor of a diagnosis's rounds, for the ``with`` block: ``executor`` when given
     (the caller's; not shut down here); ``None`` (in this process) with ``workers=1``;
-    otherwise a pool of ``workers`` (default :func:`default_workers`) processes, started at the
-    first task and shut down at the end of the block."""
+    otherwise a Dask client's executor on a local cluster of ``workers`` (default
+    :func:`default_workers`) single-threaded processes (:func:`gc_ocp.execution.dask_client`:
+    forked from a server that has imported gc_ocp), closed at the end of the block."""
     if executor is not None:
         yield executor
         return
@@ -227,9 +228,8 @@ def candidate_executor(
     if n <= 1:
         yield None
         return
-
-    with ProcessPoolExecutor(n) as pool:
-        yield pool
+    with dask_client(workers=n) as client:
+        yield client.get_executor()
 
 
 __all__ = (
