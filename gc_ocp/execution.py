@@ -105,17 +105,40 @@ def dask_client(
         return
     method = start_method(start)
     _prepare(method)
-    with (
-        dask.config.set({"distributed.worker.multiprocessing-method": method}),
-        LocalCluster(
-            n_workers=workers or available_cores(),
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",  # a free port: no clash with another cluster's 8787
-        ) as cluster,
-        Client(cluster) as c,
-    ):
-        yield c
+    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
+        try:
+            cluster = LocalCluster(
+                n_workers=workers or available_cores(),
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",  # a free port: no clash with another cluster's 8787
+            )
+        except RuntimeError as e:
+            raise _start_error(method, e) from e
+        with cluster, Client(cluster) as c:
+            yield c
+
+
+def _start_error(method: str, error: Exception) -> Exception:
+    """What to tell when a local cluster's workers did not start: the usual cause, a script
+    without the main guard (its workers import it again and start a cluster of their own), named
+    with the fix; else the error with the way round it."""
+    import sys
+
+    from gc_ocp.errors import InputError
+
+    script = getattr(sys.modules.get("__main__"), "__file__", None)
+    if script and method != "fork":
+        return InputError(
+            f"The local cluster's worker processes did not start ({error}). Its workers import "
+            f"the main script {script} again, so a script that runs a study or a parallel "
+            'diagnosis must keep its code under `if __name__ == "__main__":`; or run it in '
+            "this process (workers=1)."
+        )
+    return InputError(
+        f"The local cluster's worker processes did not start ({error}); run in this process "
+        "(workers=1) or give a running scheduler (docs/batch.md)."
+    )
 
 
 __all__ = ("PRELOAD", "START_METHODS", "available_cores", "dask_client", "start_method")

@@ -1,0 +1,62 @@
+"""Where work runs (``gc_ocp.execution``): the start methods of a local cluster, and what a
+script that forgets the main guard is told."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from gc_ocp.execution import START_METHODS, start_method
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_the_start_method_is_the_first_the_platform_has_and_a_wrong_one_is_named():
+    have = multiprocessing.get_all_start_methods()
+    assert start_method() == next(m for m in START_METHODS if m in have)
+    for m in have:
+        if m in START_METHODS:
+            assert start_method(m) == m
+    with pytest.raises(ValueError, match="threads.*use one of forkserver, spawn, fork"):
+        start_method("threads")
+
+
+@pytest.mark.skipif(
+    "forkserver" not in multiprocessing.get_all_start_methods(), reason="no forkserver here"
+)
+def test_a_script_without_the_main_guard_is_told_to_add_it(tmp_path):
+    """A script that starts a local cluster at module level: its workers import it again and
+    fail to start; the error names the script and the guard (not only Dask's "Nanny failed to
+    start"). The same script under the guard runs its task."""
+    body = """
+        from gc_ocp.execution import dask_client
+        {guard}
+            with dask_client(workers=1) as c:
+                print("sum", c.submit(sum, [1, 2]).result())
+    """
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    out = {}
+    for name, guard in (("bare", "if True:"), ("guarded", 'if __name__ == "__main__":')):
+        script = tmp_path / f"{name}.py"
+        script.write_text(textwrap.dedent(body.format(guard=guard)))
+        out[name] = subprocess.run(
+            [sys.executable, str(script)],
+            capture_output=True,
+            text=True,
+            env=env,
+            cwd=tmp_path,
+            timeout=300,
+        )
+    bare, guarded = out["bare"], out["guarded"]
+    assert bare.returncode != 0
+    assert "InputError" in bare.stderr
+    assert str(tmp_path / "bare.py") in bare.stderr
+    assert 'if __name__ == "__main__":' in bare.stderr
+    assert guarded.returncode == 0, guarded.stderr[-2000:]
+    assert "sum 3" in guarded.stdout
