@@ -183,3 +183,35 @@ def test_the_diagnosis_refuses_an_unknown_pose_width():
     sts, _ = _stances(np.random.default_rng(7), 0.0)
     with pytest.raises(ModelError, match="pose_width"):
         diagnose_stances(sts, pose_width="guessed")
+
+
+@pytest.mark.parametrize("offset_mm", [0.0, 8.0])
+def test_the_sole_width_follows_the_units_misplacement_in_the_data(offset_mm):
+    """Type-II ML of the sole correction's width (``estimate_pose_scale(..., sole=True)``): the
+    fitter's unit points moved off the truth's by offsets of SD ``offset_mm`` per axis (one
+    draw per unit and side); with none the data ask for less than the prior's 5 mm, with 8 mm
+    for more (the direction is the check: ten units give a rough estimate). The pose widths
+    are estimated in the same rounds, and a refit with the wider sole prior ends lower."""
+    from gc_ocp.estimation import build_estimation
+    from gc_ocp.estimation.pose_scale import estimate_pose_scale
+    from gc_ocp.estimation.solve import IpoptOptions, solve
+    from gc_ocp.estimation.synthetic import recovery_model
+
+    rng = np.random.default_rng(8)
+    sts, _ = _stances(rng, 0.0)
+    off = {
+        side: rng.normal(0.0, offset_mm * 1e-3, sts[0].foot.points_local.shape)
+        for side in ("left", "right")
+    }
+    sts = [st.with_foot(st.foot.with_points(st.foot.points_local + off[st.side])) for st in sts]
+    model = recovery_model(marker_noise=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = solve(build_estimation(sts, model), IpoptOptions())
+        _, res2, scale = estimate_pose_scale(sts, model, res, sole=True)
+    assert scale.sole_mm is not None and scale.to_json()["sole_mm"] == scale.sole_mm
+    if offset_mm:
+        assert scale.sole_mm > 5.0
+        assert res2.objective < res.objective
+    else:
+        assert scale.sole_mm < 5.0

@@ -49,10 +49,12 @@ KINEMATICS_CACHE = Path(".cache") / "kinematics"
 class Settings:
     """What every subject of a run is fitted with: ``diagnose`` (also run the sim-to-real
     diagnosis on the subject's trials), ``pose_scale`` (estimate the pose correction's width,
-    as ``gc-ocp fit`` does by default)."""
+    as ``gc-ocp fit`` does by default), ``sole_scale`` (estimate the sole correction's width
+    too)."""
 
     diagnose: bool = False
     pose_scale: bool = True
+    sole_scale: bool = False
 
     def to_json(self) -> dict:
         return dataclasses.asdict(self)
@@ -270,7 +272,12 @@ def _fit_subject(
     prov = provenance(options, pairs)
     out = OutputSet(folder, FIT_OUTPUTS + DIAGNOSIS_OUTPUTS + (ERROR,))
     try:
-        report = fit(pairs, holdout=subject.holdout, pose_scale=settings.pose_scale)
+        report = fit(
+            pairs,
+            holdout=subject.holdout,
+            pose_scale=settings.pose_scale,
+            sole_scale=settings.sole_scale,
+        )
         fit_doc = write_fit(
             out, report, prov, {"trials": [kin.info.get("landmarks") for _, kin in pairs]}
         )

@@ -122,6 +122,12 @@ def build_parser() -> argparse.ArgumentParser:
         "it from the stances (docs/quality.md).",
     )
     p.add_argument(
+        "--estimate-sole-width",
+        action="store_true",
+        help="Also estimate the sole correction's width (its prior: 5 mm) from the stances, "
+        "between 1 and 10 mm (docs/quality.md, 'The sole correction's width').",
+    )
+    p.add_argument(
         "--effects",
         metavar="A,B,...",
         help="Comma-separated effects (docs/effects.md) fitted with the full model, e.g. "
@@ -277,6 +283,11 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="Keep the pose correction's prior width instead of estimating it (as gc-ocp fit "
         "--fixed-pose-width; faster).",
+    )
+    p.add_argument(
+        "--estimate-sole-width",
+        action="store_true",
+        help="Also estimate the sole correction's width (as gc-ocp fit --estimate-sole-width).",
     )
     p.set_defaults(func=cmd_batch)
 

@@ -119,6 +119,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
                 progress=_progress,
                 extends=extends,
                 pose_scale=not args.fixed_pose_width,
+                sole_scale=args.estimate_sole_width,
             )
         except SolveError as e:
             if e.result is not None:
@@ -270,7 +271,11 @@ def cmd_batch(args: argparse.Namespace) -> int:
     result = run(
         args.manifest,
         args.out,
-        settings=Settings(diagnose=args.diagnose, pose_scale=not args.fixed_pose_width),
+        settings=Settings(
+            diagnose=args.diagnose,
+            pose_scale=not args.fixed_pose_width,
+            sole_scale=args.estimate_sole_width,
+        ),
         workers=args.workers,
         scheduler=args.scheduler,
         progress=_progress,

@@ -32,6 +32,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gc_ocp.estimation.components.pose import PoseCorrection
+from gc_ocp.estimation.components.sole import SoleCorrection
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, solve
@@ -58,6 +59,13 @@ three shared labs' fits took 10-25 mm and up to 10 deg (Rajagopal's vertical 24.
 a misfit of the contact model or of the sole's height as kinematics; the contact parameters
 then describe a foot displaced by that much."""
 
+SOLE_MIN_MM = 1.0
+SOLE_PLAUSIBLE_MM = 10.0
+"""The sole correction's width (``sole=True``), one for the three axes and every unit: from 1 mm
+(the markers' reconstruction and the sole height's calibration leave at least that) to 10 mm
+(a unit a centimetre from where the landmarks put it, per axis, is beyond what locating the
+sole from skin markers explains; stopped there and flagged, as the pose's widths)."""
+
 MIN_MM = 0.2
 MIN_DEG = 0.1
 """Nor below these: markers are reconstructed to ~0.1-0.5 mm, so no lab's smooth pose error is
@@ -75,13 +83,17 @@ class PoseScale:
     n_coefficients: int
     rounds: list[dict]
     n_stances: int
+    sole_mm: float | None = None  # the sole correction's width, when estimated too
+    sole_gamma: float | None = None
 
     @property
     def plausible(self) -> bool:
-        """No width stopped at the soft tissue's limit (:data:`PLAUSIBLE_MM`, ``_DEG``)."""
+        """No width stopped at the soft tissue's limit (:data:`PLAUSIBLE_MM`, ``_DEG``,
+        :data:`SOLE_PLAUSIBLE_MM`)."""
         return (
             max(self.sigma_mm) < PLAUSIBLE_MM * 0.999
             and max(self.sigma_deg) < PLAUSIBLE_DEG * 0.999
+            and (self.sole_mm is None or self.sole_mm < SOLE_PLAUSIBLE_MM * 0.999)
         )
 
     def message(self) -> str:
@@ -93,11 +105,15 @@ class PoseScale:
             + "/".join(f"{v:.1f}" for v in self.sigma_deg)
             + " deg"
         )
+        if self.sole_mm is not None:
+            s += f"; sole correction's width {self.sole_mm:.1f} mm"
         if not self.plausible:
             s += (
                 f"; the forces ask for more than soft tissue moves a foot (stopped at "
-                f"{PLAUSIBLE_MM:g} mm, {PLAUSIBLE_DEG:g} deg): the contact model misfits these "
-                "stances (run the diagnosis: an unmodelled effect, or the sole's height)"
+                f"{PLAUSIBLE_MM:g} mm, {PLAUSIBLE_DEG:g} deg"
+                + ("" if self.sole_mm is None else f", sole {SOLE_PLAUSIBLE_MM:g} mm")
+                + "): the contact model misfits these stances (run the diagnosis: an "
+                "unmodelled effect, or the sole's height)"
             )
         return s
 
@@ -111,6 +127,11 @@ class PoseScale:
             "plausible": self.plausible,
             "rounds": self.rounds,
             "message": self.message(),
+            **(
+                {}
+                if self.sole_mm is None
+                else {"sole_mm": self.sole_mm, "sole_gamma": self.sole_gamma}
+            ),
         }
 
 
@@ -125,12 +146,21 @@ def _axis_columns(problem, name: str, kind: str) -> list[np.ndarray]:
     return [np.asarray(o, int) for o in out]
 
 
-def mackay_update(problem, x: np.ndarray, pose: PoseCorrection) -> tuple[tuple, tuple, tuple, int]:
-    """One fixed-point step (module doc) at the fit ``x`` of ``problem``: the new widths
-    (mm, deg), ``gamma`` per axis and the coefficients per axis."""
+def _posterior_variances(problem, x: np.ndarray) -> np.ndarray:
+    """The diagonal of the Gauss-Newton posterior covariance at ``x`` (stored units: a prior
+    variable's prior variance is 1)."""
     _, J = problem.data_jacobian(x)
     H = (J.T @ J).toarray() + np.diag(problem.prior_weights**2)
-    Sd = np.diag(np.linalg.inv(H))  # stored units: the prior's variance is 1
+    return np.diag(np.linalg.inv(H))
+
+
+def mackay_update(
+    problem, x: np.ndarray, pose: PoseCorrection, Sd: np.ndarray | None = None
+) -> tuple[tuple, tuple, tuple, int]:
+    """One fixed-point step (module doc) at the fit ``x`` of ``problem``: the new widths
+    (mm, deg), ``gamma`` per axis and the coefficients per axis (``Sd``: the posterior
+    variances, :func:`_posterior_variances`, when already computed)."""
+    Sd = _posterior_variances(problem, x) if Sd is None else Sd
     widths, gammas, n = [], [], 0
     for kind, old in (("trans", pose.sigma_mm), ("rot", pose.sigma_deg)):
         old = np.broadcast_to(np.asarray(old, float), 3)
@@ -145,6 +175,22 @@ def mackay_update(problem, x: np.ndarray, pose: PoseCorrection) -> tuple[tuple, 
     return tuple(widths[:3]), tuple(widths[3:]), tuple(gammas), n
 
 
+def sole_update(problem, x: np.ndarray, sole: SoleCorrection, Sd: np.ndarray) -> tuple:
+    """The same step for the sole correction's one width (every unit and axis): ``(width [m],
+    gamma)``."""
+    cols = np.concatenate(
+        [
+            np.arange(s.start, s.start + s.size)
+            for s in problem.variables.specs
+            if s.key[0] == sole.name
+        ]
+    )
+    g = float(np.sum(1.0 - Sd[cols]))
+    z2 = float(np.sum(x[cols] ** 2))
+    w = sole.sigma * np.sqrt(z2 / g) if g >= MIN_GAMMA else sole.sigma
+    return float(np.clip(w, SOLE_MIN_MM * 1e-3, SOLE_PLAUSIBLE_MM * 1e-3)), g
+
+
 def estimate_pose_scale(
     data: list[StanceData],
     model: tuple,
@@ -153,12 +199,14 @@ def estimate_pose_scale(
     options: IpoptOptions | None = None,
     progress: Callable[[str], None] | None = None,
     refit: Callable[[object, np.ndarray], EstimationResult] | None = None,
+    sole: bool = False,
 ) -> tuple[tuple, EstimationResult, PoseScale | None]:
     """The model with the pose correction's widths estimated on ``data`` (module doc), its fit
     (warm-started from ``result``, the fit with the current widths) and the estimate; the input
     unchanged (and None) when the model has no pose correction. ``refit(problem, x0)``: each
     round's warm refit (default: Ipopt, :func:`~gc_ocp.estimation.solve.solve`; a benchmark
-    passes another solver to time the same rounds)."""
+    passes another solver to time the same rounds). ``sole``: estimate the sole correction's
+    width in the same rounds (:func:`sole_update`)."""
     say = progress or (lambda s: None)
     if refit is None:
 
@@ -168,24 +216,49 @@ def estimate_pose_scale(
     pose = next((c for c in model if isinstance(c, PoseCorrection)), None)
     if pose is None:
         return model, result, None
+    sole_c = next((c for c in model if isinstance(c, SoleCorrection)), None) if sole else None
+    if sole_c is not None and sole_c.fixed is not None:
+        sole_c = None
     rounds = []
+    sole_w = sole_g = None
     prob = build_estimation(data, model, weights)
     for k in range(MAX_ROUNDS):
-        mm, deg, gamma, n = mackay_update(prob, result.x, pose)
+        Sd = _posterior_variances(prob, result.x)
+        mm, deg, gamma, n = mackay_update(prob, result.x, pose, Sd)
         old = np.r_[np.broadcast_to(pose.sigma_mm, 3), np.broadcast_to(pose.sigma_deg, 3)]
         change = float(np.max(np.abs(np.r_[mm, deg] / old - 1.0)))
         pose = replace(pose, sigma_mm=mm, sigma_deg=deg)
-        model = tuple(pose if isinstance(c, PoseCorrection) else c for c in model)
+        new = {PoseCorrection: pose}
+        if sole_c is not None:
+            sole_w, sole_g = sole_update(prob, result.x, sole_c, Sd)
+            change = max(change, abs(sole_w / sole_c.sigma - 1.0))
+            sole_c = replace(sole_c, sigma=sole_w)
+            new[SoleCorrection] = sole_c
+        model = tuple(new.get(type(c), c) for c in model)
         prob = build_estimation(data, model, weights)
         result = refit(prob, rescaled_start(result, prob))
-        rounds.append({"sigma_mm": list(mm), "sigma_deg": list(deg), "objective": result.objective})
+        row = {"sigma_mm": list(mm), "sigma_deg": list(deg), "objective": result.objective}
+        if sole_w is not None:
+            row["sole_mm"] = sole_w * 1e3
+        rounds.append(row)
         say(
             f"pose width round {k + 1}: {', '.join(f'{v:.2f}' for v in mm)} mm, "
-            f"{', '.join(f'{v:.2f}' for v in deg)} deg; J = {result.objective:.1f}"
+            f"{', '.join(f'{v:.2f}' for v in deg)} deg"
+            + ("" if sole_w is None else f", sole {sole_w * 1e3:.2f} mm")
+            + f"; J = {result.objective:.1f}"
         )
         if change < RTOL:
             break
-    est = PoseScale(mm, deg, gamma, n, rounds, len(data))
+    est = PoseScale(
+        mm,
+        deg,
+        gamma,
+        n,
+        rounds,
+        len(data),
+        sole_mm=None if sole_w is None else sole_w * 1e3,
+        sole_gamma=sole_g,
+    )
     return model, result, est
 
 

@@ -183,6 +183,7 @@ def fit(
     start: EstimationResult | None = None,
     extends: tuple | None = None,
     pose_scale: bool = True,
+    sole_scale: bool = False,
 ) -> FitReport:
     """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
 
@@ -196,9 +197,15 @@ def fit(
     so that the problem's non-convexity cannot leave the extended model above it.
     pose_scale: estimate the pose correction's smooth width from the fitted stances
     (:mod:`gc_ocp.estimation.pose_scale`; the held-out stance then uses it too); False keeps the
-    component's prior.
+    component's prior. sole_scale: with ``pose_scale``, estimate the sole correction's width in
+    the same rounds (:func:`~gc_ocp.estimation.pose_scale.sole_update`).
     """
     say = progress or (lambda s: None)
+    if sole_scale and not pose_scale:
+        raise InputError(
+            "The sole correction's width is estimated in the pose width's rounds: keep "
+            "pose_scale=True (drop --fixed-pose-width) to estimate it."
+        )
     model = model or full_model()
     trials, data, notes = fit_data(trials, margin, say)
     held = None
@@ -230,7 +237,9 @@ def fit(
     say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
     scale = None
     if pose_scale:
-        model, res, scale = estimate_pose_scale(data, model, res, weights, options, say)
+        model, res, scale = estimate_pose_scale(
+            data, model, res, weights, options, say, sole=sole_scale
+        )
         if scale is not None and not scale.plausible:
             res.flags.append(
                 {
