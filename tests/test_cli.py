@@ -185,7 +185,22 @@ def _check_fit_report(out):
         assert f["code"] in page
     held = d["heldout_stance"]
     assert held in page
+    # the sole table names the prior width the fit used (5 mm, or estimated with sole_scale)
+    assert f"foot frame; prior {d['blocks']['sole']['prior_mm']:.3g} mm" in page
     assert f"{d['heldout_rms']['right']['superior_force_pct_bw']:.2f} % BW" in page
+
+
+def test_the_sole_table_names_an_estimated_prior_width():
+    """The fit report's and the diagnosis report's sole table (one macro) give the width the
+    fit used: an estimated one (``sole_scale``), 5 mm for a fit.json written before the width
+    was recorded."""
+    from gc_ocp.html import environment
+
+    macro = environment().from_string(
+        '{% from "_fit_tables.html.j2" import sole_table %}{{ sole_table([], w) }}'
+    )
+    assert "foot frame; prior 9.52 mm" in macro.render(w=9.5211)
+    assert "foot frame; prior 5 mm" in macro.render(w=5.0)
 
 
 def test_fit_with_an_effect_shows_its_block(tmp_path, capsys):

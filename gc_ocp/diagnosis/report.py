@@ -269,6 +269,7 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         "rms": rms_table(res, wf[-1].heldout_rms if d.folds.get("n") else None),
         "contact": contact_tables(res.params),
         "sole": sole_table(res.blocks.get("sole", {})),
+        "sole_prior_mm": (res.blocks.get("sole") or {}).get("prior_mm", 5.0),
         "belt": [
             (trial, pm(v, "value", ".3f"), v.get("nominal")) for trial, v in res.belt_speed.items()
         ],

@@ -89,7 +89,8 @@ class SoleCorrection(Component):
         return ("SoleCorrection",)  # its values only enter through the points_local slot
 
     def decode(self, ctx: DecodeContext) -> dict:
-        """``{side: {unit: [dx, dy, dz]}}`` in the foot frame [mm] (``"se"``: their SEs)."""
+        """``{side: {unit: [dx, dy, dz]}}`` in the foot frame [mm] (``"se"``: their SEs;
+        ``"prior_mm"``: the prior's width, when estimated)."""
         out: dict = {}
         se: dict = {}
         for side, lay in _layouts(ctx.stances).items():
@@ -103,7 +104,10 @@ class SoleCorrection(Component):
                 v, s = ctx.values((self.name, side, u))
                 out[side][u] = (v * 1e3).tolist()
                 se[side][u] = (s * 1e3).tolist()
-        return {"offsets_mm": out, "se_mm": se}
+        block = {"offsets_mm": out, "se_mm": se}
+        if self.fixed is None:
+            block["prior_mm"] = self.sigma * 1e3  # its width (estimated with sole_scale)
+        return block
 
     def frozen(self, block: dict) -> SoleCorrection:
         fixed = {
