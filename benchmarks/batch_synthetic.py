@@ -283,8 +283,10 @@ def true_values(truth: tuple) -> dict:
     return out
 
 
-def _write_clean(path: Path, t: np.ndarray, sim) -> Path:
-    """The simulated stances' wrenches (no noise) as a GRF file at ``path``."""
+def _write_plates(path: Path, t: np.ndarray, sim, noise=None) -> Path:
+    """The simulated stances' wrenches (about the ``lab`` origin) as a GRF file at ``path``,
+    zero off the stances, each stance's wrench plus ``noise(n)`` (``(n, 6)``, drawn stance by
+    stance; None: none)."""
     from gc_ocp.export import write_grf
     from gc_ocp.wrench import transport_wrench
 
@@ -292,7 +294,8 @@ def _write_clean(path: Path, t: np.ndarray, sim) -> Path:
     height = {side: np.zeros(t.size) for side in ("left", "right")}
     for st in sim:
         idx = np.searchsorted(t, st.time)
-        wrench[st.side][idx] = transport_wrench(st.measured, st.reference_point, np.zeros(3))
+        w = transport_wrench(st.measured, st.reference_point, np.zeros(3))
+        wrench[st.side][idx] = w if noise is None else w + noise(idx.size)
         height[st.side][idx] = st.ground_height
     return write_grf(path, t, wrench, height, min_force=THRESHOLD)
 
@@ -308,10 +311,9 @@ def make_subject(
     plates, comment below; with ``refit-subject`` the law is refitted on the subject's own
     kinematics, :func:`subject_refit`)."""
     from gc_ocp.estimation.synthetic import PLATE_NOISE_PCT_BW, TORQUE_NOISE_LENGTH, simulate
-    from gc_ocp.export import write_grf, write_trc
+    from gc_ocp.export import write_trc
     from gc_ocp.io import load_trial
     from gc_ocp.kinematics import compute_kinematics
-    from gc_ocp.wrench import transport_wrench
 
     trial, true_kin, stances, base, fitted = motion
     rng = np.random.default_rng(1000 + j)
@@ -365,24 +367,15 @@ def make_subject(
         # at=None: no pose correction; no noise here (added once below)
         sim = simulate(cut, truth, rng, plate_noise_pct_bw=0.0, at=fitted)
         if own_points:
-            source, last = _write_clean(grf, kin.time, sim), kin
+            source, last = _write_plates(grf, kin.time, sim), kin
     else:
         if own_points:
             raise RuntimeError(f"{trc}: the kinematics still moved after {MAX_PASSES} passes")
     if own_points:
         kin = last  # the kinematics the plates were simulated on
-    t = kin.time
-    wrench = {side: np.zeros((t.size, 6)) for side in ("left", "right")}
-    height = {side: np.zeros(t.size) for side in ("left", "right")}
     bw = trial.body_weight * s
     sd = PLATE_NOISE_PCT_BW / 100 * bw * np.array([1, 1, 1, *3 * [TORQUE_NOISE_LENGTH]])
-    for st in sim:
-        idx = np.searchsorted(t, st.time)
-        w = transport_wrench(st.measured, st.reference_point, np.zeros(3))  # about the origin
-        w = w + rng.normal(0.0, 1.0, (idx.size, 6)) * sd
-        wrench[st.side][idx] = w
-        height[st.side][idx] = st.ground_height
-    write_grf(grf, t, wrench, height, min_force=THRESHOLD)
+    _write_plates(grf, kin.time, sim, lambda n: rng.normal(0.0, 1.0, (n, 6)) * sd)
     row = {
         "subject": sid,
         "trial": trc.name,

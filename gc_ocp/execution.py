@@ -64,14 +64,13 @@ def start_method(start: str | None = None) -> str:
 
 
 def _prepare(method: str) -> None:
-    """Dask's multiprocessing context for ``method``, with the forkserver's preload extended by
+    """Dask's multiprocessing context for ``method`` (called where Dask's
+    ``multiprocessing-method`` is set to it), with the forkserver's preload extended by
     :data:`PRELOAD` (distributed sets its own list once, the first time it is asked for the
     forkserver context; the list is read when the server starts, at the first worker)."""
-    import dask
     from distributed.utils import get_mp_context
 
-    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
-        ctx = get_mp_context()
+    ctx = get_mp_context()  # under the caller's multiprocessing-method setting
     if method == "forkserver":
         from multiprocessing import forkserver
 
@@ -104,8 +103,8 @@ def dask_client(
             yield c
         return
     method = start_method(start)
-    _prepare(method)
     with dask.config.set({"distributed.worker.multiprocessing-method": method}):
+        _prepare(method)
         try:
             cluster = LocalCluster(
                 n_workers=workers or available_cores(),

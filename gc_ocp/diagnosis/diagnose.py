@@ -119,10 +119,11 @@ def diagnose_stances(
     (:mod:`.mismatch`; None: noise only), ``mismatch_draws`` of it per round, each a refit of
     the parent (:mod:`.draws`). ``max_effects``: stop the forward selection after
     that many effects (``0``: rank only; ``1``: rank and add the best passing effect, as the
-    withheld-effect benchmark does). ``workers``: processes of a local Dask cluster that evaluate a
-    round's candidates and null draws in parallel (default
-    :func:`~gc_ocp.diagnosis.execution.default_workers`; 1: in this process). ``executor``: a :class:`concurrent.futures.Executor` to run them on instead (e.g.
-    a ``dask.distributed.Client(...).get_executor()``; ``workers`` is then ignored).
+    withheld-effect benchmark does). ``workers``: processes of a local Dask cluster that
+    evaluate a round's candidates and null draws in parallel (default
+    :func:`~gc_ocp.diagnosis.execution.default_workers`; 1: in this process). ``executor``: a
+    :class:`concurrent.futures.Executor` to run them on instead (e.g. a
+    ``dask.distributed.Client(...).get_executor()``; ``workers`` is then ignored).
     ``max_folds``: most training fits per model; more stances to hold out are held out in that
     many groups (:func:`~gc_ocp.diagnosis.compare.fold_plan`). ``pose_width``: the base's
     pose-correction width, ``"prior"`` (its component's, 2 mm / 1 deg) or ``"estimated"`` on

@@ -114,6 +114,14 @@ def sole_table(sole: dict) -> list[dict]:
     ]
 
 
+def sole_prior_mm(sole: dict) -> float:
+    """The sole correction's prior width [mm] the fit used (its block's ``prior_mm``; a
+    ``fit.json`` written before the width was recorded had the component's default)."""
+    from gc_ocp.estimation.components.sole import SoleCorrection
+
+    return float(sole.get("prior_mm", SoleCorrection.sigma * 1e3))
+
+
 def flatten_block(block, prefix: str = "", depth: int = 0) -> list[tuple[str, str]]:
     """Scalar leaves of an effect block as ``(name, "value ± SE")``; long arrays summarised."""
     out: list[tuple[str, str]] = []

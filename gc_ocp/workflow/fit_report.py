@@ -7,7 +7,14 @@ what it shows."""
 from __future__ import annotations
 
 from gc_ocp.html import data_uri, environment, provenance_context
-from gc_ocp.html.fit_tables import contact_tables, effect_blocks, pm, rms_table, sole_table
+from gc_ocp.html.fit_tables import (
+    contact_tables,
+    effect_blocks,
+    pm,
+    rms_table,
+    sole_prior_mm,
+    sole_table,
+)
 from gc_ocp.workflow.fitting import FitReport
 
 TEMPLATE = "fit_report.html.j2"
@@ -46,7 +53,7 @@ def fit_report_html(report: FitReport, provenance: dict | None, pngs: dict[str, 
         "flags": _flags(report),
         "contact": contact_tables(res.params),
         "sole": sole_table(res.blocks.get("sole", {})),
-        "sole_prior_mm": (res.blocks.get("sole") or {}).get("prior_mm", 5.0),
+        "sole_prior_mm": sole_prior_mm(res.blocks.get("sole") or {}),
         "effects": effect_blocks(res),
         "rms": rms_table(res, None if held is None else held.rms | _cop(held)),
         "figures": {name: data_uri(png) for name, png in pngs.items()},
