@@ -76,6 +76,11 @@ THRESHOLD = 20.0
 """[N] The plates' zero threshold."""
 MAX_PASSES = 6
 """Most passes of kinematics and plates until the kinematics hold (make_subject)."""
+TRUTH_MARGIN = 0.1
+"""[s] How much wider than the real stance's window the truth's wrench is written
+(:func:`truth_windows`): a swing is 0.35-0.45 s, so two widened windows of one foot do not
+meet, and the frames the fitter's margins add to a stance (:data:`gc_ocp.workflow.fitting.MARGIN`,
+on plates the truth made) lie inside."""
 KIN_TOL = 2e-5
 """[m] The passes stop when no foot point moves more than this between two passes (a fiftieth
 of a millimetre), or when the move stops shrinking: a stance's onset can move by a fraction of
@@ -300,6 +305,26 @@ def _write_plates(path: Path, t: np.ndarray, sim, noise=None) -> Path:
     return write_grf(path, t, wrench, height, min_force=THRESHOLD)
 
 
+def truth_windows(trc: Path, real_grf: Path, trial, kin, stances) -> list:
+    """The frames the truth's wrench is written on: each real stance's window (its margin
+    included) widened by :data:`TRUTH_MARGIN` each side, on the subject's kinematics ``kin``
+    (its own unit points). A plate cut where the truth still carries load is a step no model
+    fits: the Helen Hayes truth still loads its left foot at the real window's end (the
+    refit's law carried past the real stance), and cut there it moved the fitted n by +3 SE."""
+    from gc_ocp.io import load_trial
+    from gc_ocp.workflow.fitting import MARGIN, fit_data
+
+    real = load_trial(trc, real_grf, mass=trial.mass, height=trial.height)
+    _, wide, _ = fit_data([(real, kin)], margin=MARGIN + TRUTH_MARGIN)
+    for st in stances:  # every truth stance inside one widened window of its foot
+        if not any(
+            w.side == st.side and w.time[0] <= st.time[0] and st.time[-1] <= w.time[-1]
+            for w in wide
+        ):
+            raise RuntimeError(f"{trc}: no widened window holds the truth's stance {st.label}")
+    return wide
+
+
 def make_subject(
     j: int, spec, motion, folder: Path, real_grf: Path, design: str = "fitted-pose"
 ) -> dict:
@@ -331,7 +356,8 @@ def make_subject(
     noisy = markers + rng.normal(0.0, MARKER_NOISE, markers.shape)
     write_trc(trc, names, noisy, trial.marker_time)
     # the kinematics the fitter will compute from this TRC (the truth moves as they say); the
-    # stance windows and reference points are the real trial's. ``own_points`` (refit-seen,
+    # stance windows (widened with own points, truth_windows) and reference points are the real
+    # trial's. ``own_points`` (refit-seen,
     # refit-subject): the truth's units sit on the subject's own landmark estimate (the
     # fitter's unit points; the truth's sole offsets are relative to them). The kinematics
     # depend on the plates through the stances' timing (the sole height is calibrated over
@@ -351,16 +377,19 @@ def make_subject(
                 residual = moved
                 break  # the plates at ``source``: the truth on ``last``, ``moved`` from these
             residual = moved
-        cut = []
-        for st in stances:
-            foot = kin.feet[st.side].window(st.time[0], st.time[-1])
-            if foot.time.shape != st.time.shape:
-                raise RuntimeError(
-                    f"{trc}: stance {st.label} has other frames in the TRC's kinematics"
-                )
-            if fitted is None and not own_points:  # the fit's unit points
-                foot = foot.with_points(true_kin.feet[st.side].points_local)
-            cut.append(st.with_foot(foot))
+        if own_points:  # on the subject's own unit points, windows widened
+            cut = truth_windows(trc, real_grf, trial, kin, stances)
+        else:
+            cut = []
+            for st in stances:
+                foot = kin.feet[st.side].window(st.time[0], st.time[-1])
+                if foot.time.shape != st.time.shape:
+                    raise RuntimeError(
+                        f"{trc}: stance {st.label} has other frames in the TRC's kinematics"
+                    )
+                if fitted is None:  # the fit's unit points
+                    foot = foot.with_points(true_kin.feet[st.side].points_local)
+                cut.append(st.with_foot(foot))
         if design == "refit-subject":  # to the real plates, on these kinematics
             real = load_trial(trc, real_grf, mass=trial.mass, height=trial.height)
             truth, s = subject_truth(subject_refit(real, kin), np.random.default_rng(2000 + j))
