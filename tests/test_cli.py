@@ -203,6 +203,17 @@ def test_the_sole_table_names_an_estimated_prior_width():
     assert "foot frame; prior 5 mm" in macro.render(w=5.0)
 
 
+def test_the_pose_prior_text_names_estimated_widths():
+    """The reports' pose line gives the widths the fit used: per axis where they differ (an
+    estimated width), the component's defaults for a fit.json written before they were
+    recorded."""
+    from gc_ocp.html.fit_tables import pose_prior_text
+
+    assert pose_prior_text({}) == "2 mm / 1 deg"
+    block = {"prior_mm": [0.2, 0.2, 2.744], "prior_deg": [0.1, 0.1, 0.1]}
+    assert pose_prior_text(block) == "x 0.2, y 0.2, z 2.7 mm / 0.1 deg"
+
+
 def test_fit_with_an_effect_shows_its_block(tmp_path, capsys):
     """``fit --effects friction``: the full model plus the Stribeck friction; its block is in
     fit.json, its parameters in the printed summary, the option in the provenance."""

@@ -168,6 +168,8 @@ def test_the_pose_width_follows_the_kinematic_error_in_the_data(drift_mm):
         res = solve(build_estimation(sts, model), IpoptOptions())
         _, res2, scale = estimate_pose_scale(sts, model, res)
     mm = np.mean(scale.sigma_mm)
+    # the refit's pose block records the widths it used (the reports print them)
+    assert res2.blocks["pose"]["prior_mm"] == pytest.approx(np.broadcast_to(scale.sigma_mm, 3))
     if drift_mm:
         assert mm > 2.0
         # a wider prior makes the same correction cheaper: the refit ends lower

@@ -33,6 +33,7 @@ from gc_ocp.html.fit_tables import (
     effect_blocks,
     fmt_num,
     pm,
+    pose_prior_text,
     rms_table,
     sole_prior_mm,
     sole_table,
@@ -271,6 +272,7 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         "contact": contact_tables(res.params),
         "sole": sole_table(res.blocks.get("sole", {})),
         "sole_prior_mm": sole_prior_mm(res.blocks.get("sole") or {}),
+        "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),
         "belt": [
             (trial, pm(v, "value", ".3f"), v.get("nominal")) for trial, v in res.belt_speed.items()
         ],

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS
 
 CORE_BLOCKS = ("contact", "sole", "pose", "belt")
@@ -120,6 +122,24 @@ def sole_prior_mm(sole: dict) -> float:
     from gc_ocp.estimation.components.sole import SoleCorrection
 
     return float(sole.get("prior_mm", SoleCorrection.sigma * 1e3))
+
+
+def pose_prior_text(pose: dict) -> str:
+    """The pose correction's prior widths the fit used, as a report prints them: ``"2 mm / 1
+    deg"``, or per ``lab`` axis where they differ (an estimated width,
+    :mod:`gc_ocp.estimation.pose_scale`). From its block's ``prior_mm`` / ``prior_deg``; a
+    ``fit.json`` written before the widths were recorded had the component's defaults."""
+    from gc_ocp.estimation.components.pose import PoseCorrection
+
+    def axes(values, default, unit: str) -> str:
+        v = np.broadcast_to(np.asarray(values if values is not None else default, float), 3)
+        if np.allclose(v, v[0]):
+            return f"{v[0]:.3g} {unit}"
+        return ", ".join(f"{a} {x:.2g}" for a, x in zip("xyz", v, strict=True)) + f" {unit}"
+
+    mm = axes(pose.get("prior_mm"), PoseCorrection.sigma_mm, "mm")
+    deg = axes(pose.get("prior_deg"), PoseCorrection.sigma_deg, "deg")
+    return f"{mm} / {deg}"
 
 
 def flatten_block(block, prefix: str = "", depth: int = 0) -> list[tuple[str, str]]:

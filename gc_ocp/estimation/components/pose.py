@@ -201,7 +201,9 @@ class PoseCorrection(Component):
 
     def decode(self, ctx: DecodeContext) -> dict:
         """``{"rms": {side: {"mm", "deg"}}, "stances": {label: {"translation_m": (T, 3),
-        "rotation_rad": (T, 3)}}}``: the correction's RMS per foot and its trajectories."""
+        "rotation_rad": (T, 3)}}, "prior_mm": [x, y, z], "prior_deg": [x, y, z]}``: the
+        correction's RMS per foot, its trajectories and its prior's widths per ``lab`` axis
+        (estimated ones too, :mod:`gc_ocp.estimation.pose_scale`)."""
         sq: dict = {s: ([], []) for s in SIDES}
         per: dict = {}
         for i, st in enumerate(ctx.stances):
@@ -217,7 +219,12 @@ class PoseCorrection(Component):
             for s, v in sq.items()
             if v[0]
         }
-        return {"rms": rms, "stances": per}
+        return {
+            "rms": rms,
+            "stances": per,
+            "prior_mm": np.broadcast_to(np.asarray(self.sigma_mm, float), 3).tolist(),
+            "prior_deg": np.broadcast_to(np.asarray(self.sigma_deg, float), 3).tolist(),
+        }
 
 
 def _noise_part(foot, noise) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
