@@ -622,7 +622,7 @@ def main() -> None:
     ap.add_argument(
         "--sole-run",
         action="store_true",
-        help="also run the subjects with the sole correction's width estimated (sole_scale)",
+        help="also run the subjects with the sole correction's 5 mm prior (sole_scale=False; the default estimates its width; runs before 2026-11-27 had it the other way round)",
     )
     ap.add_argument(
         "--loop-only",
@@ -684,11 +684,11 @@ def main() -> None:
         f"median {np.median(res_mm):.3f} mm, max {res_mm.max():.3f} mm over the subjects."
     )
     runs = [(f"out_{last}", f"{last}-worker run")]
-    if args.sole_run:  # the same subjects with the sole correction's width estimated too
+    if args.sole_run:  # the same subjects with the sole correction's fixed 5 mm prior
         from gc_ocp.batch.subject import Settings
 
-        run(manifest, work / "out_sole", workers=last, settings=Settings(sole_scale=True))
-        runs.append(("out_sole", f"{last}-worker run, sole width estimated (sole_scale)"))
+        run(manifest, work / "out_sole", workers=last, settings=Settings(sole_scale=False))
+        runs.append(("out_sole", f"{last}-worker run, the 5 mm sole prior (sole_scale=False)"))
     for folder, what in runs:
         z, left_out = z_scores(work / folder, subjects)
         print(f"\nz = (estimate - truth) / SE, {what}, of what each fit reports identified:\n")

@@ -122,10 +122,11 @@ def build_parser() -> argparse.ArgumentParser:
         "it from the stances (docs/quality.md).",
     )
     p.add_argument(
-        "--estimate-sole-width",
+        "--fixed-sole-width",
         action="store_true",
-        help="Also estimate the sole correction's width (its prior: 5 mm) from the stances, "
-        "between 1 and 10 mm (docs/quality.md, 'The sole correction's width').",
+        help="Keep the sole correction's 5 mm prior width instead of estimating it from the "
+        "stances between 1 and 10 mm (docs/quality.md, 'The sole correction's width'); "
+        "--fixed-pose-width keeps it too.",
     )
     p.add_argument(
         "--effects",
@@ -285,9 +286,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--fixed-pose-width; faster).",
     )
     p.add_argument(
-        "--estimate-sole-width",
+        "--fixed-sole-width",
         action="store_true",
-        help="Also estimate the sole correction's width (as gc-ocp fit --estimate-sole-width).",
+        help="Keep the sole correction's prior width (as gc-ocp fit --fixed-sole-width).",
     )
     p.set_defaults(func=cmd_batch)
 

@@ -119,7 +119,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
                 progress=_progress,
                 extends=extends,
                 pose_scale=not args.fixed_pose_width,
-                sole_scale=args.estimate_sole_width,
+                sole_scale=False if args.fixed_sole_width else None,
             )
         except SolveError as e:
             if e.result is not None:
@@ -274,7 +274,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         settings=Settings(
             diagnose=args.diagnose,
             pose_scale=not args.fixed_pose_width,
-            sole_scale=args.estimate_sole_width,
+            sole_scale=not args.fixed_sole_width,
         ),
         workers=args.workers,
         scheduler=args.scheduler,

@@ -183,7 +183,7 @@ def fit(
     start: EstimationResult | None = None,
     extends: tuple | None = None,
     pose_scale: bool = True,
-    sole_scale: bool = False,
+    sole_scale: bool | None = None,
 ) -> FitReport:
     """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
 
@@ -197,10 +197,14 @@ def fit(
     so that the problem's non-convexity cannot leave the extended model above it.
     pose_scale: estimate the pose correction's smooth width from the fitted stances
     (:mod:`gc_ocp.estimation.pose_scale`; the held-out stance then uses it too); False keeps the
-    component's prior. sole_scale: with ``pose_scale``, estimate the sole correction's width in
-    the same rounds (:func:`~gc_ocp.estimation.pose_scale.sole_update`).
+    component's prior. sole_scale: estimate the sole correction's width in the same rounds
+    (:func:`~gc_ocp.estimation.pose_scale.sole_update`); None (default): whenever the pose
+    width is estimated; False: the component's 5 mm prior (``docs/quality.md``, 'The sole
+    correction's width').
     """
     say = progress or (lambda s: None)
+    if sole_scale is None:
+        sole_scale = pose_scale
     if sole_scale and not pose_scale:
         raise InputError(
             "The sole correction's width is estimated in the pose width's rounds: keep "
