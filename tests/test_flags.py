@@ -29,6 +29,18 @@ def test_parameter_at_a_bound_and_correction_beyond_three_sigma():
     assert [f["what"] for f in variable_flags(specs, x_kmax)] == ["contact/k/left/PL"]
 
 
+def test_a_correction_on_its_bound_inside_three_sigma_is_flagged():
+    """An estimated sole width of 10 mm puts the 25 mm bound at 2.5 sigma: a correction stopped
+    there is below the prior_exceeded threshold, yet its SE is not meaningful."""
+    v = Variables()
+    v.prior_variable(("sole", "right", "TT"), 3, 0.010, 0.025)
+    v.finalize()
+    flags = variable_flags(v.specs, np.array([-2.5, 0.3, 0.0]))
+    assert [(f["code"], f["what"]) for f in flags] == [("at_bound", "sole/right/TT")]
+    assert "2.5 sigma" in flags[0]["message"]
+    assert variable_flags(v.specs, np.array([-2.4, 0.3, 0.0])) == []
+
+
 def test_unit_not_identified_and_reported_so():
     from types import SimpleNamespace
 

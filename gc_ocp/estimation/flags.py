@@ -9,7 +9,9 @@ Every result carries ``flags``: a list of ``{"code", "what", "message"}`` (plain
 * ``prior_exceeded`` — a correction (a variable with a Gaussian prior) beyond 3 sigma of its prior
   (probability 0.3 % under the prior): the data pull the correction much further than the
   marker-registration uncertainty it stands for, e.g. a foot placed centimetres off its markers.
-  One flag per variable block, with its largest |z|.
+  One flag per variable block, with its largest |z|. A correction on its bound is flagged
+  ``at_bound`` instead: an estimated prior width can put the bound inside 3 sigma (the sole's
+  25 mm is 2.5 sigma of a 10 mm width), where no ``prior_exceeded`` would fire.
 * component checks (:meth:`Component.flags`), e.g. a contact unit that is not identified (SE
   above its value, or a force at the reference depth above 2 BW), a belt speed the data do not
   inform;
@@ -32,16 +34,23 @@ def flag(code: str, what: str, message: str) -> dict:
     return {"code": code, "what": what, "message": message}
 
 
+def _at_bound(s, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(at the lower bound, at the upper bound) per entry of block ``s`` at stored values ``z``:
+    within :data:`BOUND_FRACTION` of the range (of the value, for a one-sided range)."""
+    span = np.where(np.isfinite(s.ub - s.lb), s.ub - s.lb, np.maximum(np.abs(z), 1.0))
+    lo = np.isfinite(s.lb) & (z - s.lb <= BOUND_FRACTION * span)
+    hi = np.isfinite(s.ub) & (s.ub - z <= BOUND_FRACTION * span)
+    return lo, hi
+
+
 def variable_flags(specs, x: np.ndarray) -> list[dict]:
     """``at_bound`` and ``prior_exceeded`` flags from the variable blocks at ``x``."""
     out = []
     for s in specs:
         z = np.asarray(x[s.slice], float)
         key = "/".join(map(str, s.key))
+        lo, hi = _at_bound(s, z)
         if s.kind == "param":
-            span = np.where(np.isfinite(s.ub - s.lb), s.ub - s.lb, np.maximum(np.abs(z), 1.0))
-            lo = np.isfinite(s.lb) & (z - s.lb <= BOUND_FRACTION * span)
-            hi = np.isfinite(s.ub) & (s.ub - z <= BOUND_FRACTION * span)
             for j in np.flatnonzero(lo | hi):
                 which, b = ("lower", s.lb[j]) if lo[j] else ("upper", s.ub[j])
                 val = s.physical(z)[j]
@@ -54,6 +63,17 @@ def variable_flags(specs, x: np.ndarray) -> list[dict]:
                         "(the data push it beyond the allowed range; its SE is not meaningful)",
                     )
                 )
+        elif s.kind == "prior" and z.size and (lo | hi).any():
+            j = int(np.flatnonzero(lo | hi)[0])
+            out.append(
+                flag(
+                    "at_bound",
+                    key,
+                    f"{key}: correction on its bound ({abs(float(s.lb[j] if lo[j] else s.ub[j])):.2g} "
+                    "sigma of its prior): the data push it beyond the allowed range; its SE is not "
+                    "meaningful",
+                )
+            )
         elif s.kind == "prior" and z.size:
             zmax = float(np.max(np.abs(z)))
             if zmax > PRIOR_Z:
