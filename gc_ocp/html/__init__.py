@@ -15,7 +15,7 @@ import io
 
 import jinja2
 
-from gc_ocp.html.fit_tables import fmt_num
+from gc_ocp.html.fit_tables import fmt_num, pm_value
 
 FIGURE_DPI = 100
 
@@ -35,6 +35,7 @@ def environment(*packages: str) -> jinja2.Environment:
         keep_trailing_newline=True,
     )
     env.filters["num"] = fmt_num
+    env.filters["pm"] = pm_value  # value | pm(se): "value ± SE" as every table shows it
     env.filters["fmt"] = format
     return env
 

@@ -64,8 +64,11 @@ def pm(d: dict, key: str, fmt: str = ".4g") -> str:
 
 
 def pm_value(value: float, se: float | None, fmt: str = ".4g", unit: str = "") -> str:
-    """``value ± SE unit``; no SE: the value alone; a zero SE marks a fixed value."""
+    """``value ± SE unit``; no SE: the value alone; a zero SE marks a fixed value; no value
+    (a failed fit's empty cell): "–"."""
     unit = "" if unit in ("", "-") else f" {unit}"
+    if fmt_num(value) == "–":
+        return "–"
     if se is None:
         return fmt_num(value, fmt) + unit
     if se == 0:
