@@ -156,6 +156,12 @@ def main() -> None:
         action="store_true",
         help="keep the pose correction's guessed width (the estimator before issue 23)",
     )
+    ap.add_argument(
+        "--fixed-sole-width",
+        action="store_true",
+        help="keep the sole correction's 5 mm prior (fit's default until 2026-11-27; runs "
+        "before then had it)",
+    )
     args = ap.parse_args()
     truth = default_truth()
     rng0 = np.random.default_rng(1)
@@ -186,7 +192,8 @@ def main() -> None:
             res = solve(pb, IpoptOptions())
             fitted = model
             if not args.fixed_width:
-                fitted, res, _ = estimate_pose_scale(data, model, res)
+                sole = not args.fixed_sole_width  # as gc_ocp.fit: with the pose width
+                fitted, res, _ = estimate_pose_scale(data, model, res, sole=sole)
                 pb = build_estimation(data, fitted)
         except Exception as e:
             print(f"draw {i}: {type(e).__name__}", file=sys.stderr)

@@ -190,7 +190,11 @@ def test_cli_fit(tmp_path):
 
     assert main(["fit", "--out", str(tmp_path)]) == 0
     d = json.loads((tmp_path / "fit.json").read_text())
-    assert d["solver"]["status"] == "Solve_Succeeded"
+    # converged: Ipopt's full tolerance, or its acceptable level once the objective changes by
+    # < 1e-6 (relative) over 5 iterations (IpoptOptions.acceptable_obj_change_tol), the stop the
+    # package asks for; anything else (iteration limit, restoration failure) is not success
+    assert d["solver"]["success"] is True
+    assert d["solver"]["status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
     assert set(d["params"]["left"]) >= set(UNITS)
     from gc_ocp.estimation import EstimationResult
 
