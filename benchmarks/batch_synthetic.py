@@ -305,23 +305,23 @@ def _write_plates(path: Path, t: np.ndarray, sim, noise=None) -> Path:
     return write_grf(path, t, wrench, height, min_force=THRESHOLD)
 
 
-def truth_windows(trc: Path, real_grf: Path, trial, kin, stances) -> list:
+def truth_windows(real, kin, stances) -> list:
     """The frames the truth's wrench is written on: each real stance's window (its margin
-    included) widened by :data:`TRUTH_MARGIN` each side, on the subject's kinematics ``kin``
-    (its own unit points). A plate cut where the truth still carries load is a step no model
+    included; ``real``: the subject's TRC loaded with the real plates) widened by
+    :data:`TRUTH_MARGIN` each side, on the subject's kinematics ``kin`` (its own unit points). A plate cut where the truth still carries load is a step no model
     fits: the Helen Hayes truth still loads its left foot at the real window's end (the
     refit's law carried past the real stance), and cut there it moved the fitted n by +3 SE."""
-    from gc_ocp.io import load_trial
     from gc_ocp.workflow.fitting import MARGIN, fit_data
 
-    real = load_trial(trc, real_grf, mass=trial.mass, height=trial.height)
     _, wide, _ = fit_data([(real, kin)], margin=MARGIN + TRUTH_MARGIN)
     for st in stances:  # every truth stance inside one widened window of its foot
         if not any(
             w.side == st.side and w.time[0] <= st.time[0] and st.time[-1] <= w.time[-1]
             for w in wide
         ):
-            raise RuntimeError(f"{trc}: no widened window holds the truth's stance {st.label}")
+            raise RuntimeError(
+                f"{real.source}: no widened window holds the truth's stance {st.label}"
+            )
     return wide
 
 
@@ -356,15 +356,16 @@ def make_subject(
     noisy = markers + rng.normal(0.0, MARKER_NOISE, markers.shape)
     write_trc(trc, names, noisy, trial.marker_time)
     # the kinematics the fitter will compute from this TRC (the truth moves as they say); the
-    # stance windows (widened with own points, truth_windows) and reference points are the real
-    # trial's. ``own_points`` (refit-seen,
-    # refit-subject): the truth's units sit on the subject's own landmark estimate (the
-    # fitter's unit points; the truth's sole offsets are relative to them). The kinematics
-    # depend on the plates through the stances' timing (the sole height is calibrated over
-    # 20-45 % of each stance): passes go on, each computing them with the previous pass's
-    # noise-free plates (and refitting the refit-subject truth on them), until they hold to
-    # KIN_TOL; the fitter then sees the kinematics the truth moved by
+    # stance windows (widened with own points, truth_windows) and reference points are the
+    # real trial's. ``own_points`` (refit-seen, refit-subject): the truth's units sit on the
+    # subject's own landmark estimate (the fitter's unit points; the truth's sole offsets are
+    # relative to them). The kinematics depend on the plates through the stances' timing (the
+    # sole height is calibrated over 20-45 % of each stance): passes go on, each computing them
+    # with the previous pass's noise-free plates (and refitting the refit-subject truth on
+    # them), until they hold to KIN_TOL; the fitter then sees the kinematics the truth moved by
     source, last, residual = real_grf, None, 0.0
+    # the subject's TRC with the real plates: their stance windows (own points)
+    real = load_trial(trc, real_grf, mass=trial.mass, height=trial.height) if own_points else None
     for _ in range(MAX_PASSES if own_points else 1):
         if design == "refit-true":  # the truth moves by the noise-free kinematics
             kin = true_kin
@@ -378,7 +379,7 @@ def make_subject(
                 break  # the plates at ``source``: the truth on ``last``, ``moved`` from these
             residual = moved
         if own_points:  # on the subject's own unit points, windows widened
-            cut = truth_windows(trc, real_grf, trial, kin, stances)
+            cut = truth_windows(real, kin, stances)
         else:
             cut = []
             for st in stances:
@@ -391,7 +392,6 @@ def make_subject(
                     foot = foot.with_points(true_kin.feet[st.side].points_local)
                 cut.append(st.with_foot(foot))
         if design == "refit-subject":  # to the real plates, on these kinematics
-            real = load_trial(trc, real_grf, mass=trial.mass, height=trial.height)
             truth, s = subject_truth(subject_refit(real, kin), np.random.default_rng(2000 + j))
         # at=None: no pose correction; no noise here (added once below)
         sim = simulate(cut, truth, rng, plate_noise_pct_bw=0.0, at=fitted)
@@ -622,7 +622,8 @@ def main() -> None:
     ap.add_argument(
         "--sole-run",
         action="store_true",
-        help="also run the subjects with the sole correction's 5 mm prior (sole_scale=False; the default estimates its width; runs before 2026-11-27 had it the other way round)",
+        help="also run the subjects with the sole correction's 5 mm prior (sole_scale=False; "
+        "the default estimates its width; runs before 2026-11-27 had it the other way round)",
     )
     ap.add_argument(
         "--loop-only",
