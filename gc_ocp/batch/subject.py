@@ -50,11 +50,11 @@ class Settings:
     """What every subject of a run is fitted with: ``diagnose`` (also run the sim-to-real
     diagnosis on the subject's trials), ``pose_scale`` (estimate the pose correction's width,
     as ``gc-ocp fit`` does by default), ``sole_scale`` (estimate the sole correction's width
-    too, in the same rounds: so only with ``pose_scale``, as ``gc-ocp fit`` does by default)."""
+    too; None: as :func:`gc_ocp.workflow.fitting.fit` decides, with ``pose_scale``)."""
 
     diagnose: bool = False
     pose_scale: bool = True
-    sole_scale: bool = True
+    sole_scale: bool | None = None
 
     def to_json(self) -> dict:
         return dataclasses.asdict(self)
@@ -276,7 +276,7 @@ def _fit_subject(
             pairs,
             holdout=subject.holdout,
             pose_scale=settings.pose_scale,
-            sole_scale=settings.sole_scale and settings.pose_scale,
+            sole_scale=settings.sole_scale,
         )
         fit_doc = write_fit(
             out, report, prov, {"trials": [kin.info.get("landmarks") for _, kin in pairs]}

@@ -274,7 +274,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
         settings=Settings(
             diagnose=args.diagnose,
             pose_scale=not args.fixed_pose_width,
-            sole_scale=not args.fixed_sole_width,
+            sole_scale=False if args.fixed_sole_width else None,
         ),
         workers=args.workers,
         scheduler=args.scheduler,
