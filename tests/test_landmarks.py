@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from conftest import DATA, G23, _need_data, c3d_trial, gait2392_trial
 
-from gc_ocp.errors import MarkerError
+from gc_ocp.errors import InputError, MarkerError
 from gc_ocp.gaps import fill_rigid_gaps
 from gc_ocp.model.landmarks import classify, split_side
 from gc_ocp.model.markerset import detect_markerset
@@ -426,9 +426,9 @@ def test_a_first_metatarsal_marker_alone_places_the_medial_unit():
     and first metatarsal head left): the first metatarsal head is medial, so the medial
     anterior unit sits at it and the lateral one a foot width lateral. Checked in the lab
     against the full-marker layout (both metatarsal heads) over the left stance's foot-flat
-    (20-60 % of stance): each anterior unit within 2 cm (the chain-posed foot's roll about the
-    heel-metatarsal line is off by ~9 deg, ~1 cm at a unit; the foot-width ratio against this
-    subject's metatarsal spacing). Taking the marker as the mid-line put them ~5 cm off. (The
+    (20-60 % of stance): each anterior unit within 2 cm (the Davis foot's roll about the
+    heel-metatarsal line is levelled while the full-marker foot rolls 4-9 deg in a stance,
+    ~5 mm at a unit; the foot-width ratio against this subject's metatarsal spacing). Taking the marker as the mid-line put them ~5 cm off. (The
     right foot's metatarsal markers have gaps in its stances, so its full-marker pose is
     itself chain-posed there.)"""
     import dataclasses
@@ -447,7 +447,8 @@ def test_a_first_metatarsal_marker_alone_places_the_medial_unit():
             marker_names=tuple(trial.marker_names[i] for i in keep),
             markers=np.asarray(trial.markers)[:, keep],
         )
-        full, cut = compute_kinematics(trial), compute_kinematics(davis)
+        full, cut = compute_kinematics(trial), compute_kinematics(davis, foot_roll="level")
+        chain = compute_kinematics(davis)
     st = next(s for s in trial.stances if s.side == "left")
     a, b = full.feet["left"], cut.feet["left"]
     w = np.flatnonzero(
@@ -457,6 +458,55 @@ def test_a_first_metatarsal_marker_alone_places_the_medial_unit():
     # AL, AM (units 2, 3) in the lab over the window
     err = np.median(np.linalg.norm(b.positions[w, 2:4] - a.positions[w, 2:4], axis=2), axis=0)
     assert np.all(err < 0.02), err
+    # foot_roll="level": the two-landmark foot's Y axis horizontal on every frame of the window
+    # (round-off of the rotation: 1e-9); the default poses it through the chain, and the
+    # full-marker foot by its markers: neither is level (> 3 deg somewhere in the window)
+    assert np.abs(b.hindfoot_pose[w, 2, 1]).max() < 1e-9
+    assert np.abs(chain.feet["left"].hindfoot_pose[w, 2, 1]).max() > 0.05
+    assert np.abs(a.hindfoot_pose[w, 2, 1]).max() > 0.05
+    assert cut.info["foot_roll"] == {"left": "level", "right": "level"}
+    assert chain.info["foot_roll"] == {"left": "chain", "right": "chain"}
+    assert full.info["foot_roll"] == {"left": "markers", "right": "markers"}
+    with pytest.raises(InputError, match="foot_roll"):
+        compute_kinematics(davis, foot_roll="flat")
+
+
+def test_level_roll_undoes_a_roll_about_the_landmarks_and_keeps_them():
+    """A foot rolled by a known angle about the line through its two landmarks comes back level
+    (hindfoot Y horizontal), the landmarks where they were and the toes welded to it; the
+    angle taken is the smallest (the roll undone, not the level pose turned over)."""
+    from scipy.spatial.transform import Rotation
+
+    from gc_ocp.kinematics.pipeline import level_roll
+
+    rng = np.random.default_rng(3)
+    n = 7
+    yaw, pitch = rng.uniform(-1.0, 1.0, n), rng.uniform(-0.4, 0.4, n)  # any heading, toe up/down
+    R0 = Rotation.from_euler("ZY", np.c_[yaw, pitch]).as_matrix()  # level: Y horizontal
+    p0 = rng.normal(size=(n, 3))
+    heel, met = np.array([-0.05, 0.0, -0.03]), np.array([0.15, -0.03, -0.02])  # in the foot
+    a, b = p0 + R0 @ heel, p0 + R0 @ met
+    u = (b - a) / np.linalg.norm(b - a, axis=1, keepdims=True)
+    psi = np.deg2rad(rng.uniform(-25, 25, n))
+    Rr = Rotation.from_rotvec(u * psi[:, None]).as_matrix()
+    toes_in_hind = np.eye(4)
+    toes_in_hind[:3, 3] = [0.12, 0.0, 0.01]
+
+    def pose(R, p):
+        M = np.tile(np.eye(4), (n, 1, 1))
+        M[:, :3, :3], M[:, :3, 3] = R, p
+        return M
+
+    rolled = pose(Rr @ R0, a + np.einsum("tij,tj->ti", Rr, p0 - a))
+    out = level_roll({"hindfoot": rolled, "toes": rolled @ toes_in_hind}, a, b)
+    H = out["hindfoot"]
+    assert np.abs(H[:, 2, 1]).max() < 1e-12  # Y horizontal
+    np.testing.assert_allclose(H[:, :3, :3], R0, atol=1e-12)  # the smallest angle: psi undone
+    np.testing.assert_allclose(H[:, :3, 3] + H[:, :3, :3] @ heel, a, atol=1e-12)
+    np.testing.assert_allclose(H[:, :3, 3] + H[:, :3, :3] @ met, b, atol=1e-12)
+    np.testing.assert_allclose(
+        np.linalg.inv(H) @ out["toes"], np.tile(toes_in_hind, (n, 1, 1)), atol=1e-12
+    )
 
 
 def test_cli_kinematics_writes_and_prints_landmarks(tmp_path, capsys):

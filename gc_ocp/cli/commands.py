@@ -143,7 +143,11 @@ def cmd_fit(args: argparse.Namespace) -> int:
             def kin(t, cutoff_hz):
                 static = load_static(args.static, t) if args.static is not None else None
                 return compute_kinematics(
-                    t, markerset=args.markerset, static=static, cutoff_hz=cutoff_hz
+                    t,
+                    markerset=args.markerset,
+                    static=static,
+                    cutoff_hz=cutoff_hz,
+                    foot_roll=args.foot_roll,
                 )
 
             sens = sensitivity(

@@ -63,6 +63,14 @@ def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> Non
             default=None,
             help="Marker low-pass cutoff [Hz] (zero-lag 4th-order Butterworth; default 6).",
         )
+        p.add_argument(
+            "--foot-roll",
+            choices=("chain", "level"),
+            default="chain",
+            help="A foot with two landmarks (heel and one forefoot marker): its roll about "
+            "them as the body chain poses it (chain, default) or level across (level); "
+            "docs/quality.md, 'A Davis-like foot'.",
+        )
 
 
 def _load(args: argparse.Namespace):
@@ -96,7 +104,12 @@ def _kinematics(trial, args):
         kw["cutoff_hz"] = args.cutoff
     static = load_static(args.static, trial) if args.static is not None else None
     return compute_kinematics(
-        trial, markerset=args.markerset, static=static, progress=_progress, **kw
+        trial,
+        markerset=args.markerset,
+        static=static,
+        progress=_progress,
+        foot_roll=args.foot_roll,
+        **kw,
     )
 
 

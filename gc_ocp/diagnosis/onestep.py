@@ -24,6 +24,7 @@ import warnings
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 
 from gc_ocp.diagnosis.compare import held_out
@@ -195,8 +196,15 @@ def linearize_child(
 
 
 def _solve(G: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """``(G + eps I)^-1 rhs`` for a symmetric positive semi-definite ``G`` (a Gauss-Newton
+    matrix with priors): Cholesky (half an LU's work; these solves are most of a null draw's
+    scoring), LU where round-off leaves the factor undefined."""
     eps = 1e-10 * max(float(np.trace(G)) / max(G.shape[0], 1), 1e-300)
-    return np.linalg.solve(G + eps * np.eye(G.shape[0]), rhs)
+    Ge = G + eps * np.eye(G.shape[0])
+    try:
+        return sla.cho_solve(sla.cho_factor(Ge, check_finite=False), rhs, check_finite=False)
+    except np.linalg.LinAlgError:
+        return np.linalg.solve(Ge, rhs)
 
 
 MAX_ACTIVE_SET = 6

@@ -168,34 +168,106 @@ def sole_points_xy(
 
 
 def calibrate_sole_height(
-    body: BodyModel, side: str, q: np.ndarray, points: np.ndarray, floors: np.ndarray
+    body: BodyModel,
+    side: str,
+    q: np.ndarray,
+    points: np.ndarray,
+    floors: np.ndarray,
+    poses: dict[str, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Set each unit's local Z so that its mean lab height over poses ``q`` ``(n, nq)`` equals
-    ``floors`` ``(n,)`` [m] (feet flat on the floor). Returns the new ``(5, 3)`` points."""
-    data = body.create_data()
-    ids = body.foot_frames(side)
+    ``floors`` ``(n,)`` [m] (feet flat on the floor). ``poses``: the foot segments' placements
+    ``{"hindfoot", "toes": (n, 4, 4)}`` at ``q`` when they are not the model's (a levelled
+    roll, :func:`level_roll`). Returns the new ``(5, 3)`` points."""
+    poses = poses or foot_poses(body, q, side)
     pts = points.copy()
-    num = np.zeros(len(UNITS))
-    den = np.zeros(len(UNITS))
-    for qk, fl in zip(q, floors, strict=True):
-        pin.framesForwardKinematics(body.model, data, qk)
-        for i, u in enumerate(UNITS):
-            M = data.oMf[ids[SEED_LAYOUT.parent(u)]]
-            R, p = M.rotation, M.translation
-            # lab z = p_z + R[2,0] x + R[2,1] y + R[2,2] z = floor  ->  z
-            num[i] += (fl - p[2] - R[2, 0] * pts[i, 0] - R[2, 1] * pts[i, 1]) / R[2, 2]
-            den[i] += 1
-    pts[:, 2] = num / den
+    for i, u in enumerate(UNITS):
+        M = poses[SEED_LAYOUT.parent(u)]
+        R, p = M[:, :3, :3], M[:, :3, 3]
+        # lab z = p_z + R[2,0] x + R[2,1] y + R[2,2] z = floor  ->  z
+        z = (floors - p[:, 2] - R[:, 2, 0] * pts[i, 0] - R[:, 2, 1] * pts[i, 1]) / R[:, 2, 2]
+        pts[i, 2] = float(np.mean(z))
     return pts
 
 
+def foot_poses(body: BodyModel, q: np.ndarray, side: str) -> dict[str, np.ndarray]:
+    """``{"hindfoot", "toes": (n, 4, 4)}``: the foot segments' placements in ``lab`` over ``q``."""
+    data = body.create_data()
+    ids = body.foot_frames(side)
+    out = {k: np.empty((len(q), 4, 4)) for k in ids}
+    for k, qk in enumerate(q):
+        pin.framesForwardKinematics(body.model, data, qk)
+        for name, f in ids.items():
+            out[name][k] = data.oMf[f].homogeneous
+    return out
+
+
+def level_roll(poses: dict[str, np.ndarray], a: np.ndarray, b: np.ndarray) -> dict[str, np.ndarray]:
+    """The foot's placements rotated, frame by frame, about the line through its two landmarks
+    ``a``, ``b`` ``(n, 3)`` [m, ``lab``] by the smallest angle that makes the hindfoot's
+    medio-lateral axis (local Y) horizontal: a foot with two landmarks (a Davis foot: heel and
+    one metatarsal head) does not show its roll about the line through them, and the body
+    chain that poses it otherwise (shank markers, knee and ankle joints) carries the shank's
+    axial rotation into it (12-15 deg off a full-marker foot, 21 deg peak to peak within a
+    stance on the BTS subject, ``benchmarks/davis_foot_output.md``). Level across is the
+    foot's posture where it matters, on the ground (as Plug-in Gait's "foot flat" option
+    assumes at the static trial); the landmarks stay where they are. Where no angle levels it
+    (the line near vertical, in swing) the nearest is taken."""
+    H = poses["hindfoot"]
+    u = b - a
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = H[:, :3, 1]  # the hindfoot's Y axis in lab
+    c = u[:, 2] * np.einsum("ti,ti->t", u, v)  # Rodrigues: z of Rot(u, phi) v
+    A, B = v[:, 2] - c, np.cross(u, v)[:, 2]  # = A cos(phi) + B sin(phi) + c
+    r = np.hypot(A, B)
+    base = np.arctan2(B, A)
+    ratio = np.clip(-c / np.maximum(r, 1e-12), -1.0, 1.0)
+    cands = np.stack([base + np.arccos(ratio), base - np.arccos(ratio)])
+    cands = (cands + np.pi) % (2 * np.pi) - np.pi
+    phi = cands[np.argmin(np.abs(cands), axis=0), np.arange(len(u))]
+    K = np.zeros((len(u), 3, 3))
+    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -u[:, 2], u[:, 1], -u[:, 0]
+    K -= K.transpose(0, 2, 1)
+    s, co = np.sin(phi)[:, None, None], np.cos(phi)[:, None, None]
+    Rot = np.eye(3) + s * K + (1 - co) * (K @ K)
+    out = {}
+    for name, M in poses.items():
+        N = M.copy()
+        N[:, :3, :3] = Rot @ M[:, :3, :3]
+        N[:, :3, 3] = a + np.einsum("tij,tj->ti", Rot, M[:, :3, 3] - a)
+        out[name] = N
+    return out
+
+
+def _twists(poses: np.ndarray, time: np.ndarray) -> np.ndarray:
+    """``(n, 6)`` twists (``LOCAL_WORLD_ALIGNED``: origin velocity, angular velocity, both in
+    ``lab``) of the placements ``poses`` ``(n, 4, 4)`` by central differences in ``time``."""
+    dp = np.gradient(poses[:, :3, 3], time, axis=0)
+    dR = np.gradient(poses[:, :3, :3], time, axis=0)
+    W = dR @ poses[:, :3, :3].transpose(0, 2, 1)  # skew(omega)
+    w = 0.5 * np.stack(
+        [W[:, 2, 1] - W[:, 1, 2], W[:, 0, 2] - W[:, 2, 0], W[:, 1, 0] - W[:, 0, 1]], 1
+    )
+    return np.concatenate([dp, w], axis=1)
+
+
 def foot_kinematics(
-    body: BodyModel, q: np.ndarray, time: np.ndarray, side: str, points_local: np.ndarray
+    body: BodyModel,
+    q: np.ndarray,
+    time: np.ndarray,
+    side: str,
+    points_local: np.ndarray,
+    poses: dict[str, np.ndarray] | None = None,
 ) -> FootKinematics:
     """Hindfoot/toes placements and twists (``LOCAL_WORLD_ALIGNED``) over ``q`` ``(n, nq)``.
 
     q-dot is ``np.gradient(q, time)`` (q comes from low-pass filtered markers, so it is smooth).
+    ``poses``: the segments' placements when they are not the model's at ``q`` (a levelled
+    roll, :func:`level_roll`); their twists are then their central differences.
     """
+    if poses is not None:
+        H, Tp = poses["hindfoot"], poses["toes"]
+        return FootKinematics(side, time, H, Tp, _twists(H, time), _twists(Tp, time), points_local)
     v = np.gradient(q, time, axis=0)
     data = body.create_data()
     ids = body.foot_frames(side)
@@ -218,6 +290,29 @@ def foot_kinematics(
         twists["toes"],
         points_local,
     )
+
+
+FOOT_ROLLS = ("chain", "level")
+"""The choices of :func:`compute_kinematics`'s ``foot_roll``."""
+
+
+def _two_landmarks(markerset: MarkerSet, names, side: str) -> tuple[str, str] | None:
+    """The names of ``side``'s foot markers when the foot has exactly two (Helen Hayes, Davis:
+    its roll about them is unobserved, :func:`level_roll`), else None."""
+    foot = _foot_marker_names(markerset, names, side)
+    return (foot[0], foot[1]) if len(foot) == 2 else None
+
+
+def _foot_marker_names(markerset: MarkerSet, names, side: str) -> list[str]:
+    return [n for n in names if markerset.markers[n].is_foot and markerset.markers[n].side == side]
+
+
+def _levelled(body, mm: MarkerModel, q: np.ndarray, side: str, pair) -> dict[str, np.ndarray]:
+    """The foot's placements over ``q`` with its roll about the landmarks ``pair`` levelled
+    (:func:`level_roll`), the landmarks where the marker model puts them."""
+    i, j = mm.names.index(pair[0]), mm.names.index(pair[1])
+    pos = mm.positions(q)[:, [i, j]]
+    return level_roll(foot_poses(body, q, side), pos[:, 0], pos[:, 1])
 
 
 def _foot_noise(mm, markerset, names, white, q, foot, side, rate, cutoff_hz):
@@ -285,6 +380,7 @@ def compute_kinematics(
     static: Trial | None = None,
     cutoff_hz: float = DEFAULT_CUTOFF_HZ,
     progress: Callable[[str], None] | None = None,
+    foot_roll: str = "chain",
 ) -> TrialKinematics:
     """Full kinematics pipeline for one walking trial.
 
@@ -294,8 +390,16 @@ def compute_kinematics(
     labels exactly, else one built from the recognised anatomical landmarks, see
     :func:`gc_ocp.model.markerset.detect_markerset`; the mapping is in ``info["landmarks"]``);
     static: a static standing trial for registration and sole height (optional);
-    cutoff_hz: marker low-pass cutoff [Hz]; progress: called with status strings.
+    cutoff_hz: marker low-pass cutoff [Hz]; progress: called with status strings;
+    foot_roll: how a foot with two landmarks (heel and one forefoot marker: Helen Hayes, Davis)
+    is rolled about the line through them, which its markers do not show: ``"chain"``
+    (default) as the body chain poses it (shank markers, knee, 2-DOF ankle), ``"level"``
+    with its medio-lateral axis horizontal (:func:`level_roll`; ``docs/quality.md``, "A
+    Davis-like foot", for what each gives). Feet with three or more landmarks are posed by
+    their markers either way.
     """
+    if foot_roll not in FOOT_ROLLS:
+        raise InputError(f'foot_roll must be one of {FOOT_ROLLS}, but got "{foot_roll}"')
     say = progress or (lambda s: None)
     if markerset is None:
         markerset = detect_markerset(trial.marker_names, trial.markers, trial.source)
@@ -415,9 +519,15 @@ def compute_kinematics(
                 )
             qs = np.concatenate([q[i] for i, _ in frames])
             floors = np.concatenate([np.full(len(i), h) for i, h in frames])
-        pts = calibrate_sole_height(body, side, qs, pts, floors)
+        lm = _two_landmarks(markerset, names, side) if foot_roll == "level" else None
+        pts = calibrate_sole_height(
+            body, side, qs, pts, floors, _levelled(body, mm, qs, side, lm) if lm else None
+        )
         sole_info[side] = src
-        feet[side] = foot_kinematics(body, q, t, side, pts)
+        lev = _levelled(body, mm, q, side, lm) if lm else None
+        feet[side] = foot_kinematics(body, q, t, side, pts, lev)
+        if lm:
+            say(f"{side} foot: two landmarks ({lm[0]}, {lm[1]}); its roll about them levelled")
     # ---- the markers' error, measured (white noise per marker; what it leaves in each foot)
     white = white_noise(np.asarray(trial.markers)[:, idx], trial.marker_rate)  # before gap fills
     merr = MarkerError(
@@ -442,6 +552,14 @@ def compute_kinematics(
         "registration_rms_history": history,
         "ik_seconds": res.seconds,
         "sole_height_source": sole_info,
+        "foot_roll": {
+            side: "level"
+            if foot_roll == "level" and _two_landmarks(markerset, names, side)
+            else "markers"
+            if len(_foot_marker_names(markerset, names, side)) >= 3
+            else "chain"
+            for side in ("left", "right")
+        },
         "marker_local": dict(zip(mm.names, mm.local, strict=True)),
         "body": body,
         "marker_model": mm,
