@@ -16,7 +16,6 @@ pose in the left stance of each (mean and peak to peak about the foot's long axi
 from __future__ import annotations
 
 import dataclasses
-import sys
 import warnings
 from pathlib import Path
 
@@ -98,5 +97,41 @@ def main() -> None:
             )
 
 
+LABS = (
+    "vicon_plugingait_clusters/FunctionalWalk.c3d",
+    "motionanalysis_helenhayes/Gait.c3d",
+    "c3dorg_helenhayes_types/type-2a.c3d",
+)
+"""The shared files whose feet have two landmarks (heel and a second-metatarsal toe marker)."""
+
+
+def other_labs() -> None:
+    """The files of :data:`LABS` (no reference foot: in-sample quality and the flags only)."""
+    from gc_ocp.io.pairing import pair_trials
+
+    print("\n## Two-landmark feet of other labs: chain-posed against levelled\n")
+    print(
+        "No full-marker reference here: in-sample superior RMS and COP RMS per foot, the "
+        "shared parameters, and the number of flagged variables of `gc_ocp.fit`.\n"
+    )
+    print(
+        "| file | foot roll | n | c [s/m] | mu | superior RMS % BW (L, R) | COP mm (L, R) | flags |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    for name in LABS:
+        [files] = pair_trials([DATA / name])
+        trial = load_trial(files.trial, files.grf)
+        for how in ("chain", "level"):
+            r = gc_ocp.fit([(trial, compute_kinematics(trial, foot_roll=how))]).result
+            sh = r.params["shared"]
+            cells = " | ".join(
+                f"{sh[q]:.3f} +- {sh.get(q + '_se', float('nan')):.3f}" for q in ("n", "c", "mu")
+            )
+            rms = ", ".join(f"{r.rms[s]['superior_force_pct_bw']:.2f}" for s in ("left", "right"))
+            cop = ", ".join(f"{r.cop_rms_mm[s]:.0f}" for s in ("left", "right"))
+            print(f"| {name} | {how} | {cells} | {rms} | {cop} | {len(r.flags)} |", flush=True)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    main()
+    other_labs()

@@ -60,6 +60,7 @@ def test_csv_manifest_groups_trials_by_subject_and_types_the_values(tmp_path):
         ("subject,trial,mass\nS1,x.c3d,70\nS1,x.c3d,71\n", ["row 2", "row 3", "mass"]),
         ("subject,trial,mass\nS1,x.c3d,heavy\n", ["row 2", "mass", "kg"]),
         ("subject,trial\nS 1,x.c3d\n", ["row 2", "folder name"]),
+        ("subject,trial,foot_roll\nS1,x.c3d,flat\n", ["row 2", "foot_roll", "chain", "level"]),
         ("subject,trial\nS1,missing.c3d\n", ["subject S1", "missing.c3d", "does not exist"]),
     ],
 )
@@ -79,6 +80,9 @@ def test_toml_manifest(tmp_path):
     m.write_text('[[subject]]\nid = "S1"\ntrials = ["w.c3d"]\nbelt_speed = 1.2\n')
     (s,) = read_manifest(m)
     assert s.trials == (TrialSpec(tmp_path / "w.c3d"),) and s.belt_speed == 1.2
+    assert s.foot_roll == "chain"  # the default
+    m.write_text('[[subject]]\nid = "S1"\ntrials = ["w.c3d"]\nfoot_roll = "level"\n')
+    assert read_manifest(m)[0].foot_roll == "level"
     m.write_text('[[subject]]\nid = "S1"\ntrials = ["w.c3d"]\nspeed = 1.2\n')
     with pytest.raises(InputError, match="unknown key"):
         read_manifest(m)

@@ -196,6 +196,11 @@ def test_cli_fit(tmp_path):
     assert d["solver"]["success"] is True
     assert d["solver"]["status"] in ("Solve_Succeeded", "Solved_To_Acceptable_Level")
     assert set(d["params"]["left"]) >= set(UNITS)
+    # what was done to each foot's roll is recorded (the bundled Plug-in Gait foot has three
+    # landmarks with the ankle marker: posed by its markers whatever --foot-roll says)
+    prov = d["provenance"]
+    assert prov["options"]["foot_roll"] == "chain"
+    assert prov["trials"][0]["foot_roll"] == {"left": "markers", "right": "markers"}
     from gc_ocp.estimation import EstimationResult
 
     back = EstimationResult.from_json(tmp_path / "fit.json")

@@ -5,7 +5,8 @@ Three forms, all read by :func:`read_manifest` into a list of :class:`Subject`:
 * **CSV** (``.csv``), one row per walking trial, a header naming the columns. ``subject`` and
   ``trial`` are required; optional: ``grf`` (the MOT/STO of a TRC trial; default: found beside
   it as ``gc-ocp fit`` finds it), and the subject's ``static``, ``mass`` [kg], ``height`` [m],
-  ``belt_speed`` [m/s], ``markerset``, ``cutoff`` [Hz], ``holdout``. A subject value may stand
+  ``belt_speed`` [m/s], ``markerset``, ``cutoff`` [Hz], ``foot_roll`` (``chain`` or ``level``:
+  a two-landmark foot's roll, ``docs/data_formats.md``), ``holdout``. A subject value may stand
   on any of the subject's rows (empty cells are "not given"); two rows that give it differently
   are an error naming both rows.
 * **TOML** (``.toml``): ``[[subject]]`` tables with ``id``, ``trials`` (a list of paths, or of
@@ -31,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from gc_ocp.errors import InputError
+from gc_ocp.kinematics.pipeline import FOOT_ROLLS
 
 TRIAL_SUFFIXES = (".c3d", ".trc")
 STATIC_SPEED = 0.3
@@ -40,7 +42,16 @@ several m/s and the foot markers' RMS speed is above 1 m/s (1.5-2.3 m/s on every
 of ``../shared/data``); standing, every marker moves by sway alone (0.01-0.05 m/s on its static
 files)."""
 
-SUBJECT_KEYS = ("static", "mass", "height", "belt_speed", "markerset", "cutoff", "holdout")
+SUBJECT_KEYS = (
+    "static",
+    "mass",
+    "height",
+    "belt_speed",
+    "markerset",
+    "cutoff",
+    "foot_roll",
+    "holdout",
+)
 """Optional per-subject settings of a manifest (the ``gc-ocp fit`` options of the same names)."""
 _NUMBERS = {"mass": "kg", "height": "m", "belt_speed": "m/s", "cutoff": "Hz"}
 _ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
@@ -67,6 +78,7 @@ class Subject:
     belt_speed: float | None = None
     markerset: str | None = None
     cutoff: float | None = None
+    foot_roll: str = "chain"
     holdout: str | None = "auto"
 
     def files(self) -> list[Path]:
@@ -145,6 +157,13 @@ def _settings(raw: Mapping, base: Path, where: str) -> dict:
             out[key] = _number(v, key, where)
         elif key == "static":
             out[key] = _resolve(base, str(v))
+        elif key == "foot_roll":
+            out[key] = str(v).strip()
+            if out[key] not in FOOT_ROLLS:
+                raise InputError(
+                    f"{where}: foot_roll {v!r} is not one of {', '.join(FOOT_ROLLS)}; give "
+                    "chain (default) or level (docs/data_formats.md, rule 5)."
+                )
         else:
             out[key] = str(v).strip()
     return out

@@ -113,6 +113,7 @@ def _kinematics(trial, subject: Subject, spec, cache_root: Path):
             "static": sha256(subject.static) if subject.static else None,
             "markerset": subject.markerset,
             "cutoff": subject.cutoff,
+            "foot_roll": subject.foot_roll,
             "mass": subject.mass,
             "height": subject.height,
             "belt_speed": subject.belt_speed,
@@ -125,7 +126,9 @@ def _kinematics(trial, subject: Subject, spec, cache_root: Path):
         pass
     kw = {} if subject.cutoff is None else {"cutoff_hz": subject.cutoff}
     static = load_static(subject.static, trial) if subject.static is not None else None
-    kin = compute_kinematics(trial, markerset=subject.markerset, static=static, **kw)
+    kin = compute_kinematics(
+        trial, markerset=subject.markerset, static=static, foot_roll=subject.foot_roll, **kw
+    )
     atomic_write(path, lambda tmp: tmp.write_bytes(pickle.dumps(kin)))
     return kin
 

@@ -65,6 +65,9 @@ def provenance(args, pairs) -> dict:
                 ],
                 "load_notes": list(t.load_notes),
                 "marker_cutoff_hz": kin.cutoff_hz,
+                # per foot: posed by its markers, or (two landmarks) its roll as the chain
+                # gives it or levelled (compute_kinematics' foot_roll)
+                "foot_roll": kin.info.get("foot_roll"),
                 # the markers' measured noise and what it leaves in each foot's pose
                 # (gc_ocp.marker_noise)
                 "marker_error": kin.info.get("marker_error"),
