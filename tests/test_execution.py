@@ -60,3 +60,36 @@ def test_a_script_without_the_main_guard_is_told_to_add_it(tmp_path):
     assert 'if __name__ == "__main__":' in bare.stderr
     assert guarded.returncode == 0, guarded.stderr[-2000:]
     assert "sum 3" in guarded.stdout
+
+
+def _size_and_tag(big, tag):
+    return big.size, tag
+
+
+def test_arguments_every_task_shares_go_to_the_cluster_once():
+    """``shared_once``: on a Dask executor, an argument that every call shares (the same
+    object) becomes one scattered future, the others stay as they are, and the tasks get the
+    same values as run here; a plain executor's calls are left unchanged."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    import numpy as np
+    from distributed import Client, Future, LocalCluster
+
+    from gc_ocp.diagnosis.execution import run_tasks, shared_once
+
+    big = np.zeros(1_000_000)  # 8 MB: what a null's shared inputs are like
+    calls = [(big, k) for k in range(4)]
+    with ThreadPoolExecutor(2) as pool:
+        assert shared_once(pool, calls) == calls
+    with (
+        LocalCluster(
+            n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0"
+        ) as cl,
+        Client(cl) as client,
+    ):
+        ex = client.get_executor()
+        sent = shared_once(ex, calls)
+        assert all(isinstance(c[0], Future) for c in sent)
+        assert len({c[0].key for c in sent}) == 1  # one copy for every task
+        assert [c[1] for c in sent] == [0, 1, 2, 3]
+        assert run_tasks(_size_and_tag, calls, ex) == [(big.size, k) for k in range(4)]
