@@ -193,3 +193,21 @@ def test_a_case_that_stops_with_an_error_is_an_answer_of_its_own():
     assert s["matrix"] == [[1, 0, 1], [0, 1, 0]]
     assert s["top1_accuracy"] == 0.5 and s["none_correct_rejection"] == 1.0
     json.dumps(row)  # plain data, as confusion.json keeps it
+
+
+def test_resume_names_the_settings_that_differ_instead_of_starting_again(tmp_path):
+    """``--resume`` on a run made with other settings is refused with the keys that differ (it
+    used to start again silently and overwrite the earlier cases); trial paths are compared
+    resolved, so the same files written another way are the same run."""
+    old = {"n_boot": 5, "motion_files": [str(tmp_path / "a" / ".." / "w.c3d")], "seeds": [0]}
+    same = {"n_boot": 5, "motion_files": [str(tmp_path / "w.c3d")], "seeds": [0]}
+    assert benchmark.settings_differ(old, same) == []
+    assert benchmark.settings_differ(old, {**same, "n_boot": 7, "seeds": [1]}) == [
+        "n_boot",
+        "seeds",
+    ]
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "confusion.json").write_text(json.dumps({"settings": {"n_boot": 5}, "cases": []}))
+    with pytest.raises(InputError, match=r"--resume: .*confusion.json.*n_boot.*differ"):
+        benchmark.run_benchmark(out, base="seed", effects=["none"], seeds=1, n_boot=7, resume=True)

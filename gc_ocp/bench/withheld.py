@@ -196,7 +196,9 @@ def case_data(
     threshold the fitter's loader would find in each stance's plate signal."""
     truth_name, mag = case["truth"], case["magnitude"]
     rng = np.random.default_rng(_case_seed(base, truth_name, mag, case["seed"]))
-    files = None if files is None else tuple(str(f) for f in files)
+    # resolved: a run resumed from another folder, or with the same files written another
+    # way, is the same run
+    files = None if files is None else tuple(str(Path(f).resolve()) for f in files)
     stances = motion(base, truth_name, files, stances_per_foot)
     _, base_model_ = resolve_base(base)
     truth = truth_model(truth_name, mag, base_truth(base, files), stances, rng)
@@ -292,6 +294,20 @@ def failed_case(case: dict, error: Exception, seconds: float) -> dict:
     }
 
 
+def settings_differ(old: dict, new: dict) -> list[str]:
+    """The keys of a benchmark run's ``settings`` whose values differ between an earlier run
+    (``old``) and this one (``new``); the trials' paths compared resolved (an earlier run may
+    have recorded them as given)."""
+    out = []
+    for key in sorted(set(old) | set(new)):
+        a, b = old.get(key), new.get(key)
+        if key == "motion_files" and a is not None and b is not None:
+            a, b = [str(Path(f).resolve()) for f in a], [str(Path(f).resolve()) for f in b]
+        if a != b:
+            out.append(key)
+    return out
+
+
 def run_benchmark(
     out: str | Path,
     base: str = "registered",
@@ -319,7 +335,9 @@ def run_benchmark(
     diagnosis's (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`)."""
     say = progress or (lambda s: None)
     out = check_writable(out)
-    files = None if files is None else tuple(str(f) for f in files)
+    # resolved: a run resumed from another folder, or with the same files written another
+    # way, is the same run
+    files = None if files is None else tuple(str(Path(f).resolve()) for f in files)
     cases = plan(base, effects, seeds, magnitudes, first_seed)
     _, model = resolve_base(base)
     cands = candidate_names(model, candidates)
@@ -344,9 +362,15 @@ def run_benchmark(
     path = Path(out) / "confusion.json"
     if resume and path.exists():
         old = json.loads(path.read_text())
-        if old.get("settings") == json.loads(json.dumps(settings)):
-            done = old["cases"]
-            say(f"resuming: {len(done)} case(s) done")
+        differ = settings_differ(old.get("settings") or {}, json.loads(json.dumps(settings)))
+        if differ:
+            raise InputError(
+                f"--resume: {path} was made with other settings ({', '.join(differ)} differ), "
+                "so its cases are not cases of this run; give another --out, or the same "
+                "settings as that run, or drop --resume to start again (it is overwritten)."
+            )
+        done = old["cases"]
+        say(f"resuming: {len(done)} case(s) done")
     key = lambda c: (c["truth"], c["magnitude"], c["seed"])  # noqa: E731
     have = {key(c) for c in done}
     labels = [*cands, NONE]
@@ -433,6 +457,7 @@ __all__ = [
     "report",
     "run_benchmark",
     "run_case",
+    "settings_differ",
     "summarize",
     "truth_model",
 ]
