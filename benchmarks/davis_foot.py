@@ -28,14 +28,13 @@ from gc_ocp.kinematics import compute_kinematics
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 DROPPED = ("RVMH", "LVMH", "RIIT", "LIIT")  # fifth metatarsal heads and toe tips
-FOOT_FLAT = (0.2, 0.45)  # fraction of stance, as the pipeline's sole calibration
 
 
-def fitted(trial, kin) -> tuple[dict, str]:
-    rep = gc_ocp.fit([(trial, kin)])
-    sh = rep.result.params["shared"]
-    return {p: (sh[p], sh.get(p + "_se", float("nan"))) for p in ("n", "c", "mu")}, (
-        rep.pose_scale.message() if rep.pose_scale else ""
+def params(r) -> str:
+    """The shared law's n, c, mu of fit result ``r`` with their SE, as table cells."""
+    sh = r.params["shared"]
+    return " | ".join(
+        f"{sh[q]:.3f} +- {sh.get(q + '_se', float('nan')):.3f}" for q in ("n", "c", "mu")
     )
 
 
@@ -86,12 +85,8 @@ def main() -> None:
             )
         for name, kin, rl in rows:
             r = gc_ocp.fit([(trial, kin)]).result
-            sh = r.params["shared"]
-            cells = " | ".join(
-                f"{sh[q]:.3f} +- {sh.get(q + '_se', float('nan')):.3f}" for q in ("n", "c", "mu")
-            )
             print(
-                f"| Walking{k} | {name} | {cells} | {r.rms['left']['superior_force_pct_bw']:.2f} "
+                f"| Walking{k} | {name} | {params(r)} | {r.rms['left']['superior_force_pct_bw']:.2f} "
                 f"| {r.cop_rms_mm['left']:.0f} | {rl} |",
                 flush=True,
             )
@@ -123,13 +118,9 @@ def other_labs() -> None:
         trial = load_trial(files.trial, files.grf)
         for how in ("chain", "level"):
             r = gc_ocp.fit([(trial, compute_kinematics(trial, foot_roll=how))]).result
-            sh = r.params["shared"]
-            cells = " | ".join(
-                f"{sh[q]:.3f} +- {sh.get(q + '_se', float('nan')):.3f}" for q in ("n", "c", "mu")
-            )
             rms = ", ".join(f"{r.rms[s]['superior_force_pct_bw']:.2f}" for s in ("left", "right"))
             cop = ", ".join(f"{r.cop_rms_mm[s]:.0f}" for s in ("left", "right"))
-            print(f"| {name} | {how} | {cells} | {rms} | {cop} | {len(r.flags)} |", flush=True)
+            print(f"| {name} | {how} | {params(r)} | {rms} | {cop} | {len(r.flags)} |", flush=True)
 
 
 if __name__ == "__main__":

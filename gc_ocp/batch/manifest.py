@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from gc_ocp.errors import InputError
-from gc_ocp.kinematics.pipeline import FOOT_ROLLS
+from gc_ocp.foot import FOOT_ROLLS
 
 TRIAL_SUFFIXES = (".c3d", ".trc")
 STATIC_SPEED = 0.3

@@ -184,6 +184,12 @@ def _case_seed(base: str, truth: str, magnitude: str, seed: int) -> int:
     return int.from_bytes(__import__("hashlib").sha256(key).digest()[:8], "little")
 
 
+def _resolved(files: Sequence[str] | None) -> tuple[str, ...] | None:
+    """The trials' paths resolved: a run resumed from another folder, or with the same files
+    written another way, is the same run (and the same cached motion)."""
+    return None if files is None else tuple(str(Path(f).resolve()) for f in files)
+
+
 def case_data(
     case: dict,
     base: str = "registered",
@@ -196,9 +202,7 @@ def case_data(
     threshold the fitter's loader would find in each stance's plate signal."""
     truth_name, mag = case["truth"], case["magnitude"]
     rng = np.random.default_rng(_case_seed(base, truth_name, mag, case["seed"]))
-    # resolved: a run resumed from another folder, or with the same files written another
-    # way, is the same run
-    files = None if files is None else tuple(str(Path(f).resolve()) for f in files)
+    files = _resolved(files)
     stances = motion(base, truth_name, files, stances_per_foot)
     _, base_model_ = resolve_base(base)
     truth = truth_model(truth_name, mag, base_truth(base, files), stances, rng)
@@ -302,7 +306,7 @@ def settings_differ(old: dict, new: dict) -> list[str]:
     for key in sorted(set(old) | set(new)):
         a, b = old.get(key), new.get(key)
         if key == "motion_files" and a is not None and b is not None:
-            a, b = [str(Path(f).resolve()) for f in a], [str(Path(f).resolve()) for f in b]
+            a, b = list(_resolved(a)), list(_resolved(b))
         if a != b:
             out.append(key)
     return out
@@ -335,9 +339,7 @@ def run_benchmark(
     diagnosis's (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`)."""
     say = progress or (lambda s: None)
     out = check_writable(out)
-    # resolved: a run resumed from another folder, or with the same files written another
-    # way, is the same run
-    files = None if files is None else tuple(str(Path(f).resolve()) for f in files)
+    files = _resolved(files)
     cases = plan(base, effects, seeds, magnitudes, first_seed)
     _, model = resolve_base(base)
     cands = candidate_names(model, candidates)

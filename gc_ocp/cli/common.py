@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 from gc_ocp.errors import InputError
+from gc_ocp.foot import FOOT_ROLLS
 
 
 def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> None:
@@ -65,7 +66,7 @@ def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> Non
         )
         p.add_argument(
             "--foot-roll",
-            choices=("chain", "level"),
+            choices=FOOT_ROLLS,
             default="chain",
             help="A foot with two landmarks (heel and one forefoot marker): its roll about "
             "them as the body chain poses it (chain, default) or level across (level); "

@@ -35,7 +35,7 @@ import numpy as np
 import pinocchio as pin
 
 from gc_ocp.errors import InputError
-from gc_ocp.foot import SEED_LAYOUT, UNITS, FootKinematics, TrialKinematics
+from gc_ocp.foot import FOOT_ROLLS, SEED_LAYOUT, UNITS, FootKinematics, TrialKinematics
 from gc_ocp.gaps import fill_rigid_gaps
 from gc_ocp.kinematics.filtering import DEFAULT_CUTOFF_HZ, lowpass
 from gc_ocp.kinematics.ik import MarkerModel, solve_ik
@@ -208,8 +208,8 @@ def level_roll(poses: dict[str, np.ndarray], a: np.ndarray, b: np.ndarray) -> di
     medio-lateral axis (local Y) horizontal: a foot with two landmarks (a Davis foot: heel and
     one metatarsal head) does not show its roll about the line through them, and the body
     chain that poses it otherwise (shank markers, knee and ankle joints) carries the shank's
-    axial rotation into it (12-15 deg off a full-marker foot, 21 deg peak to peak within a
-    stance on the BTS subject, ``benchmarks/davis_foot_output.md``). Level across is the
+    axial rotation into it (12.5-16.5 deg off a full-marker foot over a stance on the BTS
+    subject, ``benchmarks/davis_foot_output.md``). Level across is the
     foot's posture where it matters, on the ground (as Plug-in Gait's "foot flat" option
     assumes at the static trial); the landmarks stay where they are. Where no angle levels it
     (the line near vertical, in swing) the nearest is taken."""
@@ -292,10 +292,6 @@ def foot_kinematics(
     )
 
 
-FOOT_ROLLS = ("chain", "level")
-"""The choices of :func:`compute_kinematics`'s ``foot_roll``."""
-
-
 def _two_landmarks(markerset: MarkerSet, names, side: str) -> tuple[str, str] | None:
     """The names of ``side``'s foot markers when the foot has exactly two (Helen Hayes, Davis:
     its roll about them is unobserved, :func:`level_roll`), else None."""
@@ -304,7 +300,9 @@ def _two_landmarks(markerset: MarkerSet, names, side: str) -> tuple[str, str] | 
 
 
 def _foot_marker_names(markerset: MarkerSet, names, side: str) -> list[str]:
-    return [n for n in names if markerset.markers[n].is_foot and markerset.markers[n].side == side]
+    """``side``'s foot markers among ``names``, in their order."""
+    foot = {m.name for m in markerset.foot_markers(side)}
+    return [n for n in names if n in foot]
 
 
 def _levelled(body, mm: MarkerModel, q: np.ndarray, side: str, pair) -> dict[str, np.ndarray]:
@@ -320,11 +318,7 @@ def _foot_noise(mm, markerset, names, white, q, foot, side, rate, cutoff_hz):
     their positions in the hindfoot frame (from the model at the trial's middle frame: the foot's
     segments are welded), the pipeline's low-pass. None when fewer than three foot markers fix
     it (the foot is then posed through the shank and ankle; its noise is not modelled yet)."""
-    idx = [
-        i
-        for i, n in enumerate(names)
-        if markerset.markers[n].is_foot and markerset.markers[n].side == side
-    ]
+    idx = [names.index(n) for n in _foot_marker_names(markerset, names, side)]
     if len(idx) < 3:
         return None
     sig = white[idx][np.isfinite(white[idx])]
@@ -349,11 +343,7 @@ def fill_foot_gaps(
     out = np.array(markers, dtype=float, copy=True)
     notes: list[str] = []
     for side in ("left", "right"):
-        group = [
-            i
-            for i, n in enumerate(names)
-            if markerset.markers[n].is_foot and (markerset.markers[n].side == side)
-        ]
+        group = [names.index(n) for n in _foot_marker_names(markerset, names, side)]
         if len(group) < 4:
             continue
         out, done = fill_rigid_gaps(out, [group])
@@ -493,6 +483,7 @@ def compute_kinematics(
     # ---- sole points
     feet = {}
     sole_info = {}
+    rolls = {}  # per foot: posed by its markers, or two landmarks' roll (chain or level)
     for side in ("left", "right"):
         pts = sole_points_xy(mm, markerset, body, side, height)
         if static is not None:
@@ -520,6 +511,8 @@ def compute_kinematics(
             qs = np.concatenate([q[i] for i, _ in frames])
             floors = np.concatenate([np.full(len(i), h) for i, h in frames])
         lm = _two_landmarks(markerset, names, side) if foot_roll == "level" else None
+        n_foot = len(_foot_marker_names(markerset, names, side))
+        rolls[side] = "level" if lm else "markers" if n_foot >= 3 else "chain"
         pts = calibrate_sole_height(
             body, side, qs, pts, floors, _levelled(body, mm, qs, side, lm) if lm else None
         )
@@ -552,14 +545,7 @@ def compute_kinematics(
         "registration_rms_history": history,
         "ik_seconds": res.seconds,
         "sole_height_source": sole_info,
-        "foot_roll": {
-            side: "level"
-            if foot_roll == "level" and _two_landmarks(markerset, names, side)
-            else "markers"
-            if len(_foot_marker_names(markerset, names, side)) >= 3
-            else "chain"
-            for side in ("left", "right")
-        },
+        "foot_roll": rolls,
         "marker_local": dict(zip(mm.names, mm.local, strict=True)),
         "body": body,
         "marker_model": mm,
