@@ -93,3 +93,42 @@ def test_arguments_every_task_shares_go_to_the_cluster_once():
         assert len({c[0].key for c in sent}) == 1  # one copy for every task
         assert [c[1] for c in sent] == [0, 1, 2, 3]
         assert run_tasks(_size_and_tag, calls, ex) == [(big.size, k) for k in range(4)]
+
+
+MADE: list[int] = []
+
+
+def _slow_tag(k: int, n: int) -> int:
+    import time
+
+    MADE.append(k)
+    time.sleep(0.002 * (n - k))  # the later calls end first
+    return k
+
+
+def test_a_stop_looks_at_the_first_results_in_order_and_makes_no_more():
+    """``run_tasks(stop=...)``: the stop is asked with the first ``k`` results in the calls'
+    order (``k`` a multiple of ``look``, whichever task ended first), and when it says yes
+    exactly those are returned and no other call is made, here and on a pool; without a yes
+    every result is."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from gc_ocp.diagnosis.execution import run_tasks
+
+    n = 20
+    calls = [(k, n) for k in range(n)]
+    seen = []
+
+    def stop(out):
+        seen.append(list(out))
+        return len(out) >= 8
+
+    MADE.clear()
+    assert run_tasks(_slow_tag, calls, None, stop, look=4) == list(range(8))
+    assert seen == [list(range(4)), list(range(8))] and sorted(MADE) == list(range(8))
+    seen.clear()
+    MADE.clear()
+    with ThreadPoolExecutor(2) as pool:
+        assert run_tasks(_slow_tag, calls, pool, stop, look=4) == list(range(8))
+        assert seen == [list(range(4)), list(range(8))] and sorted(MADE) == list(range(8))
+        assert run_tasks(_slow_tag, calls, pool, lambda out: False, look=4) == list(range(n))

@@ -301,3 +301,69 @@ def test_the_decision_carries_the_mismatch_part_of_the_null_into_its_steps():
     assert a.observed_pct - a.null_mean_pct <= a.z_critical * a.null_sd_mismatch_pct
     assert a.more_stances is None
     assert plain["a"].null_sd_mismatch_pct == 0.0 and plain["a"].more_stances > 0
+
+
+def _mixture_null(rng, n_draws, n_wild, names, between, within):
+    """A round's null as the draws make it: per draw a shift of every candidate's reduction
+    (the mismatch: ``between`` SD, correlated across candidates) plus per replicate noise
+    (``within`` SD); the draw index of every replicate."""
+    k = len(names)
+    C = 0.5 * np.ones((k, k)) + 0.5 * np.eye(k)
+    L = np.linalg.cholesky(C)
+    shift = between[:, None] * (L @ rng.normal(size=(k, n_draws)))
+    noise = within[:, None, None] * rng.normal(size=(k, n_draws, n_wild))
+    vals = (shift[:, :, None] + noise).reshape(k, -1)
+    return dict(zip(names, vals, strict=True)), np.repeat(np.arange(n_draws), n_wild)
+
+
+def test_stopping_the_draws_early_loses_no_claim_the_full_null_makes():
+    """The stop for futility (``cannot_name``, looked at after every ``DRAWS_PER_LOOK`` draws
+    of ``MISMATCH_DRAWS``) can only turn a claim into no claim; what it could cost is a claim
+    the full null makes. Rounds whose observed statistics range from the null's own (no effect)
+    to 5 null SDs on one candidate, the null a mixture over draws as the package's: no round
+    the full null names is stopped, and the stop is taken in most rounds without a claim (the
+    time it saves)."""
+    rng = np.random.default_rng(3)
+    names = ["a", "b", "c", "d"]
+    between = np.array([1.0, 0.3, 2.0, 0.1])
+    within = np.array([0.5, 0.3, 1.0, 0.2])
+    K, W, L = null.MISMATCH_DRAWS, 16, null.DRAWS_PER_LOOK
+    lost = stopped_none = rounds_none = claims = 0
+    for t in range(400):
+        nulls, draws = _mixture_null(rng, K, W, names, between, within)
+        obs_null, _ = _mixture_null(rng, 1, 1, names, between, within)
+        obs = {n: float(v[0]) for n, v in obs_null.items()}
+        sd = {n: float(np.std(v)) for n, v in nulls.items()}
+        obs["a"] += (t % 6) * sd["a"]  # 0, 1, ..., 5 null SDs
+        full = null.decide(obs, nulls, {}, 6, draws=draws)
+        named = any(x.p_adjusted < null.ALPHA for x in full.values())
+        stop = any(
+            null.cannot_name(obs, {n: v[draws < k] for n, v in nulls.items()}, K * W)
+            for k in range(L, K, L)
+        )
+        claims += named
+        lost += named and stop
+        rounds_none += not named
+        stopped_none += stop and not named
+    assert claims > 50  # the strong rounds are named: the check has claims to lose
+    assert lost == 0
+    assert stopped_none > 0.5 * rounds_none
+
+
+def test_the_stop_weighs_only_the_candidates_the_floor_leaves():
+    """``final_p_bound(among=...)``: the bound is the smallest over the candidates that could
+    still be named (the floor rules the others out), with the max statistic still taken over
+    every candidate; none left: nothing can be named (bound 1, the draws may stop)."""
+    rng = np.random.default_rng(1)
+    names = ["a", "b", "c"]
+    nulls, _ = _mixture_null(rng, 8, 16, names, np.array([1.0, 1.0, 1.0]), np.full(3, 0.5))
+    sd = {n: float(np.std(v)) for n, v in nulls.items()}
+    obs = {"a": 6 * sd["a"], "b": 0.0, "c": -1.0}  # a is far out, b and c within the null
+    n_final = 32 * 16
+    every = null.final_p_bound(obs, nulls, n_final)
+    assert every == pytest.approx(1 / (n_final + 1))  # a: no replicate reaches it
+    assert not null.cannot_name(obs, nulls, n_final)
+    without_a = null.final_p_bound(obs, nulls, n_final, among={"b", "c"})
+    assert without_a > null.FUTILITY_FACTOR * null.ALPHA
+    assert null.cannot_name(obs, nulls, n_final, among={"b", "c"})
+    assert null.final_p_bound(obs, nulls, n_final, among=set()) == 1.0

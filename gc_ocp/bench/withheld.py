@@ -223,12 +223,13 @@ def run_case(
     files: Sequence[str] | None = None,
     stances_per_foot: int | None = None,
     pose_width: str = "prior",
+    stop_early: bool = True,
 ) -> dict:
     """Generate one case's data and diagnose it blind: the case with ``answer``, ``correct``,
     the ranking rows and timing. ``files``: trials of one subject whose motion the case uses
     (default: the bundled trial); ``stances_per_foot``: that many stances of each foot
-    (:func:`~gc_ocp.bench.truth.per_foot`; None: the motion's own); ``pose_width``: the
-    diagnosis's."""
+    (:func:`~gc_ocp.bench.truth.per_foot`; None: the motion's own); ``pose_width``,
+    ``stop_early``: the diagnosis's."""
     t0 = time.perf_counter()
     truth_name, mag = case["truth"], case["magnitude"]
     data, draw, kin_err = case_data(case, base, realism, files, stances_per_foot)
@@ -246,6 +247,7 @@ def run_case(
             progress=progress,
             workers=workers,
             pose_width=pose_width,
+            stop_early=stop_early,
         )
     answer = d.selected[0] if d.selected else NONE
     rows = [{k: v for k, v in r.to_json().items() if k in CASE_ROW_KEYS} for r in d.ranking]
@@ -269,6 +271,11 @@ def run_case(
         "base_heldout_superior_pct_bw": d.waterfall[0].heldout_superior_force_pct_bw,
         "seconds_generate": t1 - t0,
         "seconds_diagnose": d.seconds,
+        # per round: the null's draws made, whether it stopped early, what its looks saw
+        "null": [
+            {k: c.get(k) for k in ("mismatch_draws", "null_stopped_early", "null_looks")}
+            for c in d.calibration
+        ],
         # the mismatch draw of the case (Realism.mismatch), only when there is one: the rows of
         # runs without stay as they were
         **({} if draw is None else {"mismatch": draw.to_json()}),
@@ -328,6 +335,7 @@ def run_benchmark(
     files: Sequence[str] | None = None,
     stances_per_foot: int | None = None,
     pose_width: str = "prior",
+    stop_early: bool = True,
 ) -> dict:
     """Run every case of :func:`plan`; ``DIR/confusion.json`` is rewritten atomically after each
     case (``resume``: keep the cases of an earlier run with the same settings), then
@@ -335,8 +343,8 @@ def run_benchmark(
     processes per diagnosis round (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`);
     ``files``: trials of one subject whose real motion the cases use (default: the bundled
     trial; more stances per foot give the held-out score more folds); ``stances_per_foot``: that
-    many stances of each foot (:func:`~gc_ocp.bench.truth.per_foot`); ``pose_width``: the
-    diagnosis's (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`)."""
+    many stances of each foot (:func:`~gc_ocp.bench.truth.per_foot`); ``pose_width``,
+    ``stop_early``: the diagnosis's (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`)."""
     say = progress or (lambda s: None)
     out = check_writable(out)
     files = _resolved(files)
@@ -359,6 +367,7 @@ def run_benchmark(
         "decision": "top-1 = first effect selected by diagnose_stances(max_effects=1)",
         # only when not the default, so that earlier runs resume unchanged
         **({} if pose_width == "prior" else {"pose_width": pose_width}),
+        **({} if stop_early else {"null": "every draw made (no early stop)"}),
     }
     done: list[dict] = []
     path = Path(out) / "confusion.json"
@@ -408,6 +417,7 @@ def run_benchmark(
                 files=files,
                 stances_per_foot=stances_per_foot,
                 pose_width=pose_width,
+                stop_early=stop_early,
             )
         except GcOcpError as e:
             # a case whose diagnosis cannot finish (the base's fit did not converge on its

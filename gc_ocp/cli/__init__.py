@@ -249,6 +249,12 @@ def build_parser() -> argparse.ArgumentParser:
         "this scale (1: the documented family; default: none; docs/diagnosis.md).",
     )
     _pose_width_argument(p)
+    p.add_argument(
+        "--full-null",
+        action="store_true",
+        help="Make every mismatch draw of each round's null, even when the first already rule "
+        "out any claim (default: stop early then; the record checks the stop costs no claim).",
+    )
     p.set_defaults(func=cmd_benchmark_diagnosis)
 
     p = sub.add_parser(

@@ -263,6 +263,7 @@ def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
         realism=realism,
         stances_per_foot=args.stances_per_foot,
         pose_width=args.pose_width,
+        stop_early=not args.full_null,
     )
     print(report(res))
     print(f"wrote {args.out / 'confusion.json'} and {args.out / 'confusion.png'}")

@@ -39,6 +39,8 @@ from gc_ocp.diagnosis.null import (
     MISMATCH_DRAWS,
     N_REPLICATES,
     calibrate,
+    null_looks,
+    observed_reductions,
     prior_step,
 )
 from gc_ocp.diagnosis.onestep import fold_prior_means, linearize_parent
@@ -46,6 +48,7 @@ from gc_ocp.diagnosis.result import Diagnosis, RankRow, WaterfallStep
 from gc_ocp.diagnosis.selection import (
     MIN_REDUCTION_PCT,
     best_passing,
+    contenders,
     flag_non_additive,
     rank,
 )
@@ -112,6 +115,7 @@ def diagnose_stances(
     max_folds: int = MAX_FOLDS,
     mismatch_draws: int = MISMATCH_DRAWS,
     pose_width: str = "prior",
+    stop_early: bool = True,
 ) -> Diagnosis:
     """The diagnosis of ``stances`` (one subject; see the module doc). ``alpha``: the
     family-wise rate of a false claim per round (:mod:`.null`); ``n_replicates``: the null's
@@ -129,7 +133,9 @@ def diagnose_stances(
     pose-correction width, ``"prior"`` (its component's, 2 mm / 1 deg) or ``"estimated"`` on
     every stance first (:func:`~gc_ocp.estimation.pose_scale.with_estimated_width`; the
     nuisance of every model and fold then has that size; not yet the default: its false-claim
-    rate is being measured, ``docs/diagnosis.md``)."""
+    rate is being measured, ``docs/diagnosis.md``). ``stop_early``: a round's null draws stop
+    once no candidate could be named (:func:`~gc_ocp.diagnosis.null.cannot_name`; False: all
+    ``mismatch_draws`` are made, to check that the stop costs no claim)."""
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
     base_label, base_model_ = resolve_base(base)
@@ -202,6 +208,7 @@ def diagnose_stances(
             notes += [f"{n} is not evaluable on these data: {e.message}" for n, e in failed.items()]
             remaining = [n for n in remaining if n not in failed]  # not retried in later rounds
             ok = {n: ev for n, ev in evs.items() if n not in failed}
+            able, known = contenders(current, ok, n_boot, seed, rate)
             tests, info = _calibrated(
                 stances,
                 current,
@@ -218,6 +225,7 @@ def diagnose_stances(
                 alpha,
                 say,
                 pool,
+                able if stop_early else None,
             )
             calibration.append(info)
             if not first:
@@ -235,7 +243,7 @@ def diagnose_stances(
                             ev.linear = ok[n].linear
                             ok[n] = evs[n] = ev
             evaluations.update({ev.label: ev for ev in ok.values()})
-            rows = rank(current, evs, tests, n_boot, seed, rate, alpha)
+            rows = rank(current, evs, tests, n_boot, seed, rate, alpha, known)
             rounds.append(rows)
             best = best_passing(rows)
             if best is None or len(selected) >= limit:
@@ -289,15 +297,19 @@ def _calibrated(
     alpha,
     say,
     executor,
+    among=None,
 ) -> tuple[dict, dict]:
     """The calibrated tests of a round's evaluated candidates and what the round's null was
-    (replicates, mismatch draws, critical value, seconds)."""
+    (replicates, mismatch draws, critical value, seconds). ``among``: the candidates the
+    effect-size floor leaves (:func:`~gc_ocp.diagnosis.selection.contenders`); given, the
+    null's draws stop once none of them could be named
+    (:func:`~gc_ocp.diagnosis.null.cannot_name`; None: every draw is made)."""
     t0 = time.perf_counter()
     lins = {n: ev.linear for n, ev in evs.items() if ev.linear is not None}
     occam = {"parent": np.array([f.occam for f in parent.folds])}
     occam.update({n: np.array([f.occam for f in ev.folds]) for n, ev in evs.items() if ev.folds})
     means = fold_prior_means(stances, parent.model, plan)
-    null, draw, skipped = None, None, 0
+    null, draw, skipped, looks = None, None, 0, []
     if not (lins and family is not None and family.scale > 0 and n_draws > 0):
         n_draws = 0
     else:
@@ -319,7 +331,12 @@ def _calibrated(
             options=options,
         )
         say(f"  calibrated null: {n_draws} mismatch draws, each a refit of {parent.label}")
-        null, draw, skipped = mismatch_null(inputs, family, n_draws, seed, executor)
+        observed = observed_reductions(parent_lin, lins, plan, occam, means)[0]
+        stop = None if among is None else observed
+        null, draw, skipped = mismatch_null(
+            inputs, family, n_draws, seed, executor, stop, alpha, among
+        )
+        looks = null_looks(observed, null, draw, inputs.n_wild * n_draws, among)
     tests = calibrate(
         parent_lin,
         parent.full.stance_fits,
@@ -338,10 +355,14 @@ def _calibrated(
     seconds = time.perf_counter() - t0
     n_rep = n_replicates if null is None else int(next(iter(null.values())).size)
     say(f"  calibrated null: {n_rep} replicates, z_crit {crit}, {seconds:.1f} s")
+    made = 0 if draw is None else int(np.unique(draw).size) + skipped
     info = {
         "replicates": n_rep,
-        "mismatch_draws": n_draws - skipped,
+        "mismatch_draws": made - skipped,
         "mismatch_draws_left_out": skipped,
+        "null_stopped_early": made < n_draws,
+        "null_looks": looks,
+        "floor_leaves": None if among is None else sorted(among),
         "z_critical": crit,
         "seconds": seconds,
     }

@@ -32,14 +32,14 @@ executor (:mod:`.execution`) like its candidate fits.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from concurrent.futures import Executor
 
 import numpy as np
 
 from gc_ocp.diagnosis.execution import run_tasks
 from gc_ocp.diagnosis.mismatch import MismatchDraw, MismatchFamily, simulate_mismatched, thresholded
-from gc_ocp.diagnosis.null import null_draw, wild_residuals
+from gc_ocp.diagnosis.null import ALPHA, DRAWS_PER_LOOK, cannot_name, null_draw, wild_residuals
 from gc_ocp.diagnosis.onestep import Linear, energies, linearize, nested_point, reductions
 from gc_ocp.errors import SolveError
 from gc_ocp.estimation.problem import Weights, build_estimation
@@ -145,26 +145,47 @@ def mismatch_null(
     n_draws: int,
     seed: int,
     executor: Executor | None = None,
+    observed: Mapping[str, float] | None = None,
+    alpha: float = ALPHA,
+    among: Collection[str] | None = None,
 ) -> tuple[dict[str, np.ndarray], np.ndarray, int]:
     """``({candidate: null reductions [%]}, the draw of each replicate, draws left out)``:
     ``n_draws`` draws of ``family`` (restricted as the null takes them,
     :func:`~gc_ocp.diagnosis.null.null_draw`), one task each on ``executor``
     (:func:`~gc_ocp.diagnosis.execution.run_tasks`; None: here). The draw index lets the
     decision tell the spread between draws (mismatch: more stances do not shrink it) from the
-    spread within a draw (noise: they do; :func:`~gc_ocp.diagnosis.null.decide`)."""
+    spread within a draw (noise: they do; :func:`~gc_ocp.diagnosis.null.decide`).
+    ``observed``: the candidates' observed one-step reductions; given, the draws stop early
+    once no candidate of ``among`` (None: every one) could be named at ``alpha``
+    (:func:`~gc_ocp.diagnosis.null.cannot_name`; the draws made are the first of the same
+    seeded sequence)."""
     rng = np.random.default_rng(seed)
     layout = inputs.stances[0].layout
     calls = [
         (inputs, null_draw(family, rng, layout, inputs.model), int(s))
         for s in rng.integers(0, 2**31, n_draws)
     ]
-    outs = run_tasks(draw_reductions, calls, executor)
+    stop = None
+    if observed is not None:
+        n_final = inputs.n_wild * n_draws
+
+        def stop(outs: list) -> bool:
+            kept = [o for o in outs if not isinstance(o, str)]
+            return bool(kept) and cannot_name(observed, _pooled(kept)[0], n_final, alpha, among)
+
+    outs = run_tasks(draw_reductions, calls, executor, stop, DRAWS_PER_LOOK)
     kept = [o for o in outs if not isinstance(o, str)]
     if not kept:
         raise SolveError(f"no draw of the null's mismatch family could be refitted: {outs[0]}")
+    null, draw = _pooled(kept)
+    return null, draw, len(outs) - len(kept)
+
+
+def _pooled(kept: Sequence[dict]) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """The draws' null reductions pooled, and the draw of each replicate."""
     null = {n: np.concatenate([o[n] for o in kept]) for n in kept[0]}
     draw = np.concatenate([np.full(next(iter(o.values())).size, k) for k, o in enumerate(kept)])
-    return null, draw, len(outs) - len(kept)
+    return null, draw
 
 
 __all__ = ("NullInputs", "debiased", "draw_data", "draw_reductions", "mismatch_null")

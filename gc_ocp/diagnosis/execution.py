@@ -177,20 +177,40 @@ def shared_once(executor: Executor, calls: Sequence[tuple]) -> list[tuple]:
     return [tuple(sent.get(k, a) for k, a in enumerate(c)) for c in calls]
 
 
-def run_tasks(fn: Callable, calls: Sequence[tuple], executor: Executor | None = None) -> list:
+def run_tasks(
+    fn: Callable,
+    calls: Sequence[tuple],
+    executor: Executor | None = None,
+    stop: Callable[[list], bool] | None = None,
+    look: int = 8,
+) -> list:
     """``[fn(*call) for call in calls]``, each call a task on ``executor`` (None: here, one
     after the other); the warnings the tasks raised are raised again here. ``fn`` and the
     calls' arguments must be picklable (a module-level function of plain data), as
     :func:`run_job`'s: e.g. the null's mismatch draws (:mod:`.draws`). Arguments every call
-    shares go to a Dask cluster once (:func:`shared_once`)."""
-    if executor is None or len(calls) <= 1:
-        return [fn(*call) for call in calls]
-    futures = [executor.submit(recorded, fn, *call) for call in shared_once(executor, calls)]
-    out = []
-    for fut in futures:
-        value, caught = fut.result()
-        _warn_again(caught)
-        out.append(value)
+    shares go to a Dask cluster once (:func:`shared_once`).
+
+    ``stop``: asked with the first ``k`` results whenever ``k`` is a multiple of ``look``
+    (fewer than all); when it says True, the first ``k`` results are returned and the other
+    calls are not made. The calls are then submitted ``look`` at a time, each batch after the
+    look before it (no task is left running for nothing, none is cancelled mid-way), and the
+    looks see the results in the calls' order whichever task ended first, so what is returned
+    does not depend on the executor's timing (a sequential test's early stop,
+    :func:`~gc_ocp.diagnosis.null.cannot_name`)."""
+    here = executor is None or len(calls) <= 1
+    sent = calls if here else shared_once(executor, calls)
+    step = len(calls) if stop is None else look
+    out: list = []
+    for k in range(0, len(calls), max(step, 1)):
+        if here:
+            out.extend(fn(*call) for call in sent[k : k + step])
+        else:
+            for fut in [executor.submit(recorded, fn, *call) for call in sent[k : k + step]]:
+                value, caught = fut.result()
+                _warn_again(caught)
+                out.append(value)
+        if stop is not None and len(out) < len(calls) and stop(out):
+            break
     return out
 
 

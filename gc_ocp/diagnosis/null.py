@@ -40,13 +40,25 @@ m``. That ``n`` exists only if ``T - m > z_crit s_b``: a gain the mismatch alone
 be told from it by more steps of the same kind, however many (the bound; ``None``). Without
 mismatch draws (noise only) ``s_b = 0`` and the rule is ``sqrt(n / n0) >= (z_crit s + 0.84
 sigma) / (T - m)``.
+
+**Stopping early.** The draws are the null's cost (a refit each), and most rounds name nothing:
+the last round of every diagnosis, and the only round of most. The draws are made in the order
+of their seeds and looked at after every :data:`DRAWS_PER_LOOK`; when, with the draws so far,
+no candidate's adjusted p-value could end below ``FUTILITY_FACTOR * alpha`` even if every
+remaining replicate fell below every observed statistic (:func:`cannot_name`), the rest are
+not made (a sequential Monte Carlo test's stop for futility, Besag and Clifford 1991). Such a
+stop can only turn a claim into no claim, so the false-claim rate holds; what it could cost is
+power, a claim the full null would have made: not possible for a fixed studentisation (the
+bound is the final p-value's smallest value), and the factor 2 leaves room for the means and
+spreads moving as draws are added. A stopped round reports the p-values, spreads and steps of
+the draws it made (``calibration[].mismatch_draws``, ``null_stopped_early``).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 
 import numpy as np
 
@@ -121,6 +133,11 @@ def replicate(
         out.append(dataclasses.replace(st.with_measured(m), plate_time=pt, plate_wrench=pw))
     return out
 
+
+DRAWS_PER_LOOK = 8
+"""The null's draws are looked at after every this many (module doc, "Stopping early"); a
+multiple of the workers a round has (at most
+:data:`~gc_ocp.diagnosis.execution.MAX_WORKERS`, 4), so a look waits for no half-filled batch."""
 
 MISMATCH_DRAWS = 32
 """Draws of the mismatch family per round, each a refit of the parent and a relinearisation of
@@ -297,10 +314,8 @@ def decide(
     names = [n for n in observed if n in null]
     if not names:
         return {}
-    m = {n: float(np.mean(null[n])) for n in names}
-    s = {n: max(float(np.std(null[n], ddof=1)), 1e-12) for n in names}
+    m, s, zmax = _studentised(null, names)
     s_b = {n: between_draw_sd(null[n], draws) for n in names}
-    zmax = np.max(np.vstack([(null[n] - m[n]) / s[n] for n in names]), axis=0)
     crit = float(np.quantile(zmax, 1.0 - alpha))
     out = {}
     for n in names:
@@ -319,6 +334,81 @@ def decide(
             n_heldout=n_heldout,
             null_sd_mismatch_pct=s_b[n],
         )
+    return out
+
+
+def _studentised(
+    null: Mapping[str, np.ndarray], names: Sequence[str]
+) -> tuple[dict[str, float], dict[str, float], np.ndarray]:
+    """Each candidate's null mean and spread, and every replicate's largest studentised
+    reduction over the candidates ``names`` (the max statistic, module doc)."""
+    m = {n: float(np.mean(null[n])) for n in names}
+    s = {n: max(float(np.std(null[n], ddof=1)), 1e-12) for n in names}
+    zmax = np.max(np.vstack([(null[n] - m[n]) / s[n] for n in names]), axis=0)
+    return m, s, zmax
+
+
+def final_p_bound(
+    observed: Mapping[str, float],
+    null: Mapping[str, np.ndarray],
+    n_final: int,
+    among: Collection[str] | None = None,
+) -> float:
+    """The smallest adjusted p-value a candidate of ``among`` (None: every candidate) could
+    still reach when the null, of which ``null`` holds the first replicates, is completed to
+    ``n_final`` replicates that all fall below every observed statistic (module doc, "Stopping
+    early"): ``(1 + e) / (n_final + 1)`` with ``e`` the replicates so far whose largest
+    studentised reduction (over every candidate) reaches the candidate's, minimised over
+    ``among``; 1 when there is none."""
+    names = [n for n in observed if n in null]
+    among = [n for n in names if among is None or n in among]
+    if not among:
+        return 1.0
+    m, s, zmax = _studentised(null, names)
+    e = min(int(np.sum(zmax >= (observed[n] - m[n]) / s[n])) for n in among)
+    return (1 + e) / (max(n_final, zmax.size) + 1)
+
+
+FUTILITY_FACTOR = 2.0
+"""The null's draws stop early when no candidate's adjusted p-value could end below this many
+times ``alpha`` (:func:`cannot_name`). The bound :func:`final_p_bound` holds exactly only for a
+fixed studentisation; the null's means and spreads still move as draws are added, and the
+factor 2 leaves that room (module doc, "Stopping early")."""
+
+
+def cannot_name(
+    observed: Mapping[str, float],
+    null: Mapping[str, np.ndarray],
+    n_final: int,
+    alpha: float = ALPHA,
+    among: Collection[str] | None = None,
+) -> bool:
+    """Whether the null so far already rules out naming any candidate of ``among`` (None:
+    every candidate; the others the rule's effect-size floor rules out,
+    :func:`~gc_ocp.diagnosis.selection.contenders`) however its remaining replicates fall
+    (:func:`final_p_bound` at least :data:`FUTILITY_FACTOR` ``alpha``): the sequential test's
+    stop for futility, which can only turn a claim into no claim, never the reverse, so the
+    family-wise rate of a false claim holds whatever the rule (module doc)."""
+    return final_p_bound(observed, null, n_final, among) >= FUTILITY_FACTOR * alpha
+
+
+def null_looks(
+    observed: Mapping[str, float],
+    null: Mapping[str, np.ndarray],
+    draws: np.ndarray,
+    n_final: int,
+    among: Collection[str] | None = None,
+) -> list[list[float]]:
+    """``[[draws, final_p_bound], ...]`` after every :data:`DRAWS_PER_LOOK` of the null's draws
+    (``draws``: the draw of each replicate): what the stop for futility saw
+    (:func:`cannot_name`, of the candidates ``among``); at the last, their smallest adjusted
+    p-value. With every draw made, the record that checks the stop cost no claim."""
+    ks = np.unique(draws)
+    out = []
+    for k in range(DRAWS_PER_LOOK, ks.size + 1, DRAWS_PER_LOOK):
+        keep = np.isin(draws, ks[:k])
+        first = {n: v[keep] for n, v in null.items()}
+        out.append([k, final_p_bound(observed, first, n_final, among)])
     return out
 
 
@@ -387,6 +477,8 @@ def more_stances(
 __all__ = (
     "ALPHA",
     "DEFAULT_FAMILY",
+    "DRAWS_PER_LOOK",
+    "FUTILITY_FACTOR",
     "MAX_STANCES",
     "MISMATCH_DRAWS",
     "N_REPLICATES",
@@ -394,9 +486,12 @@ __all__ = (
     "NullTest",
     "between_draw_sd",
     "calibrate",
+    "cannot_name",
     "decide",
+    "final_p_bound",
     "more_stances",
     "null_draw",
+    "null_looks",
     "observed_reductions",
     "onestep_null",
     "prior_pull",

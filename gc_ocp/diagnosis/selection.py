@@ -122,13 +122,14 @@ def rank(
     seed: int,
     rate: float,
     alpha: float = ALPHA,
+    known: Mapping[str, tuple[Evaluation, dict]] | None = None,
 ) -> list[RankRow]:
     """The rows of one round: every candidate of ``evs`` (``{effect: Evaluation}``) against
     ``parent``, with the decision rule applied (``tests``: the calibrated test of each, from
     :func:`~gc_ocp.diagnosis.null.calibrate`; family-wise rate ``alpha``) and the confounding
     within the round named; held out first (best first), then the screened ones (by their
     one-step reduction). ``n_boot``, ``seed``: the bootstrap of the intervals; ``rate``: frame
-    rate [Hz]."""
+    rate [Hz]; ``known``: reductions already made (:func:`contenders`)."""
     rows = []
     base_r = weighted_residuals(parent)
     deltas = {}
@@ -141,15 +142,11 @@ def rank(
         if ev.screened:
             rows.append(_screened_row(name, ev, parent, test))
             continue
-        red = reduction(parent, ev, n_boot=n_boot, seed=seed, frame_rate=rate)
+        red = held_out_reduction(parent, name, ev, n_boot, seed, rate, known)
         deltas[name] = base_r - weighted_residuals(ev)
         cd, cn = _terms(ev)
         gain = (pd + pn) - (cd + cn)
-        big = (
-            red["pct"] >= MIN_REDUCTION_PCT
-            and red["ci"][0] > 0.0
-            and red["insample_pct"] >= MIN_REDUCTION_PCT
-        )
+        big = floor_holds(red)
         passes = bool(named and big)
         # the share is only meaningful for a gain that counts (near 0 it is a ratio of noise)
         from_nuisance = (pn - cn) / gain if passes and gain > 0 else None
@@ -204,6 +201,55 @@ def rank(
         )
     )
     return [*flag_ties(rows, evs, n_boot, seed, rate), *failed]  # the not evaluable ones last
+
+
+def floor_holds(red: Mapping) -> bool:
+    """The rule's effect-size floor (module doc) on a held-out reduction of
+    :func:`~gc_ocp.diagnosis.compare.reduction`."""
+    return bool(
+        red["pct"] >= MIN_REDUCTION_PCT
+        and red["ci"][0] > 0.0
+        and red["insample_pct"] >= MIN_REDUCTION_PCT
+    )
+
+
+def held_out_reduction(
+    parent: Evaluation,
+    name: str,
+    ev: Evaluation,
+    n_boot: int,
+    seed: int,
+    rate: float,
+    known: Mapping[str, tuple[Evaluation, dict]] | None = None,
+) -> dict:
+    """:func:`~gc_ocp.diagnosis.compare.reduction` of ``ev`` (candidate ``name``) over
+    ``parent``, or the one ``known`` holds for this very evaluation (its bootstrap is not made
+    twice)."""
+    have = (known or {}).get(name)
+    if have is not None and have[0] is ev:
+        return have[1]
+    return reduction(parent, ev, n_boot=n_boot, seed=seed, frame_rate=rate)
+
+
+def contenders(
+    parent: Evaluation, evs: Mapping[str, Evaluation], n_boot: int, seed: int, rate: float
+) -> tuple[set[str], dict[str, tuple[Evaluation, dict]]]:
+    """The candidates of a round that the effect-size floor does not already rule out (only
+    these can be named, whatever the calibrated test says: the null's draws may stop once none
+    of them can, :func:`~gc_ocp.diagnosis.null.cannot_name`), and the held-out reductions made
+    to tell (for :func:`rank`). A screened candidate (not held out yet) is ruled out only by its
+    in-sample reduction."""
+    out, known = set(), {}
+    for name, ev in evs.items():
+        if ev.screened:
+            if insample_reduction(parent.full, ev.full) >= MIN_REDUCTION_PCT:
+                out.add(name)
+            continue
+        red = reduction(parent, ev, n_boot=n_boot, seed=seed, frame_rate=rate)
+        known[name] = (ev, red)
+        if floor_holds(red):
+            out.add(name)
+    return out, known
 
 
 def _inconclusive(passes: bool, test: NullTest | None) -> bool:
@@ -338,9 +384,12 @@ __all__ = (
     "NON_ADDITIVE_FRACTION",
     "NUISANCE_SHARE",
     "best_passing",
+    "contenders",
     "flag_alike",
     "flag_non_additive",
     "flag_ties",
+    "floor_holds",
+    "held_out_reduction",
     "n_params",
     "rank",
 )
