@@ -208,6 +208,13 @@ def test_report_states_the_rule_the_code_applies(diagnosis, page):
     )
     pngs = dict.fromkeys(("heatmap", "residuals", "ranking", "waterfall", "heatmap_final"), b"")
     assert "the held-out stances resampled" in report_html(many, pngs=pngs)
+    # a round whose null draws stopped early says so, with the draws each round made
+    assert "stop early" not in text
+    cal = [{**c, "mismatch_draws": 8, "null_stopped_early": True} for c in diagnosis.calibration]
+    stopped = dataclasses.replace(diagnosis, calibration=cal)
+    page2 = report_html(stopped, pngs=pngs)
+    assert "draws stop early" in page2
+    assert f"draws made per round: {', '.join(['8'] * len(cal))})" in page2
 
 
 def test_effect_block_values_carry_their_standard_errors():
@@ -334,3 +341,15 @@ def test_each_effect_block_is_shown_by_its_component(case):
     for rows in described.values():
         for r in rows:
             assert f"{r.label}\n{pm_value(r.value, r.se, unit=r.unit)}" in page
+
+
+def test_the_summary_says_which_round_s_null_stopped_early():
+    """A round whose null draws stopped early (``null_stopped_early``) is named in the summary
+    with the draws it made of those planned; a diagnosis whose nulls made every draw (the
+    fixture's) says nothing of it."""
+    _, _, _, d, _ = _fixture(CASES[0])
+    assert "null stopped" not in d.summary()
+    cal = [dict(c) for c in d.calibration]
+    cal[-1].update(mismatch_draws=8, mismatch_draws_planned=32, null_stopped_early=True)
+    text = dataclasses.replace(d, calibration=cal).summary()
+    assert f"round {len(cal)}'s null stopped after 8 of 32 mismatch draws" in text

@@ -360,6 +360,7 @@ def _calibrated(
         "replicates": n_rep,
         "mismatch_draws": made - skipped,
         "mismatch_draws_left_out": skipped,
+        "mismatch_draws_planned": n_draws,
         "null_stopped_early": made < n_draws,
         "null_looks": looks,
         "floor_leaves": None if among is None else sorted(among),

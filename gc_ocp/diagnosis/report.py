@@ -209,6 +209,18 @@ def _waterfall(waterfall: list) -> list[dict]:
     return rows
 
 
+def _stopped(calibration: list) -> str:
+    """The method's sentence on the rounds whose null draws stopped early (none: empty)."""
+    made = [c.get("mismatch_draws") for c in calibration]
+    if not any(c.get("null_stopped_early") for c in calibration):
+        return ""
+    return (
+        "; a round's draws stop early, a look every 8, once no candidate the effect-size floor "
+        "leaves could be named whatever the rest would give (draws made per round: "
+        f"{', '.join(str(m) for m in made)}): a stopped round's p-values are from the draws made"
+    )
+
+
 def _method(d) -> dict:
     """The numbers of the method section: the rule, the bootstrap and the confounding criteria
     as the code applies them (the constants of :mod:`.selection` and :mod:`.compare`)."""
@@ -223,7 +235,7 @@ def _method(d) -> dict:
             f", plus one of {d.calibration[0]['mismatch_draws']} draws of the mismatch family "
             "(the parent slightly changed in ways that are not candidates; for each draw the "
             "parent is refitted to the data it makes, and the draw's replicates are scored from "
-            "that refit)"
+            "that refit)" + _stopped(d.calibration)
             if d.calibration and d.calibration[0].get("mismatch_draws")
             else ""
         ),

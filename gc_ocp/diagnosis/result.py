@@ -325,6 +325,13 @@ class Diagnosis:
         last = {r.effect: r for r in (self.rounds[-1] if self.rounds else [])}
         for e in self.inconclusive:
             lines.append(f"{e}: {last[e].verdict()}")
+        for k, c in enumerate(self.calibration, 1):
+            if c.get("null_stopped_early"):
+                lines.append(
+                    f"round {k}'s null stopped after {c['mismatch_draws']} of "
+                    f"{c.get('mismatch_draws_planned', '?')} mismatch draws (no candidate the "
+                    "effect-size floor leaves could be named): its p-values are from those"
+                )
         lines.append(f"waterfall ({self.scored} superior-force RMS, % BW):")
         for w in self.waterfall:
             lines.append(f"  {w.model:<28} {w.heldout_superior_force_pct_bw:.2f}")
