@@ -210,10 +210,13 @@ def test_report_states_the_rule_the_code_applies(diagnosis, page):
     assert "the held-out stances resampled" in report_html(many, pngs=pngs)
     # a round whose null draws stopped early says so, with the draws each round made
     assert "stop early" not in text
-    cal = [{**c, "mismatch_draws": 8, "null_stopped_early": True} for c in diagnosis.calibration]
+    cal = [
+        {**c, "mismatch_draws": 8, "mismatch_draws_planned": 32, "null_stopped_early": True}
+        for c in diagnosis.calibration
+    ]
     stopped = dataclasses.replace(diagnosis, calibration=cal)
     page2 = report_html(stopped, pngs=pngs)
-    assert "draws stop early" in page2
+    assert "draws stop early" in page2 and "one of up to 32 draws" in page2
     assert f"draws made per round: {', '.join(['8'] * len(cal))})" in page2
 
 

@@ -209,6 +209,14 @@ def _waterfall(waterfall: list) -> list[dict]:
     return rows
 
 
+def _draws(calibration: list) -> str:
+    """How many mismatch draws a round's null has: those made (every round's the same), or up
+    to those planned when a round stopped early."""
+    if any(c.get("null_stopped_early") for c in calibration):
+        return f"up to {max(c.get('mismatch_draws_planned', 0) for c in calibration)}"
+    return str(calibration[0]["mismatch_draws"])
+
+
 def _stopped(calibration: list) -> str:
     """The method's sentence on the rounds whose null draws stopped early (none: empty)."""
     made = [c.get("mismatch_draws") for c in calibration]
@@ -232,7 +240,7 @@ def _method(d) -> dict:
         "floor": f"{d.floor_pct:g} %",
         "replicates": d.calibration[0]["replicates"] if d.calibration else "–",
         "mismatch": (
-            f", plus one of {d.calibration[0]['mismatch_draws']} draws of the mismatch family "
+            f", plus one of {_draws(d.calibration)} draws of the mismatch family "
             "(the parent slightly changed in ways that are not candidates; for each draw the "
             "parent is refitted to the data it makes, and the draw's replicates are scored from "
             "that refit)" + _stopped(d.calibration)
