@@ -131,6 +131,10 @@ def test_strong_effect_is_found_and_none_rejected(tmp_path):
     s = saved["summary"]
     assert s["top1_accuracy"] == 1.0 and s["none_correct_rejection"] == 1.0
     assert s["matrix"] == [[1, 0, 0], [0, 0, 1]]  # rows time_offset, none; columns + damping
+    # every case records its rounds' nulls: the draws made, whether they stopped, the looks
+    for c in saved["cases"]:
+        assert c["null"] and all(n["mismatch_draws"] >= 1 and n["seconds"] > 0 for n in c["null"])
+        assert all(isinstance(n["null_stopped_early"], bool) for n in c["null"])
 
 
 def _fake_evaluation(frame_costs: list[np.ndarray]):

@@ -273,7 +273,7 @@ def run_case(
         "seconds_diagnose": d.seconds,
         # per round: the null's draws made, whether it stopped early, what its looks saw
         "null": [
-            {k: c.get(k) for k in ("mismatch_draws", "null_stopped_early", "null_looks")}
+            {k: c.get(k) for k in ("mismatch_draws", "null_stopped_early", "null_looks", "seconds")}
             for c in d.calibration
         ],
         # the mismatch draw of the case (Realism.mismatch), only when there is one: the rows of
