@@ -497,6 +497,7 @@ def test_a_case_with_a_mismatch_applies_and_records_its_draw(bundled, monkeypatc
         inconclusive=[],
         waterfall=[SimpleNamespace(heldout_superior_force_pct_bw=1.0)],
         seconds=0.0,
+        calibration=[],
     )
     seen = {}
 
