@@ -310,6 +310,7 @@ def _calibrated(
     occam.update({n: np.array([f.occam for f in ev.folds]) for n, ev in evs.items() if ev.folds})
     means = fold_prior_means(stances, parent.model, plan)
     null, draw, skipped, looks = None, None, 0, []
+    observed = observed_reductions(parent_lin, lins, plan, occam, means) if lins else None
     if not (lins and family is not None and family.scale > 0 and n_draws > 0):
         n_draws = 0
     else:
@@ -331,12 +332,11 @@ def _calibrated(
             options=options,
         )
         say(f"  calibrated null: {n_draws} mismatch draws, each a refit of {parent.label}")
-        observed = observed_reductions(parent_lin, lins, plan, occam, means)[0]
-        stop = None if among is None else observed
+        stop = None if among is None else observed[0]
         null, draw, skipped = mismatch_null(
             inputs, family, n_draws, seed, executor, stop, alpha, among
         )
-        looks = null_looks(observed, null, draw, inputs.n_wild * n_draws, among)
+        looks = null_looks(observed[0], null, draw, inputs.n_wild * n_draws, among)
     tests = calibrate(
         parent_lin,
         parent.full.stance_fits,
@@ -350,6 +350,7 @@ def _calibrated(
         alpha,
         means,
         draw,
+        observed,
     )
     crit = next(iter(tests.values())).z_critical if tests else None
     seconds = time.perf_counter() - t0

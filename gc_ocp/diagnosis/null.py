@@ -249,15 +249,17 @@ def calibrate(
     alpha: float = ALPHA,
     fold_means: Sequence[Mapping[tuple, np.ndarray]] | None = None,
     draws: np.ndarray | None = None,
+    observed: tuple[dict[str, float], dict[str, float | None]] | None = None,
 ) -> dict[str, NullTest]:
     """The calibrated decision of a round (module doc): ``{candidate: NullTest}``.
     ``parent_fits``: the parent's stance fits (censored samples); ``null``: the candidates'
     null reductions when already made (the mismatch draws of :mod:`.draws`, ``draws`` the draw
     of each replicate), else the noise-only one-step null (:func:`onestep_null`);
-    ``fold_means``: :func:`~.onestep.fold_prior_means`."""
+    ``fold_means``: :func:`~.onestep.fold_prior_means`; ``observed``:
+    :func:`observed_reductions` when already made (the draws' early stop needs them first)."""
     if not children:
         return {}
-    observed, sd = observed_reductions(parent, children, plan, occam, fold_means)
+    observed, sd = observed or observed_reductions(parent, children, plan, occam, fold_means)
     if null is None:
         null = onestep_null(
             parent, parent_fits, children, plan, occam, fold_means, n_replicates, seed, frame_rate

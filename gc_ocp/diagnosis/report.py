@@ -24,6 +24,7 @@ from pathlib import Path
 
 from gc_ocp.diagnosis import selection
 from gc_ocp.diagnosis.compare import BLOCK_SECONDS, MIN_CLUSTERS, resamples_stances
+from gc_ocp.diagnosis.null import DRAWS_PER_LOOK
 from gc_ocp.html import FIGURE_DPI, data_uri, environment, pngs, provenance_context
 from gc_ocp.html.fit_tables import (
     CHANNEL_KEYS,
@@ -223,9 +224,10 @@ def _stopped(calibration: list) -> str:
     if not any(c.get("null_stopped_early") for c in calibration):
         return ""
     return (
-        "; a round's draws stop early, a look every 8, once no candidate the effect-size floor "
-        "leaves could be named whatever the rest would give (draws made per round: "
-        f"{', '.join(str(m) for m in made)}): a stopped round's p-values are from the draws made"
+        f"; a round's draws stop early, a look every {DRAWS_PER_LOOK}, once no candidate the "
+        "effect-size floor leaves could be named whatever the rest would give (draws made per "
+        f"round: {', '.join(str(m) for m in made)}): a stopped round's p-values are from the "
+        "draws made"
     )
 
 
