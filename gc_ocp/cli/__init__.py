@@ -129,6 +129,16 @@ def build_parser() -> argparse.ArgumentParser:
         "--fixed-pose-width keeps it too.",
     )
     p.add_argument(
+        "--bias-correction",
+        type=int,
+        default=0,
+        metavar="B",
+        help="Remove the bias the markers' noise gives the parameters (the friction "
+        "coefficient most: -2 %% at 1 mm of marker noise, -6 %% at 2 mm), estimated from B "
+        "simulated replicates of the fit, each a warm refit (16 is a good choice; default 0: "
+        "off; docs/quality.md).",
+    )
+    p.add_argument(
         "--effects",
         metavar="A,B,...",
         help="Comma-separated effects (docs/effects.md) fitted with the full model, e.g. "

@@ -120,6 +120,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
                 extends=extends,
                 pose_scale=not args.fixed_pose_width,
                 sole_scale=False if args.fixed_sole_width else None,
+                bias_correction=args.bias_correction,
             )
         except SolveError as e:
             if e.result is not None:

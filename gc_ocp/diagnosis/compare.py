@@ -47,6 +47,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from gc_ocp.errors import SolveError
+from gc_ocp.estimation.bias import BLOCK_SECONDS
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult, fit_quality
@@ -59,11 +60,6 @@ from gc_ocp.estimation.starts import (
     with_lls_start,
 )
 from gc_ocp.stance import StanceData
-
-BLOCK_SECONDS = 0.1
-"""Bootstrap block length [s]: the residuals' autocorrelation time after the 6 Hz filtering of
-the kinematics (the HAC bandwidth of ``solve._bandwidth`` is 5-12 frames at 100 Hz)."""
-
 
 NESTING_RTOL = 1e-6
 """Relative slack of the nesting check of a fold fit (Ipopt's acceptable objective change)."""

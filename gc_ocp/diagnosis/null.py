@@ -68,6 +68,7 @@ from gc_ocp.diagnosis.mismatch import (
     MismatchFamily,
 )
 from gc_ocp.diagnosis.onestep import Linear, energies, per_stance_sd, reductions, step
+from gc_ocp.estimation.bias import block_signs
 from gc_ocp.estimation.measurement import censored
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.synthetic import plate_signal
@@ -104,11 +105,7 @@ def wild_residuals(
         e = parent.r[rows].reshape(-1, 6)  # (T, 6) frame-major
         T = e.shape[0]
         keep = ~censored(f["measured"], f.get("censor_below", 0.0))
-        nb = int(np.ceil(T / L))
-        offset = rng.integers(0, L, n)  # random block phase: no fixed block edges
-        signs = rng.choice([-1.0, 1.0], size=(nb + 1, n))
-        blk = (np.arange(T)[:, None] + offset[None, :]) // L  # (T, n)
-        s = np.take_along_axis(signs, blk, axis=0)  # (T, n)
+        s = block_signs(T, L, n, rng)  # (T, n)
         pert = e[:, :, None] * (s * keep[:, None])[:, None, :]  # (T, 6, n)
         out[rows] = pert.reshape(6 * T, n)
     return out

@@ -19,6 +19,7 @@ import warnings
 from collections.abc import Callable, Sequence
 
 from gc_ocp.errors import InputError
+from gc_ocp.estimation.bias import BiasCorrection, bias_corrected
 from gc_ocp.estimation.components import full_model
 from gc_ocp.estimation.pose_scale import PoseScale, estimate_pose_scale
 from gc_ocp.estimation.problem import Weights, build_estimation
@@ -45,11 +46,14 @@ class FitReport:
     heldout_label: str | None = None
     checks: list = dataclasses.field(default_factory=list)
     pose_scale: PoseScale | None = None
+    bias: BiasCorrection | None = None
 
     def to_json(self) -> dict:
         d = self.result.to_json()
         if self.pose_scale is not None:
             d["pose_scale"] = self.pose_scale.to_json()
+        if self.bias is not None:
+            d["bias_correction"] = self.bias.to_json()
         if self.heldout is not None:
             d["heldout_rms"] = self.heldout.rms
             d["heldout_cop_rms_mm"] = self.heldout.cop_rms_mm
@@ -65,6 +69,8 @@ class FitReport:
             s = "input checks:\n" + "\n".join(f"  - {c}" for c in self.checks) + "\n" + s
         if self.pose_scale is not None:
             s += "\n" + self.pose_scale.message() + "\n"
+        if self.bias is not None:
+            s += self.bias.message() + "\n"
         if self.heldout is not None:
             s += f"\nheld-out stance {self.heldout_label}:\n" + self.heldout.summary()
         return s
@@ -184,6 +190,7 @@ def fit(
     extends: tuple | None = None,
     pose_scale: bool = True,
     sole_scale: bool | None = None,
+    bias_correction: int = 0,
 ) -> FitReport:
     """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
 
@@ -209,6 +216,11 @@ def fit(
         raise InputError(
             "The sole correction's width is estimated in the pose width's rounds: keep "
             "pose_scale=True (drop --fixed-pose-width) to estimate it."
+        )
+    if bias_correction < 0 or bias_correction == 1:
+        raise InputError(
+            f"bias_correction={bias_correction}: give the number of replicates, at least 2 "
+            "(16 is a good choice; --bias-correction 16), or 0 for none."
         )
     model = model or full_model()
     trials, data, notes = fit_data(trials, margin, say)
@@ -252,7 +264,11 @@ def fit(
                     "message": scale.message(),
                 }
             )
-    report = FitReport(res, checks=notes, pose_scale=scale)
+    bias = None
+    if bias_correction:
+        say(f"bias correction: {bias_correction} replicates")
+        res, bias = bias_corrected(data, model, res, bias_correction, 0, weights, options, say)
+    report = FitReport(res, checks=notes, pose_scale=scale, bias=bias)
     if held is not None:
         hp = build_estimation([held], frozen_model(model, res), weights)
         hres = solve(hp, options)

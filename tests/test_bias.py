@@ -1,0 +1,154 @@
+"""The markers' noise's bias estimated by simulation and removed (``gc_ocp/estimation/bias.py``,
+``docs/quality.md``). Whether it removes the bias over many draws is scored by
+``benchmarks/coverage.py --bias-correction``; these tests check its parts."""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+
+from gc_ocp.errors import InputError
+from gc_ocp.estimation.bias import bias_corrected, block_signs, draw_pose_noise, replicate_data
+from gc_ocp.foot import PoseNoise
+from gc_ocp.marker_noise import filter_gain
+
+
+def test_block_signs_are_constant_within_blocks_and_balanced():
+    rng = np.random.default_rng(0)
+    s = block_signs(1000, 10, 400, rng)
+    assert s.shape == (1000, 400) and set(np.unique(s)) == {-1.0, 1.0}
+    # a sign changes at most once per 10 frames in every column (blocks of 10 with a random
+    # phase), and changes somewhere (the blocks are independent)
+    changes = np.abs(np.diff(s, axis=0)) > 0
+    for j in range(s.shape[1]):
+        idx = np.flatnonzero(changes[:, j])
+        assert idx.size > 0 and np.all(np.diff(idx) % 10 == 0)
+    # balanced: 400 x 100 blocks, the mean sign's SD is 1 / sqrt(40 000) = 0.005
+    assert abs(s.mean()) < 0.02
+
+
+def test_a_fresh_draw_of_the_pose_noise_has_the_measured_size_after_the_low_pass():
+    from gc_ocp.synthetic_foot import rolling_foot
+
+    foot = rolling_foot("left", duration=40.0)  # 4000 frames
+    assert draw_pose_noise(foot, np.random.default_rng(0)) is foot  # nothing measured
+    sd = np.array([0.4e-3, 0.3e-3, 0.5e-3, 0.004, 0.002, 0.003])
+    noise = PoseNoise(np.diag(sd**2), 100.0, 6.0, 4, 1e-3)
+    foot = dataclasses.replace(foot, pose_noise=noise)
+    seen = draw_pose_noise(foot, np.random.default_rng(1))
+    assert seen.pose_noise is noise
+    d = seen.hindfoot_pose[:, :3, 3] - foot.hindfoot_pose[:, :3, 3]  # lab
+    R = foot.hindfoot_pose[:, :3, :3]
+    d_local = np.einsum("nji,nj->ni", R, d)
+    # the low-pass keeps filter_gain of the white variance; 4000 frames correlated over ~10
+    # give ~400 independent samples: a variance's relative SE sqrt(2 / 400) = 7 %, so 30 %
+    # is over four of them
+    np.testing.assert_allclose(d_local.var(axis=0), filter_gain(noise) * sd[:3] ** 2, rtol=0.3)
+    # and the twists follow the moved poses (velocity = rate of the moved origin, to the
+    # product rule of two central differences at 100 Hz: 0.4 mm/s here, against a noise
+    # velocity of ~10 mm/s that must not be missing)
+    v = np.gradient(seen.hindfoot_pose[:, :3, 3], seen.time, axis=0)
+    np.testing.assert_allclose(seen.hindfoot_twist[:, :3], v, atol=1e-3)
+    assert np.abs(seen.hindfoot_twist[:, :3] - foot.hindfoot_twist[:, :3]).max() > 5e-3
+
+
+def _noisy_stances(marker_noise):
+    from gc_ocp.estimation.synthetic import default_truth, synthetic_stance
+
+    rng = np.random.default_rng(5)
+    truth = default_truth()
+    sts = [
+        synthetic_stance(
+            side,
+            truth,
+            t0=1.1 * j,
+            sink=0.010,
+            rng=rng,
+            marker_noise=marker_noise,
+            force_noise=0.005 * 700,
+            label=f"syn:{side}{j}",
+        )
+        for side in ("left", "right")
+        for j in range(2)
+    ]
+    return sts, truth
+
+
+def test_a_replicate_walks_the_recorded_motion_seen_through_new_noise():
+    from gc_ocp.estimation import build_estimation
+    from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
+    from gc_ocp.estimation.synthetic import recovery_model
+
+    sts, _ = _noisy_stances(1e-3)
+    sts[0] = dataclasses.replace(sts[0], censor_below=20.0)
+    model = recovery_model()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = solve(build_estimation(sts, model), IpoptOptions())
+    rep = replicate_data(sts, model, res, np.random.default_rng(0))
+    pb = build_estimation(sts, model)
+    x0 = res.x.copy()
+    for s in pb.variables.specs:
+        if s.key[0] == "pose":
+            x0[s.start : s.start + s.size] = 0.0
+    recorded = result_at(pb, x0, covariance=False).stance_fits
+    for st, r, f, f0 in zip(sts, rep, res.stance_fits, recorded, strict=True):
+        assert r.label == st.label and r.censor_below == st.censor_below
+        # the same motion seen through new noise of the measured size: the poses differ from
+        # the recorded ones by a fraction of a millimetre, not by nothing
+        dp = np.abs(r.foot.hindfoot_pose[:, :3, 3] - st.foot.hindfoot_pose[:, :3, 3])
+        assert 1e-6 < dp.max() < 5e-3
+        # recorded as the lab did: below its threshold the plate reads exactly zero
+        assert np.isfinite(r.measured).all() and r.measured.shape == st.measured.shape
+        if st.censor_below > 0:
+            low = r.measured[:, 2] < st.censor_below
+            assert low.any() and np.all(r.measured[low] == 0.0)
+        # the plate data are the fitted model's wrench on the recorded motion (its pose
+        # correction at zero; here evaluated by the fit's own decoding, not the simulator) plus
+        # the fit's residual with each block's sign flipped: the same size frame by frame
+        e_fit = np.asarray(f["measured"]) - np.asarray(f["model"])
+        e_rep = r.measured - np.asarray(f0["model"])
+        m = r.measured[:, 2] != 0.0
+        np.testing.assert_allclose(np.abs(e_rep[m]), np.abs(e_fit[m]), rtol=1e-6, atol=1e-6)
+        flipped = np.sign(e_rep[m, 2]) != np.sign(e_fit[m, 2])
+        assert 0 < flipped.sum() < m.sum()
+
+
+def test_the_correction_subtracts_the_replicates_mean_change_and_adds_its_error():
+    from gc_ocp.estimation import build_estimation
+    from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
+    from gc_ocp.estimation.synthetic import recovery_model
+
+    sts, truth = _noisy_stances(1e-3)
+    model = recovery_model()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        pb = build_estimation(sts, model)
+        res = solve(pb, IpoptOptions())
+        out, info = bias_corrected(sts, model, res, replicates=3, seed=0)
+        again, info2 = bias_corrected(sts, model, res, replicates=3, seed=0)
+    assert info.replicates == 3 and info.failed == 0
+    assert info2.bias == info.bias  # seeded: the same replicates
+    fitted, corrected = res.params["shared"], out.params["shared"]
+    assert info.as_fitted["mu"] == fitted["mu"]
+    # the correction is made on the decision variables, the bias read on the parameters: the
+    # same where a parameter is linear in its variable (mu, n, c are: scaled, not logged)
+    for p in ("n", "c", "mu"):
+        assert corrected[p] == pytest.approx(fitted[p] - info.bias[p], abs=1e-9)
+    # the reported covariance is the fit's at the corrected point plus the bias's Monte
+    # Carlo covariance (positive semi-definite): no variance shrinks
+    hac = result_at(pb, out.x).covariance
+    assert np.all(np.diag(out.covariance) >= np.diag(hac) - 1e-15)
+    assert np.any(np.diag(out.covariance) > np.diag(hac) * (1 + 1e-6))
+    assert "bias correction (3 replicates" in info.message()
+    assert info.to_json()["bias"]["mu"] == info.bias["mu"]
+
+
+def test_a_fit_refuses_a_bias_correction_of_one_replicate():
+    from gc_ocp.workflow.fitting import fit
+
+    with pytest.raises(InputError, match="at least 2"):
+        fit([], bias_correction=1)
