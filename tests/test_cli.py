@@ -378,3 +378,26 @@ def test_pairing_rules(tmp_path):
     assert pair_trials([tmp_path / "only" / "a.trc"])[0].grf.name == "grf.mot"
     with pytest.raises(InputError, match="would both take the ground reactions"):
         pair_trials([tmp_path / "only" / "a.trc", tmp_path / "only" / "b.trc"])
+
+
+def test_fit_with_a_bias_correction_reports_what_it_removed(tmp_path, capsys):
+    """``fit --bias-correction 2`` on the bundled trial: fit.json has the correction (its
+    replicates, the parameters as fitted, the bias), the reported parameters are the fitted
+    ones minus the bias, and the summary says so (the correction's validity over many draws is
+    ``benchmarks/coverage.py --bias-correction``'s)."""
+    out = tmp_path / "fit"
+    assert main(["fit", "--bias-correction", "2", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    d = json.loads((out / "fit.json").read_text())
+    b = d["bias_correction"]
+    assert b["replicates"] + b["failed"] == 2 and b["replicates"] >= 2
+    shared = d["blocks"]["contact"]["shared"]
+    for p in ("n", "c", "mu"):
+        # a parameter the fit put at its bound (this trial's n at 1) is not corrected: its
+        # replicates can move only one way
+        moved = 0.0 if p in b["at_bound"] else b["bias"][p]
+        assert shared[p] == pytest.approx(b["as_fitted"][p] - moved, abs=1e-9)
+        assert b["bias_se"][p] >= 0
+    assert all(shared[p] == b["as_fitted"][p] for p in b["at_bound"])
+    assert d["provenance"]["options"]["bias_correction"] == 2
+    assert "bias correction (2 replicates" in printed

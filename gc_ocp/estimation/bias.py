@@ -138,7 +138,8 @@ def replicate_data(
 @dataclasses.dataclass(frozen=True)
 class BiasCorrection:
     """What :func:`bias_corrected` did: the replicates made and lost, the shared parameters
-    as fitted, their estimated bias and its Monte Carlo error (``{name: value}``), seconds."""
+    as fitted, their estimated bias and its Monte Carlo error (``{name: value}``), seconds, and
+    the parameters left uncorrected because the fit put them at a bound."""
 
     replicates: int
     failed: int
@@ -146,20 +147,24 @@ class BiasCorrection:
     bias: dict
     bias_se: dict
     seconds: float
+    at_bound: list = dataclasses.field(default_factory=list)
 
     def message(self) -> str:
         parts = [
             f"{k} {self.bias[k]:+.3g} (+- {self.bias_se[k]:.2g})"
             for k in self.bias
-            if k in ("n", "c", "mu", "eps_x")
+            if k in ("n", "c", "mu") and k not in self.at_bound
         ]
-        return (
+        s = (
             f"bias correction ({self.replicates} replicates"
             + (f", {self.failed} failed" if self.failed else "")
             + f", {self.seconds:.0f} s): the markers' noise moved the fit by "
-            + ", ".join(parts)
+            + (", ".join(parts) or "nothing it could correct")
             + "; removed"
         )
+        if self.at_bound:
+            s += f"; not corrected at their bound: {', '.join(self.at_bound)}"
+        return s
 
     def to_json(self) -> dict:
         return {
@@ -214,7 +219,14 @@ def bias_corrected(
     D = np.asarray(moved)
     B = D.shape[0]
     x = np.asarray(result.x, float).copy()
-    x[shared] = np.clip(x[shared] - D.mean(axis=0), problem.lbx[shared], problem.ubx[shared])
+    # a variable the fit left at a bound (within Ipopt's interior-point margin, 1e-6 of its
+    # range) is not corrected, nor one the correction would push through a bound: its
+    # replicates can move one way only, so their mean change is no estimate of a bias
+    lo, hi = problem.lbx[shared], problem.ubx[shared]
+    margin = 1e-6 * np.maximum(hi - lo, 1.0)
+    xs, step = x[shared], D.mean(axis=0)
+    free = (xs - lo > margin) & (hi - xs > margin) & (xs - step > lo) & (xs - step < hi)
+    x[shared] = np.where(free, xs - step, xs)
     # each stance's correction re-estimated at the corrected shared values (a held-out fit's
     # problem: the shared components frozen)
     at = result_at(problem, x, covariance=False)
@@ -248,7 +260,8 @@ def bias_corrected(
         reps.append(_shared(result_at(problem, xr, covariance=False)))
     bias = {k: float(np.mean([r[k] for r in reps]) - before[k]) for k in before if k in after}
     se = {k: float(np.std([r[k] for r in reps], ddof=1) / np.sqrt(B)) for k in bias}
-    info = BiasCorrection(B, failed, before, bias, se, time.perf_counter() - t0)
+    at_bound = [k for k in bias if after[k] == before[k] and bias[k] != 0.0]
+    info = BiasCorrection(B, failed, before, bias, se, time.perf_counter() - t0, at_bound)
     say(info.message())
     return corrected, info
 
