@@ -223,7 +223,8 @@ def main() -> None:
                     key = "f_ref per unit (10)"
                 hits.setdefault((key, label), []).append(abs(est - tv) <= 1.96 * se)
         print(
-            f"draw {i + 1}/{args.draws} ({time.perf_counter() - t0:.0f} s)",
+            f"draw {i + 1}/{args.draws} ({time.perf_counter() - t0:.0f} s): mu error "
+            f"{res.params['shared']['mu'] - truth['mu']:+.4f}, SE {res.params['shared']['mu_se']:.4f}",
             file=sys.stderr,
             flush=True,
         )
