@@ -152,3 +152,11 @@ def test_a_fit_refuses_a_bias_correction_of_one_replicate():
 
     with pytest.raises(InputError, match="at least 2"):
         fit([], bias_correction=1)
+
+
+def test_a_batch_refuses_a_bias_correction_of_one_replicate_before_any_subject():
+    from gc_ocp.batch import Settings
+
+    assert Settings(bias_correction=16).to_json()["bias_correction"] == 16
+    with pytest.raises(InputError, match="at least 2"):
+        Settings(bias_correction=1)

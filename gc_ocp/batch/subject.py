@@ -36,6 +36,7 @@ from pathlib import Path
 from gc_ocp.batch.manifest import Subject
 from gc_ocp.batch.summary import error_rows, subject_rows
 from gc_ocp.errors import GcOcpError, InputError, SolveError
+from gc_ocp.estimation.bias import check_replicates
 from gc_ocp.outputs import OutputSet, atomic_write, atomic_write_text
 from gc_ocp.workflow.provenance import sha256
 
@@ -50,11 +51,17 @@ class Settings:
     """What every subject of a run is fitted with: ``diagnose`` (also run the sim-to-real
     diagnosis on the subject's trials), ``pose_scale`` (estimate the pose correction's width,
     as ``gc-ocp fit`` does by default), ``sole_scale`` (estimate the sole correction's width
-    too; None: as :func:`gc_ocp.workflow.fitting.fit` decides, with ``pose_scale``)."""
+    too; None: as :func:`gc_ocp.workflow.fitting.fit` decides, with ``pose_scale``),
+    ``bias_correction`` (replicates of the markers' noise's bias correction, 0: none;
+    :mod:`gc_ocp.estimation.bias`)."""
 
     diagnose: bool = False
     pose_scale: bool = True
     sole_scale: bool | None = None
+    bias_correction: int = 0
+
+    def __post_init__(self) -> None:
+        check_replicates(self.bias_correction)  # before any subject is fitted
 
     def to_json(self) -> dict:
         return dataclasses.asdict(self)
@@ -280,6 +287,7 @@ def _fit_subject(
             holdout=subject.holdout,
             pose_scale=settings.pose_scale,
             sole_scale=settings.sole_scale,
+            bias_correction=settings.bias_correction,
         )
         fit_doc = write_fit(
             out, report, prov, {"trials": [kin.info.get("landmarks") for _, kin in pairs]}

@@ -306,6 +306,14 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="Keep the sole correction's prior width (as gc-ocp fit --fixed-sole-width).",
     )
+    p.add_argument(
+        "--bias-correction",
+        type=int,
+        default=0,
+        metavar="B",
+        help="Remove the markers' noise's bias from every fit with B replicates (as gc-ocp "
+        "fit --bias-correction; default 0: off).",
+    )
     p.set_defaults(func=cmd_batch)
 
     p = sub.add_parser(

@@ -281,6 +281,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
             diagnose=args.diagnose,
             pose_scale=not args.fixed_pose_width,
             sole_scale=False if args.fixed_sole_width else None,
+            bias_correction=args.bias_correction,
         ),
         workers=args.workers,
         scheduler=args.scheduler,

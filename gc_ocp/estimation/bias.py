@@ -45,7 +45,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from scipy.signal import butter, filtfilt
 
-from gc_ocp.errors import SolveError
+from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.measurement import censored
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
@@ -64,6 +64,16 @@ BLOCK_SECONDS = 0.1
 """Block length of every bootstrap of the residuals [s] (these replicates', the diagnosis's
 held-out intervals and its null): the residuals' autocorrelation time after the 6 Hz filtering
 of the kinematics (the HAC bandwidth of ``solve._bandwidth`` is 5-12 frames at 100 Hz)."""
+
+
+def check_replicates(replicates: int) -> None:
+    """Raise :class:`~gc_ocp.errors.InputError` unless ``replicates`` is 0 (no correction) or
+    at least 2 (a mean change and its spread)."""
+    if replicates < 0 or replicates == 1:
+        raise InputError(
+            f"bias_correction={replicates}: give the number of replicates, at least 2 (16 is a "
+            "good choice; --bias-correction 16), or 0 for none."
+        )
 
 
 def block_signs(T: int, L: int, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -272,6 +282,7 @@ __all__ = [
     "BiasCorrection",
     "bias_corrected",
     "block_signs",
+    "check_replicates",
     "draw_pose_noise",
     "replicate_data",
 ]

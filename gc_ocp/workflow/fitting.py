@@ -19,7 +19,7 @@ import warnings
 from collections.abc import Callable, Sequence
 
 from gc_ocp.errors import InputError
-from gc_ocp.estimation.bias import BiasCorrection, bias_corrected
+from gc_ocp.estimation.bias import BiasCorrection, bias_corrected, check_replicates
 from gc_ocp.estimation.components import full_model
 from gc_ocp.estimation.pose_scale import PoseScale, estimate_pose_scale
 from gc_ocp.estimation.problem import Weights, build_estimation
@@ -217,11 +217,7 @@ def fit(
             "The sole correction's width is estimated in the pose width's rounds: keep "
             "pose_scale=True (drop --fixed-pose-width) to estimate it."
         )
-    if bias_correction < 0 or bias_correction == 1:
-        raise InputError(
-            f"bias_correction={bias_correction}: give the number of replicates, at least 2 "
-            "(16 is a good choice; --bias-correction 16), or 0 for none."
-        )
+    check_replicates(bias_correction)
     model = model or full_model()
     trials, data, notes = fit_data(trials, margin, say)
     held = None
