@@ -113,20 +113,27 @@ def _stance_columns(problem) -> np.ndarray:
     return np.concatenate(cols) if cols else np.zeros(0, int)
 
 
+def recorded_truth(data: Sequence[StanceData], model: tuple, result: EstimationResult) -> tuple:
+    """The replicates' truth: ``model`` frozen at ``result`` with every per-stance variable at
+    zero (the pose correction: the motion as recorded)."""
+    problem = build_estimation(list(data), model, compile=False)
+    x = np.asarray(result.x, float).copy()
+    x[_stance_columns(problem)] = 0.0
+    return frozen_model(model, result_at(problem, x, covariance=False))
+
+
 def replicate_data(
     data: Sequence[StanceData],
     model: tuple,
     result: EstimationResult,
     rng: np.random.Generator,
     frame_rate: float | None = None,
+    truth: tuple | None = None,
 ) -> list[StanceData]:
     """One replicate (module doc): the fitted model frozen, on the recorded motion, its plate
     data plus the fit's residual in sign-flipped blocks, censored as recorded, seen through a
-    fresh draw of the markers' noise."""
-    problem = build_estimation(list(data), model, compile=False)
-    x = np.asarray(result.x, float).copy()
-    x[_stance_columns(problem)] = 0.0  # the recorded motion
-    truth = frozen_model(model, result_at(problem, x, covariance=False))
+    fresh draw of the markers' noise (``truth``: :func:`recorded_truth`, when already made)."""
+    truth = recorded_truth(data, model, result) if truth is None else truth
     sim = simulate(list(data), truth, rng, plate_noise_pct_bw=0.0)
     out = []
     for st, s, f in zip(data, sim, result.stance_fits, strict=True):
@@ -210,9 +217,10 @@ def bias_corrected(
     stance = _stance_columns(problem)
     shared = np.setdiff1d(np.arange(problem.x0.size), stance)
     rng = np.random.default_rng(seed)
+    truth = recorded_truth(data, model, result)
     moved, failed = [], 0
     for b in range(replicates):
-        rep = replicate_data(data, model, result, rng)
+        rep = replicate_data(data, model, result, rng, truth=truth)
         try:
             pr = build_estimation(rep, model, weights)
             rr = solve(pr, options, x0=rescaled_start(result, pr), covariance=False)
@@ -283,6 +291,7 @@ __all__ = [
     "bias_corrected",
     "block_signs",
     "check_replicates",
+    "recorded_truth",
     "draw_pose_noise",
     "replicate_data",
 ]

@@ -252,18 +252,18 @@ def fit(
         model, res, scale = estimate_pose_scale(
             data, model, res, weights, options, say, sole=sole_scale
         )
-        if scale is not None and not scale.plausible:
-            res.flags.append(
-                {
-                    "code": "pose_width_at_limit",
-                    "what": "pose correction",
-                    "message": scale.message(),
-                }
-            )
     bias = None
     if bias_correction:
         say(f"bias correction: {bias_correction} replicates")
         res, bias = bias_corrected(data, model, res, bias_correction, 0, weights, options, say)
+    if scale is not None and not scale.plausible:
+        res.flags.append(
+            {
+                "code": "pose_width_at_limit",
+                "what": "pose correction",
+                "message": scale.message(),
+            }
+        )
     report = FitReport(res, checks=notes, pose_scale=scale, bias=bias)
     if held is not None:
         hp = build_estimation([held], frozen_model(model, res), weights)
