@@ -401,3 +401,5 @@ def test_fit_with_a_bias_correction_reports_what_it_removed(tmp_path, capsys):
     assert all(shared[p] == b["as_fitted"][p] for p in b["at_bound"])
     assert d["provenance"]["options"]["bias_correction"] == 2
     assert "bias correction (2 replicates" in printed
+    page = (out / "report.html").read_text()
+    assert "noise: bias correction (2 replicates" in page, page[:3000]

@@ -156,7 +156,8 @@ def replicate_data(
 class BiasCorrection:
     """What :func:`bias_corrected` did: the replicates made and lost, the shared parameters
     as fitted, their estimated bias and its Monte Carlo error (``{name: value}``), seconds, and
-    the parameters left uncorrected because the fit put them at a bound."""
+    the parameters left uncorrected because the fit put them at a bound or the correction
+    would have crossed one."""
 
     replicates: int
     failed: int
@@ -180,7 +181,9 @@ class BiasCorrection:
             + "; removed"
         )
         if self.at_bound:
-            s += f"; not corrected at their bound: {', '.join(self.at_bound)}"
+            s += "; left uncorrected (at a bound, or the correction would cross one): " + ", ".join(
+                f"{k} ({self.bias[k]:+.3g})" for k in self.at_bound
+            )
         return s
 
     def to_json(self) -> dict:
