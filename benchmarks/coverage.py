@@ -48,6 +48,17 @@ UNITS = ("PL", "PM", "AL", "AM", "TT")
 SIDES = ("left", "right")
 
 
+def sole_displacement() -> dict:
+    """``{side: (5, 3)}`` [m] the true units' displacement from nominal: a random direction and
+    up to 8 mm per unit, the same for every draw (seeded)."""
+    rng = np.random.default_rng(1)
+    disp = {}
+    for side in SIDES:
+        d = rng.normal(size=(5, 3))
+        disp[side] = d * (rng.uniform(0, 0.008, 5) / np.linalg.norm(d, axis=1))[:, None]
+    return disp
+
+
 def ar1(rng, T, rho, sd, shape):
     e = np.empty((T, *shape))
     e[0] = rng.normal(0, sd, shape)
@@ -173,11 +184,7 @@ def main() -> None:
     )
     args = ap.parse_args()
     truth = default_truth()
-    rng0 = np.random.default_rng(1)
-    disp = {}
-    for side in SIDES:
-        d = rng0.normal(size=(5, 3))
-        disp[side] = d * (rng0.uniform(0, 0.008, 5) / np.linalg.norm(d, axis=1))[:, None]
+    disp = sole_displacement()
     model = recovery_model()
     drift_deg = 0.25 * args.drift_mm if args.drift_deg is None else args.drift_deg
     hits: dict = {}

@@ -97,11 +97,7 @@ def main() -> None:
     ap.add_argument("--draws", type=int, default=4)
     args = ap.parse_args()
     truth = default_truth()
-    rng0 = np.random.default_rng(1)
-    disp = {}
-    for side in cv.SIDES:
-        d = rng0.normal(size=(5, 3))
-        disp[side] = d * (rng0.uniform(0, 0.008, 5) / np.linalg.norm(d, axis=1))[:, None]
+    disp = cv.sole_displacement()
     print(
         f"# The friction coefficient's bias: one kinematic error at a time ({args.draws} draws)\n"
     )

@@ -107,3 +107,27 @@ def assert_matches_pins(name: str, report) -> None:
             for ch, v in chans.items():
                 assert res.rms[side][ch] == pytest.approx(v, abs=PIN_RMS_ATOL), (name, side, ch)
             assert res.cop_rms_mm[side] == pytest.approx(p["cop_rms_mm"][side], abs=PIN_COP_ATOL_MM)
+
+
+def synthetic_stances(rng, marker_noise: float, per_foot: int = 3):
+    """``(stances, truth)``: ``per_foot`` synthetic stances of each foot under
+    :func:`~gc_ocp.estimation.synthetic.default_truth` (10 mm sink, 0.5 % BW force noise), the
+    feet seen through ``marker_noise`` [m] of virtual-marker noise."""
+    from gc_ocp.estimation.synthetic import default_truth, synthetic_stance
+
+    truth = default_truth()
+    sts = [
+        synthetic_stance(
+            side,
+            truth,
+            t0=1.1 * j,
+            sink=0.010,
+            rng=rng,
+            marker_noise=marker_noise,
+            force_noise=0.005 * 700,
+            label=f"syn:{side}{j}",
+        )
+        for side in ("left", "right")
+        for j in range(per_foot)
+    ]
+    return sts, truth

@@ -9,6 +9,7 @@ import warnings
 
 import numpy as np
 import pytest
+from conftest import synthetic_stances
 
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.bias import bias_corrected, block_signs, draw_pose_noise, replicate_data
@@ -55,34 +56,12 @@ def test_a_fresh_draw_of_the_pose_noise_has_the_measured_size_after_the_low_pass
     assert np.abs(seen.hindfoot_twist[:, :3] - foot.hindfoot_twist[:, :3]).max() > 5e-3
 
 
-def _noisy_stances(marker_noise):
-    from gc_ocp.estimation.synthetic import default_truth, synthetic_stance
-
-    rng = np.random.default_rng(5)
-    truth = default_truth()
-    sts = [
-        synthetic_stance(
-            side,
-            truth,
-            t0=1.1 * j,
-            sink=0.010,
-            rng=rng,
-            marker_noise=marker_noise,
-            force_noise=0.005 * 700,
-            label=f"syn:{side}{j}",
-        )
-        for side in ("left", "right")
-        for j in range(2)
-    ]
-    return sts, truth
-
-
 def test_a_replicate_walks_the_recorded_motion_seen_through_new_noise():
     from gc_ocp.estimation import build_estimation
     from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
     from gc_ocp.estimation.synthetic import recovery_model
 
-    sts, _ = _noisy_stances(1e-3)
+    sts, _ = synthetic_stances(np.random.default_rng(5), 1e-3, per_foot=2)
     sts[0] = dataclasses.replace(sts[0], censor_below=20.0)
     model = recovery_model()
     with warnings.catch_warnings():
@@ -122,7 +101,7 @@ def test_the_correction_subtracts_the_replicates_mean_change_and_adds_its_error(
     from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
     from gc_ocp.estimation.synthetic import recovery_model
 
-    sts, truth = _noisy_stances(1e-3)
+    sts, truth = synthetic_stances(np.random.default_rng(5), 1e-3, per_foot=2)
     model = recovery_model()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

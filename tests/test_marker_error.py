@@ -8,6 +8,7 @@ import warnings
 
 import numpy as np
 import pytest
+from conftest import synthetic_stances
 
 from gc_ocp.geometry import kabsch
 from gc_ocp.kinematics.filtering import lowpass
@@ -67,29 +68,8 @@ def test_pose_covariance_is_that_of_a_rigid_fit_of_noisy_markers():
     assert pose_covariance(mk[:2], sigma) is None  # two markers do not fix a pose
 
 
-def _stances(rng, marker_noise):
-    from gc_ocp.estimation.synthetic import default_truth, synthetic_stance
-
-    truth = default_truth()
-    sts = [
-        synthetic_stance(
-            side,
-            truth,
-            t0=1.1 * j,
-            sink=0.010,
-            rng=rng,
-            marker_noise=marker_noise,
-            force_noise=0.005 * 700,
-            label=f"syn:{side}{j}",
-        )
-        for side in ("left", "right")
-        for j in range(3)
-    ]
-    return sts, truth
-
-
 def test_the_pipeline_measures_each_foot_and_models_the_noise_only_where_it_matters():
-    sts, _ = _stances(np.random.default_rng(3), 0.5e-3)
+    sts, _ = synthetic_stances(np.random.default_rng(3), 0.5e-3)
     foot = sts[0].foot
     # measured from the raw virtual markers, not handed over: within 15 % of the 0.5 mm
     # (4 markers x 65 frames: a few % of MAD error per stance)
@@ -115,7 +95,7 @@ def test_modelling_the_measured_noise_removes_the_friction_bias():
     from gc_ocp.estimation.solve import IpoptOptions, solve
     from gc_ocp.estimation.synthetic import recovery_model
 
-    sts, truth = _stances(np.random.default_rng(4), 0.5e-3)
+    sts, truth = synthetic_stances(np.random.default_rng(4), 0.5e-3)
     err = {}
     for on in (True, False):
         model = recovery_model(marker_noise=on)
@@ -159,7 +139,7 @@ def test_the_pose_width_follows_the_kinematic_error_in_the_data(drift_mm):
     from gc_ocp.estimation.synthetic import recovery_model
 
     rng = np.random.default_rng(6)
-    sts, _ = _stances(rng, 0.0)
+    sts, _ = synthetic_stances(rng, 0.0)
     if drift_mm:
         sts = drift(sts, drift_mm * 1e-3, 0.25 * drift_mm, rng)
     model = recovery_model()
@@ -182,7 +162,7 @@ def test_the_diagnosis_refuses_an_unknown_pose_width():
     from gc_ocp.diagnosis import diagnose_stances
     from gc_ocp.errors import ModelError
 
-    sts, _ = _stances(np.random.default_rng(7), 0.0)
+    sts, _ = synthetic_stances(np.random.default_rng(7), 0.0)
     with pytest.raises(ModelError, match="pose_width"):
         diagnose_stances(sts, pose_width="guessed")
 
@@ -200,7 +180,7 @@ def test_the_sole_width_follows_the_units_misplacement_in_the_data(offset_mm):
     from gc_ocp.estimation.synthetic import recovery_model
 
     rng = np.random.default_rng(8)
-    sts, _ = _stances(rng, 0.0)
+    sts, _ = synthetic_stances(rng, 0.0)
     off = {
         side: rng.normal(0.0, offset_mm * 1e-3, sts[0].foot.points_local.shape)
         for side in ("left", "right")

@@ -24,11 +24,7 @@ from gc_ocp.estimation.synthetic import (
 )
 
 truth = default_truth()
-rng0 = np.random.default_rng(1)
-disp = {}
-for side in cv.SIDES:
-    d = rng0.normal(size=(5, 3))
-    disp[side] = d * (rng0.uniform(0, 0.008, 5) / np.linalg.norm(d, axis=1))[:, None]
+disp = cv.sole_displacement()
 noise, dmm, i, mode = 2e-3, 3.0, int(sys.argv[1]), sys.argv[2]
 rng = np.random.default_rng(100 + i)
 data, seen = cv.draw(rng, truth, disp, 0.9, noise, dmm, 0.75, False)

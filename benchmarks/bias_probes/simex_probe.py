@@ -19,11 +19,7 @@ from gc_ocp.estimation.starts import rescaled_start
 from gc_ocp.estimation.synthetic import default_truth, recovery_model
 
 truth = default_truth()
-rng0 = np.random.default_rng(1)
-disp = {}
-for side in cv.SIDES:
-    d = rng0.normal(size=(5, 3))
-    disp[side] = d * (rng0.uniform(0, 0.008, 5) / np.linalg.norm(d, axis=1))[:, None]
+disp = cv.sole_displacement()
 noise = float(sys.argv[1])
 dmm = float(sys.argv[2])
 draws = [int(a) for a in sys.argv[3].split(",")]

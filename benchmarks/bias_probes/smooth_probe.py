@@ -19,11 +19,7 @@ from gc_ocp.estimation.starts import rescaled_start
 from gc_ocp.estimation.synthetic import default_truth, recovery_model, with_pose_error
 
 truth = default_truth()
-rng0 = np.random.default_rng(1)
-disp = {}
-for side in cv.SIDES:
-    d = rng0.normal(size=(5, 3))
-    disp[side] = d * (rng0.uniform(0, 0.008, 5) / np.linalg.norm(d, axis=1))[:, None]
+disp = cv.sole_displacement()
 for i in [int(a) for a in sys.argv[1].split(",")]:
     rng = np.random.default_rng(100 + i)
     data, seen = cv.draw(rng, truth, disp, 0.9, 1e-3, 3.0, 0.75, False)

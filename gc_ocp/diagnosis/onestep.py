@@ -92,15 +92,7 @@ def linearize(problem, x: np.ndarray, nested: bool = True) -> Linear:
     for b in problem.blocks:
         rows.append(slice(start, start + 6 * b.T))
         start += 6 * b.T
-    stance_scope = {c.name for c in problem.model if c.scope == "stance"}
-    nuisance = []
-    for st in problem.stances:
-        cols = [
-            np.arange(s.start, s.start + s.size)
-            for s in problem.variables.specs
-            if s.key[0] in stance_scope and len(s.key) > 1 and s.key[1] == st.label
-        ]
-        nuisance.append(np.concatenate(cols) if cols else np.zeros(0, int))
+    nuisance = problem.stance_columns()
     span = np.maximum(problem.ubx - problem.lbx, 1.0)
     tol = 1e-9 * span
     return Linear(

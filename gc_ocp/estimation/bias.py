@@ -105,12 +105,8 @@ def draw_pose_noise(foot: FootKinematics, rng: np.random.Generator) -> FootKinem
 
 
 def _stance_columns(problem) -> np.ndarray:
-    """The columns of ``problem``'s per-stance variables (stance-scope components)."""
-    names = {c.name for c in problem.model if c.scope == "stance"}
-    cols = [
-        np.arange(s.start, s.start + s.size) for s in problem.variables.specs if s.key[0] in names
-    ]
-    return np.concatenate(cols) if cols else np.zeros(0, int)
+    """Every stance's columns of ``problem``'s per-stance variables, together."""
+    return np.concatenate([np.zeros(0, int), *problem.stance_columns()])
 
 
 def recorded_truth(data: Sequence[StanceData], model: tuple, result: EstimationResult) -> tuple:
@@ -127,7 +123,6 @@ def replicate_data(
     model: tuple,
     result: EstimationResult,
     rng: np.random.Generator,
-    frame_rate: float | None = None,
     truth: tuple | None = None,
 ) -> list[StanceData]:
     """One replicate (module doc): the fitted model frozen, on the recorded motion, its plate
@@ -139,7 +134,7 @@ def replicate_data(
     for st, s, f in zip(data, sim, result.stance_fits, strict=True):
         e = np.asarray(f["measured"], float) - np.asarray(f["model"], float)
         keep = ~censored(f["measured"], f.get("censor_below", 0.0))
-        rate = frame_rate or 1.0 / float(np.median(np.diff(st.time)))
+        rate = 1.0 / float(np.median(np.diff(st.time)))
         sg = block_signs(e.shape[0], max(1, round(BLOCK_SECONDS * rate)), 1, rng)[:, 0]
         m = s.measured + e * (sg * keep)[:, None]
         if st.censor_below > 0:

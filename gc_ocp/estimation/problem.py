@@ -327,6 +327,20 @@ class EstimationProblem:
         ``measured`` unless a component edits it, e.g. a clock offset resamples the plate)."""
         return [np.asarray(b.fm.frame.map(b.T)(b.D, b.Y(x))[2]).T for b in self.blocks]
 
+    def stance_columns(self) -> list[np.ndarray]:
+        """Per stance, the columns of ``x`` its stance-scope components own (the per-stance
+        nuisance a held-out stance re-estimates, e.g. its pose correction)."""
+        names = {c.name for c in self.model if c.scope == "stance"}
+        out = []
+        for st in self.stances:
+            cols = [
+                np.arange(s.start, s.start + s.size)
+                for s in self.variables.specs
+                if s.key[0] in names and len(s.key) > 1 and s.key[1] == st.label
+            ]
+            out.append(np.concatenate(cols) if cols else np.zeros(0, int))
+        return out
+
     def slot_values(self, x: np.ndarray, i: int, name: str) -> np.ndarray:
         """``(T, size)`` values of slot ``name`` on stance ``i`` at ``x``."""
         b = self.blocks[i]
