@@ -138,8 +138,10 @@ class EstimationResult:
             )
             if side in self.pose_correction_rms:
                 pc = self.pose_correction_rms[side]
+                rho = (self.blocks.get("pose") or {}).get("shared_fraction", {}).get(side)
                 lines.append(
                     f"{side:>5} pose correction RMS: {pc['mm']:.2f} mm, {pc['deg']:.2f} deg"
+                    + ("" if rho is None else f"; {rho:.0%} of it shared by the foot's stances")
                 )
         for trial, v in self.belt_speed.items():
             lines.append(

@@ -76,11 +76,20 @@ def _covariance(problem: EstimationProblem, x: np.ndarray) -> np.ndarray:
     by Newey & West's (1987) Bartlett-weighted sum of the per-frame scores ``g_t = J_t^T r_t``
     over lags up to the stance's bandwidth L (:func:`_bandwidth`); stances are independent. With
     white residuals of unit variance this reduces to the usual ``H^-1``; with white residuals
-    of variance s^2 to the classical ``s^2``-scaled one."""
+    of variance s^2 to the classical ``s^2``-scaled one.
+
+    The prior's part ``W^2`` of ``S`` is ``W Cov(z) W`` for the true values ``z`` of the prior
+    variables: the identity (independent draws of the prior) unless a component says otherwise
+    (:meth:`~gc_ocp.estimation.components.base.Component.prior_covariance`: the pose error the
+    stances of a foot share)."""
     r, J = problem.data_jacobian(x)
-    P = np.diag(problem.prior_weights**2)
+    pw = np.asarray(problem.prior_weights, float)
+    P = np.diag(pw**2)
     H = (J.T @ J).toarray() + P
     S = P.copy()
+    for comp in problem.model:
+        for cols, C in comp.prior_covariance(problem.variables.specs, problem.stances, x):
+            S[np.ix_(cols, cols)] = pw[cols, None] * C * pw[None, cols]
     row = 0
     for b in problem.blocks:
         n = 6 * b.T

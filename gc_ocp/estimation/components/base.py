@@ -266,6 +266,15 @@ class Component:
         laid out per side by ``EstimationResult.summary`` itself)."""
         return []
 
+    def prior_covariance(self, specs: list, stances: list, x: np.ndarray) -> list[tuple]:
+        """``[(cols, C), ...]``: where the true values of this component's prior variables
+        ``cols`` (columns of the decision vector, stored units) are *not* the independent
+        ``N(0, I)`` draws their prior declares, their covariance ``C`` as estimated at the
+        solution ``x`` (e.g. a pose error that the stances of a foot share). The covariance's
+        sandwich uses it for the prior's part (:func:`~gc_ocp.estimation.solve._covariance`).
+        Default: none (independent)."""
+        return []
+
     def flags(self, block: dict, stances: list) -> list[dict]:
         """Plausibility flags of this component's block (``gc_ocp.estimation.flags.flag``)."""
         return []

@@ -69,6 +69,12 @@ class PoseCorrection(Component):
     0.1 s apart, cannot follow a 6 Hz error. Noise too small to matter
     (:data:`~gc_ocp.marker_noise.MIN_UNIT_NOISE_M`) is left out.
 
+    shared: the stances of a foot may share part of their pose error (a soft-tissue pattern
+    that repeats stride after stride): its share of the prior's variance, ``rho``, is measured
+    from the fitted corrections (:func:`shared_fraction`) and the covariance of the estimate
+    takes it in (:meth:`prior_covariance`). The estimate itself does not change. False: the
+    stances' errors are independent (the prior as declared).
+
     As the candidate effect ``kinematic_correction`` (against the bare seed base) it is an error
     of the *data*: the benchmark's fitter sees the foot through marker noise and a soft-tissue
     drift (:meth:`benchmark_kinematic_error`), the truth model is the base itself.
@@ -80,6 +86,7 @@ class PoseCorrection(Component):
     bound_sigmas: float = 6.0
     knot_correlation: tuple[float, ...] | None = None
     marker_noise: bool = True
+    shared: bool = True
     name: str = "pose"
     scope = "stance"
     neutral_at_zero = True
@@ -196,6 +203,34 @@ class PoseCorrection(Component):
             frame.points[i] = p + dp + ca.cross(dth, r)
             frame.velocities[i] = vel + ddp + ca.cross(ddth, r) + ca.cross(dth, rdot)
 
+    def prior_covariance(self, specs: list, stances: list, x: np.ndarray) -> list[tuple]:
+        """Per foot with two or more stances and per axis of the smooth part, ``(cols, C)``
+        with ``C = (1 - rho) I + rho E E^T`` (class doc; ``rho``: :func:`shared_fraction`;
+        ``E``: :func:`_shared_map`): each coefficient keeps its prior's variance, and the
+        coefficients of two stances at the same place in their stance share ``rho`` of it. A
+        pattern every stride shares does not average out over the stances as independent
+        errors do; this is how the covariance knows (``docs/quality.md``, "A pose error the
+        strides share")."""
+        if not self.shared or self.knot_correlation is not None:
+            return []
+        rho = shared_fraction(self, specs, stances, x)
+        index = {s.key: s for s in specs}
+        out = []
+        for side, r in rho.items():
+            sts = [st for st in stances if st.side == side]
+            K_ref = _reference_knots(self, sts)
+            E = np.vstack([_shared_map(self, st.time, K_ref) for st in sts])
+            C = (1.0 - r) * np.eye(E.shape[0]) + r * (E @ E.T)
+            for part in ("trans", "rot"):
+                starts = [index[(self.name, st.label, part)].start for st in sts]
+                Ks = [self.basis(st.time)[0].shape[1] for st in sts]
+                for axis in range(3):
+                    cols = np.concatenate(
+                        [s0 + 3 * np.arange(K) + axis for s0, K in zip(starts, Ks, strict=True)]
+                    )
+                    out.append((cols, C))
+        return out
+
     def signature(self) -> tuple:
         return ("PoseCorrection",)  # values, priors and knots only enter through its slots
 
@@ -219,12 +254,77 @@ class PoseCorrection(Component):
             for s, v in sq.items()
             if v[0]
         }
+        shared = shared_fraction(self, ctx.specs, ctx.stances, ctx.x) if self.shared else {}
         return {
             "rms": rms,
+            "shared_fraction": shared,
             "stances": per,
             "prior_mm": np.broadcast_to(np.asarray(self.sigma_mm, float), 3).tolist(),
             "prior_deg": np.broadcast_to(np.asarray(self.sigma_deg, float), 3).tolist(),
         }
+
+
+SHARED_GRID = 21
+"""Points of a stance's normalised time (0 at the first frame, 1 at the last) at which the
+corrections of two stances are compared (:func:`shared_fraction`): finer than the knots of any
+stance (a 1.5-s stance with knots 0.1 s apart has 18)."""
+
+
+def _trajectory(comp: PoseCorrection, spec_of, x: np.ndarray, stance) -> np.ndarray:
+    """``(6, SHARED_GRID)``: the smooth part of ``stance``'s correction (translation, rotation;
+    stored units, i.e. in units of the prior's width per axis) at :data:`SHARED_GRID` points of
+    its normalised time."""
+    t = np.asarray(stance.time, float)
+    grid = t[0] + np.linspace(0.0, 1.0, SHARED_GRID) * (t[-1] - t[0])
+    B = _bspline_basis(np.ascontiguousarray(grid).tobytes(), float(comp.knot_spacing))[0]
+    rows = []
+    for part in ("trans", "rot"):
+        z = np.asarray(x[spec_of[(comp.name, stance.label, part)].slice], float)
+        rows.append(z.reshape(-1, 3).T @ B.T)  # stored column-major 3 x K
+    return np.vstack(rows)
+
+
+def shared_fraction(comp: PoseCorrection, specs: list, stances: list, x: np.ndarray) -> dict:
+    """``{side: rho}``: the share of the pose correction's variance that the stances of a foot
+    have in common, measured from the fitted corrections at ``x``: the mean product of two
+    stances' corrections over the mean square of one, both at the same points of their
+    normalised time (:func:`_trajectory`), pooled over the six axes in units of their widths,
+    clipped to [0, 1]. Independent errors give ~0 (more so with more stances), one pattern in
+    every stride 1. Only feet with two or more stances (with one, a shared pattern is that
+    stance's own error)."""
+    spec_of = {s.key: s for s in specs}
+    out = {}
+    for side in SIDES:
+        Z = [_trajectory(comp, spec_of, x, st) for st in stances if st.side == side]
+        if len(Z) < 2:
+            continue
+        total = float(np.mean([np.sum(z * z) for z in Z]))
+        cross = [np.sum(Z[i] * Z[j]) for i in range(len(Z)) for j in range(i + 1, len(Z))]
+        out[side] = float(np.clip(np.mean(cross) / total, 0.0, 1.0)) if total > 0 else 0.0
+    return out
+
+
+def _reference_knots(comp: PoseCorrection, stances: list) -> int:
+    """Coefficients of the shared pattern: those of the foot's longest stance."""
+    return max(comp.basis(st.time)[0].shape[1] for st in stances)
+
+
+def _shared_map(comp: PoseCorrection, time: np.ndarray, K_ref: int) -> np.ndarray:
+    """``E`` ``(K, K_ref)``: a stance's coefficients (one axis) of a pattern whose ``K_ref``
+    coefficients are independent ``N(0, 1)``: each coefficient interpolated linearly at the
+    same place of the normalised knot sequence, its row scaled to unit norm so that every
+    coefficient keeps its prior's variance (the identity when the stance has ``K_ref``)."""
+    K = comp.basis(time)[0].shape[1]
+    pos = np.linspace(0.0, K_ref - 1.0, K)
+    lo = np.minimum(np.floor(pos).astype(int), K_ref - 2) if K_ref > 1 else np.zeros(K, int)
+    E = np.zeros((K, K_ref))
+    if K_ref == 1:
+        E[:, 0] = 1.0
+        return E
+    w = pos - lo
+    E[np.arange(K), lo] = 1.0 - w
+    E[np.arange(K), lo + 1] = w
+    return E / np.linalg.norm(E, axis=1, keepdims=True)
 
 
 def _noise_part(foot, noise) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -259,4 +359,4 @@ def _noise_arrays(
     return Phi, dPhi, M
 
 
-__all__ = ["PoseCorrection"]
+__all__ = ["SHARED_GRID", "PoseCorrection", "shared_fraction"]
