@@ -1,4 +1,9 @@
-"""One-off probe of the bias correction (issue 23); see README.md beside it."""
+"""One-off probe of the bias correction (issue 23); see README.md beside it.
+
+``smooth_probe.py DRAWS [shared]``: the replicates as ``bias_corrected`` makes them (``white``)
+against replicates whose seen motion also gets a smooth error drawn from the fit's estimated
+widths, independent per stance (default) or, with ``shared``, sharing the measured fraction
+``rho`` of it across a foot's stances (``PoseCorrection.shared``)."""
 
 import dataclasses
 import sys
@@ -18,8 +23,33 @@ from gc_ocp.estimation.solve import IpoptOptions, solve
 from gc_ocp.estimation.starts import rescaled_start
 from gc_ocp.estimation.synthetic import default_truth, recovery_model, with_pose_error
 
+GRID = 64  # a shared pattern's coefficients, placed on each stance's knots by normalised time
+
+
+def smooth_error(rep, pose, rho, r):
+    """``rep`` with each stance's seen motion moved by a draw of the pose correction's prior;
+    ``rho``: ``{side: share}`` of it common to the foot's stances (empty: independent)."""
+    common = {s: (r.normal(0, 1, (GRID, 3)), r.normal(0, 1, (GRID, 3))) for s in rho}
+    out = []
+    for st in rep:
+        B, _ = pose.basis(st.time)
+        K = B.shape[1]
+        a = rho.get(st.side, 0.0)
+        gt, gr = common.get(st.side, (np.zeros((GRID, 3)), np.zeros((GRID, 3))))
+        idx = np.round(np.linspace(0, GRID - 1, K)).astype(int)  # same place of the stance
+        zt = np.sqrt(1 - a) * r.normal(0, 1, (K, 3)) + np.sqrt(a) * gt[idx]
+        zr = np.sqrt(1 - a) * r.normal(0, 1, (K, 3)) + np.sqrt(a) * gr[idx]
+        d = B @ (zt * np.asarray(pose.sigma_mm) * 1e-3)
+        th = B @ (zr * np.deg2rad(np.asarray(pose.sigma_deg)))
+        R = st.foot.hindfoot_pose[:, :3, :3]
+        f = with_pose_error(st.foot, np.einsum("nji,nj->ni", R, th), d)
+        out.append(st.with_foot(dataclasses.replace(f, pose_noise=st.foot.pose_noise)))
+    return out
+
+
 truth = default_truth()
 disp = cv.sole_displacement()
+mode = "shared" if len(sys.argv) > 2 and sys.argv[2] == "shared" else "smooth"
 for i in [int(a) for a in sys.argv[1].split(",")]:
     rng = np.random.default_rng(100 + i)
     data, seen = cv.draw(rng, truth, disp, 0.9, 1e-3, 3.0, 0.75, False)
@@ -27,30 +57,28 @@ for i in [int(a) for a in sys.argv[1].split(",")]:
     res = solve(build_estimation(data, model), IpoptOptions())
     fitted, res, sc = estimate_pose_scale(data, model, res, sole=True)
     pose = next(c for c in fitted if isinstance(c, PoseCorrection))
+    rho = res.blocks["pose"]["shared_fraction"] if mode == "shared" else {}
     tr = recorded_truth(data, fitted, res)
     r = np.random.default_rng(7)
     out = {}
-    for mode in ("white", "smooth"):
+    for m in ("white", mode):
         ch = []
         for _ in range(16):
             rep = replicate_data(data, fitted, res, r, truth=tr)
-            if mode == "smooth":
-                new = []
-                for st in rep:
-                    B, _ = pose.basis(st.time)
-                    K = B.shape[1]
-                    ct = r.normal(0, 1, (K, 3)) * np.asarray(pose.sigma_mm) * 1e-3
-                    cr = r.normal(0, 1, (K, 3)) * np.deg2rad(np.asarray(pose.sigma_deg))
-                    d, th = B @ ct, B @ cr
-                    R = st.foot.hindfoot_pose[:, :3, :3]
-                    f = with_pose_error(st.foot, np.einsum("nji,nj->ni", R, th), d)
-                    new.append(st.with_foot(dataclasses.replace(f, pose_noise=st.foot.pose_noise)))
-                rep = new
+            if m != "white":
+                rep = smooth_error(rep, pose, rho, r)
             pr = build_estimation(rep, fitted)
             rr = solve(pr, IpoptOptions(), x0=rescaled_start(res, pr), covariance=False)
-            ch.append(rr.params["shared"]["mu"] - res.params["shared"]["mu"])
-        out[mode] = (np.mean(ch), np.std(ch, ddof=1))
+            ch.append([rr.params["shared"][p] - res.params["shared"][p] for p in ("n", "mu")])
+        out[m] = (np.mean(ch, axis=0), np.std(ch, axis=0, ddof=1))
+    err = [res.params["shared"][p] - truth[p] for p in ("n", "mu")]
     print(
-        f"draw {i}: mu err {res.params['shared']['mu'] - 0.8:+.4f}, HAC se {res.params['shared']['mu_se']:.4f}, widths {np.round(pose.sigma_mm, 2)} {np.round(pose.sigma_deg, 2)} | white: bias {out['white'][0]:+.4f} sd {out['white'][1]:.4f} | smooth: bias {out['smooth'][0]:+.4f} sd {out['smooth'][1]:.4f}",
+        f"draw {i}: err n {err[0]:+.4f} mu {err[1]:+.4f}, se n {res.params['shared']['n_se']:.4f} "
+        f"mu {res.params['shared']['mu_se']:.4f}, widths {np.round(pose.sigma_mm, 2)} "
+        f"{np.round(pose.sigma_deg, 2)}, rho {rho}"
+        + "".join(
+            f" | {k}: bias n {b[0][0]:+.4f} mu {b[0][1]:+.4f} sd n {b[1][0]:.4f} mu {b[1][1]:.4f}"
+            for k, b in out.items()
+        ),
         flush=True,
     )
