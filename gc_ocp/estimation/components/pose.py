@@ -211,7 +211,7 @@ class PoseCorrection(Component):
         pattern every stride shares does not average out over the stances as independent
         errors do; this is how the covariance knows (``docs/quality.md``, "A pose error the
         strides share")."""
-        if not self.shared or self.knot_correlation is not None:
+        if not self.shared:
             return []
         rho = shared_fraction(self, specs, stances, x)
         index = {s.key: s for s in specs}
@@ -291,7 +291,10 @@ def shared_fraction(comp: PoseCorrection, specs: list, stances: list, x: np.ndar
     normalised time (:func:`_trajectory`), pooled over the six axes in units of their widths,
     clipped to [0, 1]. Independent errors give ~0 (more so with more stances), one pattern in
     every stride 1. Only feet with two or more stances (with one, a shared pattern is that
-    stance's own error)."""
+    stance's own error), and only for independent coefficients (no ``knot_correlation``: the
+    stored variables are then the coefficients)."""
+    if comp.knot_correlation is not None:
+        return {}
     spec_of = {s.key: s for s in specs}
     out = {}
     for side in SIDES:
