@@ -127,11 +127,6 @@ def independent_pose(model: tuple) -> tuple:
     return tuple(dataclasses.replace(c, shared=False) if c.name == "pose" else c for c in model)
 
 
-def hac(problem, x):
-    """The fit's own sandwich covariance (without the bias correction's replicates)."""
-    return _covariance(problem, x)
-
-
 def white_covariance(problem, x):
     r, J = problem.data_jacobian(x)
     s2 = float(r @ r) / max(problem.n_data - x.size, 1)
@@ -233,11 +228,12 @@ def main() -> None:
             continue
         done += 1
         bias.append([res.params["shared"][p] - truth[p] for p in ("n", "c", "mu")])
-        shared.append(res.blocks["pose"].get("shared_fraction", {}))
+        shared.append(res.pose_shared_fraction)
         indep = build_estimation(data, independent_pose(fitted))
         covs = (
             ("HAC", res.covariance),
-            ("independent", _covariance(indep, res.x) + (res.covariance - hac(pb, res.x))),
+            # the bias correction's replicate part (zero without one) kept as it is
+            ("independent", _covariance(indep, res.x) + (res.covariance - _covariance(pb, res.x))),
             ("white", white_covariance(pb, res.x)),
         )
         for label, cov in covs:

@@ -29,6 +29,11 @@ def _pose(problem):
     return comp, specs
 
 
+def _independent(model: tuple) -> tuple:
+    """``model`` with the pose errors of a foot's stances taken as independent."""
+    return tuple(dataclasses.replace(c, shared=False) if c.name == "pose" else c for c in model)
+
+
 def _with(problem, coefficients) -> np.ndarray:
     """``x0`` with each stance's smooth pose coefficients from ``coefficients(spec)``."""
     x = problem.x0.copy()
@@ -91,11 +96,8 @@ def test_one_stance_per_foot_leaves_the_covariance_as_declared():
     x = _with(pb, lambda s: np.random.default_rng(4).normal(size=s.size))
     comp = next(c for c in model if c.name == "pose")
     assert comp.prior_covariance(pb.variables.specs, pb.stances, x) == []
-    independent = tuple(
-        dataclasses.replace(c, shared=False) if c.name == "pose" else c for c in model
-    )
     a = result_at(pb, x).covariance
-    b = result_at(build_estimation(sts, independent), x).covariance
+    b = result_at(build_estimation(sts, _independent(model)), x).covariance
     assert np.array_equal(a, b)
 
 
@@ -106,11 +108,8 @@ def test_a_shared_correction_widens_the_exponent_and_is_reported(problem):
     pattern = np.random.default_rng(5).normal(size=_pose(problem)[1][0].size)
     x = _with(problem, lambda s: pattern)
     shared = result_at(problem, x)
-    independent_model = tuple(
-        dataclasses.replace(c, shared=False) if c.name == "pose" else c for c in problem.model
-    )
-    independent = result_at(build_estimation(problem.stances, independent_model), x)
-    assert shared.blocks["pose"]["shared_fraction"] == pytest.approx({"left": 1.0, "right": 1.0})
-    assert independent.blocks["pose"]["shared_fraction"] == {}
+    independent = result_at(build_estimation(problem.stances, _independent(problem.model)), x)
+    assert shared.pose_shared_fraction == pytest.approx({"left": 1.0, "right": 1.0})
+    assert independent.pose_shared_fraction == {}
     se = {r: res.params["shared"]["n_se"] for r, res in (("s", shared), ("i", independent))}
     assert se["s"] > se["i"]

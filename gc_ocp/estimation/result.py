@@ -92,6 +92,12 @@ class EstimationResult:
         return self.blocks.get("pose", {}).get("rms", {})
 
     @property
+    def pose_shared_fraction(self) -> dict:
+        """``{side: rho}``: the share of the pose correction a foot's stances have in common
+        (``PoseCorrection.shared``; feet with two or more stances)."""
+        return self.blocks.get("pose", {}).get("shared_fraction", {})
+
+    @property
     def belt_speed(self) -> dict:
         return self.blocks.get("belt", {})
 
@@ -138,7 +144,7 @@ class EstimationResult:
             )
             if side in self.pose_correction_rms:
                 pc = self.pose_correction_rms[side]
-                rho = (self.blocks.get("pose") or {}).get("shared_fraction", {}).get(side)
+                rho = self.pose_shared_fraction.get(side)
                 lines.append(
                     f"{side:>5} pose correction RMS: {pc['mm']:.2f} mm, {pc['deg']:.2f} deg"
                     + ("" if rho is None else f"; {rho:.0%} of it shared by the foot's stances")

@@ -221,9 +221,9 @@ class PoseCorrection(Component):
             K_ref = _reference_knots(self, sts)
             E = np.vstack([_shared_map(self, st.time, K_ref) for st in sts])
             C = (1.0 - r) * np.eye(E.shape[0]) + r * (E @ E.T)
+            Ks = [self.basis(st.time)[0].shape[1] for st in sts]
             for part in ("trans", "rot"):
                 starts = [index[(self.name, st.label, part)].start for st in sts]
-                Ks = [self.basis(st.time)[0].shape[1] for st in sts]
                 for axis in range(3):
                     cols = np.concatenate(
                         [s0 + 3 * np.arange(K) + axis for s0, K in zip(starts, Ks, strict=True)]
@@ -318,12 +318,12 @@ def _shared_map(comp: PoseCorrection, time: np.ndarray, K_ref: int) -> np.ndarra
     same place of the normalised knot sequence, its row scaled to unit norm so that every
     coefficient keeps its prior's variance (the identity when the stance has ``K_ref``)."""
     K = comp.basis(time)[0].shape[1]
-    pos = np.linspace(0.0, K_ref - 1.0, K)
-    lo = np.minimum(np.floor(pos).astype(int), K_ref - 2) if K_ref > 1 else np.zeros(K, int)
     E = np.zeros((K, K_ref))
     if K_ref == 1:
         E[:, 0] = 1.0
         return E
+    pos = np.linspace(0.0, K_ref - 1.0, K)
+    lo = np.minimum(np.floor(pos).astype(int), K_ref - 2)
     w = pos - lo
     E[np.arange(K), lo] = 1.0 - w
     E[np.arange(K), lo + 1] = w
