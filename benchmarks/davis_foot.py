@@ -9,7 +9,8 @@ Only the *left* foot is replaced: in every right stance of these trials both met
 are missing (occluded), so the full-marker right foot is itself posed from two landmarks there
 and is no reference. Per trial: the full-marker fit; the left foot made a Davis foot with its
 roll about the heel-metatarsal line as the body chain poses it (``foot_roll="chain"``, the
-default) and levelled (``foot_roll="level"``). Then the hindfoot's roll against the full-marker
+default), levelled on every frame (``foot_roll="level"``) and as the chain poses it turned by
+one angle that levels it at foot-flat (``foot_roll="flat"``). Then the hindfoot's roll against the full-marker
 pose in the left stance of each (mean and peak to peak about the foot's long axis).
 """
 
@@ -23,6 +24,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 import gc_ocp
+from gc_ocp.foot import FOOT_ROLLS
 from gc_ocp.io import load_trial
 from gc_ocp.kinematics import compute_kinematics
 
@@ -75,7 +77,7 @@ def main() -> None:
         full = compute_kinematics(trial)
         st = next(s for s in trial.stances if s.side == "left")
         rows = [("full markers", full, "")]
-        for how in ("chain", "level"):
+        for how in FOOT_ROLLS:
             kin = compute_kinematics(cut, foot_roll=how)
             feet = dict(full.feet)
             feet["left"] = kin.feet["left"]
@@ -104,7 +106,7 @@ def other_labs() -> None:
     """The files of :data:`LABS` (no reference foot: in-sample quality and the flags only)."""
     from gc_ocp.io.pairing import pair_trials
 
-    print("\n## Two-landmark feet of other labs: chain-posed against levelled\n")
+    print("\n## Two-landmark feet of other labs: chain-posed, levelled, levelled at foot-flat\n")
     print(
         "No full-marker reference here: in-sample superior RMS and COP RMS per foot, the "
         "shared parameters, and the number of flagged variables of `gc_ocp.fit`.\n"
@@ -116,7 +118,7 @@ def other_labs() -> None:
     for name in LABS:
         [files] = pair_trials([DATA / name])
         trial = load_trial(files.trial, files.grf)
-        for how in ("chain", "level"):
+        for how in FOOT_ROLLS:
             r = gc_ocp.fit([(trial, compute_kinematics(trial, foot_roll=how))]).result
             rms = ", ".join(f"{r.rms[s]['superior_force_pct_bw']:.2f}" for s in ("left", "right"))
             cop = ", ".join(f"{r.cop_rms_mm[s]:.0f}" for s in ("left", "right"))

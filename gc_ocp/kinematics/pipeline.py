@@ -213,10 +213,16 @@ def level_roll(poses: dict[str, np.ndarray], a: np.ndarray, b: np.ndarray) -> di
     foot's posture where it matters, on the ground (as Plug-in Gait's "foot flat" option
     assumes at the static trial); the landmarks stay where they are. Where no angle levels it
     (the line near vertical, in swing) the nearest is taken."""
-    H = poses["hindfoot"]
+    return roll_about(poses, a, b, level_angles(poses["hindfoot"], a, b))
+
+
+def level_angles(hindfoot: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(n,)`` [rad]: per frame, the smallest rotation about the line from ``a`` to ``b``
+    that makes the hindfoot's (``(n, 4, 4)``) medio-lateral axis horizontal
+    (:func:`level_roll`)."""
     u = b - a
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    v = H[:, :3, 1]  # the hindfoot's Y axis in lab
+    u = u / np.linalg.norm(u, axis=1, keepdims=True)
+    v = hindfoot[:, :3, 1]  # the hindfoot's Y axis in lab
     c = u[:, 2] * np.einsum("ti,ti->t", u, v)  # Rodrigues: z of Rot(u, phi) v
     A, B = v[:, 2] - c, np.cross(u, v)[:, 2]  # = A cos(phi) + B sin(phi) + c
     r = np.hypot(A, B)
@@ -224,7 +230,16 @@ def level_roll(poses: dict[str, np.ndarray], a: np.ndarray, b: np.ndarray) -> di
     ratio = np.clip(-c / np.maximum(r, 1e-12), -1.0, 1.0)
     cands = np.stack([base + np.arccos(ratio), base - np.arccos(ratio)])
     cands = (cands + np.pi) % (2 * np.pi) - np.pi
-    phi = cands[np.argmin(np.abs(cands), axis=0), np.arange(len(u))]
+    return cands[np.argmin(np.abs(cands), axis=0), np.arange(len(u))]
+
+
+def roll_about(
+    poses: dict[str, np.ndarray], a: np.ndarray, b: np.ndarray, phi: np.ndarray
+) -> dict[str, np.ndarray]:
+    """The placements ``poses`` rotated, frame by frame, by ``phi`` ``(n,)`` [rad] about the line
+    from ``a`` to ``b`` ``(n, 3)`` (the points ``a`` stay where they are)."""
+    u = b - a
+    u = u / np.linalg.norm(u, axis=1, keepdims=True)
     K = np.zeros((len(u), 3, 3))
     K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -u[:, 2], u[:, 1], -u[:, 0]
     K -= K.transpose(0, 2, 1)
@@ -305,12 +320,25 @@ def _foot_marker_names(markerset: MarkerSet, names, side: str) -> list[str]:
     return [n for n in names if n in foot]
 
 
-def _levelled(body, mm: MarkerModel, q: np.ndarray, side: str, pair) -> dict[str, np.ndarray]:
-    """The foot's placements over ``q`` with its roll about the landmarks ``pair`` levelled
-    (:func:`level_roll`), the landmarks where the marker model puts them."""
+def _rolled(
+    body, mm: MarkerModel, q: np.ndarray, side: str, pair, how: str, flat: np.ndarray
+) -> dict[str, np.ndarray]:
+    """The foot's placements over ``q`` with its roll about the landmarks ``pair`` set as
+    ``how`` says (:func:`compute_kinematics`' ``foot_roll``): ``"level"`` levelled frame by frame
+    (:func:`level_roll`); ``"flat"`` the chain's roll turned by one angle, the median over the
+    foot-flat poses ``flat`` (``(m, nq)``: the static trial or walking foot-flat, where the sole
+    heights are calibrated) of the angle that levels the foot there. The landmarks stay where
+    the marker model puts them."""
     i, j = mm.names.index(pair[0]), mm.names.index(pair[1])
     pos = mm.positions(q)[:, [i, j]]
-    return level_roll(foot_poses(body, q, side), pos[:, 0], pos[:, 1])
+    poses = foot_poses(body, q, side)
+    if how == "level":
+        return level_roll(poses, pos[:, 0], pos[:, 1])
+    fpos = mm.positions(flat)[:, [i, j]]
+    phi0 = float(
+        np.median(level_angles(foot_poses(body, flat, side)["hindfoot"], *fpos.transpose(1, 0, 2)))
+    )
+    return roll_about(poses, pos[:, 0], pos[:, 1], np.full(len(q), phi0))
 
 
 def _foot_noise(mm, markerset, names, white, q, foot, side, rate, cutoff_hz):
@@ -384,9 +412,11 @@ def compute_kinematics(
     foot_roll: how a foot with two landmarks (heel and one forefoot marker: Helen Hayes, Davis)
     is rolled about the line through them, which its markers do not show: ``"chain"``
     (default) as the body chain poses it (shank markers, knee, 2-DOF ankle), ``"level"``
-    with its medio-lateral axis horizontal (:func:`level_roll`; ``docs/quality.md``, "A
-    Davis-like foot", for what each gives). Feet with three or more landmarks are posed by
-    their markers either way.
+    with its medio-lateral axis horizontal on every frame (:func:`level_roll`), ``"flat"`` as
+    the chain poses it, turned by one angle that makes it level on average where it is flat
+    (the static trial, else walking foot-flat: the frames the sole heights are calibrated on);
+    ``docs/quality.md``, "A Davis-like foot", for what each gives. Feet with three or more
+    landmarks are posed by their markers either way.
     """
     if foot_roll not in FOOT_ROLLS:
         raise InputError(f'foot_roll must be one of {FOOT_ROLLS}, but got "{foot_roll}"')
@@ -510,17 +540,23 @@ def compute_kinematics(
                 )
             qs = np.concatenate([q[i] for i, _ in frames])
             floors = np.concatenate([np.full(len(i), h) for i, h in frames])
-        lm = _two_landmarks(markerset, names, side) if foot_roll == "level" else None
+        lm = _two_landmarks(markerset, names, side) if foot_roll != "chain" else None
         n_foot = len(_foot_marker_names(markerset, names, side))
-        rolls[side] = "level" if lm else "markers" if n_foot >= 3 else "chain"
+        rolls[side] = foot_roll if lm else "markers" if n_foot >= 3 else "chain"
         pts = calibrate_sole_height(
-            body, side, qs, pts, floors, _levelled(body, mm, qs, side, lm) if lm else None
+            body,
+            side,
+            qs,
+            pts,
+            floors,
+            _rolled(body, mm, qs, side, lm, foot_roll, qs) if lm else None,
         )
         sole_info[side] = src
-        lev = _levelled(body, mm, q, side, lm) if lm else None
+        lev = _rolled(body, mm, q, side, lm, foot_roll, qs) if lm else None
         feet[side] = foot_kinematics(body, q, t, side, pts, lev)
         if lm:
-            say(f"{side} foot: two landmarks ({lm[0]}, {lm[1]}); its roll about them levelled")
+            what = "levelled" if foot_roll == "level" else "levelled at foot-flat"
+            say(f"{side} foot: two landmarks ({lm[0]}, {lm[1]}); its roll about them {what}")
     # ---- the markers' error, measured (white noise per marker; what it leaves in each foot)
     white = white_noise(np.asarray(trial.markers)[:, idx], trial.marker_rate)  # before gap fills
     merr = MarkerError(
