@@ -9,8 +9,8 @@ Only the *left* foot is replaced: in every right stance of these trials both met
 are missing (occluded), so the full-marker right foot is itself posed from two landmarks there
 and is no reference. Per trial: the full-marker fit; the left foot made a Davis foot with its
 roll about the heel-metatarsal line as the body chain poses it (``foot_roll="chain"``, the
-default), levelled on every frame (``foot_roll="level"``) and as the chain poses it turned by
-one angle that levels it at foot-flat (``foot_roll="flat"``). Then the hindfoot's roll against the full-marker
+default) and levelled on every frame (``foot_roll="level"``; a third way, tried and removed, in
+``davis_foot_flat_output.md``). Then the hindfoot's roll against the full-marker
 pose in the left stance of each (mean and peak to peak about the foot's long axis).
 """
 
@@ -106,7 +106,7 @@ def other_labs() -> None:
     """The files of :data:`LABS` (no reference foot: in-sample quality and the flags only)."""
     from gc_ocp.io.pairing import pair_trials
 
-    print("\n## Two-landmark feet of other labs: chain-posed, levelled, levelled at foot-flat\n")
+    print("\n## Two-landmark feet of other labs: chain-posed against levelled\n")
     print(
         "No full-marker reference here: in-sample superior RMS and COP RMS per foot, the "
         "shared parameters, and the number of flagged variables of `gc_ocp.fit`.\n"

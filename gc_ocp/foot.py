@@ -63,10 +63,9 @@ class SoleLayout:
         return tuple(i for i, p in enumerate(self.parents) if p == segment)
 
 
-FOOT_ROLLS = ("chain", "level", "flat")
+FOOT_ROLLS = ("chain", "level")
 """How a foot with two landmarks is rolled about them (:func:`~gc_ocp.kinematics.compute_kinematics`'s
-``foot_roll``): as the body chain poses it, level across on every frame, or as the chain poses
-it turned by one angle that levels it where it is flat."""
+``foot_roll``): as the body chain poses it, or level across."""
 
 SEED_LAYOUT = SoleLayout(
     units=("PL", "PM", "AL", "AM", "TT"),

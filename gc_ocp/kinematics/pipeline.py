@@ -320,25 +320,12 @@ def _foot_marker_names(markerset: MarkerSet, names, side: str) -> list[str]:
     return [n for n in names if n in foot]
 
 
-def _rolled(
-    body, mm: MarkerModel, q: np.ndarray, side: str, pair, how: str, flat: np.ndarray
-) -> dict[str, np.ndarray]:
-    """The foot's placements over ``q`` with its roll about the landmarks ``pair`` set as
-    ``how`` says (:func:`compute_kinematics`' ``foot_roll``): ``"level"`` levelled frame by frame
-    (:func:`level_roll`); ``"flat"`` the chain's roll turned by one angle, the median over the
-    foot-flat poses ``flat`` (``(m, nq)``: the static trial or walking foot-flat, where the sole
-    heights are calibrated) of the angle that levels the foot there. The landmarks stay where
-    the marker model puts them."""
+def _levelled(body, mm: MarkerModel, q: np.ndarray, side: str, pair) -> dict[str, np.ndarray]:
+    """The foot's placements over ``q`` with its roll about the landmarks ``pair`` levelled
+    (:func:`level_roll`), the landmarks where the marker model puts them."""
     i, j = mm.names.index(pair[0]), mm.names.index(pair[1])
     pos = mm.positions(q)[:, [i, j]]
-    poses = foot_poses(body, q, side)
-    if how == "level":
-        return level_roll(poses, pos[:, 0], pos[:, 1])
-    fpos = mm.positions(flat)[:, [i, j]]
-    phi0 = float(
-        np.median(level_angles(foot_poses(body, flat, side)["hindfoot"], *fpos.transpose(1, 0, 2)))
-    )
-    return roll_about(poses, pos[:, 0], pos[:, 1], np.full(len(q), phi0))
+    return level_roll(foot_poses(body, q, side), pos[:, 0], pos[:, 1])
 
 
 def _foot_noise(mm, markerset, names, white, q, foot, side, rate, cutoff_hz):
@@ -412,11 +399,9 @@ def compute_kinematics(
     foot_roll: how a foot with two landmarks (heel and one forefoot marker: Helen Hayes, Davis)
     is rolled about the line through them, which its markers do not show: ``"chain"``
     (default) as the body chain poses it (shank markers, knee, 2-DOF ankle), ``"level"``
-    with its medio-lateral axis horizontal on every frame (:func:`level_roll`), ``"flat"`` as
-    the chain poses it, turned by one angle that makes it level on average where it is flat
-    (the static trial, else walking foot-flat: the frames the sole heights are calibrated on);
-    ``docs/quality.md``, "A Davis-like foot", for what each gives. Feet with three or more
-    landmarks are posed by their markers either way.
+    with its medio-lateral axis horizontal on every frame (:func:`level_roll`);
+    ``docs/quality.md``, "A Davis-like foot", for what each gives (and a third way tried and
+    not kept). Feet with three or more landmarks are posed by their markers either way.
     """
     if foot_roll not in FOOT_ROLLS:
         raise InputError(f'foot_roll must be one of {FOOT_ROLLS}, but got "{foot_roll}"')
@@ -540,23 +525,17 @@ def compute_kinematics(
                 )
             qs = np.concatenate([q[i] for i, _ in frames])
             floors = np.concatenate([np.full(len(i), h) for i, h in frames])
-        lm = _two_landmarks(markerset, names, side) if foot_roll != "chain" else None
+        lm = _two_landmarks(markerset, names, side) if foot_roll == "level" else None
         n_foot = len(_foot_marker_names(markerset, names, side))
-        rolls[side] = foot_roll if lm else "markers" if n_foot >= 3 else "chain"
+        rolls[side] = "level" if lm else "markers" if n_foot >= 3 else "chain"
         pts = calibrate_sole_height(
-            body,
-            side,
-            qs,
-            pts,
-            floors,
-            _rolled(body, mm, qs, side, lm, foot_roll, qs) if lm else None,
+            body, side, qs, pts, floors, _levelled(body, mm, qs, side, lm) if lm else None
         )
         sole_info[side] = src
-        lev = _rolled(body, mm, q, side, lm, foot_roll, qs) if lm else None
+        lev = _levelled(body, mm, q, side, lm) if lm else None
         feet[side] = foot_kinematics(body, q, t, side, pts, lev)
         if lm:
-            what = "levelled" if foot_roll == "level" else "levelled at foot-flat"
-            say(f"{side} foot: two landmarks ({lm[0]}, {lm[1]}); its roll about them {what}")
+            say(f"{side} foot: two landmarks ({lm[0]}, {lm[1]}); its roll about them levelled")
     # ---- the markers' error, measured (white noise per marker; what it leaves in each foot)
     white = white_noise(np.asarray(trial.markers)[:, idx], trial.marker_rate)  # before gap fills
     merr = MarkerError(
