@@ -4,15 +4,18 @@ effects that are not found (the bound per effect); and the steps-needed predicti
 
 Runs (each a ``gc-ocp benchmark-diagnosis`` folder; ``--resume`` continues one)::
 
-    gc-ocp benchmark-diagnosis --seeds 3 --mismatch 1 --stances-per-foot N \\
+    gc-ocp benchmark-diagnosis --seeds 3 --mismatch 1 --stances-per-foot N --pose-width prior \\
         --out benchmarks/withheld_mismatch/bundled_N
-    gc-ocp benchmark-diagnosis --seeds 3 --mismatch 1 --stances-per-foot N \\
+    gc-ocp benchmark-diagnosis --seeds 3 --mismatch 1 --stances-per-foot N --pose-width prior \\
         --trial ../shared/data/bts_unipd_5trials/Walking1.c3d (... Walking2, Walking3) \\
         --out benchmarks/withheld_mismatch/bts_N
 
-then ``python benchmarks/withheld_sizes.py [ROOT]`` writes the Markdown to stdout from every
-``ROOT/{motion}_{N}/confusion.json`` present (ROOT: ``benchmarks/withheld_mismatch``) (partial runs included,
-their case counts shown).
+(the guessed pose width, the diagnosis's default until 2026-11-28; the same command without
+``--pose-width prior`` and with ``--out .../{motion}_N_width`` is the rerun on the estimated
+width, the default since, which :func:`widths` sets beside it case by case). Then
+``python benchmarks/withheld_sizes.py [ROOT]`` writes the Markdown to stdout from every
+``ROOT/{motion}_{N}/confusion.json`` present (ROOT: ``benchmarks/withheld_mismatch``; partial
+runs included, their case counts shown).
 
 **What stops an effect** (per case whose truth is not the answer): ``test`` (the calibrated
 test does not name the truth), ``floor`` (it does, but the refitted held-out or in-sample
@@ -194,7 +197,64 @@ def main(root: Path = HERE) -> None:
             )
 
 
+def _truth_cell(case: dict) -> str:
+    """The answer, and the truth's calibrated p and held-out gain, of one case."""
+    row = next((r for r in case["ranking"] if r["effect"] == case["truth"]), None)
+    head = f"{case['answer']} ({'ok' if case['correct'] else 'wrong'})"
+    if row is None:
+        return head
+    c = row.get("calibrated") or {}
+    p = f"p {c['p_adjusted']:.3f}" if "p_adjusted" in c else "p -"
+    g = row.get("heldout_rms_reduction_pct")
+    return head + f"; {p}, held out {g:+.1f} %" if g is not None else head + f"; {p}"
+
+
+def widths(root: Path = HERE) -> None:
+    """Each ``{motion}_{N}`` run beside its ``{motion}_{N}_width`` rerun on the estimated-pose-
+    width base (``--pose-width estimated``, issue 23), case by case (same truths and seeds)."""
+    pairs = []
+    for p in sorted(root.glob("*_*_width/confusion.json")):
+        m = re.fullmatch(r"(.+)_(\d+)_width", p.parent.name)
+        before = root / f"{m.group(1)}_{m.group(2)}" / "confusion.json" if m else None
+        if before is not None and before.exists():
+            pairs.append((p.parent.name, json.loads(before.read_text()), json.loads(p.read_text())))
+    if not pairs:
+        return
+    print("\n## The base's pose width: the guessed prior against the estimated width\n")
+    print(
+        "The same cases (truth, magnitude, seed, data) diagnosed on the base with the pose "
+        "correction's prior width (2 mm / 1 deg) and with its width estimated on every stance "
+        "first (`--pose-width estimated`).\n"
+    )
+    for name, a, b in pairs:
+        key = lambda c: (c["truth"], c["magnitude"], c["seed"])  # noqa: E731
+        done = {key(c): c for c in b["cases"]}
+        print(f"### {name}\n")
+        print(
+            "| truth | magnitude | seed | prior width | estimated width | minutes (prior, estimated) |"
+        )
+        print("|---|---|---|---|---|---|")
+        both = [(c, done[key(c)]) for c in a["cases"] if key(c) in done]
+        for c, d in both:
+            mins = [(x["seconds_generate"] + x["seconds_diagnose"]) / 60 for x in (c, d)]
+            print(
+                f"| {c['truth']} | {c['magnitude']} | {c['seed']} | {_truth_cell(c)} | "
+                f"{_truth_cell(d)} | {mins[0]:.0f}, {mins[1]:.0f} |"
+            )
+        for label, i in (("prior width", 0), ("estimated width", 1)):
+            cs = [x[i] for x in both]
+            mod = [c for c in cs if c["truth"] != "none"]
+            non = [c for c in cs if c["truth"] == "none"]
+            print(
+                f"\n{label}: top-1 {_pct(sum(c['correct'] for c in mod), len(mod))} of the "
+                f'effects, "none" right {_pct(sum(c["correct"] for c in non), len(non))}'
+                + (f" ({len(both)} of {len(a['cases'])} cases rerun)" if i else "")
+            )
+
+
 if __name__ == "__main__":
     import sys
 
-    main(Path(sys.argv[1]) if len(sys.argv) > 1 else HERE)
+    root = Path(sys.argv[1]) if len(sys.argv) > 1 else HERE
+    main(root)
+    widths(root)
