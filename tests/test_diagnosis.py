@@ -30,6 +30,7 @@ from gc_ocp.diagnosis.result import RankRow
 from gc_ocp.diagnosis.selection import CONFOUND_COSINE, flag_alike, rank
 from gc_ocp.estimation.components import base_model, model_from_names
 from gc_ocp.estimation.components.damping import Damping
+from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.problem import build_estimation
 
 
@@ -266,6 +267,12 @@ def test_an_injected_damping_is_found_and_nothing_on_the_base_truth(bundled):
         )
     assert d_eff.selected == ["damping"], d_eff.summary()
     assert d_none.selected == [], d_none.summary()
+    # the default base's nuisance has the width these stances ask for, estimated first and
+    # reported (pose_width="estimated"), not the component's guessed 2 mm / 1 deg
+    for d in (d_eff, d_none):
+        assert any("smooth width, estimated over 3 stances" in n for n in d.notes), d.notes
+        pose = next(c for c in d.base_evaluation.model if c.name == "pose")
+        assert pose.sigma_mm != PoseCorrection().sigma_mm
     top = d_eff.ranking[0]
     assert top.effect == "damping" and top.heldout_rms_reduction_ci[0] > 0
     js = d_eff.to_json()

@@ -38,10 +38,10 @@ def _pose_width_argument(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--pose-width",
         choices=("prior", "estimated"),
-        default="prior",
-        help="The base's foot-pose correction width: its prior (2 mm, 1 deg; default) or "
-        "estimated on every stance first (docs/quality.md; its false-claim rate is being "
-        "measured before it becomes the default).",
+        default="estimated",
+        help="The base's foot-pose correction width: estimated on every stance first "
+        "(default; docs/quality.md) or its guessed prior (2 mm, 1 deg; the default until "
+        "2026-11-28, docs/diagnosis.md).",
     )
 
 

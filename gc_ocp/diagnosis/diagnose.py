@@ -114,7 +114,7 @@ def diagnose_stances(
     mismatch: MismatchFamily | None = DEFAULT_FAMILY,
     max_folds: int = MAX_FOLDS,
     mismatch_draws: int = MISMATCH_DRAWS,
-    pose_width: str = "prior",
+    pose_width: str = "estimated",
     stop_early: bool = True,
 ) -> Diagnosis:
     """The diagnosis of ``stances`` (one subject; see the module doc). ``alpha``: the
@@ -130,10 +130,10 @@ def diagnose_stances(
     ``dask.distributed.Client(...).get_executor()``; ``workers`` is then ignored).
     ``max_folds``: most training fits per model; more stances to hold out are held out in that
     many groups (:func:`~gc_ocp.diagnosis.compare.fold_plan`). ``pose_width``: the base's
-    pose-correction width, ``"prior"`` (its component's, 2 mm / 1 deg) or ``"estimated"`` on
-    every stance first (:func:`~gc_ocp.estimation.pose_scale.with_estimated_width`; the
-    nuisance of every model and fold then has that size; not yet the default: its false-claim
-    rate is being measured, ``docs/diagnosis.md``). ``stop_early``: a round's null draws stop
+    pose-correction width, ``"estimated"`` on every stance first (default;
+    :func:`~gc_ocp.estimation.pose_scale.with_estimated_width`; the nuisance of every model
+    and fold then has that size) or ``"prior"`` (its component's guessed 2 mm / 1 deg; the
+    default until 2026-11-28, ``docs/diagnosis.md``, *The nuisance's size, estimated*). ``stop_early``: a round's null draws stop
     once no candidate could be named (:func:`~gc_ocp.diagnosis.null.cannot_name`; False: all
     ``mismatch_draws`` are made, to check that the stop costs no claim)."""
     say = progress or (lambda s: None)
