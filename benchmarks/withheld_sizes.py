@@ -55,10 +55,15 @@ def _pct(k: int, n: int) -> str:
     return "-" if not n else f"{100 * k / n:.0f} % ({k}/{n})"
 
 
+def truth_row(case: dict) -> dict | None:
+    """The ranking row of the case's truth, None when it was not ranked."""
+    return next((r for r in case["ranking"] if r["effect"] == case["truth"]), None)
+
+
 def stopped_by(case: dict) -> str:
     if case["answer"] == "error":
         return "error"
-    row = next((r for r in case["ranking"] if r["effect"] == case["truth"]), None)
+    row = truth_row(case)
     if row is None:
         return "not ranked"
     c = row.get("calibrated")
@@ -144,7 +149,7 @@ def main(root: Path = HERE) -> None:
         for c in res["cases"]:
             if c["truth"] == "none" or c["answer"] == "error":
                 continue
-            row = next((r for r in c["ranking"] if r["effect"] == c["truth"]), None)
+            row = truth_row(c)
             if row is None or not row.get("inconclusive") or not row.get("calibrated"):
                 continue
             need = row["calibrated"]["more_stances"]
@@ -168,7 +173,7 @@ def main(root: Path = HERE) -> None:
             if again is None:
                 checked[motion].append((c, n, need, target, None, None))
                 continue
-            r2 = next((r for r in again["ranking"] if r["effect"] == c["truth"]), None)
+            r2 = truth_row(again)  # the same truth
             named = bool(r2 and r2.get("calibrated") and r2["calibrated"]["p_adjusted"] < ALPHA)
             checked[motion].append((c, n, need, target, named, again["correct"]))
     print(
@@ -199,7 +204,7 @@ def main(root: Path = HERE) -> None:
 
 def _truth_cell(case: dict) -> str:
     """The answer, and the truth's calibrated p and held-out gain, of one case."""
-    row = next((r for r in case["ranking"] if r["effect"] == case["truth"]), None)
+    row = truth_row(case)
     head = f"{case['answer']} ({'ok' if case['correct'] else 'wrong'})"
     if row is None:
         return head

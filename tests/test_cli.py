@@ -325,6 +325,18 @@ def test_diagnose_cli_writes_json_report_and_figures(tmp_path, capsys):
     assert not list(tmp_path.glob(".diagnosis.*"))  # no staging folder left
 
 
+def test_the_command_line_s_pose_width_is_the_diagnosis_s_default():
+    """``--pose-width`` of ``diagnose`` and ``benchmark-diagnosis`` defaults to the library's
+    :data:`~gc_ocp.diagnosis.diagnose.POSE_WIDTH` (the parser does not import the diagnosis, so
+    its default is written out; this keeps the two one)."""
+    from gc_ocp.cli import build_parser
+    from gc_ocp.diagnosis.diagnose import POSE_WIDTH
+
+    parser = build_parser()
+    for cmd in (["diagnose", "--out", "x"], ["benchmark-diagnosis", "--out", "x"]):
+        assert parser.parse_args(cmd).pose_width == POSE_WIDTH
+
+
 @pytest.mark.parametrize(
     "argv, needle",
     [

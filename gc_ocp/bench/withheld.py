@@ -101,7 +101,7 @@ from gc_ocp.bench.truth import (
     motion,
     truth_model,
 )
-from gc_ocp.diagnosis.diagnose import candidate_names, diagnose_stances, resolve_base
+from gc_ocp.diagnosis.diagnose import POSE_WIDTH, candidate_names, diagnose_stances, resolve_base
 from gc_ocp.errors import GcOcpError, InputError
 from gc_ocp.estimation.components import REGISTRY
 from gc_ocp.outputs import atomic_savefig, atomic_write_text, check_writable
@@ -222,7 +222,7 @@ def run_case(
     workers: int | None = None,
     files: Sequence[str] | None = None,
     stances_per_foot: int | None = None,
-    pose_width: str = "estimated",
+    pose_width: str = POSE_WIDTH,
     stop_early: bool = True,
 ) -> dict:
     """Generate one case's data and diagnose it blind: the case with ``answer``, ``correct``,
@@ -334,7 +334,7 @@ def run_benchmark(
     first_seed: int = 0,
     files: Sequence[str] | None = None,
     stances_per_foot: int | None = None,
-    pose_width: str = "estimated",
+    pose_width: str = POSE_WIDTH,
     stop_early: bool = True,
 ) -> dict:
     """Run every case of :func:`plan`; ``DIR/confusion.json`` is rewritten atomically after each

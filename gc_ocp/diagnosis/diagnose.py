@@ -70,6 +70,13 @@ from gc_ocp.estimation.starts import with_lls_start
 from gc_ocp.stance import StanceData
 from gc_ocp.workflow.fitting import fit_data
 
+POSE_WIDTH = "estimated"
+"""The base's pose-correction width unless a diagnosis says otherwise (``pose_width`` of
+:func:`diagnose_stances`; the command line's ``--pose-width`` and the withheld-effect
+benchmark follow it): estimated on every stance first; ``"prior"``, the component's guessed
+2 mm / 1 deg, was the default until 2026-11-28 (``docs/diagnosis.md``, *The nuisance's size,
+estimated*)."""
+
 BASES: MappingProxyType[str, Callable[[], tuple]] = MappingProxyType(
     {"seed": bare_seed_model, "registered": base_model, "full": full_model}
 )
@@ -114,7 +121,7 @@ def diagnose_stances(
     mismatch: MismatchFamily | None = DEFAULT_FAMILY,
     max_folds: int = MAX_FOLDS,
     mismatch_draws: int = MISMATCH_DRAWS,
-    pose_width: str = "estimated",
+    pose_width: str = POSE_WIDTH,
     stop_early: bool = True,
 ) -> Diagnosis:
     """The diagnosis of ``stances`` (one subject; see the module doc). ``alpha``: the
@@ -130,11 +137,10 @@ def diagnose_stances(
     ``dask.distributed.Client(...).get_executor()``; ``workers`` is then ignored).
     ``max_folds``: most training fits per model; more stances to hold out are held out in that
     many groups (:func:`~gc_ocp.diagnosis.compare.fold_plan`). ``pose_width``: the base's
-    pose-correction width, ``"estimated"`` on every stance first (default;
+    pose-correction width, ``"estimated"`` on every stance first (:data:`POSE_WIDTH`;
     :func:`~gc_ocp.estimation.pose_scale.with_estimated_width`; the nuisance of every model
-    and fold then has that size) or ``"prior"`` (its component's guessed 2 mm / 1 deg; the
-    default until 2026-11-28, ``docs/diagnosis.md``, *The nuisance's size, estimated*). ``stop_early``: a round's null draws stop
-    once no candidate could be named (:func:`~gc_ocp.diagnosis.null.cannot_name`; False: all
+    and fold then has that size) or ``"prior"`` (its component's guessed 2 mm / 1 deg).
+    ``stop_early``: a round's null draws stop once no candidate could be named (:func:`~gc_ocp.diagnosis.null.cannot_name`; False: all
     ``mismatch_draws`` are made, to check that the stop costs no claim)."""
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
@@ -390,6 +396,7 @@ def diagnose(
 
 __all__ = (
     "BASES",
+    "POSE_WIDTH",
     "candidate_names",
     "diagnose",
     "diagnose_stances",

@@ -213,16 +213,10 @@ def level_roll(poses: dict[str, np.ndarray], a: np.ndarray, b: np.ndarray) -> di
     foot's posture where it matters, on the ground (as Plug-in Gait's "foot flat" option
     assumes at the static trial); the landmarks stay where they are. Where no angle levels it
     (the line near vertical, in swing) the nearest is taken."""
-    return roll_about(poses, a, b, level_angles(poses["hindfoot"], a, b))
-
-
-def level_angles(hindfoot: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(n,)`` [rad]: per frame, the smallest rotation about the line from ``a`` to ``b``
-    that makes the hindfoot's (``(n, 4, 4)``) medio-lateral axis horizontal
-    (:func:`level_roll`)."""
+    H = poses["hindfoot"]
     u = b - a
-    u = u / np.linalg.norm(u, axis=1, keepdims=True)
-    v = hindfoot[:, :3, 1]  # the hindfoot's Y axis in lab
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = H[:, :3, 1]  # the hindfoot's Y axis in lab
     c = u[:, 2] * np.einsum("ti,ti->t", u, v)  # Rodrigues: z of Rot(u, phi) v
     A, B = v[:, 2] - c, np.cross(u, v)[:, 2]  # = A cos(phi) + B sin(phi) + c
     r = np.hypot(A, B)
@@ -230,16 +224,7 @@ def level_angles(hindfoot: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarr
     ratio = np.clip(-c / np.maximum(r, 1e-12), -1.0, 1.0)
     cands = np.stack([base + np.arccos(ratio), base - np.arccos(ratio)])
     cands = (cands + np.pi) % (2 * np.pi) - np.pi
-    return cands[np.argmin(np.abs(cands), axis=0), np.arange(len(u))]
-
-
-def roll_about(
-    poses: dict[str, np.ndarray], a: np.ndarray, b: np.ndarray, phi: np.ndarray
-) -> dict[str, np.ndarray]:
-    """The placements ``poses`` rotated, frame by frame, by ``phi`` ``(n,)`` [rad] about the line
-    from ``a`` to ``b`` ``(n, 3)`` (the points ``a`` stay where they are)."""
-    u = b - a
-    u = u / np.linalg.norm(u, axis=1, keepdims=True)
+    phi = cands[np.argmin(np.abs(cands), axis=0), np.arange(len(u))]
     K = np.zeros((len(u), 3, 3))
     K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -u[:, 2], u[:, 1], -u[:, 0]
     K -= K.transpose(0, 2, 1)
