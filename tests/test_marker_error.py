@@ -167,6 +167,21 @@ def test_the_diagnosis_refuses_an_unknown_pose_width():
         diagnose_stances(sts, pose_width="guessed")
 
 
+def test_a_width_at_its_limit_says_what_to_do_where_it_is_read():
+    """A fit's width at the soft tissue's limit sends the user to the diagnosis; inside a
+    diagnosis (its notes) the same line points to the candidates instead."""
+    from gc_ocp.estimation.pose_scale import PLAUSIBLE_MM, PoseScale
+
+    scale = PoseScale((PLAUSIBLE_MM, 1.0, 1.0), (1.0, 1.0, 1.0), (1.0,), 6, [], 3)
+    assert not scale.plausible
+    assert "run the diagnosis" in scale.message()
+    inside = scale.message("the candidates below test the unmodelled effects")
+    assert "run the diagnosis" not in inside and "candidates below" in inside
+    assert "candidates" not in PoseScale((1.0,) * 3, (1.0,) * 3, (1.0,), 6, [], 3).message(
+        "candidates"
+    )
+
+
 @pytest.mark.parametrize("offset_mm", [0.0, 8.0])
 def test_the_sole_width_follows_the_units_misplacement_in_the_data(offset_mm):
     """Type-II ML of the sole correction's width (``estimate_pose_scale(..., sole=True)``): the

@@ -155,7 +155,13 @@ def diagnose_stances(
         say("estimating the pose correction's width on every stance (the nuisance's size)")
         base_model_, scale = with_estimated_width(stances, base_model_, weights, options, say)
         if scale is not None:
-            notes.append(scale.message())
+            notes.append(
+                scale.message(
+                    "the candidates below test the unmodelled effects; every model and fold "
+                    "gets this width, so the comparison stays fair, but a wide nuisance can "
+                    "absorb part of an effect"
+                )
+            )
     if not plan:
         notes.append(
             "No stance could be held out (every foot has a single stance): effects are scored "

@@ -96,7 +96,11 @@ class PoseScale:
             and (self.sole_mm is None or self.sole_mm < SOLE_PLAUSIBLE_MM * 0.999)
         )
 
-    def message(self) -> str:
+    def message(
+        self, advice: str = "run the diagnosis: an unmodelled effect, or the sole's height"
+    ) -> str:
+        """One line for a summary; ``advice`` ends the at-the-limit warning (a diagnosis says
+        where its candidates answer it, not to run itself)."""
         s = (
             f"pose correction's smooth width, estimated over {self.n_stances} stances (type-II ML, "
             f"{len(self.rounds)} rounds): translation x/y/z "
@@ -112,8 +116,7 @@ class PoseScale:
                 f"; the forces ask for more than soft tissue moves a foot (stopped at "
                 f"{PLAUSIBLE_MM:g} mm, {PLAUSIBLE_DEG:g} deg"
                 + ("" if self.sole_mm is None else f", sole {SOLE_PLAUSIBLE_MM:g} mm")
-                + "): the contact model misfits these stances (run the diagnosis: an "
-                "unmodelled effect, or the sole's height)"
+                + f"): the contact model misfits these stances ({advice})"
             )
         return s
 
