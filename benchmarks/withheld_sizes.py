@@ -43,11 +43,15 @@ HERE = Path(__file__).parent / "withheld_mismatch"
 
 
 def load(root: Path = HERE) -> dict[tuple[str, int], dict]:
+    """``{(motion and base, stances per foot): run}``: ``{motion}_{N}`` is a run on the guessed
+    pose width, ``{motion}_{N}_width`` on the estimated one (the default since 2026-11-28); the
+    two bases are kept apart, so that sizes and the steps-needed check compare like with like."""
     out = {}
     for p in sorted(root.glob("*_*/confusion.json")):
-        m = re.fullmatch(r"(.+)_(\d+)", p.parent.name)
+        m = re.fullmatch(r"(.+)_(\d+)(_width)?", p.parent.name)
         if m:
-            out[(m.group(1), int(m.group(2)))] = json.loads(p.read_text())
+            base = "estimated width" if m.group(3) else "guessed width"
+            out[(f"{m.group(1)}, {base}", int(m.group(2)))] = json.loads(p.read_text())
     return out
 
 
