@@ -284,7 +284,8 @@ def test_an_injected_damping_is_found_and_nothing_on_the_base_truth(bundled):
 def test_confirmation_on_an_unseen_stance_shrinks_the_gap_of_a_true_effect(bundled):
     """``confirm_stances``: base and base + damping trained on two stances of data with a true
     damping of 1 s/m, scored on the third: the damping model predicts it better (interval
-    above 0), and a single step's total reduction is that step's."""
+    above 0), and a single step's total reduction is that step's. The base is the diagnosis's
+    (its pose width estimated on the two training stances)."""
     from gc_ocp.diagnosis import confirm_stances
 
     stances, truth = bundled
@@ -298,6 +299,9 @@ def test_confirmation_on_an_unseen_stance_shrinks_the_gap_of_a_true_effect(bundl
     assert step["total_reduction_pct"] == pytest.approx(step["step_reduction_pct"])
     assert step["total_reduction_ci"][0] > 0.0, c
     assert step["heldout_superior_force_pct_bw"] < c["steps"][0]["heldout_superior_force_pct_bw"]
+    # the diagnosis's base: its pose width estimated, on the training stances only
+    assert c["pose_width"] == "estimated"
+    assert any("smooth width, estimated over 2 stances" in n for n in c["notes"]), c["notes"]
 
 
 def test_parallel_rounds_give_the_serial_answer(bundled):

@@ -14,7 +14,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from gc_ocp.diagnosis.compare import evaluate_on, reduction
-from gc_ocp.diagnosis.diagnose import resolve_base
+from gc_ocp.diagnosis.diagnose import POSE_WIDTH, resolve_base, sized_base
 from gc_ocp.diagnosis.result import WaterfallStep
 from gc_ocp.errors import ModelError
 from gc_ocp.estimation.components import REGISTRY, candidate_effects, model_from_names
@@ -35,6 +35,7 @@ def confirm_stances(
     n_boot: int = 2000,
     seed: int = 0,
     progress: Callable[[str], None] | None = None,
+    pose_width: str = POSE_WIDTH,
 ) -> dict:
     """Do the effects a diagnosis selected still shrink the gap on stances it never saw?
 
@@ -46,7 +47,9 @@ def confirm_stances(
     "heldout_rms", "score", "step_reduction_pct", "step_reduction_ci", "total_reduction_pct",
     "total_reduction_ci", "per_stance_total_pct"}, ...]}`` (reductions of the combined score
     over the previous step and over the base, 95 % paired block bootstrap intervals; the base
-    step has no reductions)."""
+    step has no reductions), ``"pose_width"`` and ``"notes"``. ``pose_width``: the base's
+    pose-correction width as the diagnosis takes it (:func:`~gc_ocp.diagnosis.diagnose.sized_base`),
+    estimated on ``train`` only (the new stances inform no choice made before they are scored)."""
     say = progress or (lambda s: None)
     _, base_model_ = resolve_base(base)
     unknown = [n for n in selected if n not in REGISTRY]
@@ -56,6 +59,7 @@ def confirm_stances(
         raise ModelError(
             "No stance to confirm on: give stances or trials the diagnosis did not use"
         )
+    base_model_, note = sized_base(train, base_model_, pose_width, weights, options, say)
     rate = 1.0 / float(np.median(np.diff(test[0].time)))
     kw = {"weights": weights, "options": options, "progress": say}
     say(f"confirming on {len(test)} new stance(s), trained on {len(train)}")
@@ -90,6 +94,8 @@ def confirm_stances(
         "test": [st.label for st in test],
         "selected": list(selected),
         "steps": steps,
+        "pose_width": pose_width,
+        "notes": [note] if note else [],
     }
 
 

@@ -85,6 +85,34 @@ a fitted friction coefficient, sole and pose registration, belt speed), ``full``
 ``registered`` with damping and stiffness exponent in the law)."""
 
 
+def sized_base(
+    stances: Sequence[StanceData],
+    model: tuple,
+    pose_width: str = POSE_WIDTH,
+    weights: Weights | None = None,
+    options: IpoptOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[tuple, str | None]:
+    """``(model, note)``: the base with its pose-correction width as ``pose_width`` says,
+    ``"estimated"`` on ``stances`` (:func:`~gc_ocp.estimation.pose_scale.with_estimated_width`;
+    the note reports it) or ``"prior"`` (the model as given, no note). One definition for the
+    diagnosis and its confirmation on new stances, so that both compare models on one nuisance."""
+    if pose_width not in ("prior", "estimated"):
+        raise ModelError(f'pose_width must be "prior" or "estimated", but got {pose_width!r}')
+    if pose_width == "prior":
+        return model, None
+    (progress or (lambda s: None))(
+        "estimating the pose correction's width on every stance (the nuisance's size)"
+    )
+    model, scale = with_estimated_width(list(stances), model, weights, options, progress)
+    if scale is None:
+        return model, None
+    return model, scale.message(
+        "the candidates below test the unmodelled effects; every model and fold gets this "
+        "width, so the comparison stays fair, but a wide nuisance can absorb part of an effect"
+    )
+
+
 def candidate_names(base: tuple, candidates: Sequence[str] | None = None) -> list[str]:
     """The effects to try on ``base``: ``candidates`` (default: every effect of the library,
     :data:`EFFECTS`) minus those the base already has."""
@@ -149,19 +177,9 @@ def diagnose_stances(
     plan = fold_plan(stances, max_folds)
     rate = 1.0 / float(np.median(np.diff(stances[0].time)))
     notes = []
-    if pose_width not in ("prior", "estimated"):
-        raise ModelError(f'pose_width must be "prior" or "estimated", but got {pose_width!r}')
-    if pose_width == "estimated":
-        say("estimating the pose correction's width on every stance (the nuisance's size)")
-        base_model_, scale = with_estimated_width(stances, base_model_, weights, options, say)
-        if scale is not None:
-            notes.append(
-                scale.message(
-                    "the candidates below test the unmodelled effects; every model and fold "
-                    "gets this width, so the comparison stays fair, but a wide nuisance can "
-                    "absorb part of an effect"
-                )
-            )
+    base_model_, width_note = sized_base(stances, base_model_, pose_width, weights, options, say)
+    if width_note:
+        notes.append(width_note)
     if not plan:
         notes.append(
             "No stance could be held out (every foot has a single stance): effects are scored "
@@ -407,4 +425,5 @@ __all__ = (
     "diagnose",
     "diagnose_stances",
     "resolve_base",
+    "sized_base",
 )
