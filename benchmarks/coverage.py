@@ -176,6 +176,15 @@ def main() -> None:
         help="keep the pose correction's guessed width (the estimator before issue 23)",
     )
     ap.add_argument(
+        "--width",
+        type=float,
+        nargs=2,
+        metavar=("MM", "DEG"),
+        default=None,
+        help="fix the pose correction's smooth width at MM per axis and DEG per axis, not "
+        "estimated (an oracle: the drift's own size); the sole keeps its 5 mm prior",
+    )
+    ap.add_argument(
         "--fixed-sole-width",
         action="store_true",
         help="keep the sole correction's 5 mm prior (fit's default until 2026-11-27; runs "
@@ -193,6 +202,13 @@ def main() -> None:
     truth = default_truth()
     disp = sole_displacement()
     model = recovery_model()
+    if args.width is not None:
+        model = tuple(
+            dataclasses.replace(c, sigma_mm=args.width[0], sigma_deg=args.width[1])
+            if c.name == "pose"
+            else c
+            for c in model
+        )
     drift_deg = 0.25 * args.drift_mm if args.drift_deg is None else args.drift_deg
     hits: dict = {}
     bias: list = []
@@ -216,7 +232,7 @@ def main() -> None:
         try:
             res = solve(pb, IpoptOptions())
             fitted = model
-            if not args.fixed_width:
+            if not args.fixed_width and args.width is None:
                 sole = not args.fixed_sole_width  # as gc_ocp.fit: with the pose width
                 fitted, res, _ = estimate_pose_scale(data, model, res, sole=sole)
                 pb = build_estimation(data, fitted)
