@@ -175,8 +175,8 @@ def test_a_width_at_its_limit_says_what_to_do_where_it_is_read():
     scale = PoseScale((PLAUSIBLE_MM, 1.0, 1.0), (1.0, 1.0, 1.0), (1.0,), 6, [], 3)
     assert not scale.plausible
     assert "run the diagnosis" in scale.message()
-    inside = scale.message("the candidates below test the unmodelled effects")
-    assert "run the diagnosis" not in inside and "candidates below" in inside
+    inside = scale.message("the diagnosis's candidates test the unmodelled effects")
+    assert "run the diagnosis" not in inside and "diagnosis's candidates" in inside
     assert "candidates" not in PoseScale((1.0,) * 3, (1.0,) * 3, (1.0,), 6, [], 3).message(
         "candidates"
     )

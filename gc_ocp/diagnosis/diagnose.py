@@ -108,7 +108,7 @@ def sized_base(
     if scale is None:
         return model, None
     return model, scale.message(
-        "the candidates below test the unmodelled effects; every model and fold gets this "
+        "the diagnosis's candidates test the unmodelled effects; every model and fold gets this "
         "width, so the comparison stays fair, but a wide nuisance can absorb part of an effect"
     )
 
