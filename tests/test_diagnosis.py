@@ -678,3 +678,80 @@ def test_a_nested_candidate_reproduces_its_parent_fitted_at_a_bound():
     for name in ("damping", "stiffness_exponent", "friction", "time_offset"):
         child = build_estimation(data, with_lls_start(model_from_names([name], ev.model), data))
         assert nested_point(child, ev.full, r) is not None, name
+
+
+@pytest.fixture(scope="module")
+def delayed(bundled):
+    """The bundled truth with its plate 10 ms late (the benchmark's moderate clock offset), its
+    base and clock-offset evaluations with folds."""
+    from gc_ocp.estimation.components.time_offset import TimeOffset
+
+    stances, truth = bundled
+    late = (*truth, TimeOffset(fixed={st.trial: 0.010 for st in stances}))
+    data = simulate(stances, late, np.random.default_rng(3))
+    plan = fold_plan(data)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        base = evaluate(data, base_model(), "base", (), plan)
+        model = model_from_names(["time_offset"], base=base.model)
+        child = evaluate(data, model, "base+time_offset", ("time_offset",), plan, parent=base)
+    return data, plan, base, child
+
+
+def test_the_clock_offset_s_one_step_from_its_own_fit_follows_its_refit(delayed):
+    """A clock offset moves the plate's transients in time: its response is so curved at 0 that
+    one step from the parent's point with the offset at 0 gains a fraction of what the refit
+    gains on the held-out stances (about a quarter on this 10 ms truth); one step from the
+    offset's own fit gains what the refit does, up to the folds' own moves (their training
+    fits differ from the fit on all stances: a second-order difference, hence a quarter of the
+    refit's gain as the tolerance). So ``TimeOffset`` takes its step from its own fit."""
+    from gc_ocp.diagnosis.null import observed_reductions
+    from gc_ocp.diagnosis.onestep import fold_prior_means, linearize_child, linearize_parent
+    from gc_ocp.estimation.components.time_offset import TimeOffset
+
+    assert TimeOffset.one_step_from_own_fit
+    data, plan, base, child = delayed
+    lp = linearize_parent(data, base.model, base.full, None)
+    occam = {
+        "parent": np.array([f.occam for f in base.folds]),
+        "time_offset": np.array([f.occam for f in child.folds]),
+    }
+    means = fold_prior_means(data, base.model, plan)
+
+    def total(ev):
+        return sum(f.heldout.data_cost + f.heldout.prior_cost + f.occam for f in ev.folds)
+
+    refit = 100.0 * (1.0 - np.sqrt(total(child) / total(base)))
+    one_step = {}
+    for own_fit in (False, True):
+        lin = linearize_child(data, child.model, base.full, lp.r, child.full, None, own_fit)
+        assert lin.nested is not own_fit
+        obs, _ = observed_reductions(lp, {"time_offset": lin}, plan, occam, means)
+        one_step[own_fit] = obs["time_offset"]
+    assert refit > 2.0, refit  # a clear gain to follow
+    assert one_step[False] < 0.5 * refit, (one_step, refit)
+    assert abs(one_step[True] - refit) < 0.25 * refit, (one_step, refit)
+
+
+def test_a_candidate_stepped_from_its_own_fit_is_refitted_on_every_draw(delayed, monkeypatch):
+    """The null scores such a candidate as it scores the observed data: each draw refits it
+    (warm from its observed fit) after the parent, and linearises it there."""
+    from gc_ocp.diagnosis import draws
+    from gc_ocp.diagnosis.null import DEFAULT_FAMILY, null_draw
+
+    data, plan, base, _ = delayed
+    inputs = _null_inputs(data, base, children=("time_offset", "damping"))
+    starts = []
+    real = draws._refit
+
+    def refit(problem, start, options):
+        starts.append(start)
+        return real(problem, start, options)
+
+    monkeypatch.setattr(draws, "_refit", refit)
+    draw = null_draw(DEFAULT_FAMILY, np.random.default_rng(0), data[0].layout, inputs.model)
+    out = draws.draw_reductions(inputs, draw, seed=1)
+    assert set(out) == {"time_offset", "damping"}
+    assert all(np.isfinite(v).all() and v.shape == (inputs.n_wild,) for v in out.values())
+    # the parent, then the clock offset from its own observed fit; damping is nested (no refit)
+    assert [id(s) for s in starts] == [id(inputs.full), id(inputs.children["time_offset"][1])]

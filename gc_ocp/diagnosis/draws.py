@@ -40,7 +40,14 @@ import numpy as np
 from gc_ocp.diagnosis.execution import run_tasks
 from gc_ocp.diagnosis.mismatch import MismatchDraw, MismatchFamily, simulate_mismatched, thresholded
 from gc_ocp.diagnosis.null import ALPHA, DRAWS_PER_LOOK, cannot_name, null_draw, wild_residuals
-from gc_ocp.diagnosis.onestep import Linear, energies, linearize, nested_point, reductions
+from gc_ocp.diagnosis.onestep import (
+    Linear,
+    energies,
+    from_own_fit,
+    linearize,
+    nested_point,
+    reductions,
+)
 from gc_ocp.errors import SolveError
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
@@ -110,8 +117,8 @@ def draw_reductions(
         kids = {}
         for name, (model, own) in inputs.children.items():
             child = build_estimation(data, model, w)
-            x0 = nested_point(child, fk, pk.r)
-            if x0 is None:  # cannot reproduce the parent: refitted, linearised at its fit
+            x0 = None if from_own_fit(name) else nested_point(child, fk, pk.r)
+            if x0 is None:  # cannot reproduce the parent (or is curved at neutral): refitted
                 kids[name] = linearize(child, _refit(child, own, inputs.options).x, nested=False)
             else:
                 kids[name] = linearize(child, x0)

@@ -37,7 +37,7 @@ from concurrent.futures import Executor, as_completed
 import numpy as np
 
 from gc_ocp.diagnosis.compare import Evaluation, describe, evaluate
-from gc_ocp.diagnosis.onestep import linearize_child
+from gc_ocp.diagnosis.onestep import from_own_fit, linearize_child
 from gc_ocp.errors import InputError, ModelError, SolveError
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.result import EstimationResult
@@ -129,6 +129,7 @@ def _evaluate(job: Job, inputs: RoundInputs, progress=None) -> Evaluation | NotE
                 inputs.parent_r,
                 ev.full,
                 inputs.weights,
+                from_own_fit(job.name),
             )
             ev.seconds = time.perf_counter() - t0
         return ev

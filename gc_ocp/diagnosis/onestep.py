@@ -28,6 +28,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from gc_ocp.diagnosis.compare import held_out
+from gc_ocp.estimation.components import REGISTRY
 from gc_ocp.estimation.problem import Weights, build_estimation, declare
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.starts import rescaled_start, with_lls_start
@@ -47,7 +48,10 @@ class Linear:
     Jacobian (CSR); prior_idx, pw, p0: the variables with a prior, their weights and the prior
     residual at the point; rows: per stance, its rows of ``r``; nuisance: per stance, the
     columns it re-estimates when held out (its stance-scope variables); at_lower / at_upper: the
-    columns at a bound; nested: linearised at the parent's point (else at its own fit)."""
+    columns at a bound; nested: linearised at the parent's point (else at its own fit); trials,
+    trial_cols: per stance, its trial and the columns of its trial's trial-scope variables (a
+    clock offset, a belt speed: re-estimated on a held-out stance whose trial has no training
+    stance, as a refit does, :func:`heldout_energy`)."""
 
     r: np.ndarray
     J: sp.csr_matrix
@@ -61,6 +65,8 @@ class Linear:
     nested: bool
     x0: np.ndarray
     keys: dict  # {variable key: slice of x}
+    trials: tuple[str, ...] = ()  # per stance, its trial
+    trial_cols: tuple[np.ndarray, ...] = ()  # per stance, its trial's trial-scope columns
 
     def prior_residual(self, means: Mapping[tuple, np.ndarray] | None = None) -> np.ndarray:
         """The prior residual at the point, with the prior means of ``means`` (``{key:
@@ -93,6 +99,19 @@ def linearize(problem, x: np.ndarray, nested: bool = True) -> Linear:
         rows.append(slice(start, start + 6 * b.T))
         start += 6 * b.T
     nuisance = problem.stance_columns()
+    per_trial = {c.name for c in problem.model if c.scope == "trial"}
+    trial_cols = tuple(
+        np.array(
+            [
+                c
+                for sp in problem.variables.specs
+                if sp.key[0] in per_trial and len(sp.key) > 1 and sp.key[1] == st.trial
+                for c in range(sp.slice.start, sp.slice.stop)
+            ],
+            int,
+        )
+        for st in problem.stances
+    )
     span = np.maximum(problem.ubx - problem.lbx, 1.0)
     tol = 1e-9 * span
     return Linear(
@@ -108,6 +127,8 @@ def linearize(problem, x: np.ndarray, nested: bool = True) -> Linear:
         nested=nested,
         x0=np.asarray(x, float),
         keys={s.key: s.slice for s in problem.variables.specs},
+        trials=tuple(st.trial for st in problem.stances),
+        trial_cols=trial_cols,
     )
 
 
@@ -169,6 +190,14 @@ def nested_point(problem, parent: EstimationResult, parent_r: np.ndarray) -> np.
     return None
 
 
+def from_own_fit(name: str) -> bool:
+    """Whether the candidate effect ``name`` is linearised at its own fit whether or not it
+    can reproduce its parent (its class's
+    :attr:`~gc_ocp.estimation.components.base.Component.one_step_from_own_fit`)."""
+    cls = REGISTRY.get(name)
+    return bool(cls is not None and cls.one_step_from_own_fit)
+
+
 def linearize_child(
     stances: Sequence[StanceData],
     model: tuple,
@@ -176,12 +205,13 @@ def linearize_child(
     parent_r: np.ndarray,
     own: EstimationResult,
     weights: Weights | None,
+    own_fit: bool = False,
 ) -> Linear:
     """A candidate linearised at the parent's solution ``parent`` with its own variables
     neutral (:func:`nested_point`); at its own fit ``own`` when it cannot reproduce the
-    parent (module doc)."""
+    parent or when ``own_fit`` (:func:`from_own_fit`) (module doc)."""
     problem = _problem(stances, model, weights)
-    x0 = nested_point(problem, parent, parent_r)
+    x0 = None if own_fit else nested_point(problem, parent, parent_r)
     if x0 is not None:
         return linearize(problem, x0, nested=True)
     return linearize(problem, rescaled_start(own, problem), nested=False)
@@ -268,13 +298,21 @@ def heldout_energy(
     R0: np.ndarray,
     plan: Sequence[Sequence[int]],
     fold_means: Sequence[Mapping[tuple, np.ndarray]] | None = None,
+    charge: np.ndarray | None = None,
 ) -> np.ndarray:
     """``(held-out stances, B)``: the held-out energy (data + nuisance prior) of the linearised
     model on every held-out stance of ``plan`` (groups held out together,
     :func:`~.compare.fold_plan`; one training step per group), for every column of ``R0`` (``(rows, B)``
     residuals at the point) (module doc). Without folds (one stance per foot), one row: the
     in-sample energy of the fit on all stances. ``fold_means``: per fold, the prior means of its
-    training fit (:func:`fold_prior_means`)."""
+    training fit (:func:`fold_prior_means`).
+
+    A held-out stance whose trial has no stance in its fold's training re-estimates its trial's
+    trial-scope variables with its nuisance, as a refit of it does (a frozen model estimates
+    what it was not given). ``charge``: columns whose Occam term is not in the constants of
+    :func:`energies` (a nested candidate's own, where the parent's terms stand for its): when such
+    a column is re-estimated so, its part of ``1/2 log det H_z`` (in units of the prior sigma) is
+    added, so that the step scores it as the refit's Occam term does."""
     J = lin.J
     nx = J.shape[1]
     JTJ = (J.T @ J).toarray()
@@ -292,6 +330,7 @@ def heldout_energy(
     E = np.zeros((len(held_out(plan)), R0.shape[1]))
     j = 0  # row of E: held-out stances group by group, as the folds' scores
     for group in plan:
+        seen = {t for k, t in enumerate(lin.trials) if k not in group}
         rows = np.concatenate([np.arange(lin.rows[i].start, lin.rows[i].stop) for i in group])
         Jg = J[rows]
         G = JTJ - (Jg.T @ Jg).toarray() + np.diag(P2)
@@ -300,18 +339,25 @@ def heldout_energy(
         rhs = JTR - np.asarray(Jg.T @ R0[rows]) + Pp[:, None]
         d_train = step(G, rhs, lin)
         for i in group:
-            E[j] = _heldout_stance(lin, J, R0, i, d_train, prior_pos)
+            unseen = lin.trials and lin.trials[i] not in seen
+            extra = lin.trial_cols[i] if unseen else np.zeros(0, int)
+            extra = np.array([c for c in extra if c in prior_pos], int)
+            E[j] = _heldout_stance(lin, J, R0, i, d_train, prior_pos, extra, charge)
             j += 1
     return E
 
 
-def _heldout_stance(lin: Linear, J, R0: np.ndarray, i: int, d_train, prior_pos) -> np.ndarray:
+def _heldout_stance(
+    lin: Linear, J, R0: np.ndarray, i: int, d_train, prior_pos, extra=None, charge=None
+) -> np.ndarray:
     """``(B,)``: the held-out energy of stance ``i`` at the training step ``d_train``, its
-    nuisance re-estimated from the point (:func:`heldout_energy`)."""
+    nuisance (and the columns ``extra``) re-estimated from the point; plus the Occam part of the
+    ``extra`` columns in ``charge`` (:func:`heldout_energy`)."""
     rows = lin.rows[i]
     Jh = J[rows]
     d = d_train.copy()
-    z = lin.nuisance[i]
+    extra = np.zeros(0, int) if extra is None else extra
+    z = np.concatenate([lin.nuisance[i], extra]).astype(int)
     d[z] = 0.0  # the held-out stance's nuisance is re-estimated below, from the point
     a = R0[rows] + np.asarray(Jh @ d)
     Jz = Jh[:, z].toarray()
@@ -321,7 +367,17 @@ def _heldout_stance(lin: Linear, J, R0: np.ndarray, i: int, d_train, prior_pos) 
     dz = -_solve(Hz, Jz.T @ a + (pwz * p0z)[:, None])
     res = a + Jz @ dz
     pz = p0z[:, None] + pwz[:, None] * dz
-    return 0.5 * (np.sum(res**2, axis=0) + np.sum(pz**2, axis=0))
+    energy = 0.5 * (np.sum(res**2, axis=0) + np.sum(pz**2, axis=0))
+    charged = np.isin(z, extra) & np.isin(z, charge if charge is not None else [])
+    if charged.any():  # 1/2 log det H_z (prior-sigma units) gained by the charged columns
+        Hs = Hz / np.outer(pwz, pwz)
+        keep = ~charged
+        energy = energy + 0.5 * (_logdet(Hs) - _logdet(Hs[np.ix_(keep, keep)]))
+    return energy
+
+
+def _logdet(H: np.ndarray) -> float:
+    return float(np.linalg.slogdet(H)[1]) if H.size else 0.0
 
 
 def energies(
@@ -344,8 +400,16 @@ def energies(
     for name, lin in children.items():
         shift = (lin.r - parent.r)[:, None]
         own = base if lin.nested else np.asarray(occam.get(name, base), float).reshape(-1, 1)
-        out[name] = heldout_energy(lin, shift + R0p, plan, fold_means) + own
+        # a nested child's Occam terms are the parent's: its own columns are charged here
+        charge = _own_columns(lin, parent) if lin.nested else None
+        out[name] = heldout_energy(lin, shift + R0p, plan, fold_means, charge) + own
     return out
+
+
+def _own_columns(child: Linear, parent: Linear) -> np.ndarray:
+    """The columns of ``child``'s variables that ``parent`` does not have."""
+    cols = [np.arange(sl.start, sl.stop) for k, sl in child.keys.items() if k not in parent.keys]
+    return np.concatenate(cols) if cols else np.zeros(0, int)
 
 
 def reductions(E: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -379,6 +443,7 @@ __all__ = (
     "Linear",
     "energies",
     "fold_prior_means",
+    "from_own_fit",
     "heldout_energy",
     "linearize",
     "linearize_child",

@@ -128,6 +128,13 @@ class Component:
     :data:`~gc_ocp.estimation.components.EFFECTS` (in registry order) and accepted by
     ``--effects``."""
 
+    one_step_from_own_fit: ClassVar[bool] = False
+    """True when the diagnosis's calibrated test takes its one Gauss-Newton step from this
+    effect's own fit (refitted on every draw of the null) instead of from the parent's solution
+    with this effect's variables neutral (:mod:`gc_ocp.diagnosis.onestep`): for an effect whose
+    response is so curved at its neutral value that one step from there misses most of what its
+    refit gains. Default False (the neutral point is exact for the null and costs no refit)."""
+
     benchmark_values: ClassVar[dict[str, Any] | None] = None
     """The withheld-effect benchmark's injected value per magnitude, ``{"moderate": v,
     "strong": v}`` (physical units, the effect's own; ``gc_ocp.bench.withheld.VALUES`` is made of
