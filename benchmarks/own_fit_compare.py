@@ -4,7 +4,8 @@ candidate (the max statistic is over every candidate, so its null moves the othe
 
     PYTHONPATH=. .venv/bin/python benchmarks/own_fit_compare.py NAME=BEFORE:AFTER ...
 
-BEFORE and AFTER are benchmark folders (``confusion.json``); cases are paired by truth,
+BEFORE and AFTER are benchmark folders (``confusion.json``; several joined by ``+``); cases
+are paired by truth,
 magnitude and seed (the same data). Writes Markdown to stdout (``docs/diagnosis.md``, *Where the
 clock offset's step starts*).
 """
@@ -16,9 +17,13 @@ import sys
 from pathlib import Path
 
 
-def _cases(folder: str) -> dict:
-    cases = json.loads((Path(folder) / "confusion.json").read_text())["cases"]
-    return {(c["truth"], c["magnitude"], c["seed"]): c for c in cases}
+def _cases(folders: str) -> dict:
+    """The cases of one folder or several joined by ``+`` (runs of other seeds)."""
+    out = {}
+    for folder in folders.split("+"):
+        for c in json.loads((Path(folder) / "confusion.json").read_text())["cases"]:
+            out[(c["truth"], c["magnitude"], c["seed"])] = c
+    return out
 
 
 def _row(c: dict) -> tuple[str, str, str]:
@@ -47,7 +52,11 @@ def main(args: list[str]) -> None:
                 f"| {key[0]} | {key[2]} | {b[0]} / {a[0]} | {b[1]} | {a[1]} | {b[2]} | {a[2]} "
                 f"| {to['heldout_rms_reduction_pct']:+.2f} % |"
             )
-        print()
+        named = [k for k in after if after[k]["answer"] not in ("none", k[0])]
+        print(
+            f"after: {len(after)} cases, {sum(after[k]['answer'] != 'none' for k in after)} "
+            f"answered with an effect ({len(named)} not the truth)\n"
+        )
 
 
 if __name__ == "__main__":
