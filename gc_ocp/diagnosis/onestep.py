@@ -5,10 +5,14 @@ Each model (the parent, every candidate) is linearised once:
 its weighted residual ``r`` and Jacobian ``J`` at the parent's solution, with the candidate's
 own variables at their neutral value (where the candidate *is* the parent; a candidate that
 cannot reproduce the parent, such as the contact density, which replaces the five stiffnesses by
-a smooth field, is linearised at its own fit instead). On a replicate the residual at that
+a smooth field, is linearised at its own fit instead, as is one whose class declares
+:attr:`~gc_ocp.estimation.components.base.Component.one_step_from_own_fit`, the clock offset,
+whose response is too curved at its neutral value for one step from there). On a replicate the
+residual at that
 point is ``r - r_parent - u`` (``u`` the replicate's weighted perturbation), and every fit of the
 leave-one-stance-out scoring is the linear least-squares step from there, with the priors: the
-training fit in all variables, then the held-out stance's nuisance under its prior. A variable
+training fit in all variables, then the held-out stance's nuisance under its prior (with its
+trial's trial-scope variables when its trial has no training stance, as a refit). A variable
 at a bound (a damping of 0) stays there when the step would cross it. So the null's held-out
 reductions of all replicates cost a few matrix products, not thousands of fits;
 ``benchmarks/null_check.py`` compares them with full refits.
@@ -104,9 +108,9 @@ def linearize(problem, x: np.ndarray, nested: bool = True) -> Linear:
         np.array(
             [
                 c
-                for sp in problem.variables.specs
-                if sp.key[0] in per_trial and len(sp.key) > 1 and sp.key[1] == st.trial
-                for c in range(sp.slice.start, sp.slice.stop)
+                for spec in problem.variables.specs
+                if spec.key[0] in per_trial and len(spec.key) > 1 and spec.key[1] == st.trial
+                for c in range(spec.slice.start, spec.slice.stop)
             ],
             int,
         )
@@ -339,7 +343,7 @@ def heldout_energy(
         rhs = JTR - np.asarray(Jg.T @ R0[rows]) + Pp[:, None]
         d_train = step(G, rhs, lin)
         for i in group:
-            unseen = lin.trials and lin.trials[i] not in seen
+            unseen = bool(lin.trials) and lin.trials[i] not in seen
             extra = lin.trial_cols[i] if unseen else np.zeros(0, int)
             extra = np.array([c for c in extra if c in prior_pos], int)
             E[j] = _heldout_stance(lin, J, R0, i, d_train, prior_pos, extra, charge)
