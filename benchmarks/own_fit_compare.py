@@ -45,7 +45,7 @@ def main(args: list[str]) -> None:
             "| smallest p: before | after | refit's gain held out |"
         )
         print("|---|---|---|---|---|---|---|---|")
-        for key in sorted(set(before) & set(after), key=str):
+        for key in sorted(set(before) & set(after), key=lambda k: (k[0], k[1], int(k[2]))):
             b, a = _row(before[key]), _row(after[key])
             to = next(r for r in after[key]["ranking"] if r["effect"] == "time_offset")
             print(
