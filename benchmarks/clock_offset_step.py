@@ -26,6 +26,7 @@ from gc_ocp.diagnosis.compare import evaluate, fold_plan
 from gc_ocp.diagnosis.diagnose import resolve_base, sized_base
 from gc_ocp.diagnosis.mismatch import MismatchFamily
 from gc_ocp.diagnosis.onestep import (
+    _own_columns,
     fold_prior_means,
     heldout_energy,
     linearize_child,
@@ -72,10 +73,7 @@ def case(name: str, files) -> None:
     red = {"refit": _reduction(Rc.sum() + Oc.sum(), Rp.sum() + Op.sum())}
     for label, own_fit in (("nested", False), ("own fit", True)):
         lin = linearize_child(data, child.model, base.full, lp.r, child.full, None, own_fit)
-        charge = None
-        if lin.nested:
-            own = [k for k in lin.keys if k not in lp.keys]
-            charge = np.concatenate([np.arange(lin.keys[k].start, lin.keys[k].stop) for k in own])
+        charge = _own_columns(lin, lp) if lin.nested else None  # as onestep.energies does
         E = heldout_energy(lin, (lin.r - lp.r)[:, None] + lp.r[:, None], plan, means, charge)
         rows[f"child one step, {label}"] = E[:, 0]
         occam = Op if lin.nested else Oc

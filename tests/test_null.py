@@ -215,6 +215,49 @@ def test_the_wild_bootstrap_keeps_the_residual_size_and_skips_censored_samples(T
     assert 0.4 < (signs > 0).mean() < 0.6
 
 
+def _linear_with_priors(rng, J, rows, nuis, **kw) -> tuple[onestep.Linear, np.ndarray, dict]:
+    """A nested linearised model on the dense Jacobian ``J`` (stances ``rows``, nuisance
+    ``nuis``) with a random prior on every variable but the first; and, for
+    :func:`_direct_heldout`, the prior rows ``P`` and each prior column's position."""
+    nx = J.shape[1]
+    prior_idx = np.arange(1, nx)
+    pw = rng.uniform(0.5, 2.0, prior_idx.size)
+    p0 = rng.normal(0.0, 0.3, prior_idx.size)
+    lin = onestep.Linear(
+        r=np.zeros(J.shape[0]),
+        J=sp.csr_matrix(J),
+        prior_idx=prior_idx,
+        pw=pw,
+        p0=p0,
+        rows=rows,
+        nuisance=nuis,
+        at_lower=np.zeros(0, int),
+        at_upper=np.zeros(0, int),
+        nested=True,
+        x0=np.zeros(nx),
+        keys={},
+        **kw,
+    )
+    P = np.zeros((prior_idx.size, nx))
+    P[np.arange(prior_idx.size), prior_idx] = pw
+    return lin, P, {c: k for k, c in enumerate(prior_idx)}
+
+
+def _direct_heldout(lin, P, pos, keep, i, z, r) -> float:
+    """The held-out energy of stance ``i`` solved directly by ``lstsq``: the training fit on the
+    rows ``keep`` with every prior stacked as rows, then the columns ``z`` re-fitted on stance
+    ``i`` from the point under their prior; ``r``: the residual at the point (one column)."""
+    J = lin.J.toarray()
+    d = np.linalg.lstsq(np.vstack([J[keep], P]), -np.concatenate([r[keep], lin.p0]), rcond=None)[0]
+    d[z] = 0.0
+    Ji = J[lin.rows[i]]
+    a = r[lin.rows[i]] + Ji @ d
+    kz = [pos[c] for c in z]
+    Az = np.vstack([Ji[:, z], np.diag(lin.pw[kz])])
+    dz = np.linalg.lstsq(Az, -np.concatenate([a, lin.p0[kz]]), rcond=None)[0]
+    return 0.5 * (np.sum((a + Ji[:, z] @ dz) ** 2) + np.sum((lin.p0[kz] + lin.pw[kz] * dz) ** 2))
+
+
 def test_grouped_folds_train_without_the_whole_group_and_score_each_stance():
     """The one-step held-out energy of a group of stances held out together, against a direct
     least-squares solution on a random linear model: the training fit without every row of
@@ -230,48 +273,18 @@ def test_grouped_folds_train_without_the_whole_group_and_score_each_stance():
     for k in range(n_st):
         J[rows[k], :n_shared] = rng.normal(size=(T6, n_shared))
         J[rows[k], nuis[k]] = rng.normal(size=(T6, n_z))
-    prior_idx = np.arange(1, nx)  # every variable but the first has a prior
-    pw = rng.uniform(0.5, 2.0, prior_idx.size)
-    p0 = rng.normal(0.0, 0.3, prior_idx.size)
-    lin = onestep.Linear(
-        r=np.zeros(n_st * T6),
-        J=sp.csr_matrix(J),
-        prior_idx=prior_idx,
-        pw=pw,
-        p0=p0,
-        rows=rows,
-        nuisance=nuis,
-        at_lower=np.zeros(0, int),
-        at_upper=np.zeros(0, int),
-        nested=True,
-        x0=np.zeros(nx),
-        keys={},
-    )
+    lin, P, pos = _linear_with_priors(rng, J, rows, nuis)
     R0 = rng.normal(size=(n_st * T6, 3))
     plan = [(0, 3), (1,), (2, 4)]
     E = onestep.heldout_energy(lin, R0, plan)
-    P = np.zeros((prior_idx.size, nx))
-    P[np.arange(prior_idx.size), prior_idx] = pw
-    pos = {c: k for k, c in enumerate(prior_idx)}
     j = 0
     for group in plan:
         keep = np.concatenate(
             [np.arange(rows[k].start, rows[k].stop) for k in range(n_st) if k not in group]
         )
-        A = np.vstack([J[keep], P])
         for b in range(R0.shape[1]):
-            d = np.linalg.lstsq(A, -np.concatenate([R0[keep, b], p0]), rcond=None)[0]
             for i in group:
-                z = nuis[i]
-                dd = d.copy()
-                dd[z] = 0.0
-                a = R0[rows[i], b] + J[rows[i]] @ dd
-                kz = [pos[c] for c in z]
-                Az = np.vstack([J[rows[i]][:, z], np.diag(pw[kz])])
-                dz = np.linalg.lstsq(Az, -np.concatenate([a, p0[kz]]), rcond=None)[0]
-                want = 0.5 * (
-                    np.sum((a + J[rows[i]][:, z] @ dz) ** 2) + np.sum((p0[kz] + pw[kz] * dz) ** 2)
-                )
+                want = _direct_heldout(lin, P, pos, keep, i, nuis[i], R0[:, b])
                 assert E[j + group.index(i), b] == pytest.approx(want, rel=1e-9)
         j += len(group)
     assert E.shape == (5, 3)
@@ -389,32 +402,13 @@ def test_a_held_out_stance_of_an_unseen_trial_re_estimates_its_trial_s_variables
         J[rows[k], :n_shared] = rng.normal(size=(T6, n_shared))
         J[rows[k], t_col[t]] = rng.normal(size=T6)
         J[rows[k], nuis[k]] = rng.normal(size=(T6, n_z))
-    prior_idx = np.arange(1, nx)
-    pw = rng.uniform(0.5, 2.0, prior_idx.size)
-    p0 = rng.normal(0.0, 0.3, prior_idx.size)
-    lin = onestep.Linear(
-        r=np.zeros(n_st * T6),
-        J=sp.csr_matrix(J),
-        prior_idx=prior_idx,
-        pw=pw,
-        p0=p0,
-        rows=rows,
-        nuisance=nuis,
-        at_lower=np.zeros(0, int),
-        at_upper=np.zeros(0, int),
-        nested=True,
-        x0=np.zeros(nx),
-        keys={},
-        trials=trials,
-        trial_cols=tuple(np.array([t_col[t]]) for t in trials),
+    lin, P, pos = _linear_with_priors(
+        rng, J, rows, nuis, trials=trials, trial_cols=tuple(np.array([t_col[t]]) for t in trials)
     )
     R0 = rng.normal(size=(n_st * T6, 2))
     plan = [(0,), (2,), (3,)]
     E = onestep.heldout_energy(lin, R0, plan)
     charged = onestep.heldout_energy(lin, R0, plan, charge=np.array(list(t_col.values())))
-    P = np.zeros((prior_idx.size, nx))
-    P[np.arange(prior_idx.size), prior_idx] = pw
-    pos = {c: k for k, c in enumerate(prior_idx)}
     for j, (i,) in enumerate(plan):
         keep = np.concatenate(
             [np.arange(rows[k].start, rows[k].stop) for k in range(n_st) if k != i]
@@ -424,17 +418,10 @@ def test_a_held_out_stance_of_an_unseen_trial_re_estimates_its_trial_s_variables
         z = np.r_[nuis[i], [t_col[trials[i]]]] if unseen else nuis[i]
         kz = [pos[c] for c in z]
         Jz = J[rows[i]][:, z]
-        Hs = (Jz.T @ Jz + np.diag(pw[kz] ** 2)) / np.outer(pw[kz], pw[kz])
+        Hs = (Jz.T @ Jz + np.diag(lin.pw[kz] ** 2)) / np.outer(lin.pw[kz], lin.pw[kz])
         occam_part = 0.5 * (np.linalg.slogdet(Hs)[1] - np.linalg.slogdet(Hs[:-1, :-1])[1])
-        A = np.vstack([J[keep], P])
         for b in range(R0.shape[1]):
-            d = np.linalg.lstsq(A, -np.concatenate([R0[keep, b], p0]), rcond=None)[0]
-            dd = d.copy()
-            dd[z] = 0.0
-            a = R0[rows[i], b] + J[rows[i]] @ dd
-            Az = np.vstack([Jz, np.diag(pw[kz])])
-            dz = np.linalg.lstsq(Az, -np.concatenate([a, p0[kz]]), rcond=None)[0]
-            want = 0.5 * (np.sum((a + Jz @ dz) ** 2) + np.sum((p0[kz] + pw[kz] * dz) ** 2))
+            want = _direct_heldout(lin, P, pos, keep, i, z, R0[:, b])
             assert E[j, b] == pytest.approx(want, rel=1e-9)
             extra = occam_part if unseen else 0.0
             assert charged[j, b] == pytest.approx(want + extra, rel=1e-9)

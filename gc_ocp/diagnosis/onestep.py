@@ -53,7 +53,8 @@ class Linear:
     residual at the point; rows: per stance, its rows of ``r``; nuisance: per stance, the
     columns it re-estimates when held out (its stance-scope variables); at_lower / at_upper: the
     columns at a bound; nested: linearised at the parent's point (else at its own fit); trials,
-    trial_cols: per stance, its trial and the columns of its trial's trial-scope variables (a
+    trial_cols: per stance, its trial and the columns of its trial's trial-scope variables with a
+    prior (a
     clock offset, a belt speed: re-estimated on a held-out stance whose trial has no training
     stance, as a refit does, :func:`heldout_energy`)."""
 
@@ -96,26 +97,15 @@ def linearize(problem, x: np.ndarray, nested: bool = True) -> Linear:
     ``x``; ``nested``: at the parent's point (module doc)."""
     r, J = problem.data_jacobian(x)
     pw_all = np.asarray(problem.prior_weights, float)
-    idx = np.flatnonzero(pw_all > 0)
+    has_prior = pw_all > 0  # (a held-out stance re-estimates only variables with a prior)
+    idx = np.flatnonzero(has_prior)
     p0 = pw_all[idx] * (x[idx] - np.asarray(problem.prior_means, float)[idx])
     rows, start = [], 0
     for b in problem.blocks:
         rows.append(slice(start, start + 6 * b.T))
         start += 6 * b.T
     nuisance = problem.stance_columns()
-    per_trial = {c.name for c in problem.model if c.scope == "trial"}
-    trial_cols = tuple(
-        np.array(
-            [
-                c
-                for spec in problem.variables.specs
-                if spec.key[0] in per_trial and len(spec.key) > 1 and spec.key[1] == st.trial
-                for c in range(spec.slice.start, spec.slice.stop)
-            ],
-            int,
-        )
-        for st in problem.stances
-    )
+    trial_cols = tuple(c[has_prior[c]] for c in problem.trial_columns())
     span = np.maximum(problem.ubx - problem.lbx, 1.0)
     tol = 1e-9 * span
     return Linear(
@@ -345,7 +335,6 @@ def heldout_energy(
         for i in group:
             unseen = bool(lin.trials) and lin.trials[i] not in seen
             extra = lin.trial_cols[i] if unseen else np.zeros(0, int)
-            extra = np.array([c for c in extra if c in prior_pos], int)
             E[j] = _heldout_stance(lin, J, R0, i, d_train, prior_pos, extra, charge)
             j += 1
     return E

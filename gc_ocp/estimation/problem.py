@@ -330,13 +330,23 @@ class EstimationProblem:
     def stance_columns(self) -> list[np.ndarray]:
         """Per stance, the columns of ``x`` its stance-scope components own (the per-stance
         nuisance a held-out stance re-estimates, e.g. its pose correction)."""
-        names = {c.name for c in self.model if c.scope == "stance"}
+        return self._scope_columns("stance", lambda st: st.label)
+
+    def trial_columns(self) -> list[np.ndarray]:
+        """Per stance, the columns of ``x`` its trial's trial-scope components own (a clock
+        offset, a belt speed: what a held-out stance of a trial never trained on re-estimates)."""
+        return self._scope_columns("trial", lambda st: st.trial)
+
+    def _scope_columns(self, scope: str, key_of) -> list[np.ndarray]:
+        """Per stance, the columns of the variables of ``scope``-scope components keyed by
+        ``key_of(stance)`` (their key's second entry)."""
+        names = {c.name for c in self.model if c.scope == scope}
         out = []
         for st in self.stances:
             cols = [
                 np.arange(s.start, s.start + s.size)
                 for s in self.variables.specs
-                if s.key[0] in names and len(s.key) > 1 and s.key[1] == st.label
+                if s.key[0] in names and len(s.key) > 1 and s.key[1] == key_of(st)
             ]
             out.append(np.concatenate(cols) if cols else np.zeros(0, int))
         return out
