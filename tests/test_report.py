@@ -9,6 +9,7 @@ import warnings
 from html.parser import HTMLParser
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from gc_ocp.diagnosis.result import RankRow
@@ -356,3 +357,37 @@ def test_the_summary_says_which_round_s_null_stopped_early():
     cal[-1].update(mismatch_draws=8, mismatch_draws_planned=32, null_stopped_early=True)
     text = dataclasses.replace(d, calibration=cal).summary()
     assert f"round {len(cal)}'s null stopped after 8 of 32 mismatch draws" in text
+
+
+def test_the_one_step_s_miss_of_the_parent_is_measured_and_noted(diagnosis):
+    """Each round records how far the test's one step puts its parent's held-out score from the
+    parent's refitted folds' (here recomputed directly from the base's evaluation), and a note
+    says so exactly when that exceeds the rule's effect-size floor."""
+    from gc_ocp.diagnosis.compare import fold_plan
+    from gc_ocp.diagnosis.diagnose import _miss_note
+    from gc_ocp.diagnosis.onestep import fold_prior_means, heldout_energy, linearize_parent
+    from gc_ocp.diagnosis.selection import MIN_REDUCTION_PCT
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.workflow.fitting import fit_data
+
+    trial = load_trial()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        _, data, _ = fit_data([(trial, compute_kinematics(trial))])
+    base = diagnosis.evaluations["base"]
+    plan = fold_plan(data)
+    lp = linearize_parent(data, base.model, base.full, None)
+    occam = np.array([f.occam for f in base.folds])
+    e_step = heldout_energy(lp, lp.r[:, None], plan, fold_prior_means(data, base.model, plan))
+    e_step = e_step[:, 0] + occam
+    e_refit = np.array([f.energy for f in base.folds])
+    miss = diagnosis.calibration[0]["one_step_miss"]
+    # round-off of the same linear algebra on the same fits: 1e-9 relative
+    assert miss["pct"] == pytest.approx(100 * (np.sqrt(e_step.sum() / e_refit.sum()) - 1), rel=1e-9)
+    per = 100 * (np.sqrt(e_step / e_refit) - 1)
+    assert miss["worst_stance_pct"] == pytest.approx(per[np.argmax(np.abs(per))], rel=1e-9)
+    noted = any("one step puts" in n for n in diagnosis.notes)
+    assert noted == (abs(miss["pct"]) > MIN_REDUCTION_PCT)
+    assert "one step puts" in _miss_note({"one_step_miss": {**miss, "pct": 5.0}}, "base", 1)
+    assert _miss_note({"one_step_miss": {**miss, "pct": 0.1}}, "base", 1) is None

@@ -42,6 +42,7 @@ from gc_ocp.diagnosis.null import (
     null_looks,
     observed_reductions,
     prior_step,
+    step_miss,
 )
 from gc_ocp.diagnosis.onestep import fold_prior_means, linearize_parent
 from gc_ocp.diagnosis.result import Diagnosis, RankRow, WaterfallStep
@@ -258,6 +259,8 @@ def diagnose_stances(
                 able if stop_early else None,
             )
             calibration.append(info)
+            if (note := _miss_note(info, current.label, len(rounds) + 1)) is not None:
+                notes.append(note)
             if not first:
                 named = [j for j in jobs if j.name in tests and tests[j.name].p_adjusted < alpha]
                 if named:
@@ -383,6 +386,17 @@ def _calibrated(
         observed,
     )
     crit = next(iter(tests.values())).z_critical if tests else None
+    miss = None
+    if plan and parent.folds:
+        whole, per = step_miss(
+            parent_lin, np.array([f.energy for f in parent.folds]), plan, occam["parent"], means
+        )
+        worst = int(np.argmax(np.abs(per)))
+        miss = {
+            "pct": whole,
+            "worst_stance": parent.folds[worst].label,
+            "worst_stance_pct": float(per[worst]),
+        }
     seconds = time.perf_counter() - t0
     n_rep = n_replicates if null is None else int(next(iter(null.values())).size)
     say(f"  calibrated null: {n_rep} replicates, z_crit {crit}, {seconds:.1f} s")
@@ -396,9 +410,28 @@ def _calibrated(
         "null_looks": looks,
         "floor_leaves": None if among is None else sorted(among),
         "z_critical": crit,
+        "one_step_miss": miss,
         "seconds": seconds,
     }
     return tests, info
+
+
+def _miss_note(info: dict, parent: str, k: int) -> str | None:
+    """A note when the test's one step puts the round's parent's held-out score further from
+    its refitted folds' than the rule's effect-size floor (gains of that size may then be missed
+    by the test; :func:`~gc_ocp.diagnosis.null.step_miss`)."""
+    miss = info.get("one_step_miss")
+    if miss is None or abs(miss["pct"]) <= MIN_REDUCTION_PCT:
+        return None
+    return (
+        f"round {k}: the calibrated test's one step puts {parent}'s held-out score "
+        f"{miss['pct']:+.1f} % from its refitted folds' (held-out stance {miss['worst_stance']}: "
+        f"{miss['worst_stance_pct']:+.1f} %), more than the rule's {MIN_REDUCTION_PCT} % floor: "
+        "each fold's fit lies far from the fit on all stances (few stances of a foot), so the "
+        "test can miss gains the refit shows (its false-claim rate holds: its null is scored "
+        "the same way); more stances per foot bring the step closer (docs/diagnosis.md, 'Why "
+        "the one step misses on real walking')."
+    )
 
 
 def diagnose(

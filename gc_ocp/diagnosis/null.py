@@ -213,6 +213,29 @@ def observed_reductions(
     return {n: float(v[0]) for n, v in reductions(E).items()}, per_stance_sd(E)
 
 
+def step_miss(
+    parent: Linear,
+    refit_energy: np.ndarray,
+    plan: Sequence[Sequence[int]],
+    occam: np.ndarray | None = None,
+    fold_means: Sequence[Mapping[tuple, np.ndarray]] | None = None,
+) -> tuple[float, np.ndarray]:
+    """How far [%] the test's one step puts the parent's held-out score from its refitted
+    folds' (``refit_energy``: per held-out stance of ``plan``, the refit's energy with its Occam
+    term ``occam``): ``100 (sqrt(E_step / E_refit) - 1)`` for the whole score (the sum over the
+    held-out stances, as :func:`~gc_ocp.diagnosis.onestep.reductions`) and per held-out stance.
+    The step starts at the fit on all stances; where a fold's fits lie far from it (a foot with
+    few stances: ``docs/diagnosis.md``, "Why the one step misses on real walking") the miss is
+    large, and the test can miss gains the refit shows (its null is scored the same way, so its
+    rate holds)."""
+    occ = np.zeros(len(refit_energy)) if occam is None else np.asarray(occam, float)
+    e_step = energies(parent, {}, -parent.r[:, None], plan, {"parent": occ}, fold_means)
+    e_step = e_step["parent"][:, 0]
+    e_refit = np.asarray(refit_energy, float)
+    whole = 100.0 * (np.sqrt(e_step.sum() / e_refit.sum()) - 1.0)
+    return float(whole), 100.0 * (np.sqrt(e_step / e_refit) - 1.0)
+
+
 def onestep_null(
     parent: Linear,
     parent_fits: Sequence[dict],
@@ -496,5 +519,6 @@ __all__ = (
     "prior_pull",
     "prior_step",
     "replicate",
+    "step_miss",
     "wild_residuals",
 )
