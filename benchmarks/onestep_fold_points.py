@@ -1,21 +1,25 @@
 """Why the one-step statistic misses the refit on real walking: where each fold's training fit
 lies, and a statistic linearised at each fold's own fits (a prototype, not the package's).
 
-    PYTHONPATH=. .venv/bin/python benchmarks/onestep_fold_points.py [TRIAL ...]
+    PYTHONPATH=. .venv/bin/python benchmarks/onestep_fold_points.py [TRIAL ...] [--prior-width]
 
-(default: the bundled trial; e.g. the BTS subject's ``Walking1-3.c3d`` for six stances.)
+(default: the bundled trial; e.g. the BTS subject's ``Walking1-3.c3d`` for six stances.) The
+base is the diagnosis's: its pose correction's width estimated on the stances first
+(``diagnose(pose_width="estimated")``); ``--prior-width``: at its component's guessed prior.
 
 1. The base's fold training fits: Gauss-Newton iterations (with a backtracking line search on
    the true objective) on each fold's training problem from the base's fit on all stances, the
    training objective and the *exact* held-out energy (the held-out stance's nuisance solved by
    Ipopt, as the ranking's folds) at each iterate, against Ipopt's training fit; the variables
    furthest from Ipopt's, in prior sigmas (raw units for variables without a prior).
-2. The observed statistic four ways, per candidate: the refit (the ranking's), the calibrated
+2. The observed statistic per candidate: the refit (the ranking's), the calibrated
    test's one step (:mod:`gc_ocp.diagnosis.onestep`: every fold one Gauss-Newton step from one
    linearisation), and one step from a linearisation at each fold's *own* training fit (the
    held-out stance's nuisance starting where the fit on all stances left it), and the same with
    the held-out stance's nuisance at its held-out fit too (the step then starts at the refit's
-   optimum: what is left is the linearisation's own error). Occam terms: the refit's in all.
+   optimum: what is left is the linearisation's own error), and one step from the *parent's*
+   fold fits with the candidate's own variables neutral (a cheaper point the null could reach:
+   the parent's fold fits only). Occam terms: the refit's in all.
 
 Output quoted in ``docs/diagnosis.md`` ("Why the one step misses on real walking").
 """
@@ -30,6 +34,7 @@ import numpy as np
 
 import gc_ocp
 from gc_ocp.diagnosis.compare import _score_heldout, evaluate, fold_plan
+from gc_ocp.diagnosis.diagnose import sized_base
 from gc_ocp.diagnosis.onestep import (
     _problem,
     energies,
@@ -128,13 +133,16 @@ def gauss_newton(data, plan, base, w, iterations=5) -> None:
 
 def main() -> None:
     warnings.simplefilter("ignore")
-    paths = sys.argv[1:]
+    paths = [a for a in sys.argv[1:] if not a.startswith("--")]
     trials = [gc_ocp.load_trial(p) for p in paths] if paths else [gc_ocp.load_trial()]
     _, data, _ = fit_data([(t, gc_ocp.compute_kinematics(t)) for t in trials])
     plan = fold_plan(data)
     w = Weights()
-    means = fold_prior_means(data, base_model(), plan)
-    base = evaluate(data, base_model(), "base", (), plan)
+    model = base_model()
+    if "--prior-width" not in sys.argv:  # the diagnosis's default: the pose width estimated
+        model = sized_base(data, model, "estimated", None, None, None)[0]
+    means = fold_prior_means(data, model, plan)
+    base = evaluate(data, model, "base", (), plan)
     print(f"{len(data)} stances, folds {plan}\n\n## 1. The base's fold training fits\n")
     gauss_newton(data, plan, base, w)
     lp = linearize_parent(data, base.model, base.full, None)
@@ -183,7 +191,7 @@ def main() -> None:
     Ep_both = fold_points(base, heldout=True)
     Ep_one = heldout_energy(lp, lp.r[:, None], plan, means)[:, 0]
     print(
-        "\n## 2. The observed statistic four ways (held-out reduction of the combined score, %)\n"
+        "\n## 2. The observed statistic: refit against one step from several points (held-out reduction of the combined score, %)\n"
     )
     print(
         f"base's held-out energy per held-out stance: refit {refit(base).round(1)}, one step "

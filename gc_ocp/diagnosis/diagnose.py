@@ -259,8 +259,6 @@ def diagnose_stances(
                 able if stop_early else None,
             )
             calibration.append(info)
-            if (note := _miss_note(info, current.label, len(rounds) + 1)) is not None:
-                notes.append(note)
             if not first:
                 named = [j for j in jobs if j.name in tests and tests[j.name].p_adjusted < alpha]
                 if named:
@@ -278,6 +276,8 @@ def diagnose_stances(
             evaluations.update({ev.label: ev for ev in ok.values()})
             rows = rank(current, evs, tests, n_boot, seed, rate, alpha, known)
             rounds.append(rows)
+            if (note := step_note(rows, info, current.label, len(rounds))) is not None:
+                notes.append(note)
             best = best_passing(rows)
             if best is None or len(selected) >= limit:
                 break
@@ -416,20 +416,45 @@ def _calibrated(
     return tests, info
 
 
-def _miss_note(info: dict, parent: str, k: int) -> str | None:
-    """A note when the test's one step puts the round's parent's held-out score further from
-    its refitted folds' than the rule's effect-size floor (gains of that size may then be missed
-    by the test; :func:`~gc_ocp.diagnosis.null.step_miss`)."""
+def step_note(rows: Sequence[RankRow], info: dict, parent: str, k: int) -> str | None:
+    """A note on round ``k`` when the test's one step sees much less than the refit: candidates
+    not named whose refit gains more than their one step by more than the rule's effect-size
+    floor, and the parent's own miss when beyond it (``info["one_step_miss"]``,
+    :func:`~gc_ocp.diagnosis.null.step_miss`). The refit's gain then needs the other parameters
+    moved far from the fit on all stances (each fold's own fits), which one step from there does
+    not follow: the test keeps its false-claim rate (its null is scored the same way) but can
+    miss such a gain (``docs/diagnosis.md``, "Why the one step misses on real walking")."""
+    gaps = [
+        f"{r.effect} (refit {r.heldout_rms_reduction_pct:+.1f} %, one step "
+        f"{r.calibrated.observed_pct:+.1f} %)"
+        for r in rows
+        if r.calibrated is not None
+        and not r.passes
+        and r.heldout_rms_reduction_pct is not None
+        and r.heldout_rms_reduction_pct > MIN_REDUCTION_PCT
+        and r.heldout_rms_reduction_pct - r.calibrated.observed_pct > MIN_REDUCTION_PCT
+    ]
     miss = info.get("one_step_miss")
-    if miss is None or abs(miss["pct"]) <= MIN_REDUCTION_PCT:
+    parent_off = miss is not None and abs(miss["pct"]) > MIN_REDUCTION_PCT
+    if not gaps and not parent_off:
         return None
+    parts = []
+    if gaps:
+        parts.append(
+            f"the refit of {', '.join(gaps)} gains more than the calibrated test's one step from "
+            f"{parent}'s fit sees, by more than the rule's {MIN_REDUCTION_PCT} % floor"
+        )
+    if parent_off:
+        parts.append(
+            f"the one step puts {parent}'s own held-out score {miss['pct']:+.1f} % from its "
+            f"refitted folds' (held-out stance {miss['worst_stance']}: "
+            f"{miss['worst_stance_pct']:+.1f} %)"
+        )
     return (
-        f"round {k}: the calibrated test's one step puts {parent}'s held-out score "
-        f"{miss['pct']:+.1f} % from its refitted folds' (held-out stance {miss['worst_stance']}: "
-        f"{miss['worst_stance_pct']:+.1f} %), more than the rule's {MIN_REDUCTION_PCT} % floor: "
-        "each fold's fit lies far from the fit on all stances (few stances of a foot), so the "
-        "test can miss gains the refit shows (its false-claim rate holds: its null is scored "
-        "the same way); more stances per foot bring the step closer (docs/diagnosis.md, 'Why "
+        f"round {k}: {'; '.join(parts)}. Such a gain needs the other parameters moved far from "
+        "the fit on all stances (each fold's own fit), which one step from there does not "
+        "follow: the test keeps its false-claim rate (its null is scored the same way) but can "
+        "miss it. More stances per foot bring the folds' fits closer (docs/diagnosis.md, 'Why "
         "the one step misses on real walking')."
     )
 
