@@ -755,3 +755,32 @@ def test_a_candidate_stepped_from_its_own_fit_is_refitted_on_every_draw(delayed,
     assert all(np.isfinite(v).all() and v.shape == (inputs.n_wild,) for v in out.values())
     # the parent, then the clock offset from its own observed fit; damping is nested (no refit)
     assert [id(s) for s in starts] == [id(inputs.full), id(inputs.children["time_offset"][1])]
+
+
+def test_the_calibrated_test_without_folds_scores_the_in_sample_fit():
+    """With one stance per foot no stance is held out: the test's statistic is the in-sample
+    one-step reduction (no Occam terms), the same for the data and the null. Before, the
+    folds' empty Occam arrays broadcast every energy to nothing: every candidate's statistic
+    and null read 100 % and p = 1, so the fallback could never name an effect."""
+    from gc_ocp.diagnosis.null import observed_reductions
+    from gc_ocp.diagnosis.onestep import linearize_child, linearize_parent
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.workflow.fitting import fit_data
+
+    trial = load_trial()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        _, data, _ = fit_data([(trial, compute_kinematics(trial))])
+        two = [data[0], data[1]]  # one right, one left stance
+        assert {d.side for d in two} == {"left", "right"}
+        d = diagnose_stances(two, candidates=["damping"], n_boot=100, mismatch_draws=2, workers=1)
+    assert d.folds["kind"].startswith("in-sample")
+    (row,) = d.ranking
+    base, ev = d.evaluations["base"], d.evaluations["base+damping"]
+    lp = linearize_parent(two, base.model, base.full, None)
+    ln = linearize_child(two, ev.model, base.full, lp.r, ev.full, None)
+    direct = observed_reductions(lp, {"damping": ln}, [])[0]["damping"]
+    # the same one step on the same fits: round-off
+    assert row.calibrated.observed_pct == pytest.approx(direct, rel=1e-9, abs=1e-9)
+    assert row.calibrated.observed_pct < 100.0 and row.calibrated.null_mean_pct < 100.0

@@ -339,7 +339,9 @@ def _calibrated(
     (:func:`~gc_ocp.diagnosis.null.cannot_name`; None: every draw is made)."""
     t0 = time.perf_counter()
     lins = {n: ev.linear for n, ev in evs.items() if ev.linear is not None}
-    occam = {"parent": np.array([f.occam for f in parent.folds])}
+    # the held-out fits' Occam terms; none without folds (the in-sample fallback: the test's
+    # statistic is then the in-sample reduction, for the data and the null alike)
+    occam = {"parent": np.array([f.occam for f in parent.folds])} if plan else {}
     occam.update({n: np.array([f.occam for f in ev.folds]) for n, ev in evs.items() if ev.folds})
     means = fold_prior_means(stances, parent.model, plan)
     null, draw, skipped, looks = None, None, 0, []
