@@ -399,7 +399,7 @@ def test_the_one_step_s_miss_of_the_parent_is_measured_and_noted(diagnosis):
     ]
     noted = [n for n in diagnosis.notes if n.startswith("round 1: ")]
     assert bool(noted) == (bool(gap) or abs(miss["pct"]) > MIN_REDUCTION_PCT)
-    assert all(f"the refit of {e} (refit" in noted[0] for e in gap)
+    assert all(f"{e} (refit" in noted[0] for e in gap)
     info = diagnosis.calibration[0]
     far = {**info, "one_step_miss": {**miss, "pct": 5.0}}
     assert "own held-out score +5.0 % from its refitted folds'" in step_note([], far, "base", 1)
@@ -409,6 +409,6 @@ def test_the_one_step_s_miss_of_the_parent_is_measured_and_noted(diagnosis):
     (row,) = [dataclasses.replace(r, passes=False) for r in rows if r.effect == "damping"]
     gain = row.heldout_rms_reduction_pct - row.calibrated.observed_pct
     listed = step_note([row], near, "base", 1)
-    assert (listed is not None and "the refit of damping (refit" in listed) == (
+    assert (listed is not None and "for damping (refit" in listed) == (
         gain > MIN_REDUCTION_PCT and row.heldout_rms_reduction_pct > MIN_REDUCTION_PCT
     )

@@ -443,8 +443,8 @@ def step_note(rows: Sequence[RankRow], info: dict, parent: str, k: int) -> str |
     parts = []
     if gaps:
         parts.append(
-            f"the refit of {', '.join(gaps)} gains more than the calibrated test's one step from "
-            f"{parent}'s fit sees, by more than the rule's {MIN_REDUCTION_PCT} % floor"
+            f"for {', '.join(gaps)}, the refit gains more than the calibrated test's one step "
+            f"from {parent}'s fit sees, by more than the rule's {MIN_REDUCTION_PCT} % floor"
         )
     if parent_off:
         parts.append(
