@@ -364,7 +364,7 @@ def test_the_one_step_s_miss_of_the_parent_is_measured_and_noted(diagnosis):
     parent's refitted folds' (here recomputed directly from the base's evaluation), and a note
     says so exactly when that exceeds the rule's effect-size floor."""
     from gc_ocp.diagnosis.compare import fold_plan
-    from gc_ocp.diagnosis.diagnose import step_note
+    from gc_ocp.diagnosis.diagnose import step_note, unseen_gains
     from gc_ocp.diagnosis.onestep import fold_prior_means, heldout_energy, linearize_parent
     from gc_ocp.diagnosis.selection import MIN_REDUCTION_PCT
     from gc_ocp.io import load_trial
@@ -388,15 +388,7 @@ def test_the_one_step_s_miss_of_the_parent_is_measured_and_noted(diagnosis):
     per = 100 * (np.sqrt(e_step / e_refit) - 1)
     assert miss["worst_stance_pct"] == pytest.approx(per[np.argmax(np.abs(per))], rel=1e-9)
     rows = diagnosis.rounds[0]
-    gap = [
-        r.effect
-        for r in rows
-        if r.calibrated is not None
-        and not r.passes
-        and r.heldout_rms_reduction_pct is not None
-        and r.heldout_rms_reduction_pct > MIN_REDUCTION_PCT
-        and r.heldout_rms_reduction_pct - r.calibrated.observed_pct > MIN_REDUCTION_PCT
-    ]
+    gap = [r.effect for r in unseen_gains(rows)]
     noted = [n for n in diagnosis.notes if n.startswith("round 1: ")]
     assert bool(noted) == (bool(gap) or abs(miss["pct"]) > MIN_REDUCTION_PCT)
     assert all(f"{e} (refit" in noted[0] for e in gap)

@@ -418,6 +418,21 @@ def _calibrated(
     return tests, info
 
 
+def unseen_gains(rows: Sequence[RankRow]) -> list[RankRow]:
+    """The rows not named whose refit gains more than the rule's effect-size floor and more than
+    their one step (the calibrated test's statistic) by more than that floor: gains the test
+    could not weigh (:func:`step_note`)."""
+    return [
+        r
+        for r in rows
+        if r.calibrated is not None
+        and not r.passes
+        and r.heldout_rms_reduction_pct is not None
+        and r.heldout_rms_reduction_pct > MIN_REDUCTION_PCT
+        and r.heldout_rms_reduction_pct - r.calibrated.observed_pct > MIN_REDUCTION_PCT
+    ]
+
+
 def step_note(rows: Sequence[RankRow], info: dict, parent: str, k: int) -> str | None:
     """A note on round ``k`` when the test's one step sees much less than the refit: candidates
     not named whose refit gains more than their one step by more than the rule's effect-size
@@ -429,12 +444,7 @@ def step_note(rows: Sequence[RankRow], info: dict, parent: str, k: int) -> str |
     gaps = [
         f"{r.effect} (refit {r.heldout_rms_reduction_pct:+.1f} %, one step "
         f"{r.calibrated.observed_pct:+.1f} %)"
-        for r in rows
-        if r.calibrated is not None
-        and not r.passes
-        and r.heldout_rms_reduction_pct is not None
-        and r.heldout_rms_reduction_pct > MIN_REDUCTION_PCT
-        and r.heldout_rms_reduction_pct - r.calibrated.observed_pct > MIN_REDUCTION_PCT
+        for r in unseen_gains(rows)
     ]
     miss = info.get("one_step_miss")
     parent_off = miss is not None and abs(miss["pct"]) > MIN_REDUCTION_PCT
