@@ -425,3 +425,23 @@ def test_a_held_out_stance_of_an_unseen_trial_re_estimates_its_trial_s_variables
             assert E[j, b] == pytest.approx(want, rel=1e-9)
             extra = occam_part if unseen else 0.0
             assert charged[j, b] == pytest.approx(want + extra, rel=1e-9)
+
+
+def test_occam_terms_of_the_wrong_size_are_refused():
+    """Occam terms come one per held-out stance or one for all; any other size would broadcast
+    the energies away (the folds' empty terms in a diagnosis without folds once made every
+    statistic 100 %), so ``energies`` refuses it."""
+    rng = np.random.default_rng(5)
+    n_st, T6, n_shared, n_z = 2, 30, 3, 2
+    nx = n_shared + n_st * n_z
+    rows = tuple(slice(k * T6, (k + 1) * T6) for k in range(n_st))
+    nuis = tuple(np.arange(n_shared + k * n_z, n_shared + (k + 1) * n_z) for k in range(n_st))
+    J = rng.normal(size=(n_st * T6, nx))
+    lin, _, _ = _linear_with_priors(rng, J, rows, nuis)
+    U = rng.normal(size=(n_st * T6, 2))
+    E = onestep.energies(lin, {}, U, [], {"parent": np.array([1.5])})
+    assert E["parent"].shape == (1, 2)
+    with pytest.raises(ValueError, match="0 Occam terms for 1 held-out energies"):
+        onestep.energies(lin, {}, U, [], {"parent": np.zeros(0)})
+    with pytest.raises(ValueError, match="3 Occam terms for 2 held-out energies"):
+        onestep.energies(lin, {}, U, [(0,), (1,)], {"parent": np.zeros(3)})

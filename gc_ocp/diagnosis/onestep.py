@@ -388,11 +388,21 @@ def energies(
     parent), a constant of the linearisation."""
     occam = occam or {}
     R0p = -perturbations
-    base = np.asarray(occam.get("parent", 0.0), float).reshape(-1, 1)
+    n_rows = max(len(held_out(plan)), 1)  # held-out stances (one row in sample)
+
+    def terms(value) -> np.ndarray:
+        """Occam terms as a column, one per held-out stance or one for all: any other size
+        would broadcast the energies away (an empty array wiped every energy once)."""
+        col = np.asarray(value, float).reshape(-1, 1)
+        if col.shape[0] not in (1, n_rows):
+            raise ValueError(f"{col.shape[0]} Occam terms for {n_rows} held-out energies")
+        return col
+
+    base = terms(occam.get("parent", 0.0))
     out = {"parent": heldout_energy(parent, R0p, plan, fold_means) + base}
     for name, lin in children.items():
         shift = (lin.r - parent.r)[:, None]
-        own = base if lin.nested else np.asarray(occam.get(name, base), float).reshape(-1, 1)
+        own = base if lin.nested else terms(occam.get(name, base))
         # a nested child's Occam terms are the parent's: its own columns are charged here
         charge = _own_columns(lin, parent) if lin.nested else None
         out[name] = heldout_energy(lin, shift + R0p, plan, fold_means, charge) + own
