@@ -112,7 +112,7 @@ def baseline_joint(data, model, first: dict, budget_s: float) -> dict:
 
     counts = {"nfev": first["nfev"], "capped": first["capped"]}
 
-    def fd_refit(prob, x0):
+    def fd_refit(prob, x0, covariance):
         b = baseline(prob, budget_s, x0=x0)
         counts["nfev"] += b["nfev"]
         counts["capped"] |= b["capped"]

@@ -150,6 +150,8 @@ def test_the_pose_width_follows_the_kinematic_error_in_the_data(drift_mm):
     mm = np.mean(scale.sigma_mm)
     # the refit's pose block records the widths it used (the reports print them)
     assert res2.blocks["pose"]["prior_mm"] == pytest.approx(np.broadcast_to(scale.sigma_mm, 3))
+    # only the last round's refit computes the covariance, and the fit returned carries it
+    assert res2.covariance is not None and np.all(np.isfinite(np.diag(res2.covariance)))
     if drift_mm:
         assert mm > 2.0
         # a wider prior makes the same correction cheaper: the refit ends lower

@@ -201,20 +201,24 @@ def estimate_pose_scale(
     weights: Weights | None = None,
     options: IpoptOptions | None = None,
     progress: Callable[[str], None] | None = None,
-    refit: Callable[[object, np.ndarray], EstimationResult] | None = None,
+    refit: Callable[[object, np.ndarray, bool], EstimationResult] | None = None,
     sole: bool = False,
+    covariance: bool = True,
 ) -> tuple[tuple, EstimationResult, PoseScale | None]:
     """The model with the pose correction's widths estimated on ``data`` (module doc), its fit
     (warm-started from ``result``, the fit with the current widths) and the estimate; the input
     unchanged (and None) when the model has no pose correction. ``refit(problem, x0)``: each
     round's warm refit (default: Ipopt, :func:`~gc_ocp.estimation.solve.solve`; a benchmark
     passes another solver to time the same rounds). ``sole``: estimate the sole correction's
-    width in the same rounds (:func:`sole_update`)."""
+    width in the same rounds (:func:`sole_update`). ``covariance``: the returned fit carries its
+    covariance (False: a caller that keeps only the widths); either way only the last round's
+    refit computes it (``refit(problem, x0, covariance)``: whether the round is the last is known
+    before its refit, from the widths' change)."""
     say = progress or (lambda s: None)
     if refit is None:
 
-        def refit(prob, x0):
-            return solve(prob, options, x0=x0)
+        def refit(prob, x0, cov):
+            return solve(prob, options, x0=x0, covariance=cov)
 
     pose = next((c for c in model if isinstance(c, PoseCorrection)), None)
     if pose is None:
@@ -239,7 +243,8 @@ def estimate_pose_scale(
             new[SoleCorrection] = sole_c
         model = tuple(new.get(type(c), c) for c in model)
         prob = build_estimation(data, model, weights)
-        result = refit(prob, rescaled_start(result, prob))
+        last = change < RTOL or k == MAX_ROUNDS - 1
+        result = refit(prob, rescaled_start(result, prob), covariance and last)
         row = {"sigma_mm": list(mm), "sigma_deg": list(deg), "objective": result.objective}
         if sole_w is not None:
             row["sole_mm"] = sole_w * 1e3
@@ -250,7 +255,7 @@ def estimate_pose_scale(
             + ("" if sole_w is None else f", sole {sole_w * 1e3:.2f} mm")
             + f"; J = {result.objective:.1f}"
         )
-        if change < RTOL:
+        if last:
             break
     est = PoseScale(
         mm,
@@ -279,7 +284,9 @@ def with_estimated_width(
     if not any(isinstance(c, PoseCorrection) for c in model):
         return model, None
     start = best_of(data, with_lls_start(model, data), weights, options, covariance=False)
-    fitted, _, scale = estimate_pose_scale(data, model, start, weights, options, progress)
+    fitted, _, scale = estimate_pose_scale(
+        data, model, start, weights, options, progress, covariance=False
+    )
     pose = next(c for c in fitted if isinstance(c, PoseCorrection))
     return tuple(pose if isinstance(c, PoseCorrection) else c for c in model), scale
 
