@@ -69,13 +69,7 @@ def at(problem, full, *fits) -> np.ndarray:
     ``full``'s elsewhere."""
     x = rescaled_start(full, problem)
     for fit in fits:
-        old = {s.key: s for s in fit.variables}
-        for spec in problem.variables.specs:
-            o = old.get(spec.key)
-            if o is None or o.size != spec.size:
-                continue
-            z = fit.x[o.slice] * (o.scale / spec.scale if spec.kind == "prior" else 1.0)
-            x[spec.slice] = np.clip(z, spec.lb, spec.ub)
+        x = rescaled_start(fit, problem, under=x)
     return x
 
 

@@ -493,3 +493,32 @@ def test_problems_that_differ_only_in_plate_data_share_their_slot_maps(bundled, 
     ]
     pm.build_estimation(moved, model)
     assert len(pm._SLOT_MAPS) == 2  # another motion: a new entry
+
+
+def test_a_warm_start_laid_over_another_point_keeps_what_the_result_lacks():
+    """``rescaled_start(prev, problem, under=x)``: the variables ``prev`` has come from it (prior
+    variables rescaled to ``problem``'s widths, as without ``under``), the others keep ``x``'s
+    values (not ``problem``'s start): how several fits are laid over one another."""
+    from gc_ocp.estimation import model_from_names
+    from gc_ocp.estimation.solve import result_at
+    from gc_ocp.estimation.starts import rescaled_start
+
+    _, _, sts = _stances(np.random.default_rng(3))
+    small = build_estimation(sts, _model())
+    big = build_estimation(sts, model_from_names(["damping"], base=_model()))
+    rng = np.random.default_rng(4)
+    prev = result_at(
+        small,
+        np.clip(small.x0 + 0.1 * rng.standard_normal(small.x0.size), small.lbx, small.ubx),
+        covariance=False,
+    )
+    under = np.clip(big.x0 + rng.standard_normal(big.x0.size), big.lbx, big.ubx)
+    plain, laid = rescaled_start(prev, big), rescaled_start(prev, big, under=under)
+    had = np.zeros(big.x0.size, bool)
+    keys = {s.key: s for s in prev.variables}
+    for spec in big.variables.specs:
+        if spec.key in keys and keys[spec.key].size == spec.size:
+            had[spec.slice] = True
+    assert had.any() and (~had).any()  # the test needs both kinds of variable
+    np.testing.assert_array_equal(laid[had], plain[had])
+    np.testing.assert_array_equal(laid[~had], under[~had])

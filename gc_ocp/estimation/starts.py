@@ -78,11 +78,17 @@ bundled example a single solve from the LLS start ends at J = 655 and the contin
 the Rajagopal trial the single solve ends at 530 and the continuation at 682."""
 
 
-def rescaled_start(prev: EstimationResult, prob, neutral: bool = False) -> np.ndarray:
+def rescaled_start(
+    prev: EstimationResult, prob, neutral: bool = False, under: np.ndarray | None = None
+) -> np.ndarray:
     """Warm start for ``prob`` from the result ``prev``, matching variables by key (prior
     variables are stored in units of their sigma, so they are rescaled); the variables ``prev``
-    lacks keep ``prob``'s start (``neutral``: 0, the stored neutral value)."""
-    x0 = np.zeros(prob.x0.size) if neutral else prob.x0.copy()
+    lacks keep ``prob``'s start (``neutral``: 0, the stored neutral value; ``under``: that point
+    of ``prob``, to lay several results over one another)."""
+    if under is not None:
+        x0 = np.array(under, float)
+    else:
+        x0 = np.zeros(prob.x0.size) if neutral else prob.x0.copy()
     old = {s.key: s for s in prev.variables}
     for spec in prob.variables.specs:
         o = old.get(spec.key)
