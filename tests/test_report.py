@@ -137,6 +137,7 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
     what the calibrated test found."""
     from gc_ocp.diagnosis.null import NullTest
     from gc_ocp.diagnosis.report import _verdict, report_html
+    from gc_ocp.diagnosis.selection import floor_stances
 
     r = diagnosis.ranking[0]
     test = NullTest(1.2, 0.1, 0.6, 1.8, 0.12, 2.4, 14, 6)
@@ -149,7 +150,9 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
         insample_rms_reduction_pct=6.0,
         confounded_with=(),
         calibrated=test,
+        floor_stances=floor_stances({"pct": 1.5, "ci": (-0.5, 3.5), "insample_pct": 6.0}, 6),
     )
+    assert 0 < weak.floor_stances < 14  # the test's number is the rule's here
     d = dataclasses.replace(
         diagnosis, ranking=[weak], rounds=[[weak]], selected=[], waterfall=diagnosis.waterfall[:1]
     )
@@ -183,6 +186,49 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
     )
     assert _verdict(named) == "named (p = 0.004)"
     assert RankRow.from_json(named.to_json()) == named
+
+
+def test_a_row_the_floor_stops_says_whether_more_steps_would_clear_it(diagnosis):
+    """The rule's number of further steps is the test's and the effect-size floor's, the
+    larger (``RankRow.more_stances``): a candidate the test names whose held-out interval still
+    reaches 0 gets the floor's number; one whose held-out gain is under the floor gets none
+    (more steps estimate a gain better, they do not raise it), and its verdict says so."""
+    from gc_ocp.diagnosis.null import NullTest
+    from gc_ocp.diagnosis.report import _verdict
+
+    named_by_test = NullTest(2.2, 0.4, 0.6, 3.0, 0.039, 2.4, 0, 8)
+    row = dataclasses.replace(
+        diagnosis.ranking[0],
+        passes=False,
+        inconclusive=True,
+        heldout_rms_reduction_pct=2.0,
+        heldout_rms_reduction_ci=(-0.3, 4.3),
+        insample_rms_reduction_pct=11.8,
+        confounded_with=(),
+        calibrated=named_by_test,
+        floor_stances=3,
+    )
+    assert row.more_stances == 3
+    assert _verdict(row) == (
+        "inconclusive: named by the test (p = 0.039), but its held-out interval still reaches 0;"
+        " about 3 more steps would decide"
+    )
+    under = dataclasses.replace(row, heldout_rms_reduction_pct=0.3, floor_stances=None)
+    assert under.more_stances is None
+    assert _verdict(under) == (
+        "inconclusive: named by the test (p = 0.039), but its held-out gain is under the rule's "
+        "effect-size floor, which more steps do not raise"
+    )
+    # the test would decide with more steps, the floor would not: both said
+    both = dataclasses.replace(under, calibrated=dataclasses.replace(named_by_test, more_stances=5))
+    assert _verdict(both) == (
+        "inconclusive (p = 0.039); about 5 more steps would decide the test, but its held-out "
+        "gain is under the rule's effect-size floor, which more steps do not raise"
+    )
+    assert RankRow.from_json(row.to_json()) == row and RankRow.from_json(under.to_json()) == under
+    # a diagnosis.json written before the floor's number: the test's number, as it was read then
+    old = {k: v for k, v in both.to_json().items() if k != "floor_stances"}
+    assert RankRow.from_json(old).more_stances == 5
 
 
 def test_report_states_the_rule_the_code_applies(diagnosis, page):

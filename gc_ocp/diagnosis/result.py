@@ -62,6 +62,26 @@ class RankRow:
     """The calibrated test of the candidate (:mod:`.null`): its one-step reduction, the null's
     mean and spread, the family-wise adjusted p-value and the further stances that would decide
     it (None: not tested, e.g. not evaluable)."""
+    floor_stances: int | None = 0
+    """Further held-out stances after which the refit's held-out reduction would clear the
+    rule's effect-size floor at its observed size (the lower end of its interval above 0, the
+    interval narrowing as 1/sqrt(n); :func:`~gc_ocp.diagnosis.selection.floor_stances`): 0 when
+    it does, or when not measured (a screened row; a ``diagnosis.json`` written before it was);
+    None when no number would (its held-out or in-sample reduction is under the floor: more
+    stances estimate a gain better, they do not raise it)."""
+
+    @property
+    def more_stances(self) -> int | None:
+        """Further held-out stances that would decide the *rule* at the observed gains: the
+        calibrated test's number (``calibrated.more_stances``) and the effect-size floor's
+        (:attr:`floor_stances`), the larger of the two; 0 for a row that passes; None when
+        either says no number would, or the row was not tested."""
+        if self.passes:
+            return 0
+        c = self.calibrated
+        if c is None or c.more_stances is None or self.floor_stances is None:
+            return None
+        return max(c.more_stances, self.floor_stances)
 
     def confounded(self, *others: str) -> RankRow:
         """This row also naming ``others`` confounded with it (each once, in the given order)."""
@@ -108,12 +128,31 @@ class RankRow:
         p = f"p = {c.p_adjusted:.3g}"
         if self.passes:
             return f"named ({p})"
+        more = self.more_stances
+        under = (
+            "its held-out gain is under the rule's effect-size floor, which more steps do not raise"
+        )
         if c.more_stances == 0:
-            return f"inconclusive: named by the test ({p}), below the rule's effect-size floor"
+            if more:
+                return (
+                    f"inconclusive: named by the test ({p}), but its held-out interval still "
+                    f"reaches 0; about {more} more steps would decide"
+                )
+            return f"inconclusive: named by the test ({p}), but {under}"
         if self.inconclusive:
-            return f"inconclusive ({p}); about {c.more_stances} more steps would decide"
+            if more is None and c.more_stances:
+                return (
+                    f"inconclusive ({p}); about {c.more_stances} more steps would decide the "
+                    f"test, but {under}"
+                )
+            return f"inconclusive ({p}); about {more} more steps would decide"
         if c.more_stances:
-            return f"not named ({p}); about {c.more_stances} more steps would decide at this gain"
+            if more is None:
+                return (
+                    f"not named ({p}); about {c.more_stances} more steps would decide the test "
+                    f"at this gain, but {under}"
+                )
+            return f"not named ({p}); about {more} more steps would decide at this gain"
         if c.observed_pct > 0:
             return (
                 f"not named ({p}); its gain is within what noise and model mismatch give: "

@@ -21,7 +21,9 @@ rejects those. It was 2 %, an effect-size rule under which a real gain of 1 % is
 however many stances there are; it is now the smallest floor that rejects the "none" cases of
 one benchmark motion, chosen there and scored on the other (``docs/diagnosis.md``, Decision
 rule; ``benchmarks/rule_variants_output.md``). The result gives, for every
-candidate that does not pass, the further stances that would decide the test. A candidate
+candidate that does not pass, the further stances that would decide the test and those after
+which its held-out interval would clear the floor (:func:`floor_stances`; the rule's number is
+the larger, ``RankRow.more_stances``). A candidate
 that fails, yet whose one-step reduction is above the null's mean and a practical number of
 stances would decide it, or that the test names below the floor, is *inconclusive*.
 
@@ -46,6 +48,7 @@ rows.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
@@ -173,6 +176,7 @@ def rank(
                 confounded_with=tuple(relieves),
                 flags=tuple(f["code"] for f in ev.full.flags),
                 calibrated=test,
+                floor_stances=floor_stances(red, len(red["per_stance"])),
             )
         )
     held = [r for r in rows if r.heldout_rms_reduction_pct is not None]
@@ -211,6 +215,25 @@ def floor_holds(red: Mapping) -> bool:
         and red["ci"][0] > 0.0
         and red["insample_pct"] >= MIN_REDUCTION_PCT
     )
+
+
+def floor_stances(red: Mapping, n_heldout: int) -> int | None:
+    """Further held-out stances after which a held-out reduction ``red``
+    (:func:`~gc_ocp.diagnosis.compare.reduction`, on ``n_heldout`` stances) would clear the
+    effect-size floor at its observed size: 0 when it does (:func:`floor_holds`); None when
+    its held-out or its in-sample reduction is under :data:`MIN_REDUCTION_PCT` (more stances
+    estimate a gain better, they do not raise it). Otherwise the lower end of its interval,
+    ``pct - h`` on ``n0`` stances, reaches 0, and with ``n`` stances the half-width is ``h
+    sqrt(n0 / n)`` (the bootstrap's interval narrows as a mean's): the smallest ``n`` with
+    ``h sqrt(n0 / n) < pct``, less ``n0``."""
+    pct, lo, ins = red["pct"], red["ci"][0], red["insample_pct"]
+    if pct < MIN_REDUCTION_PCT or ins < MIN_REDUCTION_PCT:
+        return None
+    if lo > 0.0:
+        return 0
+    n0 = max(int(n_heldout), 1)
+    n = math.floor(n0 * ((pct - lo) / pct) ** 2) + 1  # strictly above: the interval clears 0
+    return max(n - n0, 1)
 
 
 def held_out_reduction(
