@@ -229,6 +229,10 @@ def test_a_row_the_floor_stops_says_whether_more_steps_would_clear_it(diagnosis)
     # a diagnosis.json written before the floor's number: the test's number, as it was read then
     old = {k: v for k, v in both.to_json().items() if k != "floor_stances"}
     assert RankRow.from_json(old).more_stances == 5
+    old = {k: v for k, v in row.to_json().items() if k != "floor_stances"}
+    assert _verdict(RankRow.from_json(old)) == (
+        "inconclusive: named by the test (p = 0.039), below the rule's effect-size floor"
+    )
 
 
 def test_report_states_the_rule_the_code_applies(diagnosis, page):

@@ -68,7 +68,7 @@ class RankRow:
     interval narrowing as 1/sqrt(n); :func:`~gc_ocp.diagnosis.selection.floor_stances`): 0 when
     it does, or when not measured (a screened row; a ``diagnosis.json`` written before it was);
     None when no number would (its held-out or in-sample reduction is under the floor: more
-    stances estimate a gain better, they do not raise it)."""
+    stances estimate a gain better, they do not raise it). Written to JSON only when not 0."""
 
     @property
     def more_stances(self) -> int | None:
@@ -94,6 +94,8 @@ class RankRow:
         fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
         if self.not_evaluable is None:
             del fields["not_evaluable"]
+        if self.floor_stances == 0:  # the default, read back when absent (older files too)
+            del fields["floor_stances"]
         return {
             **fields,  # in the order of the fields, the values below replaced in place
             "heldout_rms_reduction_ci": list(self.heldout_rms_reduction_ci),
@@ -138,7 +140,10 @@ class RankRow:
                     f"inconclusive: named by the test ({p}), but its held-out interval still "
                     f"reaches 0; about {more} more steps would decide"
                 )
-            return f"inconclusive: named by the test ({p}), but {under}"
+            if self.floor_stances is None:
+                return f"inconclusive: named by the test ({p}), but {under}"
+            # floor_stances 0 on a row that does not pass: written before the floor's number
+            return f"inconclusive: named by the test ({p}), below the rule's effect-size floor"
         if self.inconclusive:
             if more is None and c.more_stances:
                 return (
