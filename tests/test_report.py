@@ -130,6 +130,23 @@ def _provenance() -> dict:
     }
 
 
+def _unnamed_row(row, test, pct, ci, insample, floor):
+    """``row`` made an inconclusive candidate the rule does not name: its calibrated ``test``,
+    held-out reduction ``pct`` [%] with interval ``ci``, in-sample reduction ``insample`` and
+    the floor's number of further stances ``floor``; no confounding."""
+    return dataclasses.replace(
+        row,
+        passes=False,
+        inconclusive=True,
+        heldout_rms_reduction_pct=pct,
+        heldout_rms_reduction_ci=ci,
+        insample_rms_reduction_pct=insample,
+        confounded_with=(),
+        calibrated=test,
+        floor_stances=floor,
+    )
+
+
 def test_report_says_when_none_is_inconclusive(diagnosis):
     """A "none" whose candidate's one-step gain is above its null but not significant, with a
     practical number of further steps that would decide it, is called inconclusive, in the
@@ -141,17 +158,8 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
 
     r = diagnosis.ranking[0]
     test = NullTest(1.2, 0.1, 0.6, 1.8, 0.12, 2.4, 14, 6)
-    weak = dataclasses.replace(
-        r,
-        passes=False,
-        inconclusive=True,
-        heldout_rms_reduction_pct=1.5,
-        heldout_rms_reduction_ci=(-0.5, 3.5),
-        insample_rms_reduction_pct=6.0,
-        confounded_with=(),
-        calibrated=test,
-        floor_stances=floor_stances({"pct": 1.5, "ci": (-0.5, 3.5), "insample_pct": 6.0}, 6),
-    )
+    floor = floor_stances({"pct": 1.5, "ci": (-0.5, 3.5), "insample_pct": 6.0}, 6)
+    weak = _unnamed_row(r, test, 1.5, (-0.5, 3.5), 6.0, floor)
     assert 0 < weak.floor_stances < 14  # the test's number is the rule's here
     d = dataclasses.replace(
         diagnosis, ranking=[weak], rounds=[[weak]], selected=[], waterfall=diagnosis.waterfall[:1]
@@ -197,17 +205,7 @@ def test_a_row_the_floor_stops_says_whether_more_steps_would_clear_it(diagnosis)
     from gc_ocp.diagnosis.report import _verdict
 
     named_by_test = NullTest(2.2, 0.4, 0.6, 3.0, 0.039, 2.4, 0, 8)
-    row = dataclasses.replace(
-        diagnosis.ranking[0],
-        passes=False,
-        inconclusive=True,
-        heldout_rms_reduction_pct=2.0,
-        heldout_rms_reduction_ci=(-0.3, 4.3),
-        insample_rms_reduction_pct=11.8,
-        confounded_with=(),
-        calibrated=named_by_test,
-        floor_stances=3,
-    )
+    row = _unnamed_row(diagnosis.ranking[0], named_by_test, 2.0, (-0.3, 4.3), 11.8, 3)
     assert row.more_stances == 3
     assert _verdict(row) == (
         "inconclusive: named by the test (p = 0.039), but its held-out interval still reaches 0;"

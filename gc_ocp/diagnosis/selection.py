@@ -226,10 +226,10 @@ def floor_stances(red: Mapping, n_heldout: int) -> int | None:
     ``pct - h`` on ``n0`` stances, reaches 0, and with ``n`` stances the half-width is ``h
     sqrt(n0 / n)`` (the bootstrap's interval narrows as a mean's): the smallest ``n`` with
     ``h sqrt(n0 / n) < pct``, less ``n0``."""
-    pct, lo, ins = red["pct"], red["ci"][0], red["insample_pct"]
-    if pct < MIN_REDUCTION_PCT or ins < MIN_REDUCTION_PCT:
+    pct, lo = red["pct"], red["ci"][0]
+    if pct < MIN_REDUCTION_PCT or red["insample_pct"] < MIN_REDUCTION_PCT:
         return None
-    if lo > 0.0:
+    if floor_holds(red):
         return 0
     n0 = max(int(n_heldout), 1)
     n = math.floor(n0 * ((pct - lo) / pct) ** 2) + 1  # strictly above: the interval clears 0

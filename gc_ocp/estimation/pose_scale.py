@@ -207,13 +207,13 @@ def estimate_pose_scale(
 ) -> tuple[tuple, EstimationResult, PoseScale | None]:
     """The model with the pose correction's widths estimated on ``data`` (module doc), its fit
     (warm-started from ``result``, the fit with the current widths) and the estimate; the input
-    unchanged (and None) when the model has no pose correction. ``refit(problem, x0)``: each
-    round's warm refit (default: Ipopt, :func:`~gc_ocp.estimation.solve.solve`; a benchmark
+    unchanged (and None) when the model has no pose correction. ``refit(problem, x0,
+    covariance)``: each round's warm refit (default: Ipopt, :func:`~gc_ocp.estimation.solve.solve`; a benchmark
     passes another solver to time the same rounds). ``sole``: estimate the sole correction's
     width in the same rounds (:func:`sole_update`). ``covariance``: the returned fit carries its
     covariance (False: a caller that keeps only the widths); either way only the last round's
-    refit computes it (``refit(problem, x0, covariance)``: whether the round is the last is known
-    before its refit, from the widths' change)."""
+    refit computes it (whether the round is the last is known before its refit, from the
+    widths' change)."""
     say = progress or (lambda s: None)
     if refit is None:
 
