@@ -23,10 +23,12 @@ reduction is below the rule's floor or its interval reaches 0), ``outranked`` (t
 but another passing candidate comes first), ``error`` (the case's diagnosis stopped).
 
 **Steps needed, checked**: a case whose truth's row is inconclusive at N stances per foot
-predicts ``more_stances`` further held-out stances for 80 % power; the same truth and seed at
-the smallest larger size with at least that many held-out stances is a rerun of the kind the
-prediction speaks of (new draws of the noise and mismatch, the same effect): it *decides* when
-the calibrated test names the truth there.
+predicts the rule's further held-out stances (:func:`rule_stances`: the test's for 80 % power
+and the effect-size floor's, the larger); the same truth and seed at the smallest larger size
+with at least that many held-out stances is a rerun of the kind the prediction speaks of (new
+draws of the noise and mismatch, the same effect): it *decides* when the rule names the truth
+there (the calibrated test names it and its held-out gain passes the floor); the test's part
+alone is shown beside it.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from pathlib import Path
 from statistics import median
 
 from gc_ocp.diagnosis.null import ALPHA
+from gc_ocp.diagnosis.selection import floor_stances
 
 HERE = Path(__file__).parent / "withheld_mismatch"
 
@@ -45,14 +48,30 @@ HERE = Path(__file__).parent / "withheld_mismatch"
 def load(root: Path = HERE) -> dict[tuple[str, int], dict]:
     """``{(motion and base, stances per foot): run}``: ``{motion}_{N}`` is a run on the guessed
     pose width, ``{motion}_{N}_width`` on the estimated one (the default since 2026-11-28); the
-    two bases are kept apart, so that sizes and the steps-needed check compare like with like."""
-    out = {}
+    two bases are kept apart, so that sizes and the steps-needed check compare like with like.
+    A ``..._seed{K}`` folder holds further seeds of the same motion, base and size (a run with
+    ``--first-seed K``): its cases join that size's, a case (truth, magnitude, seed) counted
+    once. Other suffixes (``_own_fit``: a rerun of single cases on a later version) are not
+    read."""
+    out: dict[tuple[str, int], dict] = {}
     for p in sorted(root.glob("*_*/confusion.json")):
-        m = re.fullmatch(r"(.+)_(\d+)(_width)?", p.parent.name)
-        if m:
-            base = "estimated width" if m.group(3) else "guessed width"
-            out[(f"{m.group(1)}, {base}", int(m.group(2)))] = json.loads(p.read_text())
+        m = re.fullmatch(r"(.+)_(\d+)(_width)?(_seed\d+)?", p.parent.name)
+        if not m:
+            continue
+        base = "estimated width" if m.group(3) else "guessed width"
+        key = (f"{m.group(1)}, {base}", int(m.group(2)))
+        run = json.loads(p.read_text())
+        if key not in out:
+            out[key] = run
+            continue
+        have = {_case_key(c) for c in out[key]["cases"]}
+        out[key]["cases"] += [c for c in run["cases"] if _case_key(c) not in have]
+        out[key]["seconds"]["cases_total"] += run["seconds"]["cases_total"]
     return out
+
+
+def _case_key(case: dict) -> tuple:
+    return case["truth"], case["magnitude"], case["seed"]
 
 
 def _pct(k: int, n: int) -> str:
@@ -76,6 +95,25 @@ def stopped_by(case: dict) -> str:
     if not row["passes"]:
         return "floor"
     return "outranked"
+
+
+def rule_stances(row: dict) -> int | None:
+    """The rule's further held-out stances of a ranking row (``RankRow.more_stances``): the
+    larger of the test's (``calibrated.more_stances``) and the effect-size floor's
+    (:func:`~gc_ocp.diagnosis.selection.floor_stances`, recomputed from the row: rows written
+    before 2026-11-28 do not carry it, and a row's own is written only when not 0); None when
+    either is None (more steps of the same kind do not decide it)."""
+    test = row["calibrated"]["more_stances"]
+    pct = row["heldout_rms_reduction_pct"]
+    if test is None or pct is None:
+        return None
+    red = {
+        "pct": pct,
+        "ci": row["heldout_rms_reduction_ci"],
+        "insample_pct": row["insample_rms_reduction_pct"],
+    }
+    floor = floor_stances(red, row["calibrated"]["n_heldout"])
+    return None if floor is None else max(test, floor)
 
 
 def main(root: Path = HERE) -> None:
@@ -156,7 +194,7 @@ def main(root: Path = HERE) -> None:
             row = truth_row(c)
             if row is None or not row.get("inconclusive") or not row.get("calibrated"):
                 continue
-            need = row["calibrated"]["more_stances"]
+            need = rule_stances(row)
             have = row["calibrated"]["n_heldout"]
             if not need:
                 continue
@@ -179,10 +217,10 @@ def main(root: Path = HERE) -> None:
                 continue
             r2 = truth_row(again)  # the same truth
             named = bool(r2 and r2.get("calibrated") and r2["calibrated"]["p_adjusted"] < ALPHA)
-            checked[motion].append((c, n, need, target, named, again["correct"]))
+            checked[motion].append((c, n, need, target, named, named and r2["passes"]))
     print(
-        "| motion | inconclusive truths | rerun available | decided by the test at the "
-        "predicted size | also named by the rule |"
+        "| motion | inconclusive truths | rerun available | named by the test at the "
+        "predicted size | named by the rule (test and floor): decided |"
     )
     print("|---|---|---|---|---|")
     for motion, items in checked.items():
