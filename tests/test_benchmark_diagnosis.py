@@ -13,6 +13,7 @@ import pytest
 
 from gc_ocp.bench import withheld as benchmark
 from gc_ocp.errors import InputError
+from gc_ocp.estimation.components import REGISTRY
 
 import withheld_reference as reference  # isort: skip (a test helper beside this file)
 
@@ -75,7 +76,8 @@ def test_injected_truths_are_those_of_the_former_if_chain(base):
     """Every effect (and "none") at both magnitudes: the same components with the same fixed
     values, the same true motion, the same kinematic error and the same random draws as the
     benchmark built before the effects declared their injection (``withheld_reference``)."""
-    assert benchmark.injected_values() == reference.VALUES
+    former = {e: {m: v[m] for m in ("moderate", "strong")} for e, v in _values().items()}
+    assert former == reference.VALUES
     assert list(benchmark.injected_values()) == list(
         reference.VALUES
     )  # the order of confusion.json
@@ -86,7 +88,7 @@ def test_injected_truths_are_those_of_the_former_if_chain(base):
         old_stances = reference.motion(base, effect)
         for st, old in zip(stances, old_stances, strict=True):
             assert np.array_equal(st.foot.points_local, old.foot.points_local), effect
-        for mag in benchmark.MAGNITUDES:
+        for mag in ("moderate", "strong"):  # the former chain's (small came later)
             rng, old_rng = np.random.default_rng(11), np.random.default_rng(11)
             truth = benchmark.truth_model(effect, mag, frozen, stances, rng)
             old = reference.truth_model(effect, mag, frozen, stances, old_rng)
@@ -100,6 +102,48 @@ def test_injected_truths_are_those_of_the_former_if_chain(base):
         benchmark.truth_model("sole_geometry", "strong", frozen, stances, np.random.default_rng(1)),
         benchmark.truth_model("sole_geometry", "strong", frozen, stances, np.random.default_rng(2)),
     )
+
+
+def _values() -> dict:
+    return benchmark.injected_values()
+
+
+NEUTRAL = {  # each effect's value at which the model is the base's (its component's docs)
+    "damping": 0.0,  # c [s/m]
+    "stiffness_exponent": 1.0,  # n: the base's linear law
+    "sole_geometry": 0.0,  # no offset
+    "kinematic_correction": (0.0, 0.0, 0.0),  # no marker error
+    "contact_density": 1.0,  # heel and toe alike
+    "toe_joint": 0.0,  # no dorsiflexion
+    "ground_offset": (0.0, 0.0),  # level floor at 0
+    "time_offset": 0.0,  # plate on time
+    "friction": (0.0, 0.0),  # Coulomb: no static excess, no viscous part
+}
+
+
+def test_small_magnitude_is_half_the_moderate_departure_from_neutral():
+    """Every injectable effect declares the three magnitudes, and "small" is where its doc puts
+    it: the midpoint of neutral and moderate (exact in binary for these decimals up to one
+    rounding, hence the 1e-12)."""
+    values = _values()
+    assert set(values) == set(NEUTRAL)
+    for effect, v in values.items():
+        assert tuple(v) == benchmark.MAGNITUDES, effect
+        mid = np.asarray(NEUTRAL[effect]) + 0.5 * (
+            np.asarray(v["moderate"]) - np.asarray(NEUTRAL[effect])
+        )
+        np.testing.assert_allclose(np.asarray(v["small"]), mid, rtol=1e-12, err_msg=effect)
+
+
+def test_a_magnitude_an_effect_does_not_declare_is_refused(monkeypatch):
+    """An effect registered elsewhere may declare only some magnitudes: asking it for another
+    names the effect and what it declares, no KeyError from the middle of a run."""
+    cls = REGISTRY["damping"]
+    monkeypatch.setattr(cls, "benchmark_values", {"moderate": 0.5, "strong": 1.0})
+    frozen = benchmark.base_truth("seed")
+    stances = benchmark.motion("seed", "damping")
+    with pytest.raises(InputError, match=r'"damping" declares no "small".*moderate'):
+        benchmark.truth_model("damping", "small", frozen, stances, np.random.default_rng(0))
 
 
 @pytest.mark.slow

@@ -32,7 +32,14 @@ from gc_ocp.kinematics import compute_kinematics
 from gc_ocp.stance import StanceData
 from gc_ocp.workflow.fitting import fit_data
 
-MAGNITUDES = ("moderate", "strong")
+MAGNITUDES = ("small", "moderate", "strong")
+"""The magnitudes an effect's ``benchmark_values`` declare: "moderate" a typical value of the
+literature or of real walking's fits, "strong" about twice it, "small" half the moderate's
+departure from the effect's neutral value (near the diagnosis's detection limit at the
+benchmark's sizes: the cases that make the steps-needed prediction, docs/diagnosis.md)."""
+
+DEFAULT_MAGNITUDES = ("moderate", "strong")
+"""The magnitudes of a benchmark run unless it names others."""
 
 
 def injected_values() -> dict[str, dict[str, object]]:
@@ -226,6 +233,11 @@ def truth_model(effect: str, magnitude: str, base: tuple, stances, rng) -> tuple
         raise InputError(
             f'Effect "{effect}" {why}: the benchmark cannot inject it; choose from '
             f"{[*values, NONE]}"
+        )
+    if magnitude not in values[effect]:
+        raise InputError(
+            f'Effect "{effect}" declares no "{magnitude}" benchmark value; it declares '
+            f"{list(values[effect])} (its class's benchmark_values)"
         )
     cls = REGISTRY[effect]
     units = cls.benchmark_nominal_units

@@ -1,6 +1,6 @@
 """The withheld-effect benchmark: does the diagnosis name an effect it was not told about?
 
-For every effect of the library (and for "none"), several seeds and two magnitudes, plate data
+For every effect of the library (and for "none"), several seeds and magnitudes, plate data
 are generated on the real motion of the bundled trial (its three stances) from a **truth** = the
 base model fitted to the real data and frozen (:func:`~gc_ocp.bench.recovery.truth_from_fit`)
 plus that one effect with a known value. :func:`~gc_ocp.diagnosis.diagnose_stances` then runs
@@ -10,25 +10,29 @@ matrix, top-1 accuracy, "none" correct-rejection rate; rewritten atomically afte
 so a partial run leaves a valid file) and ``confusion.png``.
 
 **Injected values** (physical; "moderate" is a typical value of the literature or of the fits
-of real walking, "strong" about twice it; :func:`~gc_ocp.bench.truth.injected_values`, made of each effect's own
-``benchmark_values``; the truth is the effect's ``inject``, :func:`truth_model`):
+of real walking, "strong" about twice it, "small" half the moderate's departure from neutral,
+asked for by name (``magnitudes``; the default is moderate and strong): near the detection
+limit, where the steps-needed prediction is made; :func:`~gc_ocp.bench.truth.injected_values`,
+made of each effect's own ``benchmark_values``; the truth is the effect's ``inject``,
+:func:`truth_model`):
 
-=====================  =========================================  ==============================
-effect                 moderate                                   strong
-=====================  =========================================  ==============================
-damping                c = 0.5 s/m                                c = 1.0 s/m
-stiffness_exponent     n = 1.25 (k rescaled: same force at 5 mm)  n = 1.5
-sole_geometry          unit offsets U(-2, 2) mm per axis          U(-4, 4) mm
-kinematic_correction   marker noise 0.5 mm, drift 2 mm, 0.5 deg   1.0 mm, 4 mm, 1 deg
-contact_density        heel/toe stiffness ratio 2 (16 units)      ratio 3
-toe_joint              toes dorsiflex to 10 deg at toe-off        15 deg
-ground_offset          +-2 mm, tilts +-0.5 deg per stance         +-4 mm, +-1 deg
-time_offset            plate 10 ms late                           20 ms late
-friction               mu_s - mu_d = 0.15, b = 0.4 s/m            0.3, 0.75 s/m
-=====================  =========================================  ==============================
+====================  =======================  =================================  =================
+effect                small                    moderate                           strong
+====================  =======================  =================================  =================
+damping               c = 0.25 s/m             c = 0.5 s/m                        c = 1.0 s/m
+stiffness_exponent    n = 1.125                n = 1.25 (same force at 5 mm)      n = 1.5
+sole_geometry         U(-1, 1) mm              offsets U(-2, 2) mm per axis       U(-4, 4) mm
+kinematic_correction  0.25 mm, 1 mm, 0.25 deg  noise 0.5 mm, drift 2 mm, 0.5 deg  1 mm, 4 mm, 1 deg
+contact_density       ratio 1.5                heel/toe stiffness ratio 2         ratio 3
+toe_joint             5 deg                    toes to 10 deg at toe-off          15 deg
+ground_offset         +-1 mm, +-0.25 deg       +-2 mm, tilts +-0.5 deg            +-4 mm, +-1 deg
+time_offset           5 ms late                plate 10 ms late                   20 ms late
+friction              0.075, 0.2 s/m           mu_s - mu_d 0.15, b 0.4 s/m        0.3, 0.75 s/m
+====================  =======================  =================================  =================
 
 (``sole_geometry`` and ``kinematic_correction`` are effects only against the bare seed base;
-the registered base already has them.)
+the registered base already has them. The stiffness exponent's k is rescaled so that the force
+at 5 mm is the base's; the denser sole has 16 units.)
 
 **Where the truth generator differs from the fitter** (:class:`Realism`):
 
@@ -89,6 +93,7 @@ import numpy as np
 
 from gc_ocp.bench.summary import _json, _pct, confusion_figure, markdown, merge, report, summarize
 from gc_ocp.bench.truth import (
+    DEFAULT_MAGNITUDES,
     DEFAULT_REALISM,
     MAGNITUDES,
     NONE,
@@ -131,7 +136,7 @@ def plan(
     base: str = "registered",
     effects: Sequence[str] | None = None,
     seeds: int = 3,
-    magnitudes: Sequence[str] = MAGNITUDES,
+    magnitudes: Sequence[str] = DEFAULT_MAGNITUDES,
     first_seed: int = 0,
 ) -> list[dict]:
     """The cases: every truth (the base's candidates and "none") x magnitude x seed (``seeds``
@@ -324,7 +329,7 @@ def run_benchmark(
     base: str = "registered",
     effects: Sequence[str] | None = None,
     seeds: int = 3,
-    magnitudes: Sequence[str] = MAGNITUDES,
+    magnitudes: Sequence[str] = DEFAULT_MAGNITUDES,
     candidates: Sequence[str] | None = None,
     realism: Realism = DEFAULT_REALISM,
     n_boot: int = 2000,
@@ -450,6 +455,7 @@ def run_benchmark(
 
 
 __all__ = [
+    "DEFAULT_MAGNITUDES",
     "ERROR",
     "MAGNITUDES",
     "NONE",

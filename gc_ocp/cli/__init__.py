@@ -211,8 +211,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--magnitude",
         action="append",
-        choices=("moderate", "strong"),
-        help="Magnitude of the injected effect (repeatable; default both).",
+        metavar="{small,moderate,strong}",
+        help="Magnitude of the injected effect (repeatable; default moderate and strong; "
+        "small: half the moderate's departure from neutral; gc_ocp.bench.truth.MAGNITUDES).",
     )
     p.add_argument(
         "--base", choices=("registered", "seed"), default="registered", help="Diagnosis base."

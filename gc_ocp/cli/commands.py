@@ -237,7 +237,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
 def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
     """The withheld-effect benchmark of the diagnosis (``gc_ocp.bench.withheld``)."""
-    from gc_ocp.bench.truth import DEFAULT_REALISM
+    from gc_ocp.bench.truth import DEFAULT_MAGNITUDES, DEFAULT_REALISM
     from gc_ocp.bench.withheld import report, run_benchmark
     from gc_ocp.diagnosis.mismatch import MismatchFamily
 
@@ -256,7 +256,7 @@ def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
         effects=effects,
         candidates=candidates,
         seeds=args.seeds,
-        magnitudes=args.magnitude or ("moderate", "strong"),
+        magnitudes=args.magnitude or DEFAULT_MAGNITUDES,
         resume=args.resume,
         progress=_progress,
         first_seed=args.first_seed,

@@ -136,9 +136,11 @@ class Component:
     refit gains. Default False (the neutral point is exact for the null and costs no refit)."""
 
     benchmark_values: ClassVar[dict[str, Any] | None] = None
-    """The withheld-effect benchmark's injected value per magnitude, ``{"moderate": v,
-    "strong": v}`` (physical units, the effect's own; ``gc_ocp.bench.withheld.VALUES`` is made of
-    these), given to :meth:`inject`. None: the benchmark cannot inject it."""
+    """The withheld-effect benchmark's injected value per magnitude, ``{"small": v, "moderate":
+    v, "strong": v}`` (physical units, the effect's own; ``small`` half the moderate's departure
+    from neutral, ``strong`` about twice it: :data:`gc_ocp.bench.truth.MAGNITUDES`;
+    :func:`gc_ocp.bench.truth.injected_values` is made of these), given to :meth:`inject`. None:
+    the benchmark cannot inject it."""
 
     benchmark_nominal_units: ClassVar[tuple[str, ...]] = ()
     """Sole units the benchmark's truth keeps at their nominal point when this effect is

@@ -203,7 +203,11 @@ class ContactDensity(Component):
     fixed: dict | None = None
     name: str = "contact_density"
     candidate = True
-    benchmark_values = {"moderate": 2.0, "strong": 3.0}  # heel/toe stiffness ratio [-]
+    benchmark_values = {
+        "small": 1.5,
+        "moderate": 2.0,
+        "strong": 3.0,
+    }  # heel/toe stiffness ratio [-]
 
     @classmethod
     def inject(cls, base, value, stances, rng) -> tuple:

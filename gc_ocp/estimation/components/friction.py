@@ -70,7 +70,11 @@ class StribeckFriction(Component):
     name: str = "friction"
     neutral_at_zero = True
     candidate = True
-    benchmark_values = {"moderate": (0.15, 0.4), "strong": (0.3, 0.75)}  # mu_s - mu_d, b [s/m]
+    benchmark_values = {
+        "small": (0.075, 0.2),
+        "moderate": (0.15, 0.4),
+        "strong": (0.3, 0.75),
+    }  # mu_s - mu_d, b [s/m]
 
     @classmethod
     def inject(cls, base, value, stances, rng) -> tuple:

@@ -76,7 +76,11 @@ class GroundOffset(Component):
     scope = "stance"
     neutral_at_zero = True
     candidate = True
-    benchmark_values = {"moderate": (2e-3, 0.5), "strong": (4e-3, 1.0)}  # dz [m], tilts [deg]
+    benchmark_values = {
+        "small": (1e-3, 0.25),
+        "moderate": (2e-3, 0.5),
+        "strong": (4e-3, 1.0),
+    }  # dz [m], tilts [deg]
 
     @classmethod
     def inject(cls, base, value, stances, rng) -> tuple:

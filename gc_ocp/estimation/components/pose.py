@@ -92,6 +92,7 @@ class PoseCorrection(Component):
     neutral_at_zero = True
     candidate = True
     benchmark_values = {  # marker noise [m], drift [m], drift [deg]
+        "small": (0.25e-3, 1e-3, 0.25),
         "moderate": (0.5e-3, 2e-3, 0.5),
         "strong": (1.0e-3, 4e-3, 1.0),
     }

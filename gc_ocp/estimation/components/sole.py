@@ -32,7 +32,11 @@ class SoleCorrection(Component):
     name: str = "sole"
     neutral_at_zero = True
     candidate = True
-    benchmark_values = {"moderate": 2e-3, "strong": 4e-3}  # half-range of U per axis [m]
+    benchmark_values = {
+        "small": 1e-3,
+        "moderate": 2e-3,
+        "strong": 4e-3,
+    }  # half-range of U per axis [m]
 
     @classmethod
     def inject(cls, base, value, stances, rng) -> tuple:

@@ -122,7 +122,7 @@ class TimeOffset(Component):
     # (BTS subject, 10 ms, 2 stances per foot), from its own fit +8.5 % (docs/diagnosis.md,
     # "Where the clock offset's step starts")
     one_step_from_own_fit = True
-    benchmark_values = {"moderate": 0.010, "strong": 0.020}  # plate late [s]
+    benchmark_values = {"small": 0.005, "moderate": 0.010, "strong": 0.020}  # plate late [s]
 
     @classmethod
     def inject(cls, base, value, stances, rng) -> tuple:

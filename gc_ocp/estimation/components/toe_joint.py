@@ -183,7 +183,11 @@ class ToeJoint(Component):
     name: str = "toe_joint"
     neutral_at_zero = True
     candidate = True
-    benchmark_values = {"moderate": 10.0, "strong": 15.0}  # toe dorsiflexion at toe-off [deg]
+    benchmark_values = {
+        "small": 5.0,
+        "moderate": 10.0,
+        "strong": 15.0,
+    }  # toe dorsiflexion at toe-off [deg]
     # TT at its nominal point in the truth, the other units as fitted: the base fit moves TT
     # 20-25 mm back, nearly under the MTP axis, where a hinge barely changes its depth (see
     # tests/test_effect_toe_joint.py, which zeroes the whole sole)
