@@ -39,6 +39,7 @@ from collections import Counter, defaultdict
 from pathlib import Path
 from statistics import median
 
+from gc_ocp.bench.truth import MAGNITUDES
 from gc_ocp.diagnosis.null import ALPHA
 from gc_ocp.diagnosis.selection import floor_stances
 
@@ -128,19 +129,19 @@ def main(root: Path = HERE) -> None:
         "repeated as further trials with their own noise and draws (`bench.truth.per_foot`).\n"
     )
     print(
-        '| motion | stances per foot | cases | top-1, moderate | top-1, strong | "none" rejected '
-        "| time [min]: all cases, median case |"
+        "| motion | stances per foot | cases | "
+        + " | ".join(f"top-1, {m}" for m in MAGNITUDES)
+        + ' | "none" rejected | time [min]: all cases, median case |'
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|" + "---|" * len(MAGNITUDES) + "---|---|")
     for (motion, n), res in sorted(runs.items()):
         cs = res["cases"]
-        mod = [c for c in cs if c["magnitude"] == "moderate"]
-        strong = [c for c in cs if c["magnitude"] == "strong"]
+        by = [[c for c in cs if c["magnitude"] == m] for m in MAGNITUDES]
         non = [c for c in cs if c["truth"] == "none"]
         print(
-            f"| {motion} | {n} | {len(cs)} | {_pct(sum(c['correct'] for c in mod), len(mod))} | "
-            f"{_pct(sum(c['correct'] for c in strong), len(strong))} | "
-            f"{_pct(sum(c['correct'] for c in non), len(non))} | "
+            f"| {motion} | {n} | {len(cs)} | "
+            + " | ".join(_pct(sum(c["correct"] for c in g), len(g)) for g in by)
+            + f" | {_pct(sum(c['correct'] for c in non), len(non))} | "
             f"{res['seconds']['cases_total'] / 60:.0f}, "
             f"{median(c['seconds_generate'] + c['seconds_diagnose'] for c in cs) / 60:.1f} |"
         )
@@ -151,7 +152,8 @@ def main(root: Path = HERE) -> None:
         print("|---|---|" + "---|" * len(sizes))
         truths = sorted({c["truth"] for n in sizes for c in runs[(motion, n)]["cases"]})
         for t in truths:
-            for mag in ("moderate", "strong") if t != "none" else ("-",):
+            present = {c["magnitude"] for n in sizes for c in runs[(motion, n)]["cases"]}
+            for mag in [m for m in MAGNITUDES if m in present] if t != "none" else ("-",):
                 cells = []
                 for n in sizes:
                     cs = [
