@@ -41,6 +41,7 @@ from statistics import median
 
 from gc_ocp.bench.truth import MAGNITUDES
 from gc_ocp.diagnosis.null import ALPHA
+from gc_ocp.diagnosis.result import RankRow
 from gc_ocp.diagnosis.selection import floor_stances
 
 HERE = Path(__file__).parent / "withheld_mismatch"
@@ -102,19 +103,18 @@ def rule_stances(row: dict) -> int | None:
     """The rule's further held-out stances of a ranking row (``RankRow.more_stances``): the
     larger of the test's (``calibrated.more_stances``) and the effect-size floor's
     (:func:`~gc_ocp.diagnosis.selection.floor_stances`, recomputed from the row: rows written
-    before 2026-11-28 do not carry it, and a row's own is written only when not 0); None when
-    either is None (more steps of the same kind do not decide it)."""
+    before 2026-11-28 do not carry it, and a row's own is written only when not 0);
+    :meth:`RankRow.rule_stances`."""
     test = row["calibrated"]["more_stances"]
     pct = row["heldout_rms_reduction_pct"]
-    if test is None or pct is None:
+    if pct is None:
         return None
     red = {
         "pct": pct,
         "ci": row["heldout_rms_reduction_ci"],
         "insample_pct": row["insample_rms_reduction_pct"],
     }
-    floor = floor_stances(red, row["calibrated"]["n_heldout"])
-    return None if floor is None else max(test, floor)
+    return RankRow.rule_stances(test, floor_stances(red, row["calibrated"]["n_heldout"]))
 
 
 def main(root: Path = HERE) -> None:

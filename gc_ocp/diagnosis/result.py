@@ -78,10 +78,15 @@ class RankRow:
         either says no number would, or the row was not tested."""
         if self.passes:
             return 0
-        c = self.calibrated
-        if c is None or c.more_stances is None or self.floor_stances is None:
+        if self.calibrated is None:
             return None
-        return max(c.more_stances, self.floor_stances)
+        return self.rule_stances(self.calibrated.more_stances, self.floor_stances)
+
+    @staticmethod
+    def rule_stances(test: int | None, floor: int | None) -> int | None:
+        """The rule's further held-out stances from its two parts' (the test's and the
+        effect-size floor's): the larger, None when either is None."""
+        return None if test is None or floor is None else max(test, floor)
 
     def confounded(self, *others: str) -> RankRow:
         """This row also naming ``others`` confounded with it (each once, in the given order)."""
