@@ -629,6 +629,7 @@ def test_a_draw_whose_refit_fails_is_left_out_and_counted(base_eval, monkeypatch
     """``mismatch_null``: every draw is a task; one whose refit does not converge is left out
     (its reason counted), the others make the null (``n_wild`` replicates each)."""
     from gc_ocp.diagnosis import draws
+    from gc_ocp.diagnosis.compare import held_out
     from gc_ocp.diagnosis.null import DEFAULT_FAMILY
     from gc_ocp.errors import SolveError
 
@@ -644,11 +645,13 @@ def test_a_draw_whose_refit_fails_is_left_out_and_counted(base_eval, monkeypatch
         return real(problem, start, options)
 
     monkeypatch.setattr(draws, "_refit", refit)
-    null, draw, left_out = draws.mismatch_null(inputs, DEFAULT_FAMILY, 3, seed=0)
+    null, draw, left_out, shares = draws.mismatch_null(inputs, DEFAULT_FAMILY, 3, seed=0)
     assert left_out == 1
     assert draw.tolist() == [0] * inputs.n_wild + [1] * inputs.n_wild
     assert set(null) == {"damping"} and null["damping"].shape == (2 * inputs.n_wild,)
     assert np.all(np.isfinite(null["damping"]))
+    rows = max(len(held_out(inputs.plan)), 1)  # one share per held-out stance and kept draw
+    assert shares.shares["damping"].shape == (2, rows) and shares.weights.shape == (rows,)
 
 
 def test_a_nested_candidate_reproduces_its_parent_fitted_at_a_bound():
@@ -750,7 +753,7 @@ def test_a_candidate_stepped_from_its_own_fit_is_refitted_on_every_draw(delayed,
 
     monkeypatch.setattr(draws, "_refit", refit)
     draw = null_draw(DEFAULT_FAMILY, np.random.default_rng(0), data[0].layout, inputs.model)
-    out = draws.draw_reductions(inputs, draw, seed=1)
+    out = draws.draw_reductions(inputs, draw, seed=1).reductions
     assert set(out) == {"time_offset", "damping"}
     assert all(np.isfinite(v).all() and v.shape == (inputs.n_wild,) for v in out.values())
     # the parent, then the clock offset from its own observed fit; damping is nested (no refit)

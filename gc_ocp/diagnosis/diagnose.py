@@ -344,7 +344,7 @@ def _calibrated(
     occam = {"parent": np.array([f.occam for f in parent.folds])} if plan else {}
     occam.update({n: np.array([f.occam for f in ev.folds]) for n, ev in evs.items() if ev.folds})
     means = fold_prior_means(stances, parent.model, plan)
-    null, draw, skipped, looks = None, None, 0, []
+    null, draw, skipped, looks, shares = None, None, 0, [], None
     observed = observed_reductions(parent_lin, lins, plan, occam, means) if lins else None
     if not (lins and family is not None and family.scale > 0 and n_draws > 0):
         n_draws = 0
@@ -368,7 +368,7 @@ def _calibrated(
         )
         say(f"  calibrated null: {n_draws} mismatch draws, each a refit of {parent.label}")
         stop = None if among is None else observed[0]
-        null, draw, skipped = mismatch_null(
+        null, draw, skipped, shares = mismatch_null(
             inputs, family, n_draws, seed, executor, stop, alpha, among
         )
         looks = null_looks(observed[0], null, draw, inputs.n_wild * n_draws, among)
@@ -386,6 +386,7 @@ def _calibrated(
         means,
         draw,
         observed,
+        shares,
     )
     crit = next(iter(tests.values())).z_critical if tests else None
     miss = None

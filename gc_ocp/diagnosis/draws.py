@@ -39,7 +39,14 @@ import numpy as np
 
 from gc_ocp.diagnosis.execution import run_tasks
 from gc_ocp.diagnosis.mismatch import MismatchDraw, MismatchFamily, simulate_mismatched, thresholded
-from gc_ocp.diagnosis.null import ALPHA, DRAWS_PER_LOOK, cannot_name, null_draw, wild_residuals
+from gc_ocp.diagnosis.null import (
+    ALPHA,
+    DRAWS_PER_LOOK,
+    StanceShares,
+    cannot_name,
+    null_draw,
+    wild_residuals,
+)
 from gc_ocp.diagnosis.onestep import (
     Linear,
     energies,
@@ -47,6 +54,7 @@ from gc_ocp.diagnosis.onestep import (
     linearize,
     nested_point,
     reductions,
+    stance_shares,
 )
 from gc_ocp.errors import SolveError
 from gc_ocp.estimation.problem import Weights, build_estimation
@@ -102,11 +110,21 @@ def _refit(problem, start: EstimationResult, options: IpoptOptions | None) -> Es
     return solve(problem, options, x0=rescaled_start(start, problem), covariance=False)
 
 
-def draw_reductions(
-    inputs: NullInputs, draw: MismatchDraw, seed: int
-) -> dict[str, np.ndarray] | str:
-    """The task: ``{candidate: (n_wild,) one-step held-out reductions [%]}`` of the replicates
-    of ``draw`` (module doc), or the reason the draw is left out (a refit failed)."""
+@dataclasses.dataclass(frozen=True)
+class DrawNull:
+    """What one draw gives the null: ``reductions``, ``{candidate: (n_wild,) one-step held-out
+    reductions [%]}`` of its replicates; ``shares``, ``{candidate: (rows,)}`` each held-out
+    stance's share of them and ``weights`` ``(rows,)`` each stance's weight, both the mean over
+    the draw's replicates (:func:`~gc_ocp.diagnosis.onestep.stance_shares`)."""
+
+    reductions: dict[str, np.ndarray]
+    shares: dict[str, np.ndarray]
+    weights: np.ndarray
+
+
+def draw_reductions(inputs: NullInputs, draw: MismatchDraw, seed: int) -> DrawNull | str:
+    """The task: the :class:`DrawNull` of the replicates of ``draw`` (module doc), or the reason
+    the draw is left out (a refit failed)."""
     rng = np.random.default_rng(seed)
     data = draw_data(inputs, draw, rng)
     w = inputs.weights
@@ -128,7 +146,10 @@ def draw_reductions(
         inputs.parent, inputs.full.stance_fits, inputs.n_wild, rng, inputs.frame_rate
     )
     E = energies(pk, kids, U - pk.r[:, None], inputs.plan, inputs.occam, inputs.fold_means)
-    return reductions(E)
+    shares, weights = stance_shares(E)
+    return DrawNull(
+        reductions(E), {n: v.mean(axis=1) for n, v in shares.items()}, weights.mean(axis=1)
+    )
 
 
 def debiased(
@@ -155,13 +176,16 @@ def mismatch_null(
     observed: Mapping[str, float] | None = None,
     alpha: float = ALPHA,
     among: Collection[str] | None = None,
-) -> tuple[dict[str, np.ndarray], np.ndarray, int]:
-    """``({candidate: null reductions [%]}, the draw of each replicate, draws left out)``:
+) -> tuple[dict[str, np.ndarray], np.ndarray, int, StanceShares]:
+    """``({candidate: null reductions [%]}, the draw of each replicate, draws left out, the
+    draws' stance shares)``:
     ``n_draws`` draws of ``family`` (restricted as the null takes them,
     :func:`~gc_ocp.diagnosis.null.null_draw`), one task each on ``executor``
     (:func:`~gc_ocp.diagnosis.execution.run_tasks`; None: here). The draw index lets the
     decision tell the spread between draws (mismatch: more stances do not shrink it) from the
-    spread within a draw (noise: they do; :func:`~gc_ocp.diagnosis.null.decide`).
+    spread within a draw (noise: they do; :func:`~gc_ocp.diagnosis.null.decide`), and the
+    stance shares tell the part of the former every held-out stance shares (systematic) from
+    the part that is the stances' own (:func:`~gc_ocp.diagnosis.null.systematic_sd`).
     ``observed``: the candidates' observed one-step reductions; given, the draws stop early
     once no candidate of ``among`` (None: every one) could be named at ``alpha``
     (:func:`~gc_ocp.diagnosis.null.cannot_name`; the draws made are the first of the same
@@ -185,14 +209,19 @@ def mismatch_null(
     if not kept:
         raise SolveError(f"no draw of the null's mismatch family could be refitted: {outs[0]}")
     null, draw = _pooled(kept)
-    return null, draw, len(outs) - len(kept)
+    shares = StanceShares(
+        {n: np.vstack([o.shares[n] for o in kept]) for n in kept[0].shares},
+        np.mean([o.weights for o in kept], axis=0),
+    )
+    return null, draw, len(outs) - len(kept), shares
 
 
-def _pooled(kept: Sequence[dict]) -> tuple[dict[str, np.ndarray], np.ndarray]:
+def _pooled(kept: Sequence[DrawNull]) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """The draws' null reductions pooled, and the draw of each replicate."""
-    null = {n: np.concatenate([o[n] for o in kept]) for n in kept[0]}
-    draw = np.concatenate([np.full(next(iter(o.values())).size, k) for k, o in enumerate(kept)])
+    red = [o.reductions for o in kept]
+    null = {n: np.concatenate([r[n] for r in red]) for n in red[0]}
+    draw = np.concatenate([np.full(next(iter(r.values())).size, k) for k, r in enumerate(red)])
     return null, draw
 
 
-__all__ = ("NullInputs", "debiased", "draw_data", "draw_reductions", "mismatch_null")
+__all__ = ("DrawNull", "NullInputs", "debiased", "draw_data", "draw_reductions", "mismatch_null")

@@ -270,13 +270,15 @@ def calibrate(
     fold_means: Sequence[Mapping[tuple, np.ndarray]] | None = None,
     draws: np.ndarray | None = None,
     observed: tuple[dict[str, float], dict[str, float | None]] | None = None,
+    shares: StanceShares | None = None,
 ) -> dict[str, NullTest]:
     """The calibrated decision of a round (module doc): ``{candidate: NullTest}``.
     ``parent_fits``: the parent's stance fits (censored samples); ``null``: the candidates'
     null reductions when already made (the mismatch draws of :mod:`.draws`, ``draws`` the draw
     of each replicate), else the noise-only one-step null (:func:`onestep_null`);
     ``fold_means``: :func:`~.onestep.fold_prior_means`; ``observed``:
-    :func:`observed_reductions` when already made (the draws' early stop needs them first)."""
+    :func:`observed_reductions` when already made (the draws' early stop needs them first);
+    ``shares``: the draws' stance shares (:func:`systematic_sd`)."""
     if not children:
         return {}
     observed, sd = observed or observed_reductions(parent, children, plan, occam, fold_means)
@@ -286,7 +288,7 @@ def calibrate(
         )
         draws = None
     n_held = max(len(held_out(plan)), 1)
-    return decide(observed, null, sd, n_held, alpha, draws)
+    return decide(observed, null, sd, n_held, alpha, draws, shares)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -307,6 +309,11 @@ class NullTest:
     more_stances: int | None
     n_heldout: int = 0
     null_sd_mismatch_pct: float = 0.0
+    null_sd_systematic_pct: float | None = None
+    """The part of ``null_sd_mismatch_pct`` every held-out stance shares (:func:`systematic_sd`):
+    what more stances of the same kind do not shrink, and what the steps are computed with. None
+    (files written before 2026-11-28; a null without stance shares): all of the spread between
+    draws counts as systematic. Written to JSON only when set."""
 
     @property
     def practical(self) -> bool:
@@ -317,7 +324,20 @@ class NullTest:
         )
 
     def to_json(self) -> dict:
-        return dataclasses.asdict(self)
+        out = dataclasses.asdict(self)
+        if self.null_sd_systematic_pct is None:  # older files read back as they were
+            del out["null_sd_systematic_pct"]
+        return out
+
+
+@dataclasses.dataclass(frozen=True)
+class StanceShares:
+    """The mismatch draws' held-out stances: ``shares``, ``{candidate: (draws, rows)}`` each
+    draw's mean share of a candidate's null reduction per held-out stance, and ``weights``
+    ``(rows,)`` each stance's weight in it (:func:`~gc_ocp.diagnosis.onestep.stance_shares`)."""
+
+    shares: Mapping[str, np.ndarray]
+    weights: np.ndarray
 
 
 def decide(
@@ -327,17 +347,26 @@ def decide(
     n_heldout: int,
     alpha: float = ALPHA,
     draws: np.ndarray | None = None,
+    shares: StanceShares | None = None,
 ) -> dict[str, NullTest]:
     """The max-statistic decision over the round's candidates (module doc). ``observed``:
     ``{candidate: held-out reduction [%]}``; ``null``: their null reductions (same replicates
     for all); ``per_stance_sd``: the spread of a candidate's per-stance reductions (the
     sampling error of the observed one is ``sd / sqrt(n_heldout)``; None: the null's spread is
-    used); ``draws``: the mismatch draw of each replicate (None: a noise-only null)."""
+    used); ``draws``: the mismatch draw of each replicate (None: a noise-only null);
+    ``shares``: the draws' stance shares, which split the spread between draws into the part
+    every stance shares and the stances' own (:func:`systematic_sd`; None: all of it shared)."""
     names = [n for n in observed if n in null]
     if not names:
         return {}
     m, s, zmax = _studentised(null, names)
     s_b = {n: between_draw_sd(null[n], draws) for n in names}
+    s_sys = {
+        n: None
+        if shares is None or n not in shares.shares
+        else systematic_sd(s_b[n], shares.shares[n], shares.weights)
+        for n in names
+    }
     crit = float(np.quantile(zmax, 1.0 - alpha))
     out = {}
     for n in names:
@@ -351,10 +380,18 @@ def decide(
             p_adjusted=p,
             z_critical=crit,
             more_stances=more_stances(
-                observed[n], m[n], s[n], per_stance_sd.get(n), n_heldout, crit, p < alpha, s_b[n]
+                observed[n],
+                m[n],
+                s[n],
+                per_stance_sd.get(n),
+                n_heldout,
+                crit,
+                p < alpha,
+                s_b[n] if s_sys[n] is None else s_sys[n],
             ),
             n_heldout=n_heldout,
             null_sd_mismatch_pct=s_b[n],
+            null_sd_systematic_pct=s_sys[n],
         )
     return out
 
@@ -452,6 +489,41 @@ def between_draw_sd(values: np.ndarray, draws: np.ndarray | None) -> float:
     return math.sqrt(max(float(means.var(ddof=1)) - noise, 0.0))
 
 
+def systematic_sd(s_between: float, shares: np.ndarray, weights: np.ndarray) -> float:
+    """The part of the null's spread between mismatch draws ``s_between`` that every held-out
+    stance shares [%]: what more stances of the same kind do not shrink (module doc, "Steps
+    that would decide"). ``shares``: ``(draws, rows)`` each draw's mean share of the reduction
+    per held-out stance, ``weights`` ``(rows,)`` each stance's weight in it
+    (:class:`StanceShares`).
+
+    A draw changes the law or the processing for every stance alike (a systematic part ``a``),
+    but some of its members are drawn per stance (the markers' noise and drift, the units off
+    the layout enter each stance differently) and a refit spreads a draw unevenly (the stances'
+    own part ``e_s``). With stance ``s``'s share ``w_s (a + e_s)``, the covariance between two
+    stances' shares over the draws is ``w_s w_t var(a)`` and the variance of their sum ``var(a)
+    + sum w_s^2 var(e)``: so ``var(a)`` is the sum of the off-diagonal covariances over ``1 -
+    sum w_s^2``, and its share of the sum's variance scales ``s_between``. Measured before it
+    (``docs/diagnosis.md``): from 4 to 8 held-out stances the spread between draws of the same
+    benchmark cases fell to 0.2-0.6 of itself for five of the seven candidates, and did not for
+    friction, whose draws change the law's form on every stance.
+
+    With fewer than two held-out stances, or fewer than three draws, the split cannot be made
+    and all of ``s_between`` counts as systematic (as before). A negative covariance sum (no
+    shared part, or the estimate's noise) gives 0."""
+    shares = np.asarray(shares, float)
+    if shares.ndim != 2 or shares.shape[1] < 2 or shares.shape[0] < 3 or s_between <= 0.0:
+        return float(s_between)
+    w = np.asarray(weights, float)
+    w = w / max(float(w.sum()), 1e-300)
+    C = np.cov(shares, rowvar=False)
+    total = float(C.sum())
+    q = 1.0 - float(np.sum(w * w))
+    if total <= 0.0 or q <= 1e-12:
+        return float(s_between)
+    var_a = max(total - float(np.trace(C)), 0.0) / q
+    return float(s_between) * math.sqrt(min(var_a / total, 1.0))
+
+
 MAX_STANCES = 10**6
 """Beyond this many held-out stances a candidate is reported undecidable (a numerical cap of
 the search, not a rule: the bound ``T - m > z_crit s_b`` decides first)."""
@@ -506,7 +578,9 @@ __all__ = (
     "N_REPLICATES",
     "PRACTICAL_FACTOR",
     "NullTest",
+    "StanceShares",
     "between_draw_sd",
+    "systematic_sd",
     "calibrate",
     "cannot_name",
     "decide",

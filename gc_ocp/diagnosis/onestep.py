@@ -427,6 +427,19 @@ def reductions(E: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     }
 
 
+def stance_shares(E: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """``({child: (rows, B) each held-out stance's share of the combined reduction [%]}, (rows,
+    B) each stance's weight)``: ``50 (E_parent,s - E_child,s) / sum_s E_parent,s``, whose sum
+    over the stances is the reduction of :func:`reductions` to first order (``100 (1 - sqrt(1 -
+    x))`` is ``50 x`` for small ``x``), and the weight ``E_parent,s / sum_s E_parent,s`` with
+    which a stance's own reduction enters it. What the null's steps-needed calculation splits
+    its spread between mismatch draws with (:func:`~gc_ocp.diagnosis.null.systematic_sd`)."""
+    ep = E["parent"]
+    tot = np.maximum(ep.sum(axis=0, keepdims=True), 1e-300)
+    shares = {n: 50.0 * (ep - e) / tot for n, e in E.items() if n != "parent"}
+    return shares, ep / tot
+
+
 def per_stance_sd(E: Mapping[str, np.ndarray]) -> dict[str, float | None]:
     """Spread [%] of the per-fold reductions of the observed data (``E`` of one column), None
     with fewer than two folds."""
@@ -454,5 +467,6 @@ __all__ = (
     "nested_point",
     "per_stance_sd",
     "reductions",
+    "stance_shares",
     "step",
 )
