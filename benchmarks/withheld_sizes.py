@@ -52,12 +52,13 @@ def load(root: Path = HERE) -> dict[tuple[str, int], dict]:
     pose width, ``{motion}_{N}_width`` on the estimated one (the default since 2026-11-28); the
     two bases are kept apart, so that sizes and the steps-needed check compare like with like.
     A ``..._seed{K}`` folder holds further seeds of the same motion, base and size (a run with
-    ``--first-seed K``): its cases join that size's, a case (truth, magnitude, seed) counted
+    ``--first-seed K``), a ``..._part{X}`` folder a part of a run split over processes (other
+    ``--effects``): their cases join that size's, a case (truth, magnitude, seed) counted
     once. Other suffixes (``_own_fit``: a rerun of single cases on a later version) are not
     read."""
     out: dict[tuple[str, int], dict] = {}
     for p in sorted(root.glob("*_*/confusion.json")):
-        m = re.fullmatch(r"(.+)_(\d+)(_width)?(_seed\d+)?", p.parent.name)
+        m = re.fullmatch(r"(.+)_(\d+)(_width)?(_seed\d+)?(_part\w+)?", p.parent.name)
         if not m:
             continue
         base = "estimated width" if m.group(3) else "guessed width"
