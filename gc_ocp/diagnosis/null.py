@@ -28,18 +28,22 @@ max statistic), so that the family-wise rate of a false claim among all candidat
 observed one.
 
 **Steps that would decide.** The null's variance has two parts: the spread *between* the
-mismatch draws, ``s_b`` (a draw is a systematic change of the law or the processing: it gives
-every stance the same kind of gain, so more stances do not average it away), and the spread
-*within* a draw, ``s_w`` (the wild residuals: noise, which shrinks as ``1/sqrt(n)`` with ``n``
-held-out stances), estimated from the replicates' draw index by the one-way analysis of
-variance (``s_b^2 = var(draw means) - s_w^2 / per draw``, at least 0). The observed reduction's
-sampling error ``sigma`` shrinks as ``1/sqrt(n)``; the null's mean ``m`` (what mismatch alone
-gives) does not move. A candidate whose reduction ``T`` exceeds ``m`` is decided (80 % power)
-at the smallest ``n`` with ``z_crit sqrt(s_b^2 + s_w^2 n0 / n) + 0.84 sigma sqrt(n0 / n) <= T -
-m``. That ``n`` exists only if ``T - m > z_crit s_b``: a gain the mismatch alone can give cannot
-be told from it by more steps of the same kind, however many (the bound; ``None``). Without
-mismatch draws (noise only) ``s_b = 0`` and the rule is ``sqrt(n / n0) >= (z_crit s + 0.84
-sigma) / (T - m)``.
+mismatch draws, ``s_b``, and the spread *within* a draw, ``s_w`` (the wild residuals: noise,
+which shrinks as ``1/sqrt(n)`` with ``n`` held-out stances), estimated from the replicates' draw
+index by the one-way analysis of variance (``s_b^2 = var(draw means) - s_w^2 / per draw``, at
+least 0). Of ``s_b``, the part every held-out stance shares, ``s_sys`` (a draw's change of the
+law or the processing gives every stance the same kind of gain: more stances do not average it
+away), is told from the stances' own (members drawn per stance, a refit that spreads a draw
+unevenly: these shrink as ``1/sqrt(n)``) by the covariance of the draws' per-stance shares
+(:func:`systematic_sd`). The observed reduction's sampling error ``sigma`` shrinks as
+``1/sqrt(n)``; the null's mean ``m`` (what mismatch alone gives) does not move. A candidate
+whose reduction ``T`` exceeds ``m`` is decided (80 % power) at the smallest ``n`` with ``z_crit
+sqrt(s_sys^2 + (s^2 - s_sys^2) n0 / n) + 0.84 sigma sqrt(n0 / n) <= T - m``. That ``n`` exists
+only if ``T - m > z_crit s_sys``: a gain the mismatch alone can give on every stance cannot be
+told from it by more steps of the same kind, however many (the bound; ``None``). Without
+mismatch draws (noise only) ``s_sys = 0`` and the rule is ``sqrt(n / n0) >= (z_crit s + 0.84
+sigma) / (T - m)``; without the draws' shares (one held-out stance) all of ``s_b`` counts as
+shared, as it did for every null until 2026-11-28.
 
 **Stopping early.** The draws are the null's cost (a refit each), and most rounds name nothing:
 the last round of every diagnosis, and the only round of most. The draws are made in the order
