@@ -33,9 +33,13 @@ def _load(folders: str) -> list[dict]:
 
 
 def _bound(c: dict) -> float | None:
+    """``m + z_crit s``, ``s`` the part of the null's spread more stances do not shrink: the part
+    every held-out stance shares when the run has it (since 2026-11-28), else all of the
+    spread between mismatch draws."""
     if not c or c.get("null_sd_mismatch_pct") is None:
         return None
-    return c["null_mean_pct"] + c["z_critical"] * c["null_sd_mismatch_pct"]
+    s = c.get("null_sd_systematic_pct")
+    return c["null_mean_pct"] + c["z_critical"] * (c["null_sd_mismatch_pct"] if s is None else s)
 
 
 def main(args: list[str]) -> None:
