@@ -528,6 +528,11 @@ def test_a_diagnosis_in_grouped_folds_holds_out_every_stance_once(bundled):
     assert len(d.evaluations["base"].folds) == 4
     assert d.selected == ["damping"]
     assert "groups" in json.loads(json.dumps(d.to_json()))["folds"]
+    # four held-out stances: the null's spread between draws is split, its shared part no more
+    # than all of it (the steps use the shared part)
+    c = next(r.calibrated for r in d.ranking if r.effect == "damping")
+    assert c.null_sd_systematic_pct is not None
+    assert 0.0 <= c.null_sd_systematic_pct <= c.null_sd_mismatch_pct
 
 
 # --- the null's mismatch draws: a refit of the parent per draw ----------------------------------
