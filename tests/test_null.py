@@ -325,32 +325,65 @@ def _shared_and_own(rng, n_draws, w, s_a, s_e):
     return w * (a + e)
 
 
+W4 = np.array([0.1, 0.2, 0.3, 0.4])
+
+
 @pytest.mark.parametrize(("s_a", "s_e"), [(1.0, 0.0), (0.0, 1.0), (0.6, 1.2)])
-def test_the_spread_between_draws_is_split_into_the_stances_shared_part_and_their_own(s_a, s_e):
-    """``systematic_sd``: on draws whose stance shares are ``w_s (a + e_s)`` the shared part of
-    the spread of their sum (``var(a)`` of ``var(a) + sum w_s^2 var(e)``) is recovered.
-    Tolerance: 20000 draws put the covariances' relative sampling SD near 1 %; 0.03 on the SD
-    ratio is several of those (0.1 where the ratio is 0: the square root of a share of noise
-    ~1e-3 is ~0.03)."""
+def test_the_shared_fraction_of_the_spread_between_draws_is_recovered(s_a, s_e):
+    """``shared_fraction``: on draws whose stance shares are ``w_s (a + e_s)`` the fraction
+    ``var(a) / (var(a) + sum w_s^2 var(e))`` of the variance of their sum is recovered, with
+    unequal weights. Tolerance: with 20000 draws the fraction's sampling SD is about 0.01 (the
+    covariances' relative SD 1/sqrt(20000), over 1 - sum w^2 = 0.7); 0.03 is three of them."""
     rng = np.random.default_rng(7)
-    w = np.array([0.1, 0.2, 0.3, 0.4])
-    shares = _shared_and_own(rng, 20000, w, s_a, s_e)
-    s_between = float(np.std(shares.sum(axis=1), ddof=1))
-    expect = np.sqrt(s_a**2 / (s_a**2 + np.sum(w**2) * s_e**2))
-    got = null.systematic_sd(s_between, shares, w) / s_between
-    assert got == pytest.approx(expect, abs=0.03 if expect > 0 else 0.1)
-    # one stance, or two draws: no split, all of it counted as shared (as before the split)
-    assert null.systematic_sd(s_between, shares[:, :1], w[:1]) == s_between
-    assert null.systematic_sd(s_between, shares[:2], w) == s_between
+    shares = _shared_and_own(rng, 20000, W4, s_a, s_e)
+    expect = s_a**2 / (s_a**2 + np.sum(W4**2) * s_e**2)
+    assert null.shared_fraction(shares, W4) == pytest.approx(expect, abs=0.03)
+
+
+def test_the_split_takes_off_the_noise_each_draw_s_mean_carries():
+    """A draw's shares are the mean of its ``n_wild`` wild replicates: their noise, independent
+    between stances, inflates the variance of the sum and not the covariances between stances,
+    so uncorrected a wholly shared spread looks partly the stances' own (the error that would
+    promise decisions); the mean within-draw covariance over ``n_wild`` takes it off.
+    Tolerance as above (20000 draws)."""
+    rng = np.random.default_rng(8)
+    n_draws, n_wild, noise = 20000, 4, 2.0  # within-draw SD twice the draws' shared SD
+    means = _shared_and_own(rng, n_draws, W4, 1.0, 0.0)
+    means = means + W4 * noise * rng.normal(size=means.shape) / np.sqrt(n_wild)
+    within = np.diag((W4 * noise) ** 2)
+    raw = null.shared_fraction(means, W4)
+    assert raw < 0.85  # the noise alone makes the shared spread look partly own
+    assert null.shared_fraction(means, W4, within, n_wild) == pytest.approx(1.0, abs=0.03)
+
+
+def test_the_split_is_not_made_where_it_cannot_be_trusted():
+    """``systematic_sd``: None (all of the spread counted as shared, as before the split) with
+    one held-out stance, fewer than ``MIN_SPLIT_DRAWS`` draws, no spread or values not finite;
+    made, it lies between the point estimate's value and the whole spread (its upper 80 %
+    bootstrap limit: towards more steps)."""
+    rng = np.random.default_rng(9)
+    shares = _shared_and_own(rng, 32, W4, 0.6, 1.2)
+    s_b = float(np.std(shares.sum(axis=1), ddof=1))
+    made = null.systematic_sd(s_b, shares, W4)
+    point = s_b * np.sqrt(null.shared_fraction(shares, W4))
+    assert point <= made <= s_b
+    assert made < s_b  # the comparison can fail: a shared part well under all of it
+    assert null.systematic_sd(s_b, shares[:, :1], W4[:1]) is None
+    assert null.systematic_sd(s_b, shares[: null.MIN_SPLIT_DRAWS - 1], W4) is None
+    assert null.systematic_sd(0.0, shares, W4) is None
+    bad = shares.copy()
+    bad[3, 1] = np.nan
+    assert null.systematic_sd(s_b, bad, W4) is None
+    assert null.systematic_sd(s_b, np.zeros_like(shares), W4) is None
 
 
 def test_steps_follow_only_the_shared_part_of_the_spread_between_draws():
     """A gain within ``z_crit`` times the whole spread between draws, but whose draws' spread is
     the stances' own, is no longer called undecidable: more stances shrink that part, and the
     decision reports both spreads; with every stance sharing the draws' spread it stays
-    undecidable."""
+    undecidable. 200 draws: the split's bootstrap limit then sits near its value."""
     rng = np.random.default_rng(11)
-    K, n_wild, rows = 64, 8, 6
+    K, n_wild, rows = 200, 8, 6
     draws = np.repeat(np.arange(K), n_wild)
     w = np.full(rows, 1.0 / rows)
     own = _shared_and_own(rng, K, w, 0.0, 2.5)  # sums: SD about 1, all of it the stances' own

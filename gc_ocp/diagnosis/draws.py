@@ -115,11 +115,13 @@ class DrawNull:
     """What one draw gives the null: ``reductions``, ``{candidate: (n_wild,) one-step held-out
     reductions [%]}`` of its replicates; ``shares``, ``{candidate: (rows,)}`` each held-out
     stance's share of them and ``weights`` ``(rows,)`` each stance's weight, both the mean over
-    the draw's replicates (:func:`~gc_ocp.diagnosis.onestep.stance_shares`)."""
+    the draw's replicates (:func:`~gc_ocp.diagnosis.onestep.stance_shares`), and
+    ``share_cov``, ``{candidate: (rows, rows)}`` the covariance of the shares between them."""
 
     reductions: dict[str, np.ndarray]
     shares: dict[str, np.ndarray]
     weights: np.ndarray
+    share_cov: dict[str, np.ndarray]
 
 
 def draw_reductions(inputs: NullInputs, draw: MismatchDraw, seed: int) -> DrawNull | str:
@@ -148,7 +150,13 @@ def draw_reductions(inputs: NullInputs, draw: MismatchDraw, seed: int) -> DrawNu
     E = energies(pk, kids, U - pk.r[:, None], inputs.plan, inputs.occam, inputs.fold_means)
     shares, weights = stance_shares(E)
     return DrawNull(
-        reductions(E), {n: v.mean(axis=1) for n, v in shares.items()}, weights.mean(axis=1)
+        reductions(E),
+        {n: v.mean(axis=1) for n, v in shares.items()},
+        weights.mean(axis=1),
+        {
+            n: np.atleast_2d(np.cov(v)) if v.shape[1] > 1 else np.zeros((v.shape[0],) * 2)
+            for n, v in shares.items()
+        },
     )
 
 
@@ -182,8 +190,8 @@ def mismatch_null(
     ``n_draws`` draws of ``family`` (restricted as the null takes them,
     :func:`~gc_ocp.diagnosis.null.null_draw`), one task each on ``executor``
     (:func:`~gc_ocp.diagnosis.execution.run_tasks`; None: here). The draw index lets the
-    decision tell the spread between draws (mismatch: more stances do not shrink it) from the
-    spread within a draw (noise: they do; :func:`~gc_ocp.diagnosis.null.decide`), and the
+    decision tell the spread between draws (mismatch) from the spread within a draw (noise,
+    which more stances shrink; :func:`~gc_ocp.diagnosis.null.decide`), and the
     stance shares tell the part of the former every held-out stance shares (systematic) from
     the part that is the stances' own (:func:`~gc_ocp.diagnosis.null.systematic_sd`).
     ``observed``: the candidates' observed one-step reductions; given, the draws stop early
@@ -212,6 +220,8 @@ def mismatch_null(
     shares = StanceShares(
         {n: np.vstack([o.shares[n] for o in kept]) for n in kept[0].shares},
         np.mean([o.weights for o in kept], axis=0),
+        {n: np.mean([o.share_cov[n] for o in kept], axis=0) for n in kept[0].shares},
+        inputs.n_wild,
     )
     return null, draw, len(outs) - len(kept), shares
 

@@ -302,7 +302,8 @@ class NullTest:
     critical studentised value of the round, and the further held-out stances that would decide
     it at 80 % power (0: decided; None: more steps of the same kind would not).
     ``null_sd_mismatch_pct``: the part of the null's spread that lies between the mismatch
-    draws, which more stances do not shrink (module doc; 0 for a noise-only null)."""
+    draws (module doc; 0 for a noise-only null); of it, the part every held-out stance shares
+    is what more stances do not shrink (:attr:`null_sd_systematic_pct`)."""
 
     observed_pct: float
     null_mean_pct: float
@@ -337,11 +338,15 @@ class NullTest:
 @dataclasses.dataclass(frozen=True)
 class StanceShares:
     """The mismatch draws' held-out stances: ``shares``, ``{candidate: (draws, rows)}`` each
-    draw's mean share of a candidate's null reduction per held-out stance, and ``weights``
-    ``(rows,)`` each stance's weight in it (:func:`~gc_ocp.diagnosis.onestep.stance_shares`)."""
+    draw's mean share of a candidate's null reduction per held-out stance; ``weights``
+    ``(rows,)`` each stance's weight in it (:func:`~gc_ocp.diagnosis.onestep.stance_shares`);
+    ``within``, ``{candidate: (rows, rows)}`` the mean covariance of the shares between a
+    draw's ``n_wild`` replicates (the noise each draw's means carry, over ``n_wild``)."""
 
     shares: Mapping[str, np.ndarray]
     weights: np.ndarray
+    within: Mapping[str, np.ndarray] | None = None
+    n_wild: int = 1
 
 
 def decide(
@@ -368,7 +373,13 @@ def decide(
     s_sys = {
         n: None
         if shares is None or n not in shares.shares
-        else systematic_sd(s_b[n], shares.shares[n], shares.weights)
+        else systematic_sd(
+            s_b[n],
+            shares.shares[n],
+            shares.weights,
+            None if shares.within is None else shares.within.get(n),
+            shares.n_wild,
+        )
         for n in names
     }
     crit = float(np.quantile(zmax, 1.0 - alpha))
@@ -493,12 +504,57 @@ def between_draw_sd(values: np.ndarray, draws: np.ndarray | None) -> float:
     return math.sqrt(max(float(means.var(ddof=1)) - noise, 0.0))
 
 
-def systematic_sd(s_between: float, shares: np.ndarray, weights: np.ndarray) -> float:
+MIN_SPLIT_DRAWS = 16
+"""Fewest mismatch draws from which the spread between them is split (:func:`systematic_sd`):
+the covariances of a few draws are too noisy (with 8 draws and 4 stances a ratio of 0.71
+came out as 0 in one run in six, in simulation); a null stopped earlier keeps all of its
+between-draw spread as shared."""
+
+SPLIT_QUANTILE = 0.8
+"""The split's shared fraction is the upper 80 % limit of its bootstrap over the draws, not its
+point estimate: the steps and the bound err towards more steps and "not decidable", rather
+than promise decisions the noise of 16-32 draws' covariances made."""
+
+
+def shared_fraction(
+    shares: np.ndarray, weights: np.ndarray, within: np.ndarray | None = None, n_wild: int = 1
+) -> float | None:
+    """The fraction of the variance of the draws' summed shares that every held-out stance
+    shares (:func:`systematic_sd`'s model): ``var(a) / var(sum)``, ``var(a)`` the off-diagonal
+    covariances of the stances' shares over the draws over ``1 - sum w_s^2``. ``shares``:
+    ``(draws, rows)`` each draw's mean share per stance; ``within``: ``(rows, rows)`` the mean
+    covariance of the shares between a draw's ``n_wild`` replicates, whose ``1 / n_wild`` the
+    draw means carry as noise and is taken off (as :func:`between_draw_sd` does). None when it
+    cannot be made (fewer than two stances or three draws, no variance, a value not finite)."""
+    shares = np.asarray(shares, float)
+    if shares.ndim != 2 or shares.shape[1] < 2 or shares.shape[0] < 3:
+        return None
+    if not np.isfinite(shares).all():
+        return None
+    w = np.asarray(weights, float)
+    w = w / max(float(w.sum()), 1e-300)
+    q = 1.0 - float(np.sum(w * w))
+    C = np.cov(shares, rowvar=False)
+    if within is not None:
+        C = C - np.asarray(within, float) / max(int(n_wild), 1)
+    total = float(C.sum())
+    if not (np.isfinite(total) and total > 0.0 and q > 1e-12):
+        return None
+    var_a = max(total - float(np.trace(C)), 0.0) / q
+    return min(var_a / total, 1.0)
+
+
+def systematic_sd(
+    s_between: float,
+    shares: np.ndarray,
+    weights: np.ndarray,
+    within: np.ndarray | None = None,
+    n_wild: int = 1,
+) -> float | None:
     """The part of the null's spread between mismatch draws ``s_between`` that every held-out
     stance shares [%]: what more stances of the same kind do not shrink (module doc, "Steps
-    that would decide"). ``shares``: ``(draws, rows)`` each draw's mean share of the reduction
-    per held-out stance, ``weights`` ``(rows,)`` each stance's weight in it
-    (:class:`StanceShares`).
+    that would decide"). ``shares``, ``weights``, ``within``, ``n_wild``: the draws' stance
+    shares (:class:`StanceShares`, :func:`shared_fraction`).
 
     A draw changes the law or the processing for every stance alike (a systematic part ``a``),
     but some of its members are drawn per stance (the markers' noise and drift, the units off
@@ -506,31 +562,34 @@ def systematic_sd(s_between: float, shares: np.ndarray, weights: np.ndarray) -> 
     own part ``e_s``). With stance ``s``'s share ``w_s (a + e_s)``, the covariance between two
     stances' shares over the draws is ``w_s w_t var(a)`` and the variance of their sum ``var(a)
     + sum w_s^2 var(e)``: so ``var(a)`` is the sum of the off-diagonal covariances over ``1 -
-    sum w_s^2``, and its share of the sum's variance scales ``s_between``. Measured before it
-    (``docs/diagnosis.md``): from 4 to 8 held-out stances the spread between draws of the same
-    benchmark cases fell to 0.2-0.6 of itself for five of the seven candidates, and did not for
-    friction, whose draws change the law's form on every stance.
+    sum w_s^2``, and its fraction of the sum's variance (the upper :data:`SPLIT_QUANTILE` limit
+    of its bootstrap over the draws) scales ``s_between``. Stances held out together share
+    their fold's training step, so their own parts correlate and count as shared: the split
+    errs towards more steps there too. Measured before it (``docs/diagnosis.md``): from 4 to 8
+    held-out stances the spread between draws of the same benchmark cases fell to 0.2-0.6 of
+    itself for five of the seven candidates, and did not for friction.
 
-    With fewer than two held-out stances, or fewer than three draws, the split cannot be made
-    and all of ``s_between`` counts as systematic (as before). A negative covariance sum (no
-    shared part, or the estimate's noise) gives 0."""
+    None when the split is not made (fewer than :data:`MIN_SPLIT_DRAWS` draws, fewer than two
+    held-out stances, no spread between draws, values not finite): all of ``s_between`` then
+    counts as shared, as it did before the split."""
     shares = np.asarray(shares, float)
-    if shares.ndim != 2 or shares.shape[1] < 2 or shares.shape[0] < 3 or s_between <= 0.0:
-        return float(s_between)
-    w = np.asarray(weights, float)
-    w = w / max(float(w.sum()), 1e-300)
-    C = np.cov(shares, rowvar=False)
-    total = float(C.sum())
-    q = 1.0 - float(np.sum(w * w))
-    if total <= 0.0 or q <= 1e-12:
-        return float(s_between)
-    var_a = max(total - float(np.trace(C)), 0.0) / q
-    return float(s_between) * math.sqrt(min(var_a / total, 1.0))
+    if not (s_between > 0.0) or shares.ndim != 2 or shares.shape[0] < MIN_SPLIT_DRAWS:
+        return None
+    if shared_fraction(shares, weights, within, n_wild) is None:
+        return None
+    rng = np.random.default_rng(0)  # the limit is a function of the draws, not of a seed
+    boot = []
+    for _ in range(400):  # the 80 % limit's Monte Carlo SE is ~0.02 in its quantile
+        f = shared_fraction(
+            shares[rng.integers(0, shares.shape[0], shares.shape[0])], weights, within, n_wild
+        )
+        boot.append(1.0 if f is None else f)  # a resample without variance: all shared
+    return float(s_between) * math.sqrt(float(np.quantile(boot, SPLIT_QUANTILE)))
 
 
 MAX_STANCES = 10**6
 """Beyond this many held-out stances a candidate is reported undecidable (a numerical cap of
-the search, not a rule: the bound ``T - m > z_crit s_b`` decides first)."""
+the search, not a rule: the bound ``T - m > z_crit s_sys`` decides first)."""
 
 
 def more_stances(
@@ -545,8 +604,11 @@ def more_stances(
 ) -> int | None:
     """Further held-out stances that decide a candidate at 80 % power (module doc): ``t`` its
     observed reduction, ``m``, ``s`` the null's mean and spread, ``s_between`` the part of ``s``
-    between mismatch draws, ``sd`` the spread of its per-stance reductions, ``n0`` its held-out
-    stances, ``crit`` the round's critical studentised value. None: no number decides it."""
+    that more stances do not shrink (the part of the spread between mismatch draws every
+    held-out stance shares, :func:`systematic_sd`, or all of that spread when it is not split;
+    the rest of ``s`` shrinks as ``1/sqrt(n)``), ``sd`` the spread of its per-stance reductions,
+    ``n0`` its held-out stances, ``crit`` the round's critical studentised value. None: no
+    number decides it."""
     if decided:
         return 0
     gap = t - m
