@@ -31,7 +31,7 @@ from collections import defaultdict
 from pathlib import Path
 from statistics import median
 
-from withheld_sizes import HERE, load  # isort: skip (a script beside this one)
+from withheld_sizes import HERE, case_key, load  # isort: skip (a script beside this one)
 
 
 def _rows(case: dict) -> dict[str, dict]:
@@ -47,9 +47,9 @@ def pairs(root: Path) -> list[tuple[str, int, int, str, dict, dict]]:
         for (m2, k2), r2 in runs.items():
             if m2 != motion or k2 <= k1:
                 continue
-            later = {(c["truth"], c["magnitude"], c["seed"]): c for c in r2["cases"]}
+            later = {case_key(c): c for c in r2["cases"]}
             for c in r1["cases"]:
-                d = later.get((c["truth"], c["magnitude"], c["seed"]))
+                d = later.get(case_key(c))
                 if d is None or "error" in (c["answer"], d["answer"]):
                     continue
                 a, b = _rows(c), _rows(d)

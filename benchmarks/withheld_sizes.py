@@ -67,13 +67,14 @@ def load(root: Path = HERE) -> dict[tuple[str, int], dict]:
         if key not in out:
             out[key] = run
             continue
-        have = {_case_key(c) for c in out[key]["cases"]}
-        out[key]["cases"] += [c for c in run["cases"] if _case_key(c) not in have]
+        have = {case_key(c) for c in out[key]["cases"]}
+        out[key]["cases"] += [c for c in run["cases"] if case_key(c) not in have]
         out[key]["seconds"]["cases_total"] += run["seconds"]["cases_total"]
     return out
 
 
-def _case_key(case: dict) -> tuple:
+def case_key(case: dict) -> tuple:
+    """What makes a benchmark case the same case in another run: truth, magnitude, seed."""
     return case["truth"], case["magnitude"], case["seed"]
 
 
@@ -152,8 +153,8 @@ def main(root: Path = HERE) -> None:
         print("| truth | magnitude | " + " | ".join(f"{n} per foot" for n in sizes) + " |")
         print("|---|---|" + "---|" * len(sizes))
         truths = sorted({c["truth"] for n in sizes for c in runs[(motion, n)]["cases"]})
+        present = {c["magnitude"] for n in sizes for c in runs[(motion, n)]["cases"]}
         for t in truths:
-            present = {c["magnitude"] for n in sizes for c in runs[(motion, n)]["cases"]}
             for mag in [m for m in MAGNITUDES if m in present] if t != "none" else ("-",):
                 cells = []
                 for n in sizes:
@@ -207,12 +208,7 @@ def main(root: Path = HERE) -> None:
                 checked[motion].append((c, n, need, None, None, None))
                 continue
             again = next(
-                (
-                    d
-                    for d in runs[(motion, target)]["cases"]
-                    if (d["truth"], d["magnitude"], d["seed"])
-                    == (c["truth"], c["magnitude"], c["seed"])
-                ),
+                (d for d in runs[(motion, target)]["cases"] if case_key(d) == case_key(c)),
                 None,
             )
             if again is None:
@@ -277,14 +273,13 @@ def widths(root: Path = HERE) -> None:
         "first (`--pose-width estimated`).\n"
     )
     for name, a, b in pairs:
-        key = lambda c: (c["truth"], c["magnitude"], c["seed"])  # noqa: E731
-        done = {key(c): c for c in b["cases"]}
+        done = {case_key(c): c for c in b["cases"]}
         print(f"### {name}\n")
         print(
             "| truth | magnitude | seed | prior width | estimated width | minutes (prior, estimated) |"
         )
         print("|---|---|---|---|---|---|")
-        both = [(c, done[key(c)]) for c in a["cases"] if key(c) in done]
+        both = [(c, done[case_key(c)]) for c in a["cases"] if case_key(c) in done]
         for c, d in both:
             mins = [(x["seconds_generate"] + x["seconds_diagnose"]) / 60 for x in (c, d)]
             print(

@@ -42,8 +42,9 @@ sqrt(s_sys^2 + (s^2 - s_sys^2) n0 / n) + 0.84 sigma sqrt(n0 / n) <= T - m``. Tha
 only if ``T - m > z_crit s_sys``: a gain the mismatch alone can give on every stance cannot be
 told from it by more steps of the same kind, however many (the bound; ``None``). Without
 mismatch draws (noise only) ``s_sys = 0`` and the rule is ``sqrt(n / n0) >= (z_crit s + 0.84
-sigma) / (T - m)``; without the draws' shares (one held-out stance) all of ``s_b`` counts as
-shared, as it did for every null until 2026-11-28.
+sigma) / (T - m)``; where the split is not made (one held-out stance, fewer than
+:data:`MIN_SPLIT_DRAWS` draws) all of ``s_b`` counts as shared, as it did for every null until
+2026-11-28.
 
 **Stopping early.** The draws are the null's cost (a refit each), and most rounds name nothing:
 the last round of every diagnosis, and the only round of most. The draws are made in the order
@@ -317,8 +318,9 @@ class NullTest:
     null_sd_systematic_pct: float | None = None
     """The part of ``null_sd_mismatch_pct`` every held-out stance shares (:func:`systematic_sd`):
     what more stances of the same kind do not shrink, and what the steps are computed with. None
-    (files written before 2026-11-28; a null without stance shares): all of the spread between
-    draws counts as systematic. Written to JSON only when set."""
+    (files written before 2026-11-28; a null without stance shares or where the split is not
+    made, :func:`systematic_sd`): all of the spread between draws counts as systematic. Written
+    to JSON only when set."""
 
     @property
     def practical(self) -> bool:
