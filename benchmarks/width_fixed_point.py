@@ -1,0 +1,197 @@
+"""The pose and sole widths' type-II ML (``gc_ocp/estimation/pose_scale.py``): the package's
+rounds of refits, one MacKay step each, against the fixed point run to its end on each refit's
+local Gauss-Newton model (a try of 2026-11-29, not adopted: ``docs/quality.md``, *The pose
+correction's smooth width*).
+
+Run:  PYTHONPATH=. python benchmarks/width_fixed_point.py [--data ../shared/data] [--only SUBSTR]
+
+Per walking file of ``../shared/data`` (every stance, as ``fit()`` fits them: the one start path,
+then the widths' rounds with the sole's width too), each way: the refits made, the widths, the
+objective, the superior-force RMS in sample (mean of the feet), the rounds' time, and the
+*distance from the fixed point*: the largest relative change of any width that one more plain
+MacKay step would make at the returned fit (0 at the type-II ML estimate). "plain" is the
+package's rounds (checked: the same widths and objective as ``estimate_pose_scale``); "settled"
+runs up to 200 steps on the local model (:class:`LocalModel`) in every round.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import warnings
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import scipy.linalg as sla
+
+sys.path.insert(0, str(Path(__file__).parent))
+from all_data import WALKING, _load  # noqa: E402
+
+
+class LocalModel:
+    """The fit's Gauss-Newton model at ``x`` with the prior widths of some columns changed.
+
+    A prior variable is stored in units of its width, so a width changed by the factor ``d``
+    rescales its column: with ``D = diag(d)`` the data's residual near the fit is
+    ``r0 + J (D z - x)`` in the new stored ``z``, and its prior stays ``W (z - m / d)``. The
+    model's optimum and posterior variances at any widths are one linear solve,
+    ``(D G D + W^2) z = D (G x - J^T r0) + W^2 m / d`` with ``G = J^T J``. At ``d = 1`` the optimum
+    is the fit itself (no bound active) and the variances are the plain posterior's."""
+
+    def __init__(self, problem, x: np.ndarray):
+        r0, J = problem.data_jacobian(x)
+        self.G = (J.T @ J).toarray()
+        self.b = self.G @ x - J.T @ r0
+        self.w2 = np.asarray(problem.prior_weights, float) ** 2
+        self.m = np.asarray(problem.prior_means, float)
+
+    def at(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        H = self.G * np.outer(d, d)
+        H[np.diag_indices_from(H)] += self.w2
+        L = np.linalg.cholesky(H)
+        z = sla.cho_solve((L, True), d * self.b + self.w2 * self.m / d)
+        Li = sla.solve_triangular(L, np.eye(L.shape[0]), lower=True)
+        return z, np.sum(Li**2, axis=0)
+
+
+def settle(problem, x, pose, sole, steps: int):
+    """MacKay's fixed point for the pose's six widths and the sole's one, ``steps`` steps at
+    most on the fit's local model (1: the package's plain update at the fit), stopping when no
+    width moves 0.1 %."""
+    from gc_ocp.estimation import pose_scale
+
+    local = LocalModel(problem, x)
+    trans = pose_scale._axis_columns(problem, pose.name, "trans")
+    rot = pose_scale._axis_columns(problem, pose.name, "rot")
+    sole_cols = np.concatenate(
+        [
+            np.arange(v.start, v.start + v.size)
+            for v in problem.variables.specs
+            if v.key[0] == sole.name
+        ]
+    )
+    w0 = np.r_[np.broadcast_to(pose.sigma_mm, 3), np.broadcast_to(pose.sigma_deg, 3)]
+    s0 = sole.sigma
+    d = np.ones(x.size)
+    k = 0
+    while k < steps:
+        k += 1
+        z, sd = local.at(d)
+        if k == 1:  # the plain update: at the fit itself (the model's optimum up to a bound)
+            z = x
+        mm, deg, _, _ = pose_scale.mackay_update(problem, z, pose, sd)
+        old = np.r_[np.broadcast_to(pose.sigma_mm, 3), np.broadcast_to(pose.sigma_deg, 3)]
+        w, _ = pose_scale.sole_update(problem, z, sole, sd)
+        change = max(float(np.max(np.abs(np.r_[mm, deg] / old - 1.0))), abs(w / sole.sigma - 1))
+        pose = replace(pose, sigma_mm=mm, sigma_deg=deg)
+        sole = replace(sole, sigma=w)
+        for a, cols in enumerate([*trans, *rot]):
+            d[cols] = np.r_[mm, deg][a] / w0[a]
+        d[sole_cols] = w / s0
+        if change < 1e-3:
+            break
+    return pose, sole, k
+
+
+def rounds(data, model, start, steps: int):
+    """The package's rounds (``estimate_pose_scale(..., sole=True)``: refit warm until no width
+    moves :data:`RTOL`, at most :data:`MAX_ROUNDS`), each round's widths from :func:`settle`."""
+    from gc_ocp.estimation import build_estimation, pose_scale
+    from gc_ocp.estimation.components import PoseCorrection, SoleCorrection
+    from gc_ocp.estimation.solve import solve
+    from gc_ocp.estimation.starts import rescaled_start
+
+    pose = next(c for c in model if isinstance(c, PoseCorrection))
+    sole = next(c for c in model if isinstance(c, SoleCorrection))
+    prob, result = build_estimation(data, model), start
+    k = 0
+    while k < pose_scale.MAX_ROUNDS:
+        k += 1
+        old = np.r_[np.broadcast_to(pose.sigma_mm, 3), np.broadcast_to(pose.sigma_deg, 3)]
+        old_sole = sole.sigma
+        pose, sole, _ = settle(prob, result.x, pose, sole, steps)
+        now = np.r_[pose.sigma_mm, pose.sigma_deg]
+        change = max(float(np.max(np.abs(now / old - 1.0))), abs(sole.sigma / old_sole - 1))
+        model = tuple(
+            pose if isinstance(c, PoseCorrection) else sole if isinstance(c, SoleCorrection) else c
+            for c in model
+        )
+        prob = build_estimation(data, model)
+        result = solve(prob, x0=rescaled_start(result, prob), covariance=False)
+        if change < pose_scale.RTOL:
+            break
+    return model, result, k
+
+
+def _one(data, steps: int) -> dict:
+    from gc_ocp.estimation import build_estimation, pose_scale
+    from gc_ocp.estimation.components import PoseCorrection, SoleCorrection, full_model
+    from gc_ocp.estimation.starts import best_of, with_lls_start
+
+    model = with_lls_start(full_model(), data)
+    start = best_of(data, model, covariance=False)
+    t0 = time.perf_counter()
+    fitted, res, refits = rounds(data, model, start, steps)
+    dt = time.perf_counter() - t0
+    pose = next(c for c in fitted if isinstance(c, PoseCorrection))
+    sole = next(c for c in fitted if isinstance(c, SoleCorrection))
+    if steps == 1:  # the plain way is the package's own rounds
+        _, pres, scale = pose_scale.estimate_pose_scale(
+            data, model, start, sole=True, covariance=False
+        )
+        assert np.allclose(
+            np.r_[scale.sigma_mm, scale.sigma_deg], np.r_[pose.sigma_mm, pose.sigma_deg]
+        )
+        assert np.isclose(pres.objective, res.objective)
+    prob = build_estimation(data, fitted)
+    mm, deg, _, _ = pose_scale.mackay_update(prob, res.x, pose)
+    sw, _ = pose_scale.sole_update(prob, res.x, sole, pose_scale._posterior_variances(prob, res.x))
+    now = np.r_[pose.sigma_mm, pose.sigma_deg, sole.sigma]
+    step = np.r_[mm, deg, sw]
+    sup = [v["superior_force_pct_bw"] for v in res.rms.values()]
+    return {
+        "refits": refits,
+        "widths": now,
+        "J": res.objective,
+        "sup": float(np.mean(sup)),
+        "s": dt,
+        "off": float(np.max(np.abs(step / now - 1.0))),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--data", default=str(Path(__file__).parents[1] / ".." / "shared" / "data"))
+    ap.add_argument("--only", default=None)
+    args = ap.parse_args()
+    from gc_ocp.workflow.fitting import fit_data
+
+    print(
+        "| file | way | refits | widths: mm x/y/z, deg x/y/z, sole mm | J | superior RMS % BW "
+        "| rounds s | off the fixed point |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    for rel in WALKING:
+        if args.only and args.only not in rel:
+            continue
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            _, data, _ = fit_data([_load(Path(args.data) / rel)])
+            rows = {way: _one(data, inner) for way, inner in (("plain", 1), ("settled", 200))}
+        for way, r in rows.items():
+            w = r["widths"]
+            print(
+                f"| {rel} | {way} | {r['refits']} | "
+                + "/".join(f"{v:.2f}" for v in w[:3])
+                + ", "
+                + "/".join(f"{v:.2f}" for v in w[3:6])
+                + f", {w[6] * 1e3:.1f} | {r['J']:.1f} | {r['sup']:.2f} | {r['s']:.1f} | "
+                f"{100 * r['off']:.1f} % |",
+                flush=True,
+            )
+
+
+if __name__ == "__main__":
+    main()
