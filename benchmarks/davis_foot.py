@@ -4,6 +4,7 @@ fifth-metatarsal and toe-tip markers removed; contact parameters of ``gc_ocp.fit
 estimator), in-sample superior-force and COP RMS of the Davis foot, side by side.
 
     PYTHONPATH=. .venv/bin/python benchmarks/davis_foot.py > benchmarks/davis_foot_output.md
+    PYTHONPATH=. .venv/bin/python benchmarks/davis_foot.py --subject > benchmarks/davis_foot_subject_output.md
 
 Only the *left* foot is replaced: in every right stance of these trials both metatarsal markers
 are missing (occluded), so the full-marker right foot is itself posed from two landmarks there
@@ -94,6 +95,38 @@ def main() -> None:
             )
 
 
+def subject() -> None:
+    """The five trials fitted together (one subject: the law shared by every stance, as the
+    diagnosis fits a subject), with the full-marker left foot and the two Davis feet; the
+    trial-to-trial spread of the single-trial fits above is then averaged, and the SE is the
+    subject's."""
+    print("\n## The five trials together (one subject)\n")
+    print(
+        "`gc_ocp.fit` on Walking1-5 at once (10 stances; the law n, c, mu shared by all): the "
+        "left foot full-marker or Davis in every trial; RMS and COP of the left foot, in-sample, "
+        "over all its stances.\n"
+    )
+    print("| left foot | n | c [s/m] | mu | superior RMS % BW | COP mm |")
+    print("|---|---|---|---|---|---|")
+    trials = [load_trial(DATA / "bts_unipd_5trials" / f"Walking{k}.c3d") for k in range(1, 6)]
+    full = [compute_kinematics(t) for t in trials]
+    ways = [("full markers", full)]
+    for how in FOOT_ROLLS:
+        kins = []
+        for t, f in zip(trials, full, strict=True):
+            feet = dict(f.feet)
+            feet["left"] = compute_kinematics(davis_trial(t), foot_roll=how).feet["left"]
+            kins.append(dataclasses.replace(f, feet=feet))
+        ways.append((f"Davis, {how}", kins))
+    for name, kins in ways:
+        r = gc_ocp.fit(list(zip(trials, kins, strict=True))).result
+        print(
+            f"| {name} | {params(r)} | {r.rms['left']['superior_force_pct_bw']:.2f} "
+            f"| {r.cop_rms_mm['left']:.0f} |",
+            flush=True,
+        )
+
+
 LABS = (
     "vicon_plugingait_clusters/FunctionalWalk.c3d",
     "motionanalysis_helenhayes/Gait.c3d",
@@ -126,5 +159,10 @@ def other_labs() -> None:
 
 
 if __name__ == "__main__":
-    main()
-    other_labs()
+    import sys
+
+    if sys.argv[1:] == ["--subject"]:
+        subject()
+    else:
+        main()
+        other_labs()
