@@ -246,6 +246,58 @@ def changes(results: list[dict], previous: Path) -> list[str]:
             f"{e}: {RankRow.from_json(rows[e]).verdict()}" for e in old["selected"] if e in rows
         )
         lines.append(f"| {r['trial']} | {answer(old)} | {answer(new)} | {why or '-'} |")
+    return lines + [""] + steps_changes(results, previous)
+
+
+def steps_changes(results: list[dict], previous: Path) -> list[str]:
+    """Markdown: per trial, every round-1 candidate the rule does not name in either run, with
+    the further held-out stances that would decide it (the rule's: the test's and the
+    effect-size floor's, the larger; recomputed from each row as ``withheld_sizes.py`` does, so
+    rows written before the floor's number read alike) in the earlier run and in this one, and
+    the part of the null's between-draw spread every stance shares where this run made the
+    split (``null_sd_systematic_pct`` of ``null_sd_mismatch_pct``)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from withheld_sizes import rule_stances  # isort: skip (a script beside this one)
+
+    def steps(row) -> str:
+        if row is None or not row.get("calibrated"):
+            return "-"
+        if row["passes"]:
+            return "named"
+        need = rule_stances(row)
+        return "undecidable" if need is None else f"{need} more"
+
+    lines = [
+        "### The further steps that would decide, earlier and now (round 1)",
+        "",
+        "Held-out stances (for a subject with more steps per foot, about as many steps). "
+        "'undecidable': no number of steps would at the observed gains. Shared part: the "
+        "null's between-draw SD every stance shares, of all of it (% points of reduction).",
+        "",
+        "| trial | effect | p (now) | held out (now) | earlier | now | shared part of the spread |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in results:
+        path = previous / f"{r['trial']}.json"
+        if not path.exists():
+            continue
+        old = {x["effect"]: x for x in json.loads(path.read_text())["diagnosis"]["ranking"]}
+        for row in r["diagnosis"]["ranking"]:
+            c = row.get("calibrated")
+            if not c or (row["passes"] and old.get(row["effect"], {}).get("passes")):
+                continue
+            split = c.get("null_sd_systematic_pct")
+            shared = (
+                "no split"
+                if split is None
+                else f"{split:.2f} of {c.get('null_sd_mismatch_pct', float('nan')):.2f}"
+            )
+            pct = row["heldout_rms_reduction_pct"]
+            held = "-" if pct is None else f"{pct:+.1f} {_ci(row['heldout_rms_reduction_ci'])}"
+            lines.append(
+                f"| {r['trial']} | {row['effect']} | {c['p_adjusted']:.3f} | {held} "
+                f"| {steps(old.get(row['effect']))} | {steps(row)} | {shared} |"
+            )
     return lines + [""]
 
 

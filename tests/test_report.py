@@ -174,6 +174,13 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
         weak, inconclusive=False, calibrated=dataclasses.replace(test, more_stances=400)
     )
     assert _verdict(far) == "not named (p = 0.12); about 400 more steps would decide at this gain"
+    # a number beyond one session's steps is said as an order, the JSON keeps it
+    huge = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=122781))
+    assert _verdict(huge) == (
+        "not named (p = 0.12); more than 1000 more steps (beyond one session) would decide at "
+        "this gain"
+    )
+    assert huge.to_json()["calibrated"]["more_stances"] == 122781
     within = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=None))
     assert "within what noise and model mismatch give" in _verdict(within)
     # the test's one-step statistic has no gain, the refit has: both figures are said

@@ -28,6 +28,20 @@ SCORE_TEXT = (
 )
 """What ``diagnosis.json`` says its ``score`` is."""
 
+SESSION_STEPS = 1000
+"""A verdict names the further steps that would decide up to this many; beyond it, it says
+"more than" this many. About 500 per foot: eight minutes of treadmill walking, more than any
+overground session; and near the bound that mismatch sets the number grows as the inverse square
+of a small margin, so a figure of 10^4-10^5 (seen on real trials) is precise only in its order.
+``diagnosis.json`` keeps the number itself (``calibrated.more_stances``)."""
+
+
+def _about(n: int) -> str:
+    """``n`` further steps in a verdict's words (:data:`SESSION_STEPS`)."""
+    if n <= SESSION_STEPS:
+        return f"about {n} more steps"
+    return f"more than {SESSION_STEPS} more steps (beyond one session)"
+
 
 @dataclasses.dataclass(frozen=True)
 class RankRow:
@@ -143,7 +157,7 @@ class RankRow:
             if more:
                 return (
                     f"inconclusive: named by the test ({p}), but its held-out interval still "
-                    f"reaches 0; about {more} more steps would decide"
+                    f"reaches 0; {_about(more)} would decide"
                 )
             if self.floor_stances is None:
                 return f"inconclusive: named by the test ({p}), but {under}"
@@ -152,17 +166,17 @@ class RankRow:
         if self.inconclusive:
             if more is None and c.more_stances:
                 return (
-                    f"inconclusive ({p}); about {c.more_stances} more steps would decide the "
+                    f"inconclusive ({p}); {_about(c.more_stances)} would decide the "
                     f"test, but {under}"
                 )
-            return f"inconclusive ({p}); about {more} more steps would decide"
+            return f"inconclusive ({p}); {_about(more)} would decide"
         if c.more_stances:
             if more is None:
                 return (
-                    f"not named ({p}); about {c.more_stances} more steps would decide the test "
+                    f"not named ({p}); {_about(c.more_stances)} would decide the test "
                     f"at this gain, but {under}"
                 )
-            return f"not named ({p}); about {more} more steps would decide at this gain"
+            return f"not named ({p}); {_about(more)} would decide at this gain"
         if c.observed_pct > 0:
             return (
                 f"not named ({p}); its gain is within what noise and model mismatch give: "
