@@ -181,6 +181,20 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
         "this gain"
     )
     assert huge.to_json()["calibrated"]["more_stances"] == 122781
+    at = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=1000))
+    assert "about 1000 more steps" in _verdict(at)
+    over = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=1001))
+    assert "more than 1000 more steps" in _verdict(over)
+    # an inconclusive row's number is a practical follow-up of its own data: said as it is
+    long = dataclasses.replace(
+        weak,
+        inconclusive=True,
+        calibrated=dataclasses.replace(test, more_stances=1200, n_heldout=400),
+    )
+    assert _verdict(long) == "inconclusive (p = 0.12); about 1200 more steps would decide"
+    # a row read back inconclusive without its number says no number (it printed "None")
+    lost = dataclasses.replace(long, calibrated=dataclasses.replace(test, more_stances=None))
+    assert _verdict(lost) == "inconclusive (p = 0.12)"
     within = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=None))
     assert "within what noise and model mismatch give" in _verdict(within)
     # the test's one-step statistic has no gain, the refit has: both figures are said

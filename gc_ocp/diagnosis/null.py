@@ -88,7 +88,9 @@ N_REPLICATES = 500
 PRACTICAL_FACTOR = 4
 """A candidate is called *inconclusive* (listed in the summary's verdict) when the further
 stances that would decide it are at most this many times the held-out stances it has: a
-follow-up of at most five times the data. Beyond, its row still gives the number."""
+follow-up of at most five times the data. Beyond, its row still gives the number (a verdict
+says it up to :data:`~gc_ocp.diagnosis.result.SESSION_STEPS` further steps, "more than" that
+above; ``diagnosis.json`` keeps it)."""
 
 POWER_Z = 0.8416
 """Standard normal quantile of the 80 % power of the steps-needed calculation."""

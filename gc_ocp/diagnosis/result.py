@@ -31,14 +31,16 @@ SCORE_TEXT = (
 SESSION_STEPS = 1000
 """A verdict names the further steps that would decide up to this many; beyond it, it says
 "more than" this many. About 500 per foot: eight minutes of treadmill walking, more than any
-overground session; and near the bound that mismatch sets the number grows as the inverse square
+overground session; and near the bound that mismatch sets the number grows as up to the inverse square
 of a small margin, so a figure of 10^4-10^5 (seen on real trials) is precise only in its order.
 ``diagnosis.json`` keeps the number itself (``calibrated.more_stances``)."""
 
 
-def _about(n: int) -> str:
-    """``n`` further steps in a verdict's words (:data:`SESSION_STEPS`)."""
-    if n <= SESSION_STEPS:
+def _about(n: int, exact: bool = False) -> str:
+    """``n`` further steps in a verdict's words (:data:`SESSION_STEPS`; ``exact``: the number
+    however large, for an *inconclusive* row, whose number is within a practical follow-up of
+    its own data by definition, :data:`~gc_ocp.diagnosis.null.PRACTICAL_FACTOR`)."""
+    if exact or n <= SESSION_STEPS:
         return f"about {n} more steps"
     return f"more than {SESSION_STEPS} more steps (beyond one session)"
 
@@ -157,7 +159,7 @@ class RankRow:
             if more:
                 return (
                     f"inconclusive: named by the test ({p}), but its held-out interval still "
-                    f"reaches 0; {_about(more)} would decide"
+                    f"reaches 0; {_about(more, self.inconclusive)} would decide"
                 )
             if self.floor_stances is None:
                 return f"inconclusive: named by the test ({p}), but {under}"
@@ -166,10 +168,12 @@ class RankRow:
         if self.inconclusive:
             if more is None and c.more_stances:
                 return (
-                    f"inconclusive ({p}); {_about(c.more_stances)} would decide the "
+                    f"inconclusive ({p}); {_about(c.more_stances, True)} would decide the "
                     f"test, but {under}"
                 )
-            return f"inconclusive ({p}); {_about(more)} would decide"
+            if more is None:  # a row read back without its number
+                return f"inconclusive ({p})"
+            return f"inconclusive ({p}); {_about(more, True)} would decide"
         if c.more_stances:
             if more is None:
                 return (
