@@ -31,9 +31,9 @@ SCORE_TEXT = (
 SESSION_STEPS = 1000
 """A verdict names the further steps that would decide up to this many; beyond it, it says
 "more than" this many. About 500 per foot: eight minutes of treadmill walking, more than any
-overground session; and near the bound that mismatch sets the number grows as up to the inverse square
-of a small margin, so a figure of 10^4-10^5 (seen on real trials) is precise only in its order.
-``diagnosis.json`` keeps the number itself (``calibrated.more_stances``)."""
+overground session; and near the bound that mismatch sets, the number grows as fast as the
+inverse square of a small margin, so a figure of 10^4-10^5 (seen on real trials) is precise only
+in its order. ``diagnosis.json`` keeps the number itself (``calibrated.more_stances``)."""
 
 
 def _about(n: int, exact: bool = False) -> str:
