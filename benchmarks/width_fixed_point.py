@@ -4,6 +4,7 @@ local Gauss-Newton model (a try of 2026-11-29, not adopted: ``docs/quality.md``,
 correction's smooth width*).
 
 Run:  PYTHONPATH=. python benchmarks/width_fixed_point.py [--data ../shared/data] [--only SUBSTR]
+      PYTHONPATH=. python benchmarks/width_fixed_point.py --trace --only FunctionalWalk
 
 Per walking file of ``../shared/data`` (every stance, as ``fit()`` fits them: the one start path,
 then the widths' rounds with the sole's width too), each way: the refits made, the widths, the
@@ -78,9 +79,10 @@ def settle(problem, x, pose, sole, steps: int):
     k = 0
     while k < steps:
         k += 1
-        z, sd = local.at(d)
-        if k == 1:  # the plain update: at the fit itself (the model's optimum up to a bound)
-            z = x
+        if k == 1:  # the plain update, as the package makes it: at the fit itself
+            z, sd = x, pose_scale._posterior_variances(problem, x)
+        else:
+            z, sd = local.at(d)
         mm, deg, _, _ = pose_scale.mackay_update(problem, z, pose, sd)
         old = np.r_[np.broadcast_to(pose.sigma_mm, 3), np.broadcast_to(pose.sigma_deg, 3)]
         w, _ = pose_scale.sole_update(problem, z, sole, sd)
@@ -95,9 +97,10 @@ def settle(problem, x, pose, sole, steps: int):
     return pose, sole, k
 
 
-def rounds(data, model, start, steps: int):
+def rounds(data, model, start, steps: int, trace=None):
     """The package's rounds (``estimate_pose_scale(..., sole=True)``: refit warm until no width
-    moves :data:`RTOL`, at most :data:`MAX_ROUNDS`), each round's widths from :func:`settle`."""
+    moves :data:`RTOL`, at most :data:`MAX_ROUNDS`), each round's widths from :func:`settle`
+    (``trace``: called with each round's widths and objective)."""
     from gc_ocp.estimation import build_estimation, pose_scale
     from gc_ocp.estimation.components import PoseCorrection, SoleCorrection
     from gc_ocp.estimation.solve import solve
@@ -120,34 +123,49 @@ def rounds(data, model, start, steps: int):
         )
         prob = build_estimation(data, model)
         result = solve(prob, x0=rescaled_start(result, prob), covariance=False)
+        if trace is not None:
+            trace(np.r_[pose.sigma_mm, pose.sigma_deg, sole.sigma * 1e3], result.objective)
         if change < pose_scale.RTOL:
             break
     return model, result, k
 
 
-def _one(data, steps: int) -> dict:
-    from gc_ocp.estimation import build_estimation, pose_scale
-    from gc_ocp.estimation.components import PoseCorrection, SoleCorrection, full_model
+def _start(data):
+    """The model and its fit before the rounds, as ``fit()`` makes them (the one start path)."""
+    from gc_ocp.estimation.components import full_model
     from gc_ocp.estimation.starts import best_of, with_lls_start
 
     model = with_lls_start(full_model(), data)
-    start = best_of(data, model, covariance=False)
+    return model, best_of(data, model, covariance=False)
+
+
+def _one(data, model, start, steps: int) -> dict:
+    from gc_ocp.estimation import build_estimation, pose_scale
+    from gc_ocp.estimation.components import PoseCorrection, SoleCorrection
+
     t0 = time.perf_counter()
     fitted, res, refits = rounds(data, model, start, steps)
     dt = time.perf_counter() - t0
     pose = next(c for c in fitted if isinstance(c, PoseCorrection))
     sole = next(c for c in fitted if isinstance(c, SoleCorrection))
-    if steps == 1:  # the plain way is the package's own rounds
+    if steps == 1:  # the plain way is the package's own rounds: checked
         _, pres, scale = pose_scale.estimate_pose_scale(
             data, model, start, sole=True, covariance=False
         )
-        assert np.allclose(
-            np.r_[scale.sigma_mm, scale.sigma_deg], np.r_[pose.sigma_mm, pose.sigma_deg]
+        same = (
+            np.allclose(
+                np.r_[scale.sigma_mm, scale.sigma_deg, scale.sole_mm * 1e-3],
+                np.r_[pose.sigma_mm, pose.sigma_deg, sole.sigma],
+            )
+            and np.isclose(pres.objective, res.objective)
+            and len(scale.rounds) == refits
         )
-        assert np.isclose(pres.objective, res.objective)
+        if not same:
+            raise RuntimeError("the plain rounds differ from estimate_pose_scale's")
     prob = build_estimation(data, fitted)
-    mm, deg, _, _ = pose_scale.mackay_update(prob, res.x, pose)
-    sw, _ = pose_scale.sole_update(prob, res.x, sole, pose_scale._posterior_variances(prob, res.x))
+    sd = pose_scale._posterior_variances(prob, res.x)
+    mm, deg, _, _ = pose_scale.mackay_update(prob, res.x, pose, sd)
+    sw, _ = pose_scale.sole_update(prob, res.x, sole, sd)
     now = np.r_[pose.sigma_mm, pose.sigma_deg, sole.sigma]
     step = np.r_[mm, deg, sw]
     sup = [v["superior_force_pct_bw"] for v in res.rms.values()]
@@ -161,25 +179,100 @@ def _one(data, steps: int) -> dict:
     }
 
 
+def check_local_model(data, model, start) -> str:
+    """:class:`LocalModel` at new widths against the problem rebuilt with them, linearised at
+    the same physical point, and one Gauss-Newton step from there (the same quadratic: they
+    agree to round-off)."""
+    from gc_ocp.estimation import build_estimation
+    from gc_ocp.estimation.components import PoseCorrection, SoleCorrection
+
+    prob = build_estimation(data, model)
+    x = start.x
+    wider = tuple(
+        replace(c, sigma_mm=(3.0, 1.5, 4.0), sigma_deg=(0.5, 2.0, 1.0))
+        if isinstance(c, PoseCorrection)
+        else replace(c, sigma=0.008)
+        if isinstance(c, SoleCorrection)
+        else c
+        for c in model
+    )
+    prob2 = build_estimation(data, wider)
+    d = np.ones(x.size)
+    for a, b in zip(prob.variables.specs, prob2.variables.specs, strict=True):
+        d[a.slice] = b.scale / a.scale if a.kind == "prior" else 1.0
+    z, v = LocalModel(prob, x).at(d)
+    x2 = x / d
+    r, J = prob2.data_jacobian(x2)
+    w2 = prob2.prior_weights**2
+    H = (J.T @ J).toarray() + np.diag(w2)
+    g = J.T @ r + w2 * (x2 - prob2.prior_means)
+    dz = np.max(np.abs(z - (x2 - np.linalg.solve(H, g)))) / np.max(np.abs(z))
+    dv = np.max(np.abs(v / np.diag(np.linalg.inv(H)) - 1.0))
+    return (
+        f"Check of the local model (the first file, widths 3/1.5/4 mm, 0.5/2/1 deg, sole 8 mm): "
+        f"its optimum and variances against the rebuilt problem's Gauss-Newton step differ by "
+        f"{dz:.1e} and {dv:.1e} (relative)."
+    )
+
+
+def trace(data, model, start) -> None:
+    """Each way's rounds (widths and objective per refit), then four warm restarts of Ipopt at
+    the final widths from the final point."""
+    from gc_ocp.estimation import build_estimation
+    from gc_ocp.estimation.solve import solve
+
+    for way, steps in (("plain", 1), ("settled", 200)):
+
+        def say(w, j, way=way):
+            print(
+                f"- {way}: widths "
+                + "/".join(f"{v:.2f}" for v in w[:3])
+                + " mm, "
+                + "/".join(f"{v:.2f}" for v in w[3:6])
+                + f" deg, sole {w[6]:.2f} mm: J = {j:.1f}",
+                flush=True,
+            )
+
+        fitted, res, _ = rounds(data, model, start, steps, trace=say)
+        prob = build_estimation(data, fitted)
+        js = []
+        for _ in range(4):
+            res = solve(prob, x0=res.x, covariance=False)
+            js.append(f"{res.objective:.1f}")
+        sup = ", ".join(f"{s} {v['superior_force_pct_bw']:.2f}" for s, v in res.rms.items())
+        print(f"- {way}: four warm restarts: J = {', '.join(js)}; superior RMS % BW {sup}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--data", default=str(Path(__file__).parents[1] / ".." / "shared" / "data"))
     ap.add_argument("--only", default=None)
+    ap.add_argument(
+        "--trace", action="store_true", help="each round and four restarts, per file (--only)"
+    )
     args = ap.parse_args()
     from gc_ocp.workflow.fitting import fit_data
 
-    print(
-        "| file | way | refits | widths: mm x/y/z, deg x/y/z, sole mm | J | superior RMS % BW "
-        "| rounds s | off the fixed point |"
-    )
-    print("|---|---|---|---|---|---|---|---|")
+    if not args.trace:
+        print(
+            "| file | way | refits | widths: mm x/y/z, deg x/y/z, sole mm | J | superior RMS % BW "
+            "| rounds s | off the fixed point |"
+        )
+        print("|---|---|---|---|---|---|---|---|")
+    checked = None
     for rel in WALKING:
         if args.only and args.only not in rel:
             continue
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             _, data, _ = fit_data([_load(Path(args.data) / rel)])
-            rows = {way: _one(data, inner) for way, inner in (("plain", 1), ("settled", 200))}
+            model, start = _start(data)
+            if args.trace:
+                print(f"\n{rel}:\n")
+                trace(data, model, start)
+                continue
+            checked = checked or check_local_model(data, model, start)
+            rows = {w: _one(data, model, start, k) for w, k in (("plain", 1), ("settled", 200))}
         for way, r in rows.items():
             w = r["widths"]
             print(
@@ -191,6 +284,8 @@ def main() -> None:
                 f"{100 * r['off']:.1f} % |",
                 flush=True,
             )
+    if checked:
+        print(f"\n{checked}")
 
 
 if __name__ == "__main__":
