@@ -100,6 +100,7 @@ def subject() -> None:
     diagnosis fits a subject), with the full-marker left foot and the two Davis feet; the
     trial-to-trial spread of the single-trial fits above is then averaged, and the SE is the
     subject's."""
+    warnings.simplefilter("ignore")
     print("\n## The five trials together (one subject)\n")
     print(
         "`gc_ocp.fit` on Walking1-5 at once (10 stances; the law n, c, mu shared by all): the "
@@ -159,9 +160,13 @@ def other_labs() -> None:
 
 
 if __name__ == "__main__":
-    import sys
+    import argparse
 
-    if sys.argv[1:] == ["--subject"]:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument(
+        "--subject", action="store_true", help="only the five trials fitted together (~10 min)"
+    )
+    if ap.parse_args().subject:
         subject()
     else:
         main()
