@@ -250,14 +250,17 @@ def changes(results: list[dict], previous: Path) -> list[str]:
 
 
 def steps_changes(results: list[dict], previous: Path) -> list[str]:
-    """Markdown: per trial, every round-1 candidate the rule does not name in either run, with
+    """Markdown: per trial, every round-1 candidate the rule does not name in both runs, with
     the further held-out stances that would decide it (the rule's: the test's and the
     effect-size floor's, the larger; recomputed from each row as ``withheld_sizes.py`` does, so
-    rows written before the floor's number read alike) in the earlier run and in this one, and
+    rows written before the floor's number read alike, under today's floor) in the earlier run
+    and in this one ("named" where a run's rule named it), and
     the part of the null's between-draw spread every stance shares where this run made the
     split (``null_sd_systematic_pct`` of ``null_sd_mismatch_pct``)."""
     sys.path.insert(0, str(ROOT / "benchmarks"))
     from withheld_sizes import rule_stances  # isort: skip (a script beside this one)
+
+    from gc_ocp.diagnosis.selection import MIN_REDUCTION_PCT
 
     def steps(row) -> str:
         if row is None or not row.get("calibrated"):
@@ -272,7 +275,8 @@ def steps_changes(results: list[dict], previous: Path) -> list[str]:
         "",
         "Held-out stances (for a subject with more steps per foot, about as many steps). "
         "'undecidable': no number of steps would at the observed gains. Shared part: the "
-        "null's between-draw SD every stance shares, of all of it (% points of reduction).",
+        "null's between-draw SD every stance shares, of all of it (% points of reduction). "
+        f"Both runs' steps under today's effect-size floor ({MIN_REDUCTION_PCT:g} %).",
         "",
         "| trial | effect | p (now) | held out (now) | earlier | now | shared part of the spread |",
         "|---|---|---|---|---|---|---|",
