@@ -104,9 +104,10 @@ def baseline(prob, budget_s: float, x0: np.ndarray | None = None):
 
 def baseline_joint(data, model, first: dict, budget_s: float) -> dict:
     """The joint estimator's own rounds (:func:`gc_ocp.estimation.pose_scale.estimate_pose_scale`:
-    MacKay's update of the pose widths, then a warm refit, until no width moves ``RTOL``) with
-    every refit the FD baseline's, starting from the FD fit ``first`` of ``model``. The update
-    itself uses the exact Jacobian (one evaluation per round; the solves are what FD makes dear)."""
+    MacKay's update of the pose and sole widths, then a warm refit, until no width moves
+    ``RTOL``) with every refit the FD baseline's, starting from the FD fit ``first`` of
+    ``model``. The update itself uses the exact Jacobian (one evaluation per round; the solves
+    are what FD makes dear)."""
     from gc_ocp.estimation.pose_scale import estimate_pose_scale
     from gc_ocp.estimation.solve import result_at
 
@@ -120,7 +121,7 @@ def baseline_joint(data, model, first: dict, budget_s: float) -> dict:
 
     t0 = time.perf_counter()
     start = result_at(build_estimation(data, model), first["x"], covariance=False)
-    _, fitted, scale = estimate_pose_scale(data, model, start, refit=fd_refit)
+    _, fitted, scale = estimate_pose_scale(data, model, start, refit=fd_refit, sole=True)
     return dict(
         total=first["total"] + time.perf_counter() - t0,
         obj=fitted.objective,
@@ -186,10 +187,11 @@ def real_trial(repeats: int, budget: float):
     from gc_ocp.estimation.pose_scale import estimate_pose_scale
 
     t = time.perf_counter()
-    _, rj, sc = estimate_pose_scale(data, model, r)
+    _, rj, sc = estimate_pose_scale(data, model, r, sole=True)
     t_joint = t_fit + time.perf_counter() - t
     print(
-        f"   joint estimator (fit() path + the pose width estimated, issue 23; {len(sc.rounds)} "
+        f"   joint estimator (fit() path + the pose and sole widths estimated, as fit() does by "
+        f"default; issue 23; {len(sc.rounds)} "
         f"warm refits): {t_joint:.2f} s = {t_joint / t_fit:.2f}x the fit() path, J = "
         f"{rj.objective:.6g}; ratio baseline/joint = {b['total'] / t_joint:.1f}x (this trial's "
         "markers were low-passed before export: no marker-noise part)"
