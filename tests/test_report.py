@@ -181,6 +181,10 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
         "this gain"
     )
     assert huge.to_json()["calibrated"]["more_stances"] == 122781
+    one = dataclasses.replace(
+        far, floor_stances=0, calibrated=dataclasses.replace(test, more_stances=1)
+    )
+    assert "about 1 more step would decide" in _verdict(one)
     at = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=1000))
     assert "about 1000 more steps" in _verdict(at)
     over = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=1001))

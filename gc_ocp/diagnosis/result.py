@@ -41,7 +41,7 @@ def _about(n: int, exact: bool = False) -> str:
     however large, for an *inconclusive* row, whose number is within a practical follow-up of
     its own data by definition, :data:`~gc_ocp.diagnosis.null.PRACTICAL_FACTOR`)."""
     if exact or n <= SESSION_STEPS:
-        return f"about {n} more steps"
+        return f"about {n} more step{'' if n == 1 else 's'}"
     return f"more than {SESSION_STEPS} more steps (beyond one session)"
 
 
