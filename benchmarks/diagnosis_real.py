@@ -217,6 +217,15 @@ def _p(row: dict) -> str:
     return f" p {c['p_adjusted']:.3f}" if c else ""
 
 
+def _with_previous(results: list[dict], previous: Path):
+    """``(result, earlier diagnosis)`` for every trial of ``results`` that the cache
+    ``previous`` of an earlier run also has."""
+    for r in results:
+        path = previous / f"{r['trial']}.json"
+        if path.exists():
+            yield r, json.loads(path.read_text())["diagnosis"]
+
+
 def changes(results: list[dict], previous: Path) -> list[str]:
     """Markdown: per trial, the answer of the run in ``previous`` (a cache of an earlier run)
     beside this one's, and this run's verdict on each effect the earlier one selected."""
@@ -231,11 +240,9 @@ def changes(results: list[dict], previous: Path) -> list[str]:
         "| now, on each earlier selection |",
         "|---|---|---|---|",
     ]
-    for r in results:
-        path = previous / f"{r['trial']}.json"
-        if not path.exists():
-            continue
-        old, new = json.loads(path.read_text())["diagnosis"], r["diagnosis"]
+    earlier = list(_with_previous(results, previous))
+    for r, old in earlier:
+        new = r["diagnosis"]
         rows = {x["effect"]: x for x in new["ranking"]}
 
         def answer(d):
@@ -246,12 +253,13 @@ def changes(results: list[dict], previous: Path) -> list[str]:
             f"{e}: {RankRow.from_json(rows[e]).verdict()}" for e in old["selected"] if e in rows
         )
         lines.append(f"| {r['trial']} | {answer(old)} | {answer(new)} | {why or '-'} |")
-    return lines + [""] + steps_changes(results, previous)
+    return lines + [""] + steps_changes(earlier)
 
 
-def steps_changes(results: list[dict], previous: Path) -> list[str]:
-    """Markdown: per trial, every round-1 candidate the rule does not name in both runs, with
-    the further held-out stances that would decide it (the rule's: the test's and the
+def steps_changes(earlier: list[tuple[dict, dict]]) -> list[str]:
+    """Markdown: per trial (``earlier``: this run's result and the earlier run's diagnosis, as
+    :func:`_with_previous` gives them), every round-1 candidate the rule does not name in both
+    runs, with the further held-out stances that would decide it (the rule's: the test's and the
     effect-size floor's, the larger; recomputed from each row as ``withheld_sizes.py`` does, so
     rows written before the floor's number read alike, under today's floor) in the earlier run
     and in this one ("named" where a run's rule named it), and
@@ -281,11 +289,8 @@ def steps_changes(results: list[dict], previous: Path) -> list[str]:
         "| trial | effect | p (now) | held out (now) | earlier | now | shared part of the spread |",
         "|---|---|---|---|---|---|---|",
     ]
-    for r in results:
-        path = previous / f"{r['trial']}.json"
-        if not path.exists():
-            continue
-        old = {x["effect"]: x for x in json.loads(path.read_text())["diagnosis"]["ranking"]}
+    for r, diagnosis in earlier:
+        old = {x["effect"]: x for x in diagnosis["ranking"]}
         for row in r["diagnosis"]["ranking"]:
             c = row.get("calibrated")
             if not c or (row["passes"] and old.get(row["effect"], {}).get("passes")):
