@@ -97,26 +97,81 @@ def frame_data(st: StanceData, weights: Weights, fm: FrameModel, model: tuple) -
     return out
 
 
-@dataclass
-class StanceBlock:
-    """One stance in the NLP: its per-frame inputs ``Y = reshape(A x + y0, n_y, T)`` and data
-    ``D`` (``n_d x T``), and the composed per-frame functions they feed."""
+def sparse_dm(M: sp.spmatrix | np.ndarray) -> ca.DM:
+    """``M`` as a sparse CasADi DM, through its compressed columns (a dense array converted by
+    ``ca.DM`` then ``sparsify`` is about 7 times slower: 7 ms for a pose spline's 840 x 80
+    rows, a noticeable part of building a solver)."""
+    S = sp.csc_matrix(M)
+    S.eliminate_zeros()
+    S.sort_indices()
+    return ca.DM(
+        ca.Sparsity(S.shape[0], S.shape[1], S.indptr.tolist(), S.indices.tolist()),
+        S.data.astype(float),
+    )
 
-    A: ca.DM
-    y0: ca.DM
-    D: np.ndarray
-    T: int
-    fm: FrameModel
+
+class SlotMap:
+    """A stance's linear map of the decision vector to its per-frame inputs, ``Y = reshape(A x +
+    y0, n_y, T)``, and what is derived from it once and shared by every problem with the same
+    map (:data:`SLOT_MAP_CACHE`: the calibrated null builds the same models on every draw's
+    data): ``A`` as SciPy CSR and the constant and per-frame parts of the Hessian's product
+    (:func:`_stance_hessian`)."""
+
+    def __init__(self, A: ca.DM, y0: ca.DM):
+        self.A, self.y0 = A, y0
 
     @functools.cached_property
-    def A_csr(self):
+    def A_csr(self) -> sp.csr_matrix:
         """``A`` as a scipy CSR matrix (converted once: the conversion costs more than the
         product it serves)."""
         return self.A.sparse().tocsr()
 
     @functools.cached_property
-    def _y0(self) -> np.ndarray:
+    def y0_array(self) -> np.ndarray:
         return np.asarray(self.y0, float).ravel()
+
+    def hessian_parts(self, ny: int, T: int) -> tuple:
+        """``(cols, c, p, Ac, Ap)`` of :func:`_stance_hessian` (cached per ``(ny, T)``)."""
+        key = (ny, T)
+        cache = self.__dict__.setdefault("_hessian_parts", {})
+        if key not in cache:
+            A = self.A_csr
+            cols = np.unique(A.indices)
+            Ad = A[:, cols].toarray().reshape(T, ny, cols.size)
+            const = np.all(Ad == Ad[:1], axis=(0, 2))
+            c, p = np.flatnonzero(const).tolist(), np.flatnonzero(~const).tolist()
+            Ac = sparse_dm(Ad[0][c])
+            Ap = sparse_dm(Ad[:, p, :].reshape(T * len(p), cols.size)) if p else None
+            cache[key] = (cols, c, p, Ac, Ap)
+        return cache[key]
+
+
+@dataclass
+class StanceBlock:
+    """One stance in the NLP: its per-frame inputs ``Y = reshape(A x + y0, n_y, T)``
+    (:class:`SlotMap`) and data ``D`` (``n_d x T``), and the composed per-frame functions they
+    feed."""
+
+    map: SlotMap
+    D: np.ndarray
+    T: int
+    fm: FrameModel
+
+    @property
+    def A(self) -> ca.DM:
+        return self.map.A
+
+    @property
+    def y0(self) -> ca.DM:
+        return self.map.y0
+
+    @property
+    def A_csr(self) -> sp.csr_matrix:
+        return self.map.A_csr
+
+    @property
+    def _y0(self) -> np.ndarray:
+        return self.map.y0_array
 
     def Y(self, x: np.ndarray) -> np.ndarray:
         """Numeric ``(n_y, T)`` per-frame inputs at ``x``."""
@@ -140,22 +195,17 @@ def _stance_hessian(b: StanceBlock, Yl: ca.MX) -> tuple[np.ndarray, ca.MX]:
     ``(n_y T)^2`` block-diagonal product remains (the 16-unit sole has n_y = 80 slots of which
     12 are per frame). Exact: the same sum, grouped differently."""
     ny, T = b.fm.slots.size, b.T
-    cols = np.unique(b.A_csr.indices)
-    Ad = b.A_csr[:, cols].toarray().reshape(T, ny, cols.size)
-    const = np.all(Ad == Ad[:1], axis=(0, 2))
-    c, p = np.flatnonzero(const).tolist(), np.flatnonzero(~const).tolist()
+    cols, c, p, Ac, Ap = b.map.hessian_parts(ny, T)
     nd = b.D.shape[0]
     Dv, yv = ca.MX.sym("D", nd), ca.MX.sym("y", ny)
     Hf = b.fm.hess(Dv, yv)
-    Ac = ca.sparsify(ca.DM(Ad[0][c]))
     if not p:
         parts = ca.Function("hess_cc", [Dv, yv], [Hf[c, c]])
         Scc = parts.map(T, [False, False], [True], {})(b.D, Yl)
         return cols, ca.mtimes(Ac.T, ca.mtimes(Scc, Ac))
     parts = ca.Function("hess_parts", [Dv, yv], [Hf[c, c], Hf[c, p], Hf[p, p]])
     Scc, Hcp, Hpp = parts.map(T, [False, False], [True, False, False], {})(b.D, Yl)
-    Ap = ca.sparsify(ca.DM(Ad[:, p, :].reshape(T * len(p), cols.size)))  # rows (t, slot)
-    X = ca.mtimes(Hcp, Ap)
+    X = ca.mtimes(Hcp, Ap)  # Ap: rows (t, slot)
     cross = ca.mtimes(Ac.T, X)
     BDpp = ca.diagcat(*ca.horzsplit(Hpp, len(p)))
     H = ca.mtimes(Ac.T, ca.mtimes(Scc, Ac)) + cross + cross.T + ca.mtimes(Ap.T, ca.mtimes(BDpp, Ap))
@@ -186,9 +236,8 @@ def _assemble_hessian(parts: list[tuple[np.ndarray, ca.MX]], nx: int) -> ca.MX:
     for c, H in parts:  # own variables in column order, as in ``own``
         is_shared = count[c] >= 2
         ks, ko = np.flatnonzero(is_shared).tolist(), np.flatnonzero(~is_shared).tolist()
-        E = ca.DM(nS, len(ks))
-        for j, v in enumerate(c[is_shared]):
-            E[pos_shared[v], j] = 1.0
+        rows_e = [pos_shared[v] for v in c[is_shared]]
+        E = ca.DM(ca.Sparsity.triplet(nS, len(ks), rows_e, list(range(len(ks)))), 1.0)
         HSS = HSS + ca.mtimes(E, ca.mtimes(H[ks, ks], E.T))
         HSO.append(ca.mtimes(E, H[ks, ko]))
         HOO.append(H[ko, ko])
@@ -477,16 +526,17 @@ def build_estimation(
                 data_entries += list(c.data_sizes(layout).items())
             models[layout] = frame_model(layout, model, data_entries, slot_entries, compile)
         fm = models[layout]
-        if maps is not None:
-            A, y0 = maps[i]
-        else:
+        if maps is None:
             Y = _stance_slots(model, variables, i, st, fm)
             # Y = reshape(A x + y0): A is constant because every component maps x linearly
             zero = np.zeros(nx)
             A = ca.DM(ca.Function("A", [x], [ca.jacobian(ca.vec(Y), x)])(zero))
             y0 = ca.DM(ca.Function("y0", [x], [ca.vec(Y)])(zero))
-            fresh.append((A, y0))
-        blocks.append(StanceBlock(A, y0, frame_data(st, weights, fm, model), st.n, fm))
+            smap = SlotMap(A, y0)
+            fresh.append(smap)
+        else:
+            smap = maps[i]
+        blocks.append(StanceBlock(smap, frame_data(st, weights, fm, model), st.n, fm))
     if maps is None:
         _SLOT_MAPS[key] = tuple(fresh)
         while len(_SLOT_MAPS) > SLOT_MAP_CACHE:
@@ -511,9 +561,11 @@ def build_estimation(
 
 __all__ = [
     "EstimationProblem",
+    "SlotMap",
     "StanceBlock",
     "Weights",
     "build_estimation",
     "declare",
     "frame_data",
+    "sparse_dm",
 ]

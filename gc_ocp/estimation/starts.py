@@ -20,7 +20,7 @@ from gc_ocp.contact.lls import fit_stiffness_lls
 from gc_ocp.errors import RankError, SolveError
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.estimation.solve import IpoptOptions, solve
+from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
 from gc_ocp.stance import StanceData
 from gc_ocp.trial import SIDES
 
@@ -181,7 +181,7 @@ def best_of(
         say(f"start: from {what}")
         try:
             prob = build_estimation(data, model, weights)
-            r = solve(prob, options, x0=rescaled_start(s0, prob), covariance=covariance)
+            r = solve(prob, options, x0=rescaled_start(s0, prob), covariance=False)
             total_s += r.seconds
             total_it += r.iterations
             if best is None or r.objective < best.objective:
@@ -191,7 +191,7 @@ def best_of(
     for steps in strategies:
         say(f"start: prior scales {steps}")
         try:
-            r = estimate(data, model, weights, options, steps, progress=say, covariance=covariance)
+            r = estimate(data, model, weights, options, steps, progress=say, covariance=False)
         except SolveError as e:
             err = e
             if e.result is not None:
@@ -203,6 +203,15 @@ def best_of(
             best = r
     if best is None:
         raise err
+    if covariance and best.covariance is None:
+        # every start was solved without it: only the winner's is computed (the same function
+        # of the problem and the point, so the same result as computing it in its solve)
+        best = result_at(
+            build_estimation(data, model, weights),
+            best.x,
+            status=best.status,
+            success=best.success,
+        )
     best.seconds, best.iterations = total_s, total_it
     return best
 

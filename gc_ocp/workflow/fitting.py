@@ -20,7 +20,7 @@ from collections.abc import Callable, Sequence
 
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.bias import BiasCorrection, bias_corrected, check_replicates
-from gc_ocp.estimation.components import full_model
+from gc_ocp.estimation.components import PoseCorrection, full_model
 from gc_ocp.estimation.pose_scale import PoseScale, estimate_pose_scale
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
@@ -245,7 +245,11 @@ def fit(
         base = with_lls_start(extends, data)
         start = best_of(data, base, weights, options, strategies, progress=say)
     say(f"solving with Ipopt: {len(data)} stances, {sum(d.n for d in data)} frames")
-    res = best_of(data, model, weights, options, strategies, progress=say, start=start)
+    # the width rounds refit and compute the covariance at their end: none before them
+    rounds = pose_scale and any(isinstance(c, PoseCorrection) for c in model)
+    res = best_of(
+        data, model, weights, options, strategies, progress=say, start=start, covariance=not rounds
+    )
     say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
     scale = None
     if pose_scale:
