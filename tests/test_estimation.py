@@ -449,11 +449,11 @@ def test_extended_model_started_from_the_base_never_ends_higher():
 
 @pytest.mark.parametrize("effect", [None, *EFFECTS])
 def test_problems_that_differ_only_in_plate_data_share_their_slot_maps(bundled, effect):
-    """The linear maps ``Y = A x + y0`` are cached per motion and model (``SLOT_MAP_CACHE``):
-    a stance's slots never read the plate's data (``PLATE_FIELDS``). For the base and the base
-    with every candidate effect, a build on other plate data (measured wrench, plate signal,
-    threshold changed) reuses the maps and equals a build without the cache exactly; other
-    kinematics do not hit it."""
+    """The linear maps ``Y = A x + y0`` are cached per stance by the slots' expression
+    (``SLOT_MAP_CACHE``): a stance's slots never read the plate's data. For the base and the
+    base with every candidate effect, a build on other plate data (measured wrench, plate
+    signal, threshold changed) reuses every stance's map and equals a build without the cache
+    exactly; slots that change (the sole's nominal points moved) do not hit it."""
     import dataclasses
     import warnings
 
@@ -476,12 +476,15 @@ def test_problems_that_differ_only_in_plate_data_share_their_slot_maps(bundled, 
         )
         for st in data
     ]
-    pm.build_estimation(data, model)
+    first = pm.build_estimation(data, model)
     hits = len(pm._SLOT_MAPS)
     cached = pm.build_estimation(other, model)
     assert len(pm._SLOT_MAPS) == hits  # reused, not added
+    assert all(a.map is b.map for a, b in zip(first.blocks, cached.blocks, strict=True))
     pm._SLOT_MAPS.clear()
     fresh = pm.build_estimation(other, model)
+    n = len(pm._SLOT_MAPS)
+    assert 1 <= n <= len(data)
     for a, b in zip(cached.blocks, fresh.blocks, strict=True):
         assert (a.A_csr != b.A_csr).nnz == 0
         np.testing.assert_array_equal(a._y0, b._y0)
@@ -492,7 +495,7 @@ def test_problems_that_differ_only_in_plate_data_share_their_slot_maps(bundled, 
         st.with_foot(st.foot.with_points(st.foot.points_local + 1e-3, st.layout)) for st in data
     ]
     pm.build_estimation(moved, model)
-    assert len(pm._SLOT_MAPS) == 2  # another motion: a new entry
+    assert len(pm._SLOT_MAPS) == 2 * n  # other slots: new entries
 
 
 def test_a_warm_start_laid_over_another_point_keeps_what_the_result_lacks():

@@ -23,10 +23,8 @@ COP error at 1 BW weighs as little as a 2.4 % BW force error.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import hashlib
-import pickle
 from collections import OrderedDict
 from dataclasses import dataclass, field
 
@@ -471,33 +469,38 @@ def declare(stances: list[StanceData], model: tuple) -> tuple[tuple, list, Varia
     return model, stances, variables
 
 
-PLATE_FIELDS = ("measured", "plate_time", "plate_wrench", "censor_below")
-"""The fields of a :class:`~gc_ocp.stance.StanceData` that hold what the plate recorded. A
-component's slots (:meth:`~gc_ocp.estimation.components.base.Component.slots`) never read them
-(the plate's data enter a frame through :func:`frame_data` only), so two problems whose stances
-differ only there share their linear maps ``A``, ``y0`` (:data:`SLOT_MAP_CACHE`)."""
+SLOT_MAP_CACHE = 128
+"""Stances' linear maps ``Y = A x + y0`` (:class:`SlotMap`) kept in memory (per process), keyed
+by the slots' expression itself (its serialised form: the components' slots of the stance under
+the problem's variables), so a map is reused exactly when it would be recomputed the same, and
+whatever a component's slots read. The calibrated null builds the parent and every candidate
+again on each mismatch draw's data (:mod:`gc_ocp.diagnosis.draws`): the plate's data and the
+walked motion differ, but most stances' slots do not read them (on six BTS stances 5 of 6 per
+model hit, all 6 of the parent's where the stance carries no marker-noise part; the denser
+sole's and the toe hinge's slots read the foot's kinematics and miss). A hit saves the
+symbolic Jacobian (13 ms a stance) and the conversions the Hessian's parts need; a key costs
+1-5 ms. Until 2026-11-29 the key was the model and every stance's fields except the plate's:
+the draws walk their own motion (the markers' low-pass of the draw), so it never hit there."""
 
-SLOT_MAP_CACHE = 64
-"""Problems whose linear maps ``Y = A x + y0`` are kept in memory (per process), keyed by the
-configured model and every stance's fields other than :data:`PLATE_FIELDS`. The calibrated null
-builds the parent and every candidate again on each mismatch draw's data
-(:mod:`gc_ocp.diagnosis.draws`), the same motion with other plate data: the symbolic slots and
-their Jacobian were half a build's time (0.1 s of 0.2 s on six stances)."""
-
-_SLOT_MAPS: OrderedDict = OrderedDict()
+_SLOT_MAPS: OrderedDict[bytes, SlotMap] = OrderedDict()
 
 
-def _slot_map_key(model: tuple, stances: list[StanceData]) -> bytes:
-    """A digest of what the slots depend on: the model (configured) and every stance without
-    its plate data (the variables' layout depends on all of them)."""
-    h = hashlib.blake2b(digest_size=20)
-    h.update(pickle.dumps(model, protocol=5))
-    for st in stances:
-        rest = {f.name: getattr(st, f.name) for f in dataclasses.fields(st)}
-        for name in PLATE_FIELDS:
-            rest.pop(name, None)
-        h.update(pickle.dumps(rest, protocol=5))
-    return h.digest()
+def _slot_map(x: ca.MX, Y: ca.MX) -> SlotMap:
+    """The :class:`SlotMap` of the slots ``Y`` (linear in ``x``), from the cache
+    (:data:`SLOT_MAP_CACHE`) or computed."""
+    f = ca.Function("Y", [x], [ca.vec(Y)])
+    key = hashlib.blake2b(f.serialize().encode(), digest_size=20).digest()
+    hit = _SLOT_MAPS.get(key)
+    if hit is not None:
+        _SLOT_MAPS.move_to_end(key)
+        return hit
+    zero = np.zeros(x.numel())
+    A = ca.DM(ca.Function("A", [x], [ca.jacobian(ca.vec(Y), x)])(zero))
+    smap = SlotMap(A, ca.DM(f(zero)))
+    _SLOT_MAPS[key] = smap
+    while len(_SLOT_MAPS) > SLOT_MAP_CACHE:
+        _SLOT_MAPS.popitem(last=False)
+    return smap
 
 
 def build_estimation(
@@ -510,12 +513,8 @@ def build_estimation(
     weights = weights or Weights()
     model, stances, variables = declare(stances, model)
     x = variables.finalize()
-    nx = variables.size
     models: dict = {}
     blocks: list[StanceBlock] = []
-    key = _slot_map_key(model, stances)
-    maps = _SLOT_MAPS.get(key)
-    fresh = []
     for i, st in enumerate(stances):
         layout = st.layout
         if layout not in models:
@@ -526,23 +525,9 @@ def build_estimation(
                 data_entries += list(c.data_sizes(layout).items())
             models[layout] = frame_model(layout, model, data_entries, slot_entries, compile)
         fm = models[layout]
-        if maps is None:
-            Y = _stance_slots(model, variables, i, st, fm)
-            # Y = reshape(A x + y0): A is constant because every component maps x linearly
-            zero = np.zeros(nx)
-            A = ca.DM(ca.Function("A", [x], [ca.jacobian(ca.vec(Y), x)])(zero))
-            y0 = ca.DM(ca.Function("y0", [x], [ca.vec(Y)])(zero))
-            smap = SlotMap(A, y0)
-            fresh.append(smap)
-        else:
-            smap = maps[i]
+        # Y = reshape(A x + y0): A is constant because every component maps x linearly
+        smap = _slot_map(x, _stance_slots(model, variables, i, st, fm))
         blocks.append(StanceBlock(smap, frame_data(st, weights, fm, model), st.n, fm))
-    if maps is None:
-        _SLOT_MAPS[key] = tuple(fresh)
-        while len(_SLOT_MAPS) > SLOT_MAP_CACHE:
-            _SLOT_MAPS.popitem(last=False)
-    else:
-        _SLOT_MAPS.move_to_end(key)
     return EstimationProblem(
         stances=list(stances),
         model=model,

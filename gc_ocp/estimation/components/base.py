@@ -236,9 +236,9 @@ class Component:
 
     def slots(self, variables: Variables, index: int, stance: StanceData) -> dict:
         """``{slot: MX (size, 1) or (size, T)}`` for stance ``index``; linear in ``variables.x``.
-        Never from the plate's data (the stance's
-        :data:`~gc_ocp.estimation.problem.PLATE_FIELDS`): they enter through :meth:`data`, and
-        problems that differ only there share their slots' linear maps."""
+        Never from the plate's data: they enter through :meth:`data` (the slots' linear maps
+        are cached by their expression, :data:`~gc_ocp.estimation.problem.SLOT_MAP_CACHE`, so
+        slots that read less are shared by more problems)."""
         return {}
 
     def data_sizes(self, layout: SoleLayout) -> dict[str, int]:
