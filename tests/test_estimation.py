@@ -110,6 +110,26 @@ def test_noiseless_synthetic_recovery():
     print(f"\nrelative SE median: k {np.median(rel_k):.3%}, f_ref {np.median(rel_f):.3%}")
 
 
+def test_best_of_gives_the_winning_starts_covariance_as_its_own_solve_would():
+    """``best_of`` solves every start without the covariance and computes it for the winner
+    only: the winner's covariance and SEs are those its own solve with the covariance gives (a
+    deterministic function of the problem and the point: equal to round-off), with two
+    continuation schedules, one of which does not end at the requested priors."""
+    from gc_ocp.estimation.starts import best_of, estimate
+
+    _, _, sts = _stances(np.random.default_rng(1))
+    model, w = _model(), Weights(force_sigma=1e-3)
+    for strategies in (((1.0,), (0.2, 1.0)), ((0.5,),)):
+        r = best_of(sts, model, w, strategies=strategies)
+        assert r.covariance is not None and np.all(np.isfinite(np.diag(r.covariance)))
+        own = [estimate(sts, model, w, continuation=steps) for steps in strategies]
+        win = min(own, key=lambda o: o.objective)
+        assert r.objective == pytest.approx(win.objective, rel=1e-12)
+        np.testing.assert_allclose(r.covariance, win.covariance, rtol=1e-9, atol=1e-15)
+        assert r.params["shared"]["n_se"] == pytest.approx(win.params["shared"]["n_se"], rel=1e-9)
+    assert best_of(sts, model, w, strategies=((1.0,),), covariance=False).covariance is None
+
+
 def test_non_converged_solve_raises_with_result():
     _, _, sts = _stances(np.random.default_rng(2))
     prob = build_estimation(sts, _model())
@@ -160,6 +180,7 @@ def test_real_trial_fit_and_holdout(bundled):
     assert again.params == r.params and again.rms == r.rms and again.cop_rms_mm == r.cop_rms_mm
     np.testing.assert_array_equal(again.x, r.x)
     assert again.covariance is None  # not written by default (n_free^2 numbers)
+    assert r.covariance is not None  # fit() computes the returned fit's covariance
     with_cov = EstimationResult.from_json(json.loads(json.dumps(r.to_json(covariance=True))))
     np.testing.assert_array_equal(with_cov.covariance, r.covariance)
     assert again.objective == pytest.approx(r.data_cost + r.prior_cost, rel=1e-12)

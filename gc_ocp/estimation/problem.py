@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import threading
 from collections import OrderedDict
 from dataclasses import dataclass, field
 
@@ -99,12 +100,12 @@ def sparse_dm(M: sp.spmatrix | np.ndarray) -> ca.DM:
     """``M`` as a sparse CasADi DM, through its compressed columns (a dense array converted by
     ``ca.DM`` then ``sparsify`` is about 7 times slower: 7 ms for a pose spline's 840 x 80
     rows, a noticeable part of building a solver)."""
-    S = sp.csc_matrix(M)
+    S = sp.csc_matrix(M, dtype=float, copy=True)  # a copy: the caller's matrix is not touched
+    S.sum_duplicates()  # also sorts the indices, as CasADi's compressed columns need
     S.eliminate_zeros()
-    S.sort_indices()
     return ca.DM(
         ca.Sparsity(S.shape[0], S.shape[1], S.indptr.tolist(), S.indices.tolist()),
-        S.data.astype(float),
+        S.data,
     )
 
 
@@ -471,18 +472,21 @@ def declare(stances: list[StanceData], model: tuple) -> tuple[tuple, list, Varia
 
 SLOT_MAP_CACHE = 128
 """Stances' linear maps ``Y = A x + y0`` (:class:`SlotMap`) kept in memory (per process), keyed
-by the slots' expression itself (its serialised form: the components' slots of the stance under
-the problem's variables), so a map is reused exactly when it would be recomputed the same, and
-whatever a component's slots read. The calibrated null builds the parent and every candidate
+by the slots' expression itself (its serialised form, every constant to the bit: the components'
+slots of the stance under the problem's variables), so a map is reused only when the expression
+is the same, whatever a component's slots read (an equal map built by another expression is
+computed again). The calibrated null builds the parent and every candidate
 again on each mismatch draw's data (:mod:`gc_ocp.diagnosis.draws`): the plate's data and the
 walked motion differ, but most stances' slots do not read them (on six BTS stances 5 of 6 per
 model hit, all 6 of the parent's where the stance carries no marker-noise part; the denser
 sole's and the toe hinge's slots read the foot's kinematics and miss). A hit saves the
-symbolic Jacobian (13 ms a stance) and the conversions the Hessian's parts need; a key costs
-1-5 ms. Until 2026-11-29 the key was the model and every stance's fields except the plate's:
+symbolic Jacobian (13-40 ms a stance) and the conversions the Hessian's parts need; the key
+costs 1-5 ms a stance, and the slots' expression, which the key needs, is built on a hit too
+(about 4 ms a stance). Until 2026-11-29 the key was the model and every stance's fields except the plate's:
 the draws walk their own motion (the markers' low-pass of the draw), so it never hit there."""
 
 _SLOT_MAPS: OrderedDict[bytes, SlotMap] = OrderedDict()
+_SLOT_MAPS_LOCK = threading.Lock()  # builds may run in threads (an executor of threads)
 
 
 def _slot_map(x: ca.MX, Y: ca.MX) -> SlotMap:
@@ -490,16 +494,18 @@ def _slot_map(x: ca.MX, Y: ca.MX) -> SlotMap:
     (:data:`SLOT_MAP_CACHE`) or computed."""
     f = ca.Function("Y", [x], [ca.vec(Y)])
     key = hashlib.blake2b(f.serialize().encode(), digest_size=20).digest()
-    hit = _SLOT_MAPS.get(key)
-    if hit is not None:
-        _SLOT_MAPS.move_to_end(key)
-        return hit
+    with _SLOT_MAPS_LOCK:
+        hit = _SLOT_MAPS.get(key)
+        if hit is not None:
+            _SLOT_MAPS.move_to_end(key)
+            return hit
     zero = np.zeros(x.numel())
     A = ca.DM(ca.Function("A", [x], [ca.jacobian(ca.vec(Y), x)])(zero))
     smap = SlotMap(A, ca.DM(f(zero)))
-    _SLOT_MAPS[key] = smap
-    while len(_SLOT_MAPS) > SLOT_MAP_CACHE:
-        _SLOT_MAPS.popitem(last=False)
+    with _SLOT_MAPS_LOCK:
+        _SLOT_MAPS[key] = smap
+        while len(_SLOT_MAPS) > SLOT_MAP_CACHE:
+            _SLOT_MAPS.popitem(last=False)
     return smap
 
 

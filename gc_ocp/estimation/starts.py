@@ -116,6 +116,19 @@ def estimate(
     ``iterations`` are the totals over all stages. The covariance is computed for the last stage
     only, and not at all with ``covariance=False``.
     """
+    return _estimate(data, model, weights, options, continuation, progress, covariance)[0]
+
+
+def _estimate(
+    data: list[StanceData],
+    model: tuple,
+    weights: Weights | None,
+    options: IpoptOptions | None,
+    continuation: tuple[float, ...],
+    progress: Callable[[str], None] | None,
+    covariance: bool,
+):
+    """:func:`estimate`, and the last stage's problem (the one its result is a point of)."""
     say = progress or (lambda s: None)
     steps = continuation if any(c.has_prior_scale for c in model) else (1.0,)
     prev = None
@@ -137,7 +150,7 @@ def estimate(
         )
         prev = res
     res.seconds, res.iterations = total_s, total_it
-    return res
+    return res, prob
 
 
 def best_of(
@@ -159,7 +172,9 @@ def best_of(
     which for an effect is its neutral value), so that the extended model ends at least as low
     as the model it extends whenever that start converges. With censored stances (a plate
     zeroed below a threshold) and ``strategies``, the same model fitted with the zeros taken as
-    data is one more start (see the code's comment)."""
+    data is one more start (see the code's comment). ``covariance``: the returned result
+    carries its covariance, computed for the winning start only (every start is solved
+    without it; the same function of the winner's problem and point)."""
     say = progress or (lambda s: None)
     best, total_s, total_it, err = None, 0.0, 0, None
     starts = [] if start is None else [("the given result", start)]
@@ -185,13 +200,13 @@ def best_of(
             total_s += r.seconds
             total_it += r.iterations
             if best is None or r.objective < best.objective:
-                best = r
+                best, best_prob = r, prob
         except SolveError as e:
             err = e
     for steps in strategies:
         say(f"start: prior scales {steps}")
         try:
-            r = estimate(data, model, weights, options, steps, progress=say, covariance=False)
+            r, prob = _estimate(data, model, weights, options, steps, say, covariance=False)
         except SolveError as e:
             err = e
             if e.result is not None:
@@ -200,18 +215,13 @@ def best_of(
         total_s += r.seconds
         total_it += r.iterations
         if best is None or r.objective < best.objective:
-            best = r
+            best, best_prob = r, prob
     if best is None:
         raise err
     if covariance and best.covariance is None:
         # every start was solved without it: only the winner's is computed (the same function
         # of the problem and the point, so the same result as computing it in its solve)
-        best = result_at(
-            build_estimation(data, model, weights),
-            best.x,
-            status=best.status,
-            success=best.success,
-        )
+        best = result_at(best_prob, best.x, status=best.status, success=best.success)
     best.seconds, best.iterations = total_s, total_it
     return best
 

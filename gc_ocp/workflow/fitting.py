@@ -243,18 +243,33 @@ def fit(
     if extends is not None and start is None:
         say("fitting the model it extends first (its optimum is one more start)")
         base = with_lls_start(extends, data)
-        start = best_of(data, base, weights, options, strategies, progress=say)
+        start = best_of(data, base, weights, options, strategies, progress=say, covariance=False)
     say(f"solving with Ipopt: {len(data)} stances, {sum(d.n for d in data)} frames")
-    # the width rounds refit and compute the covariance at their end: none before them
+    # only the returned fit's covariance is computed: the width rounds compute it at their end,
+    # the bias correction at the corrected point (none before either)
     rounds = pose_scale and any(isinstance(c, PoseCorrection) for c in model)
     res = best_of(
-        data, model, weights, options, strategies, progress=say, start=start, covariance=not rounds
+        data,
+        model,
+        weights,
+        options,
+        strategies,
+        progress=say,
+        start=start,
+        covariance=not (rounds or bias_correction),
     )
     say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
     scale = None
     if pose_scale:
         model, res, scale = estimate_pose_scale(
-            data, model, res, weights, options, say, sole=sole_scale
+            data,
+            model,
+            res,
+            weights,
+            options,
+            say,
+            sole=sole_scale,
+            covariance=not bias_correction,
         )
     bias = None
     if bias_correction:
