@@ -507,8 +507,8 @@ def test_problems_that_differ_only_in_plate_data_share_their_slot_maps(bundled, 
     n = len(pm._SLOT_MAPS)
     assert 1 <= n <= len(data)
     for a, b in zip(cached.blocks, fresh.blocks, strict=True):
-        assert (a.A_csr != b.A_csr).nnz == 0
-        np.testing.assert_array_equal(a._y0, b._y0)
+        assert (a.map.A_csr != b.map.A_csr).nnz == 0
+        np.testing.assert_array_equal(a.map.y0_array, b.map.y0_array)
         np.testing.assert_array_equal(a.D, b.D)
     x = fresh.x0
     np.testing.assert_array_equal(cached.data_residuals(x), fresh.data_residuals(x))

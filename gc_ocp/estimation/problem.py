@@ -156,25 +156,9 @@ class StanceBlock:
     T: int
     fm: FrameModel
 
-    @property
-    def A(self) -> ca.DM:
-        return self.map.A
-
-    @property
-    def y0(self) -> ca.DM:
-        return self.map.y0
-
-    @property
-    def A_csr(self) -> sp.csr_matrix:
-        return self.map.A_csr
-
-    @property
-    def _y0(self) -> np.ndarray:
-        return self.map.y0_array
-
     def Y(self, x: np.ndarray) -> np.ndarray:
         """Numeric ``(n_y, T)`` per-frame inputs at ``x``."""
-        y = self.A_csr @ np.asarray(x, float) + self._y0
+        y = self.map.A_csr @ np.asarray(x, float) + self.map.y0_array
         return y.reshape(self.T, self.fm.slots.size).T
 
 
@@ -315,7 +299,7 @@ class EstimationProblem:
     prior_means: np.ndarray | None = None
 
     def _stance_inputs(self, b: StanceBlock) -> ca.MX:
-        return ca.reshape(ca.mtimes(b.A, self.x) + b.y0, b.fm.slots.size, b.T)
+        return ca.reshape(ca.mtimes(b.map.A, self.x) + b.map.y0, b.fm.slots.size, b.T)
 
     @functools.cached_property
     def residuals(self) -> ca.MX:
@@ -338,7 +322,7 @@ class EstimationProblem:
         x, pw, pm = self.x, self.prior_weights, self.prior_means
         grad = ca.DM(pw**2) * (x - pm) if pw.size else ca.MX.zeros(self.x.numel())
         gs = [
-            ca.mtimes(b.A.T, ca.vec(b.fm.grad.map(b.T)(b.D, self._stance_inputs(b))))
+            ca.mtimes(b.map.A.T, ca.vec(b.fm.grad.map(b.T)(b.D, self._stance_inputs(b))))
             for b in self.blocks
         ]
         return grad + ca.sum2(ca.horzcat(*gs)) if gs else grad
@@ -412,7 +396,7 @@ class EstimationProblem:
         ny = b.fm.slots.size
         rows = [start + j for j in range(size)]  # frame 0: rows 0..ny-1 of A (frame-major)
         assert max(rows) < ny
-        return b.A_csr[rows, :].toarray()
+        return b.map.A_csr[rows, :].toarray()
 
     def data_jacobian(self, x: np.ndarray):
         """Weighted data residuals ``r`` (n_data,) and their Jacobian in ``x`` (scipy CSR,
@@ -424,7 +408,7 @@ class EstimationProblem:
             res, jac = (np.asarray(a) for a in b.fm.jac.map(b.T)(b.D, b.Y(x)))
             rs.append(res.T.ravel())
             blocks = jac.reshape(6, b.T, ny).transpose(1, 0, 2)  # (T, 6, n_y)
-            Js.append(sp.block_diag(list(blocks), format="csr") @ b.A_csr)
+            Js.append(sp.block_diag(list(blocks), format="csr") @ b.map.A_csr)
         return np.concatenate(rs), sp.vstack(Js, format="csr")
 
     def data_residuals(self, x: np.ndarray) -> np.ndarray:
