@@ -26,7 +26,15 @@ held-out stance too), Plug-in Gait 599.31 -> 275.29, Rajagopal 672.04 -> 333.53,
 issue 24, the sole correction's width estimated too by default (``docs/quality.md``): bundled
 194.33 -> 171.12 (its held-out stance right@0.407s 150.12 -> 166.40: superior force 1.57 ->
 1.70 % BW), Plug-in Gait 275.29 -> 249.70, Rajagopal 333.53 -> 290.90, Gait2392 217.32 ->
-189.78; in-sample superior RMS lower on every foot (e.g. Gait2392 right 0.92 -> 0.75 % BW).
+189.78; in-sample superior RMS lower on every foot (e.g. Gait2392 right 0.92 -> 0.75 % BW);
+2026-11-29, warm solves start Ipopt's barrier at 1e-4 (``IpoptOptions.warm_mu_init``): the
+others unchanged within the pins' tolerance, Rajagopal 290.90 -> 297.48: its continuation's
+last stage reached a lower minimum (J 670.03 against 673.27 at the prior's full width), and from
+there the width rounds, which approach their fixed point slowly on this trial (one rotation
+width still growing 4-5 % a round), stopped after 6 rounds under their 5 % tolerance where they
+had run to the 8-round limit (widths 3.26/3.04/2.61 deg against 3.29/4.04/2.56; superior RMS
+left 1.08 -> 1.02, right 1.12 -> 1.17 % BW; ``benchmarks/width_fixed_point_output.md`` measures
+how far such stops lie from the fixed point).
 """
 
 from __future__ import annotations
