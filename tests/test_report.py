@@ -219,6 +219,13 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
     )
     assert _verdict(named) == "named (p = 0.004)"
     assert RankRow.from_json(named.to_json()) == named
+    # a candidate these stances do not move: no p-value or steps of round-off said
+    inert = dataclasses.replace(
+        within,
+        calibrated=NullTest(1e-9, 8e-10, 1e-10, 0.0, 1.0, 2.4, None, 6, inert=True),
+    )
+    assert _verdict(inert).startswith("no gain: these stances do not move it")
+    assert RankRow.from_json(inert.to_json()) == inert
 
 
 def test_a_row_the_floor_stops_says_whether_more_steps_would_clear_it(diagnosis):

@@ -95,6 +95,18 @@ above; ``diagnosis.json`` keeps it)."""
 POWER_Z = 0.8416
 """Standard normal quantile of the 80 % power of the steps-needed calculation."""
 
+RESOLUTION_PCT = 1e-4
+"""A candidate whose observed reduction and every null replicate's are smaller than this, in
+absolute value [% of the held-out RMS], is *inert* on these stances: the data do not move it
+(its parameters' Jacobian columns vanish there, e.g. a toe hinge that never bends, which gains
+1e-10 to 1e-6 % in the stored benchmarks). 1e-4 % is a relative change of 1e-6 of the RMS, the
+relative objective change at which the solver stops (``IpoptOptions.acceptable_obj_change_tol``):
+below it a difference between two fits is the solver's, not the data's, and a real gain that
+small would take millions of stances to decide. An inert candidate is left out of the max
+statistic (it cannot be named: it is below every effect-size floor, so leaving it in would only
+raise the other candidates' critical value with its round-off), and its row says so
+(``NullTest.inert``) rather than report a p-value and steps of round-off."""
+
 
 def wild_residuals(
     parent: Linear,
@@ -313,7 +325,9 @@ class NullTest:
     null_sd_pct: float
     z: float
     p_adjusted: float
-    z_critical: float
+    z_critical: float | None
+    """The round's critical studentised value (None: no candidate of the round was tested,
+    every one :attr:`inert`)."""
     more_stances: int | None
     n_heldout: int = 0
     null_sd_mismatch_pct: float = 0.0
@@ -323,6 +337,10 @@ class NullTest:
     (files written before 2026-11-28; a null without stance shares or where the split is not
     made, :func:`systematic_sd`): all of the spread between draws counts as systematic. Written
     to JSON only when set."""
+    inert: bool = False
+    """The data do not move the candidate: its observed and null reductions are all below
+    :data:`RESOLUTION_PCT`. Not in the max statistic; its p-value is 1 and no number of steps is
+    given. Written to JSON only when True."""
 
     @property
     def practical(self) -> bool:
@@ -336,6 +354,8 @@ class NullTest:
         out = dataclasses.asdict(self)
         if self.null_sd_systematic_pct is None:  # older files read back as they were
             del out["null_sd_systematic_pct"]
+        if not self.inert:
+            del out["inert"]
         return out
 
 
@@ -372,7 +392,14 @@ def decide(
     names = [n for n in observed if n in null]
     if not names:
         return {}
-    m, s, zmax = _studentised(null, names)
+    inert = [n for n in names if _inert(observed[n], null[n])]
+    names = [n for n in names if n not in inert]
+    out = {}
+    if names:
+        m, s, zmax = _studentised(null, names)
+        crit = float(np.quantile(zmax, 1.0 - alpha))
+    else:  # nothing to test: every candidate inert (no critical value exists)
+        crit = None
     s_b = {n: between_draw_sd(null[n], draws) for n in names}
     s_sys = {
         n: None
@@ -386,8 +413,6 @@ def decide(
         )
         for n in names
     }
-    crit = float(np.quantile(zmax, 1.0 - alpha))
-    out = {}
     for n in names:
         z = (observed[n] - m[n]) / s[n]
         p = float((1 + np.sum(zmax >= z)) / (zmax.size + 1))
@@ -412,7 +437,25 @@ def decide(
             null_sd_mismatch_pct=s_b[n],
             null_sd_systematic_pct=s_sys[n],
         )
-    return out
+    for n in inert:  # out of the family (RESOLUTION_PCT); the round's critical value beside it
+        out[n] = NullTest(
+            observed_pct=float(observed[n]),
+            null_mean_pct=float(np.mean(null[n])),
+            null_sd_pct=float(np.std(null[n], ddof=1)) if null[n].size > 1 else 0.0,
+            z=0.0,
+            p_adjusted=1.0,
+            z_critical=crit,
+            more_stances=None,
+            n_heldout=n_heldout,
+            inert=True,
+        )
+    return {n: out[n] for n in observed if n in out}
+
+
+def _inert(observed: float, null: np.ndarray) -> bool:
+    """Whether a candidate's observed and null reductions are all below
+    :data:`RESOLUTION_PCT` (the data do not move it)."""
+    return max(abs(observed), float(np.max(np.abs(null)))) < RESOLUTION_PCT
 
 
 def _studentised(
@@ -438,7 +481,7 @@ def final_p_bound(
     early"): ``(1 + e) / (n_final + 1)`` with ``e`` the replicates so far whose largest
     studentised reduction (over every candidate) reaches the candidate's, minimised over
     ``among``; 1 when there is none."""
-    names = [n for n in observed if n in null]
+    names = [n for n in observed if n in null and not _inert(observed[n], null[n])]
     among = [n for n in names if among is None or n in among]
     if not among:
         return 1.0

@@ -17,7 +17,7 @@ import numpy as np
 
 from gc_ocp.contact.channels import TABLE_KEYS
 from gc_ocp.diagnosis.compare import Evaluation, heldout_quality, score, superior_rms
-from gc_ocp.diagnosis.null import NullTest
+from gc_ocp.diagnosis.null import RESOLUTION_PCT, NullTest
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
 from gc_ocp.errors import InputError
 
@@ -148,6 +148,11 @@ class RankRow:
             return "not evaluable"
         if c is None:
             return "not tested"
+        if c.inert:
+            return (
+                "no gain: these stances do not move it (its reductions, observed and null, are "
+                f"under {RESOLUTION_PCT:g} %); not tested"
+            )
         p = f"p = {c.p_adjusted:.3g}"
         if self.passes:
             return f"named ({p})"
