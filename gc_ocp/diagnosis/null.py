@@ -25,7 +25,8 @@ observed reduction is studentised, ``z = (T - m) / s``, and compared with the di
 the *largest* studentised null reduction over the round's candidates (Westfall and Young's
 max statistic), so that the family-wise rate of a false claim among all candidates is at most
 ``alpha``: the adjusted p-value is the share of replicates whose largest ``z`` reaches the
-observed one.
+observed one. A candidate the stances do not move (every reduction under
+:data:`RESOLUTION_PCT`: round-off) is not in that family (``NullTest.inert``).
 
 **Steps that would decide.** The null's variance has two parts: the spread *between* the
 mismatch draws, ``s_b``, and the spread *within* a draw, ``s_w`` (the wild residuals: noise,
