@@ -218,7 +218,7 @@ def estimate_pose_scale(
     if refit is None:
 
         def refit(prob, x0, cov):
-            return solve(prob, options, x0=x0, covariance=cov)
+            return solve(prob, options, x0=x0, covariance=cov, warm=True)
 
     pose = next((c for c in model if isinstance(c, PoseCorrection)), None)
     if pose is None:

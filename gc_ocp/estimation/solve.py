@@ -24,13 +24,13 @@ class IpoptOptions:
     (drops the second-order residual term; converges slowly on real data with its large residuals).
 
     warm_mu_init, warm_bound_push: the barrier's first value and the push into the bounds'
-    interior for a solve started from a given point (``solve(..., x0=...)``: in this package
-    always a previous solution of a nearby problem: a continuation stage, a width round, a fold,
-    a null draw). Ipopt's defaults (0.1 and 0.01) suit a cold start: from a near-optimal point
-    they first move it away from the bounds and onto the central path of a large barrier, and
-    then spend iterations coming back. With 1e-4 and 1e-6 the bundled trial's warm solves take
-    about a third fewer iterations to the same optimum (``docs/estimation.md``, *Warm starts*).
-    ``None``: Ipopt's defaults for every solve.
+    interior for a *warm* solve (``solve(..., warm=True)``): one started from the solution of a
+    nearby problem that differs only in its priors' widths (the estimation's continuation
+    stages and width rounds). Ipopt's defaults (0.1 and 0.01) suit a cold start: from a
+    near-optimal point they first move it away from the bounds and onto the central path of a
+    large barrier, and then spend iterations coming back. With 1e-4 and 1e-6 the bundled
+    trial's warm stages and rounds take about a quarter fewer iterations to the same optima
+    (``docs/estimation.md``, *Warm starts*). ``None``: Ipopt's defaults there too.
     """
 
     tol: float = 1e-8
@@ -231,14 +231,17 @@ def solve(
     x0: np.ndarray | None = None,
     raise_on_failure: bool = True,
     covariance: bool = True,
+    warm: bool = False,
 ) -> EstimationResult:
     """Solve with Ipopt (exact CasADi derivatives). Raises :class:`SolveError` carrying the
     result when Ipopt does not converge (unless ``raise_on_failure=False``). ``covariance=False``
     skips the covariance (and so the standard errors) of the result: for intermediate solves
-    whose uncertainty nobody reads (continuation stages, the diagnosis's fold fits). A given
-    ``x0`` is taken as a warm start (:class:`IpoptOptions`' ``warm_*`` settings)."""
+    whose uncertainty nobody reads (continuation stages, the diagnosis's fold fits). ``warm``:
+    ``x0`` is the solution of the same problem with other prior widths (:class:`IpoptOptions`'
+    ``warm_*`` settings); other starts from a given point (a fold, a null draw, an effect from
+    its parent) keep Ipopt's defaults (``docs/estimation.md``, *Warm starts*)."""
     options = options or IpoptOptions()
-    solver = make_solver(problem, options, warm=x0 is not None)
+    solver = make_solver(problem, options, warm=warm and x0 is not None)
     x_init = problem.x0 if x0 is None else x0
     t0 = _time.perf_counter()
     sol = solver(x0=x_init, lbx=problem.lbx, ubx=problem.ubx)

@@ -142,7 +142,9 @@ def _estimate(
         prob = build_estimation(data, m, weights)
         x0 = rescaled_start(prev, prob) if prev is not None else None
         last = f == steps[-1]
-        res = solve(prob, options, x0=x0, raise_on_failure=last, covariance=covariance and last)
+        res = solve(
+            prob, options, x0=x0, raise_on_failure=last, covariance=covariance and last, warm=True
+        )
         total_s += res.seconds
         total_it += res.iterations
         say(
