@@ -45,8 +45,8 @@ class IpoptOptions:
     warm_bound_push: float | None = 1e-6
 
     def as_dict(self, warm: bool = False) -> dict:
-        """Ipopt's options for CasADi's ``nlpsol``; ``warm``: for a start from a given point
-        (the ``warm_*`` settings, class doc)."""
+        """Ipopt's options for CasADi's ``nlpsol``; ``warm``: for a warm solve (the ``warm_*``
+        settings, class doc)."""
         extra = {}
         if warm and self.warm_mu_init is not None:
             extra["ipopt.mu_init"] = self.warm_mu_init
@@ -194,7 +194,7 @@ def make_solver(
     problem: EstimationProblem, options: IpoptOptions | None = None, warm: bool = False
 ) -> ca.Function:
     """The Ipopt solver (a ``casadi.Function``) with our gradient and structured Hessian callbacks
-    (``warm``: set up for a start from a given point, :class:`IpoptOptions`)."""
+    (``warm``: set up for a warm solve, :class:`IpoptOptions`)."""
     options = options or IpoptOptions()
     nlp = {"x": problem.x, "f": problem.objective}
     opts = options.as_dict(warm)
