@@ -132,3 +132,10 @@ def test_a_stop_looks_at_the_first_results_in_order_and_makes_no_more():
         assert run_tasks(_slow_tag, calls, pool, stop, look=4) == list(range(8))
         assert seen == [list(range(4)), list(range(8))] and sorted(MADE) == list(range(8))
         assert run_tasks(_slow_tag, calls, pool, lambda out: False, look=4) == list(range(n))
+        # progress: told after every result, in order, of all the calls planned
+        told = []
+        run_tasks(_slow_tag, calls, pool, stop, look=4, progress=lambda k, m: told.append((k, m)))
+        assert told == [(k, n) for k in range(1, 9)]
+    told.clear()
+    run_tasks(_slow_tag, calls[:3], None, progress=lambda k, m: told.append((k, m)))
+    assert told == [(1, 3), (2, 3), (3, 3)]

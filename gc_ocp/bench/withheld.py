@@ -229,12 +229,13 @@ def run_case(
     stances_per_foot: int | None = None,
     pose_width: str = POSE_WIDTH,
     stop_early: bool = True,
+    null_fits: str = "one-step",
 ) -> dict:
     """Generate one case's data and diagnose it blind: the case with ``answer``, ``correct``,
     the ranking rows and timing. ``files``: trials of one subject whose motion the case uses
     (default: the bundled trial); ``stances_per_foot``: that many stances of each foot
     (:func:`~gc_ocp.bench.truth.per_foot`; None: the motion's own); ``pose_width``,
-    ``stop_early``: the diagnosis's."""
+    ``stop_early``, ``null_fits``: the diagnosis's."""
     t0 = time.perf_counter()
     truth_name, mag = case["truth"], case["magnitude"]
     data, draw, kin_err = case_data(case, base, realism, files, stances_per_foot)
@@ -253,6 +254,7 @@ def run_case(
             workers=workers,
             pose_width=pose_width,
             stop_early=stop_early,
+            null_fits=null_fits,
         )
     answer = d.selected[0] if d.selected else NONE
     rows = [{k: v for k, v in r.to_json().items() if k in CASE_ROW_KEYS} for r in d.ranking]
@@ -341,6 +343,7 @@ def run_benchmark(
     stances_per_foot: int | None = None,
     pose_width: str = POSE_WIDTH,
     stop_early: bool = True,
+    null_fits: str = "one-step",
 ) -> dict:
     """Run every case of :func:`plan`; ``DIR/confusion.json`` is rewritten atomically after each
     case (``resume``: keep the cases of an earlier run with the same settings), then
@@ -349,7 +352,7 @@ def run_benchmark(
     ``files``: trials of one subject whose real motion the cases use (default: the bundled
     trial; more stances per foot give the held-out score more folds); ``stances_per_foot``: that
     many stances of each foot (:func:`~gc_ocp.bench.truth.per_foot`); ``pose_width``,
-    ``stop_early``: the diagnosis's (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`)."""
+    ``stop_early``, ``null_fits``: the diagnosis's (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`)."""
     say = progress or (lambda s: None)
     out = check_writable(out)
     files = _resolved(files)
@@ -374,6 +377,7 @@ def run_benchmark(
         # runs made before): those runs resume unchanged with --pose-width prior
         **({} if pose_width == "prior" else {"pose_width": pose_width}),
         **({} if stop_early else {"null": "every draw made (no early stop)"}),
+        **({} if null_fits == "one-step" else {"null_fits": null_fits}),
     }
     done: list[dict] = []
     path = Path(out) / "confusion.json"
@@ -424,6 +428,7 @@ def run_benchmark(
                 stances_per_foot=stances_per_foot,
                 pose_width=pose_width,
                 stop_early=stop_early,
+                null_fits=null_fits,
             )
         except GcOcpError as e:
             # a case whose diagnosis cannot finish (the base's fit did not converge on its

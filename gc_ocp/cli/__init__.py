@@ -45,6 +45,19 @@ def _pose_width_argument(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _null_fits_argument(p: argparse.ArgumentParser) -> None:
+    """``--null-fits`` of the diagnosis (``diagnose`` and ``benchmark-diagnosis``)."""
+    p.add_argument(
+        "--null-fits",
+        choices=("one-step", "refit"),
+        default="one-step",
+        help="How the calibrated null scores a replicate: one Gauss-Newton step per fit "
+        "(default) or every fold of every model refitted, the ranking's own statistic (tens of "
+        "times slower; for few stances per foot, where the one step misses gains the refit "
+        "shows; docs/diagnosis.md, 'The refit null').",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="gc-ocp",
@@ -177,6 +190,7 @@ def build_parser() -> argparse.ArgumentParser:
         "Default: every effect the base does not have.",
     )
     _pose_width_argument(p)
+    _null_fits_argument(p)
     p.add_argument(
         "--null-draws",
         type=int,
@@ -260,6 +274,7 @@ def build_parser() -> argparse.ArgumentParser:
         "this scale (1: the documented family; default: none; docs/diagnosis.md).",
     )
     _pose_width_argument(p)
+    _null_fits_argument(p)
     p.add_argument(
         "--full-null",
         action="store_true",

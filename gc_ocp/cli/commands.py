@@ -208,7 +208,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     trials = _load(args)
     pairs = [(t, _kinematics(t, args)) for t in trials]
     prov = provenance(args, pairs)
-    kw = {"pose_width": args.pose_width}
+    kw = {"pose_width": args.pose_width, "null_fits": args.null_fits}
     if args.null_draws is not None:
         if args.null_draws < 0:
             raise InputError(f"--null-draws must be 0 or more, but got {args.null_draws}")
@@ -265,6 +265,7 @@ def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
         stances_per_foot=args.stances_per_foot,
         pose_width=args.pose_width,
         stop_early=not args.full_null,
+        null_fits=args.null_fits,
     )
     print(report(res))
     print(f"wrote {args.out / 'confusion.json'} and {args.out / 'confusion.png'}")

@@ -104,7 +104,7 @@ def held_out(plan: Sequence[Sequence[int]]) -> list[int]:
     return [i for group in plan for i in group]
 
 
-def _first_fold(plan: Sequence[Sequence[int]], j: int) -> int:
+def first_fold(plan: Sequence[Sequence[int]], j: int) -> int:
     """Position in ``Evaluation.folds`` of the first held-out stance of group ``j``."""
     return sum(len(g) for g in plan[:j])
 
@@ -165,7 +165,7 @@ def occam_term(problem, x: np.ndarray) -> float:
     return 0.5 * float(logdet) if sign > 0 else float("inf")
 
 
-def _fit(
+def fit_model(
     data: list[StanceData],
     model: tuple,
     start: EstimationResult | None,
@@ -208,20 +208,21 @@ def fit_fold(
 ) -> list[Fold]:
     """Fold ``j`` of ``plan``: ``model`` trained on every stance but those of group ``plan[j]``
     and scored on each of those (one :class:`Fold` per held-out stance, sharing the training
-    fit). The training fit starts from the model's own fit on all stances ``full`` (the nearest
-    problem). The objective is not convex, and a model nests its parent (its effect at the
+    fit). The training fit starts from ``full``: the model's own fit on all stances (the nearest
+    problem), or, for a replicate of the refit null, the same fold's fit on the observed data
+    (:mod:`.refits`). The objective is not convex, and a model nests its parent (its effect at the
     neutral value is the parent exactly), so its training fit must end at or below the parent's
     on the same stances: when it does not, it also starts from the parent's fold fit and keeps
     the lower. No covariance for the fold fits: only their values and costs are used."""
     weights = weights or Weights()
     group = set(plan[j])
     train = [d for k, d in enumerate(data) if k not in group]
-    first = _first_fold(plan, j)
-    tr = _fit(train, model, full, weights, options, covariance=False)
+    first = first_fold(plan, j)
+    tr = fit_model(train, model, full, weights, options, covariance=False)
     if parent is not None:
         ptr = parent.folds[first].train
         if tr.objective > ptr.objective * (1.0 + NESTING_RTOL):
-            alt = _fit(train, model, ptr, weights, options, covariance=False)
+            alt = fit_model(train, model, ptr, weights, options, covariance=False)
             tr = alt if alt.objective < tr.objective else tr
     return [
         _score_heldout(
@@ -261,7 +262,7 @@ def evaluate(
     weights = weights or Weights()
     t0 = time.perf_counter()
     if full is None:
-        full = _fit(data, model, parent.full if parent else None, weights, options)
+        full = fit_model(data, model, parent.full if parent else None, weights, options)
     screened = not folds
     fold_fits = (
         []
@@ -333,7 +334,7 @@ def evaluate_on(
     say = progress or (lambda s: None)
     weights = weights or Weights()
     t0 = time.perf_counter()
-    full = _fit(train, model, parent.full if parent else None, weights, options)
+    full = fit_model(train, model, parent.full if parent else None, weights, options)
     folds = [
         _score_heldout(
             held, train, model, full, weights, options, parent.folds[j].heldout if parent else None
@@ -461,6 +462,8 @@ __all__ = (
     "evaluate",
     "evaluate_on",
     "fit_fold",
+    "fit_model",
+    "first_fold",
     "describe",
     "MAX_FOLDS",
     "fold_plan",

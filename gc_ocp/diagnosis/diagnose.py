@@ -45,6 +45,7 @@ from gc_ocp.diagnosis.null import (
     step_miss,
 )
 from gc_ocp.diagnosis.onestep import fold_prior_means, linearize_parent
+from gc_ocp.diagnosis.refits import NULL_FITS, RefitInputs, observed_refit, refit_null
 from gc_ocp.diagnosis.result import Diagnosis, RankRow, WaterfallStep
 from gc_ocp.diagnosis.selection import (
     MIN_REDUCTION_PCT,
@@ -54,7 +55,7 @@ from gc_ocp.diagnosis.selection import (
     rank,
 )
 from gc_ocp.diagnosis.where import where
-from gc_ocp.errors import ModelError
+from gc_ocp.errors import InputError, ModelError
 from gc_ocp.estimation.components import (
     REGISTRY,
     bare_seed_model,
@@ -152,6 +153,7 @@ def diagnose_stances(
     mismatch_draws: int = MISMATCH_DRAWS,
     pose_width: str = POSE_WIDTH,
     stop_early: bool = True,
+    null_fits: str = "one-step",
 ) -> Diagnosis:
     """The diagnosis of ``stances`` (one subject; see the module doc). ``alpha``: the
     family-wise rate of a false claim per round (:mod:`.null`); ``n_replicates``: the null's
@@ -170,7 +172,14 @@ def diagnose_stances(
     :func:`~gc_ocp.estimation.pose_scale.with_estimated_width`; the nuisance of every model
     and fold then has that size) or ``"prior"`` (its component's guessed 2 mm / 1 deg).
     ``stop_early``: a round's null draws stop once no candidate could be named (:func:`~gc_ocp.diagnosis.null.cannot_name`; False: all
-    ``mismatch_draws`` are made, to check that the stop costs no claim)."""
+    ``mismatch_draws`` are made, to check that the stop costs no claim). ``null_fits``: how the
+    null scores a replicate, ``"one-step"`` (one Gauss-Newton step per fit, :mod:`.onestep`)
+    or ``"refit"`` (every fold of every model refitted, the ranking's own statistic, each
+    mismatch draw one replicate: :mod:`.refits`; tens of times the null's cost, for few
+    stances, where the one step misses gains the refit shows; every round then holds out every
+    candidate)."""
+    if null_fits not in NULL_FITS:
+        raise InputError(f"null_fits must be one of {', '.join(NULL_FITS)}, but got {null_fits!r}")
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
     base_label, base_model_ = resolve_base(base)
@@ -229,7 +238,8 @@ def diagnose_stances(
             # round 1 ranks every candidate on held-out stances (the ranking the user reads);
             # later rounds only decide the selection, so only the candidates the calibrated
             # test names are held out there (the others are ``screened``)
-            first = not rounds or not plan
+            # (the refit null scores every candidate by its refitted folds: all held out)
+            first = not rounds or not plan or null_fits == "refit"
             inputs = RoundInputs(
                 tuple(stances), tuple(plan), current, weights, options, first, parent_lin.r
             )
@@ -257,6 +267,7 @@ def diagnose_stances(
                 say,
                 pool,
                 able if stop_early else None,
+                null_fits,
             )
             calibration.append(info)
             if not first:
@@ -276,7 +287,10 @@ def diagnose_stances(
             evaluations.update({ev.label: ev for ev in ok.values()})
             rows = rank(current, evs, tests, n_boot, seed, rate, alpha, known)
             rounds.append(rows)
-            if (note := step_note(rows, info, current.label, len(rounds))) is not None:
+            note = (
+                None if null_fits == "refit" else step_note(rows, info, current.label, len(rounds))
+            )
+            if note is not None:
                 notes.append(note)
             best = best_passing(rows)
             if best is None or len(selected) >= limit:
@@ -331,12 +345,14 @@ def _calibrated(
     say,
     executor,
     among=None,
+    null_fits="one-step",
 ) -> tuple[dict, dict]:
     """The calibrated tests of a round's evaluated candidates and what the round's null was
     (replicates, mismatch draws, critical value, seconds). ``among``: the candidates the
     effect-size floor leaves (:func:`~gc_ocp.diagnosis.selection.contenders`); given, the
     null's draws stop once none of them could be named
-    (:func:`~gc_ocp.diagnosis.null.cannot_name`; None: every draw is made)."""
+    (:func:`~gc_ocp.diagnosis.null.cannot_name`; None: every draw is made). ``null_fits``:
+    ``"refit"`` scores the data and every replicate by refitted folds (:mod:`.refits`)."""
     t0 = time.perf_counter()
     lins = {n: ev.linear for n, ev in evs.items() if ev.linear is not None}
     # the held-out fits' Occam terms; none without folds (the in-sample fallback: the test's
@@ -345,8 +361,16 @@ def _calibrated(
     occam.update({n: np.array([f.occam for f in ev.folds]) for n, ev in evs.items() if ev.folds})
     means = fold_prior_means(stances, parent.model, plan)
     null, draw, skipped, looks, shares = None, None, 0, [], None
-    observed = observed_reductions(parent_lin, lins, plan, occam, means) if lins else None
-    if not (lins and family is not None and family.scale > 0 and n_draws > 0):
+    refit = null_fits == "refit"
+    if refit:
+        observed = observed_refit(parent, evs)
+        family = family if family is not None else MismatchFamily(scale=0.0)  # noise only
+    else:
+        observed = observed_reductions(parent_lin, lins, plan, occam, means) if lins else None
+    if (
+        not ((lins or refit) and evs and family is not None and (family.scale > 0 or refit))
+        or n_draws <= 0
+    ):
         n_draws = 0
     else:
         law = with_lls_start(parent.model, stances)  # the law prior of every fit
@@ -366,11 +390,28 @@ def _calibrated(
             weights=weights,
             options=options,
         )
-        say(f"  calibrated null: {n_draws} mismatch draws, each a refit of {parent.label}")
         stop = None if among is None else observed[0]
-        null, draw, skipped, shares = mismatch_null(
-            inputs, family, n_draws, seed, executor, stop, alpha, among
-        )
+        if refit:
+            say(
+                f"  refit null: {n_draws} replicates, each every fold of {parent.label} and "
+                f"its {len(evs)} candidates refitted"
+            )
+            null, draw, skipped, shares = refit_null(
+                RefitInputs(inputs, parent, evs),
+                family,
+                n_draws,
+                seed,
+                executor,
+                stop,
+                alpha,
+                among,
+                lambda k, n: say(f"  refit null: replicate {k} of up to {n}"),
+            )
+        else:
+            say(f"  calibrated null: {n_draws} mismatch draws, each a refit of {parent.label}")
+            null, draw, skipped, shares = mismatch_null(
+                inputs, family, n_draws, seed, executor, stop, alpha, among
+            )
         looks = null_looks(observed[0], null, draw, inputs.n_wild * n_draws, among)
     tests = calibrate(
         parent_lin,
@@ -413,6 +454,7 @@ def _calibrated(
         "null_looks": looks,
         "floor_leaves": None if among is None else sorted(among),
         "z_critical": crit,
+        **({"null_fits": "refit"} if refit else {}),
         "one_step_miss": miss,
         "seconds": seconds,
     }
@@ -467,8 +509,9 @@ def step_note(rows: Sequence[RankRow], info: dict, parent: str, k: int) -> str |
         f"round {k}: {'; '.join(parts)}. Such a gain needs the other parameters moved far from "
         "the fit on all stances (each fold's own fit), which one step from there does not "
         "follow: the test keeps its false-claim rate (its null is scored the same way) but can "
-        "miss it. More stances per foot bring the folds' fits closer (docs/diagnosis.md, 'Why "
-        "the one step misses on real walking')."
+        "miss it. More stances per foot bring the folds' fits closer; a null of refitted folds "
+        "weighs such a gain itself (null_fits='refit', --null-fits refit: tens of times the "
+        "cost; docs/diagnosis.md, 'Why the one step misses on real walking')."
     )
 
 

@@ -32,7 +32,7 @@ executor (:mod:`.execution`) like its candidate fits.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from concurrent.futures import Executor
 
 import numpy as np
@@ -184,6 +184,8 @@ def mismatch_null(
     observed: Mapping[str, float] | None = None,
     alpha: float = ALPHA,
     among: Collection[str] | None = None,
+    task: Callable | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> tuple[dict[str, np.ndarray], np.ndarray, int, StanceShares]:
     """``({candidate: null reductions [%]}, the draw of each replicate, draws left out, the
     draws' stance shares)``:
@@ -197,7 +199,10 @@ def mismatch_null(
     ``observed``: the candidates' observed one-step reductions; given, the draws stop early
     once no candidate of ``among`` (None: every one) could be named at ``alpha``
     (:func:`~gc_ocp.diagnosis.null.cannot_name`; the draws made are the first of the same
-    seeded sequence)."""
+    seeded sequence). ``task``: what a draw runs (default :func:`draw_reductions`; the refit
+    null's :func:`~gc_ocp.diagnosis.refits.draw_refits`); ``progress``: told ``(draws done,
+    planned)`` after each."""
+    task = task or draw_reductions
     rng = np.random.default_rng(seed)
     layout = inputs.stances[0].layout
     calls = [
@@ -212,7 +217,7 @@ def mismatch_null(
             kept = [o for o in outs if not isinstance(o, str)]
             return bool(kept) and cannot_name(observed, _pooled(kept)[0], n_final, alpha, among)
 
-    outs = run_tasks(draw_reductions, calls, executor, stop, DRAWS_PER_LOOK)
+    outs = run_tasks(task, calls, executor, stop, DRAWS_PER_LOOK, progress)
     kept = [o for o in outs if not isinstance(o, str)]
     if not kept:
         raise SolveError(f"no draw of the null's mismatch family could be refitted: {outs[0]}")

@@ -184,6 +184,7 @@ def run_tasks(
     executor: Executor | None = None,
     stop: Callable[[list], bool] | None = None,
     look: int = 8,
+    progress: Callable[[int, int], None] | None = None,
 ) -> list:
     """``[fn(*call) for call in calls]``, each call a task on ``executor`` (None: here, one
     after the other); the warnings the tasks raised are raised again here. ``fn`` and the
@@ -197,19 +198,25 @@ def run_tasks(
     look before it (no task is left running for nothing, none is cancelled mid-way), and the
     looks see the results in the calls' order whichever task ended first, so what is returned
     does not depend on the executor's timing (a sequential test's early stop,
-    :func:`~gc_ocp.diagnosis.null.cannot_name`)."""
+    :func:`~gc_ocp.diagnosis.null.cannot_name`). ``progress``: told ``(done, of)`` after every
+    result (long tasks: the refit null's draws, :mod:`.refits`)."""
     here = executor is None or len(calls) <= 1
     sent = calls if here else shared_once(executor, calls)
     step = len(calls) if stop is None else look
     out: list = []
     for k in range(0, len(calls), max(step, 1)):
         if here:
-            out.extend(fn(*call) for call in sent[k : k + step])
+            for call in sent[k : k + step]:
+                out.append(fn(*call))
+                if progress is not None:
+                    progress(len(out), len(calls))
         else:
             for fut in [executor.submit(recorded, fn, *call) for call in sent[k : k + step]]:
                 value, caught = fut.result()
                 _warn_again(caught)
                 out.append(value)
+                if progress is not None:
+                    progress(len(out), len(calls))
         if stop is not None and len(out) < len(calls) and stop(out):
             break
     return out

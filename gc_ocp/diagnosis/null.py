@@ -135,17 +135,28 @@ def replicate(
     stances: Sequence[StanceData], fits: Sequence[dict], perturbation: np.ndarray, weights: Weights
 ) -> list[StanceData]:
     """The replicate whose weighted perturbation is ``perturbation`` (``(rows,)``, a column of
-    :func:`wild_residuals`) as stances a full fit can take: the parent's wrench (``fits``, its
-    stance fits) plus the perturbation in N and N m, and the plate signal made from it (what a
-    clock-offset model resamples): to check the one-step null against full refits."""
+    :func:`wild_residuals`) around the parent's wrench (``fits``, its stance fits), as stances a
+    full fit can take (:func:`perturbed`): to check the one-step null against full refits."""
+    base = [
+        st.with_measured(np.asarray(f["model"], float)) for st, f in zip(stances, fits, strict=True)
+    ]
+    return perturbed(base, perturbation, weights)
+
+
+def perturbed(
+    stances: Sequence[StanceData], perturbation: np.ndarray, weights: Weights
+) -> list[StanceData]:
+    """``stances`` with the weighted perturbation ``perturbation`` (``(rows,)``, frame-major,
+    six channels per frame, in the units of ``weights``) added to their measured wrench in N and
+    N m, and the plate signal made from it (what a clock-offset model resamples)."""
     out, start = [], 0
-    for st, f in zip(stances, fits, strict=True):
+    for st in stances:
         n = 6 * st.n
         u = perturbation[start : start + n].reshape(st.n, 6) / weights.inverse_sigmas(
             st.body_weight
         )
         start += n
-        m = np.asarray(f["model"], float) + u
+        m = np.asarray(st.measured, float) + u
         pt, pw = plate_signal(st.time, m)
         out.append(dataclasses.replace(st.with_measured(m), plate_time=pt, plate_wrench=pw))
     return out
@@ -706,6 +717,7 @@ __all__ = (
     "onestep_null",
     "prior_pull",
     "prior_step",
+    "perturbed",
     "replicate",
     "step_miss",
     "wild_residuals",
