@@ -132,3 +132,18 @@ def test_the_command_line_takes_the_refit_null():
     assert args.null_fits == "refit"
     args = build_parser().parse_args(["benchmark-diagnosis", "--out", "x"])
     assert args.null_fits == "one-step"
+
+
+def test_the_report_and_summary_say_the_null_refitted(refit_diagnosis, tmp_path):
+    """The page's method and the ranking's header describe the test that was made (refitted
+    folds, not one step), as does the summary; and the JSON round trip keeps it."""
+    from gc_ocp.diagnosis.report import report_html
+    from gc_ocp.diagnosis.result import Diagnosis
+
+    page = report_html(refit_diagnosis)
+    assert "calibrated test: refit reduction vs its null" in page
+    assert "<i>refit null</i>" in page
+    assert "one Gauss&ndash;Newton step" not in page and "one-step reduction" not in page
+    assert "refitted every fold of every model" in refit_diagnosis.summary()
+    back = Diagnosis.from_json(refit_diagnosis.to_json())
+    assert back.calibration[0]["null_fits"] == "refit"

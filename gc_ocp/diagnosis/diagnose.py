@@ -412,7 +412,8 @@ def _calibrated(
             null, draw, skipped, shares = mismatch_null(
                 inputs, family, n_draws, seed, executor, stop, alpha, among
             )
-        looks = null_looks(observed[0], null, draw, inputs.n_wild * n_draws, among)
+        n_wild = 1 if refit else inputs.n_wild  # replicates per draw (one when refitted)
+        looks = null_looks(observed[0], null, draw, n_wild * n_draws, among)
     tests = calibrate(
         parent_lin,
         parent.full.stance_fits,

@@ -237,15 +237,23 @@ def _method(d) -> dict:
     f = d.folds
     # the stances the bootstrap draws from: the held-out ones, or all of them in-sample
     n_scored = len(f.get("heldout", []) if f.get("n") else f.get("stances", []))
+    refit = any(c.get("null_fits") == "refit" for c in d.calibration)
     return {
+        "refit": refit,
+        "statistic": "refit" if refit else "one-step",
         "alpha": f"{d.alpha:g}",
         "floor": f"{d.floor_pct:g} %",
         "replicates": d.calibration[0]["replicates"] if d.calibration else "–",
         "mismatch": (
             f", plus one of {_draws(d.calibration)} draws of the mismatch family "
-            "(the parent slightly changed in ways that are not candidates; for each draw the "
-            "parent is refitted to the data it makes, and the draw's replicates are scored from "
-            "that refit)" + _stopped(d.calibration)
+            "(the parent slightly changed in ways that are not candidates; "
+            + (
+                "each replicate is one draw's data with its own residual blocks)"
+                if refit
+                else "for each draw the parent is refitted to the data it makes, and the draw's "
+                "replicates are scored from that refit)"
+            )
+            + _stopped(d.calibration)
             if d.calibration and d.calibration[0].get("mismatch_draws")
             else ""
         ),

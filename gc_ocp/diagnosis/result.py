@@ -397,6 +397,11 @@ class Diagnosis:
         last = {r.effect: r for r in (self.rounds[-1] if self.rounds else [])}
         for e in self.inconclusive:
             lines.append(f"{e}: {last[e].verdict()}")
+        if any(c.get("null_fits") == "refit" for c in self.calibration):
+            lines.append(
+                "the calibrated null refitted every fold of every model on each replicate "
+                "(null_fits='refit'): the test weighs the held-out reductions shown"
+            )
         for k, c in enumerate(self.calibration, 1):
             if c.get("null_stopped_early"):
                 lines.append(
