@@ -118,11 +118,15 @@ def test_a_replicate_is_the_draw_s_data_plus_flipped_residual_blocks_zeroed_as_r
         )
 
 
-def test_an_unknown_null_fits_is_named_with_the_choices(bundled):
+def test_an_unknown_null_fits_or_a_refit_null_without_draws_is_refused(bundled):
     from gc_ocp.diagnosis import diagnose_stances
 
     with pytest.raises(InputError, match="null_fits must be one of one-step, refit"):
         diagnose_stances(bundled, candidates=["damping"], null_fits="full")
+    # no draws would leave the refit statistic without a null of its kind: refused, not
+    # scored against the one-step null's noise-only replicates
+    with pytest.raises(InputError, match="one replicate per mismatch draw"):
+        diagnose_stances(bundled, candidates=["damping"], null_fits="refit", mismatch_draws=0)
 
 
 def test_the_command_line_takes_the_refit_null():

@@ -39,6 +39,7 @@ from gc_ocp.diagnosis.null import (
     MISMATCH_DRAWS,
     N_REPLICATES,
     calibrate,
+    decide,
     null_looks,
     observed_reductions,
     prior_step,
@@ -180,6 +181,11 @@ def diagnose_stances(
     candidate)."""
     if null_fits not in NULL_FITS:
         raise InputError(f"null_fits must be one of {', '.join(NULL_FITS)}, but got {null_fits!r}")
+    if null_fits == "refit" and mismatch_draws < 1:
+        raise InputError(
+            f"null_fits='refit' makes one replicate per mismatch draw, but mismatch_draws is "
+            f"{mismatch_draws}: give 32 or more (--null-draws), or the one-step null"
+        )
     say = progress or (lambda s: None)
     t0 = time.perf_counter()
     base_label, base_model_ = resolve_base(base)
@@ -414,22 +420,26 @@ def _calibrated(
             )
         n_wild = 1 if refit else inputs.n_wild  # replicates per draw (one when refitted)
         looks = null_looks(observed[0], null, draw, n_wild * n_draws, among)
-    tests = calibrate(
-        parent_lin,
-        parent.full.stance_fits,
-        lins,
-        plan,
-        occam,
-        null,
-        n_replicates,
-        seed,
-        rate,
-        alpha,
-        means,
-        draw,
-        observed,
-        shares,
-    )
+    if refit:  # the statistic is the refit's: no one-step null stands in for it
+        n_held = max(len(held_out(plan)), 1)
+        tests = decide(*observed, n_held, alpha, draw, shares) if null else {}
+    else:
+        tests = calibrate(
+            parent_lin,
+            parent.full.stance_fits,
+            lins,
+            plan,
+            occam,
+            null,
+            n_replicates,
+            seed,
+            rate,
+            alpha,
+            means,
+            draw,
+            observed,
+            shares,
+        )
     crit = next(iter(tests.values())).z_critical if tests else None
     miss = None
     if plan and parent.folds:
