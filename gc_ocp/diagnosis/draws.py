@@ -90,6 +90,7 @@ class NullInputs:
     frame_rate: float
     weights: Weights | None = None
     options: IpoptOptions | None = None
+    units_off = False  # the draws' units stay on the layout (:func:`~.null._null_draw`)
 
 
 def draw_data(inputs: NullInputs, draw: MismatchDraw, rng: np.random.Generator) -> list:
@@ -206,7 +207,7 @@ def mismatch_null(
     rng = np.random.default_rng(seed)
     layout = inputs.stances[0].layout
     calls = [
-        (inputs, null_draw(family, rng, layout, inputs.model), int(s))
+        (inputs, null_draw(family, rng, layout, inputs.model, inputs.units_off), int(s))
         for s in rng.integers(0, 2**31, n_draws)
     ]
     stop = None

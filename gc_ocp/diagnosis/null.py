@@ -181,15 +181,20 @@ DEFAULT_FAMILY = MismatchFamily()
 
 
 def null_draw(
-    family: MismatchFamily, rng: np.random.Generator, layout, model: tuple
+    family: MismatchFamily,
+    rng: np.random.Generator,
+    layout,
+    model: tuple,
+    units_off: bool = False,
 ) -> MismatchDraw:
     """A draw of ``family`` (sole ``layout``) as a replicate of the null for ``model`` takes it:
     restricted to the model (:meth:`MismatchDraw.for_model`) and to the members the null adds
-    (:func:`_null_draw`)."""
-    return _null_draw(family.draw(rng, layout).for_model(model), model)
+    (:func:`_null_draw`). ``units_off``: keep the units off the layout (the refit null, whose
+    full refits meet them as the observed fit did; :mod:`.refits`)."""
+    return _null_draw(family.draw(rng, layout).for_model(model), model, units_off)
 
 
-def _null_draw(d: MismatchDraw, model: tuple) -> MismatchDraw:
+def _null_draw(d: MismatchDraw, model: tuple, units_off: bool = False) -> MismatchDraw:
     """The members of draw ``d`` the null's data carry (:func:`.draws.draw_data`):
     the law's smoothing and friction forms, the plate's hum and the markers' low-pass. Left out:
     the plate threshold (the measurement model finds it in the data and censors it), the marker
@@ -203,7 +208,8 @@ def _null_draw(d: MismatchDraw, model: tuple) -> MismatchDraw:
     (``docs/diagnosis.md``, mismatch family): one Gauss-Newton step would leave their
     second-order terms, an artefact of the step, not a mismatch."""
     d = dataclasses.replace(d.without_pose_error(), threshold_n=0.0)
-    return d.without_unit_offsets() if any(c.name == "sole" for c in model) else d
+    drop = not units_off and any(c.name == "sole" for c in model)
+    return d.without_unit_offsets() if drop else d
 
 
 def prior_step(lin: Linear) -> np.ndarray:

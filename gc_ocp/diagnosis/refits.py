@@ -85,6 +85,11 @@ class RefitInputs:
     def n_wild(self) -> int:
         return 1  # one replicate per draw (module doc)
 
+    units_off = True
+    """The draws keep the units off the layout: the one-step null leaves them out because its
+    one step would keep their second-order terms (:func:`~gc_ocp.diagnosis.null._null_draw`);
+    refitted, every model meets them as the observed fit met the data's."""
+
 
 def fold_energies(ev: Evaluation) -> np.ndarray:
     """``(held-out stances, 1)``: each held-out stance's energy (data, nuisance prior, Occam;
