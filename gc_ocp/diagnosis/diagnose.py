@@ -422,7 +422,8 @@ def _calibrated(
         looks = null_looks(observed[0], null, draw, n_wild * n_draws, among)
     if refit:  # the statistic is the refit's: no one-step null stands in for it
         n_held = max(len(held_out(plan)), 1)
-        tests = decide(*observed, n_held, alpha, draw, shares) if null else {}
+        obs, sd = observed
+        tests = decide(obs, null, sd, n_held, alpha, draw, shares) if null else {}
     else:
         tests = calibrate(
             parent_lin,
