@@ -258,6 +258,7 @@ def _method(d) -> dict:
             else ""
         ),
         "block": f"{BLOCK_SECONDS * 1000:.0f} ms blocks",
+        "block_ms": f"{BLOCK_SECONDS * 1000:.0f} ms",
         "which": "held-out " if f.get("n") else "",
         "n_scored": n_scored,
         "resamples": resamples_stances(n_scored),
