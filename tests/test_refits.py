@@ -151,3 +151,26 @@ def test_the_report_and_summary_say_the_null_refitted(refit_diagnosis, tmp_path)
     assert "refitted every fold of every model" in refit_diagnosis.summary()
     back = Diagnosis.from_json(refit_diagnosis.to_json())
     assert back.calibration[0]["null_fits"] == "refit"
+
+
+def test_the_refit_null_s_draws_keep_the_units_off_the_layout():
+    """The one-step null's draws put the units back on the layout (its one step would keep
+    the offsets' second-order terms); the refit null's keep them, as a truth has them, and
+    the same random numbers give the same draw otherwise."""
+    import dataclasses as dc
+
+    from gc_ocp.diagnosis.diagnose import resolve_base
+    from gc_ocp.diagnosis.draws import NullInputs
+    from gc_ocp.diagnosis.mismatch import MismatchFamily
+    from gc_ocp.diagnosis.null import null_draw
+    from gc_ocp.diagnosis.refits import RefitInputs
+    from gc_ocp.foot import SEED_LAYOUT
+
+    _, model = resolve_base("registered")  # has the sole registration
+    family = MismatchFamily()
+    one = null_draw(family, np.random.default_rng(7), SEED_LAYOUT, model)
+    refit = null_draw(family, np.random.default_rng(7), SEED_LAYOUT, model, units_off=True)
+    size = lambda d: max(abs(v) for o in d.unit_offsets.values() for u in o for v in u)  # noqa: E731
+    assert size(one) == 0.0 and size(refit) > 1e-4  # a 2 mm family draws offsets of mm
+    assert dc.replace(refit, unit_offsets=one.unit_offsets) == one
+    assert RefitInputs.units_off and not NullInputs.units_off
