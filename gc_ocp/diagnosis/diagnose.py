@@ -46,7 +46,7 @@ from gc_ocp.diagnosis.null import (
     step_miss,
 )
 from gc_ocp.diagnosis.onestep import fold_prior_means, linearize_parent
-from gc_ocp.diagnosis.refits import NULL_FITS, RefitInputs, observed_refit, refit_null
+from gc_ocp.diagnosis.refits import NULL_FITS, RefitInputs, draw_refits, observed_refit
 from gc_ocp.diagnosis.result import Diagnosis, RankRow, WaterfallStep
 from gc_ocp.diagnosis.selection import (
     MIN_REDUCTION_PCT,
@@ -293,10 +293,7 @@ def diagnose_stances(
             evaluations.update({ev.label: ev for ev in ok.values()})
             rows = rank(current, evs, tests, n_boot, seed, rate, alpha, known)
             rounds.append(rows)
-            note = (
-                None if null_fits == "refit" else step_note(rows, info, current.label, len(rounds))
-            )
-            if note is not None:
+            if (note := step_note(rows, info, current.label, len(rounds))) is not None:
                 notes.append(note)
             best = best_passing(rows)
             if best is None or len(selected) >= limit:
@@ -397,29 +394,20 @@ def _calibrated(
             options=options,
         )
         stop = None if among is None else observed[0]
-        if refit:
+        if refit:  # one replicate per draw, every fold of every model refitted (.refits)
+            source, task = RefitInputs(inputs, parent, evs), draw_refits
             say(
                 f"  refit null: {n_draws} replicates, each every fold of {parent.label} and "
                 f"its {len(evs)} candidates refitted"
             )
-            null, draw, skipped, shares = refit_null(
-                RefitInputs(inputs, parent, evs),
-                family,
-                n_draws,
-                seed,
-                executor,
-                stop,
-                alpha,
-                among,
-                lambda k, n: say(f"  refit null: replicate {k} of up to {n}"),
-            )
+            told = lambda k, n: say(f"  refit null: replicate {k} of up to {n}")  # noqa: E731
         else:
+            source, task, told = inputs, None, None
             say(f"  calibrated null: {n_draws} mismatch draws, each a refit of {parent.label}")
-            null, draw, skipped, shares = mismatch_null(
-                inputs, family, n_draws, seed, executor, stop, alpha, among
-            )
-        n_wild = 1 if refit else inputs.n_wild  # replicates per draw (one when refitted)
-        looks = null_looks(observed[0], null, draw, n_wild * n_draws, among)
+        null, draw, skipped, shares = mismatch_null(
+            source, family, n_draws, seed, executor, stop, alpha, among, task, told
+        )
+        looks = null_looks(observed[0], null, draw, source.n_wild * n_draws, among)
     if refit:  # the statistic is the refit's: no one-step null stands in for it
         n_held = max(len(held_out(plan)), 1)
         obs, sd = observed
@@ -495,7 +483,10 @@ def step_note(rows: Sequence[RankRow], info: dict, parent: str, k: int) -> str |
     :func:`~gc_ocp.diagnosis.null.step_miss`). The refit's gain then needs the other parameters
     moved far from the fit on all stances (each fold's own fits), which one step from there does
     not follow: the test keeps its false-claim rate (its null is scored the same way) but can
-    miss such a gain (``docs/diagnosis.md``, "Why the one step misses on real walking")."""
+    miss such a gain (``docs/diagnosis.md``, "Why the one step misses on real walking"). None
+    for a round of the refit null (``info["null_fits"]``), whose test takes no one step."""
+    if info.get("null_fits") == "refit":
+        return None
     gaps = [
         f"{r.effect} (refit {r.heldout_rms_reduction_pct:+.1f} %, one step "
         f"{r.calibrated.observed_pct:+.1f} %)"

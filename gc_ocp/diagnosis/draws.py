@@ -149,6 +149,14 @@ def draw_reductions(inputs: NullInputs, draw: MismatchDraw, seed: int) -> DrawNu
         inputs.parent, inputs.full.stance_fits, inputs.n_wild, rng, inputs.frame_rate
     )
     E = energies(pk, kids, U - pk.r[:, None], inputs.plan, inputs.occam, inputs.fold_means)
+    return draw_null(E)
+
+
+def draw_null(E: Mapping[str, np.ndarray]) -> DrawNull:
+    """The :class:`DrawNull` of a draw's held-out energies ``E`` (``{"parent" and every
+    candidate: (held-out stances, replicates)}``, :func:`~gc_ocp.diagnosis.onestep.energies`
+    or the refit null's fold energies): its replicates' reductions, the mean and covariance
+    of their stance shares (no covariance with one replicate)."""
     shares, weights = stance_shares(E)
     return DrawNull(
         reductions(E),
@@ -240,4 +248,12 @@ def _pooled(kept: Sequence[DrawNull]) -> tuple[dict[str, np.ndarray], np.ndarray
     return null, draw
 
 
-__all__ = ("DrawNull", "NullInputs", "debiased", "draw_data", "draw_reductions", "mismatch_null")
+__all__ = (
+    "DrawNull",
+    "NullInputs",
+    "debiased",
+    "draw_data",
+    "draw_null",
+    "draw_reductions",
+    "mismatch_null",
+)

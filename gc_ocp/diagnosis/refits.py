@@ -42,16 +42,15 @@ stances, where the one step misses most; the stop for futility ends most rounds 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Collection, Mapping, Sequence
-from concurrent.futures import Executor
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from gc_ocp.diagnosis.compare import Evaluation, first_fold, fit_fold, fit_model
-from gc_ocp.diagnosis.draws import DrawNull, NullInputs, draw_data, mismatch_null
-from gc_ocp.diagnosis.mismatch import MismatchFamily, thresholded
-from gc_ocp.diagnosis.null import ALPHA, StanceShares, perturbed, wild_residuals
-from gc_ocp.diagnosis.onestep import per_stance_sd, reductions, stance_shares
+from gc_ocp.diagnosis.draws import DrawNull, NullInputs, draw_data, draw_null
+from gc_ocp.diagnosis.mismatch import thresholded
+from gc_ocp.diagnosis.null import perturbed, wild_residuals
+from gc_ocp.diagnosis.onestep import per_stance_sd, reductions
 from gc_ocp.errors import SolveError
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.stance import StanceData
@@ -174,33 +173,7 @@ def draw_refits(inputs: RefitInputs, draw, seed: int) -> DrawNull | str:
     except SolveError as e:
         return f"a refit did not converge ({e})"
     E = {"parent": fold_energies(parent), **{n: fold_energies(ev) for n, ev in kids.items()}}
-    shares, weights = stance_shares(E)
-    rows = weights.shape[0]
-    return DrawNull(
-        reductions(E),
-        {n: v[:, 0] for n, v in shares.items()},
-        weights[:, 0],
-        {n: np.zeros((rows, rows)) for n in shares},  # one replicate: no spread within a draw
-    )
-
-
-def refit_null(
-    inputs: RefitInputs,
-    family: MismatchFamily,
-    n_draws: int,
-    seed: int,
-    executor: Executor | None = None,
-    observed: Mapping[str, float] | None = None,
-    alpha: float = ALPHA,
-    among: Collection[str] | None = None,
-    progress: Callable[[int, int], None] | None = None,
-) -> tuple[dict[str, np.ndarray], np.ndarray, int, StanceShares]:
-    """The refit null of a round: as :func:`~gc_ocp.diagnosis.draws.mismatch_null` (the same
-    draws of ``family`` from ``seed``, the same stop for futility), each draw one replicate
-    refitted (:func:`draw_refits`)."""
-    return mismatch_null(
-        inputs, family, n_draws, seed, executor, observed, alpha, among, draw_refits, progress
-    )
+    return draw_null(E)  # one replicate: no spread within the draw
 
 
 __all__ = (
@@ -209,6 +182,5 @@ __all__ = (
     "draw_refits",
     "fold_energies",
     "observed_refit",
-    "refit_null",
     "draw_replicate",
 )
