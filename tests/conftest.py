@@ -71,6 +71,21 @@ def gait2392_static() -> Trial:
 
 
 @pytest.fixture(scope="session")
+def bundled_stances() -> tuple:
+    """The bundled example trial's stances as the diagnosis takes them (``fit_data``'s), made
+    once per test process (a tuple: a test that needs a list makes its own)."""
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.workflow.fitting import fit_data
+
+    trial = load_trial()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # LLS start / height notes are tested elsewhere
+        _, data, _ = fit_data([(trial, compute_kinematics(trial))])
+    return tuple(data)
+
+
+@pytest.fixture(scope="session")
 def datasets():
     return {
         "plugingait": (c3d_trial, None),

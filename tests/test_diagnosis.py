@@ -659,7 +659,7 @@ def test_a_draw_whose_refit_fails_is_left_out_and_counted(base_eval, monkeypatch
     assert shares.shares["damping"].shape == (2, rows) and shares.weights.shape == (rows,)
 
 
-def test_a_nested_candidate_reproduces_its_parent_fitted_at_a_bound():
+def test_a_nested_candidate_reproduces_its_parent_fitted_at_a_bound(bundled_stances):
     """Ipopt may end up to its bound_relax_factor (1e-8, relative) outside a bound; the warm
     start of a candidate clips back into it, so the candidate's residual missed the parent's by
     ~3e-8 relative, over ``NESTED_RTOL`` (1e-8), and every candidate was linearised at its own
@@ -668,14 +668,10 @@ def test_a_nested_candidate_reproduces_its_parent_fitted_at_a_bound():
     candidates that add variables to the base reproduce it there."""
     from gc_ocp.diagnosis.onestep import linearize, nested_point
     from gc_ocp.estimation.starts import with_lls_start
-    from gc_ocp.io import load_trial
-    from gc_ocp.kinematics import compute_kinematics
-    from gc_ocp.workflow.fitting import fit_data
 
-    trial = load_trial()
+    data = list(bundled_stances)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # LLS start / height notes are tested elsewhere
-        _, data, _ = fit_data([(trial, compute_kinematics(trial))])
         ev = evaluate(data, base_model(), "base", (), fold_plan(data), folds=False)
     problem = build_estimation(data, ev.model)
     x = ev.full.x
@@ -765,21 +761,17 @@ def test_a_candidate_stepped_from_its_own_fit_is_refitted_on_every_draw(delayed,
     assert [id(s) for s in starts] == [id(inputs.full), id(inputs.children["time_offset"][1])]
 
 
-def test_the_calibrated_test_without_folds_scores_the_in_sample_fit():
+def test_the_calibrated_test_without_folds_scores_the_in_sample_fit(bundled_stances):
     """With one stance per foot no stance is held out: the test's statistic is the in-sample
     one-step reduction (no Occam terms), the same for the data and the null. Before, the
     folds' empty Occam arrays broadcast every energy to nothing: every candidate's statistic
     and null read 100 % and p = 1, so the fallback could never name an effect."""
     from gc_ocp.diagnosis.null import observed_reductions
     from gc_ocp.diagnosis.onestep import linearize_child, linearize_parent
-    from gc_ocp.io import load_trial
-    from gc_ocp.kinematics import compute_kinematics
-    from gc_ocp.workflow.fitting import fit_data
 
-    trial = load_trial()
+    data = bundled_stances
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        _, data, _ = fit_data([(trial, compute_kinematics(trial))])
         two = [data[0], data[1]]  # one right, one left stance
         assert {d.side for d in two} == {"left", "right"}
         d = diagnose_stances(two, candidates=["damping"], n_boot=100, mismatch_draws=2, workers=1)

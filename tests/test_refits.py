@@ -13,27 +13,14 @@ from gc_ocp.errors import InputError
 
 
 @pytest.fixture(scope="module")
-def bundled():
-    from gc_ocp.io import load_trial
-    from gc_ocp.kinematics import compute_kinematics
-    from gc_ocp.workflow.fitting import fit_data
-
-    trial = load_trial()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # LLS start / height notes are tested elsewhere
-        _, data, _ = fit_data([(trial, compute_kinematics(trial))])
-    return data
-
-
-@pytest.fixture(scope="module")
-def refit_diagnosis(bundled):
+def refit_diagnosis(bundled_stances):
     """The bundled trial, one candidate, a refit null of four draws (cheap, not a decision)."""
     from gc_ocp.diagnosis import diagnose_stances
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return diagnose_stances(
-            bundled,
+            list(bundled_stances),
             candidates=["damping"],
             n_boot=100,
             mismatch_draws=4,
@@ -69,7 +56,9 @@ def test_fold_energies_sum_to_the_ranking_s_score(refit_diagnosis):
         assert np.sqrt(2 * E.sum() / ev.n_residuals) == pytest.approx(score(ev), rel=1e-12)
 
 
-def test_a_replicate_is_the_draw_s_data_plus_flipped_residual_blocks_zeroed_as_recorded(bundled):
+def test_a_replicate_is_the_draw_s_data_plus_flipped_residual_blocks_zeroed_as_recorded(
+    bundled_stances,
+):
     """With no mismatch, a replicate is the debiased parent's wrench plus the observed
     residual's blocks, sign-flipped: the same size frame by frame where the plate recorded,
     exactly zero where its threshold zeroed it."""
@@ -84,7 +73,9 @@ def test_a_replicate_is_the_draw_s_data_plus_flipped_residual_blocks_zeroed_as_r
     from gc_ocp.estimation.starts import with_lls_start
 
     # the bundled plates zero nothing: recorded here as a lab zeroing below 20 N would
-    stances = [dataclasses.replace(thresholded(st, 20.0), censor_below=20.0) for st in bundled]
+    stances = [
+        dataclasses.replace(thresholded(st, 20.0), censor_below=20.0) for st in bundled_stances
+    ]
     _, model = resolve_base("registered")
     plan = fold_plan(stances)
     with warnings.catch_warnings():
@@ -118,7 +109,8 @@ def test_a_replicate_is_the_draw_s_data_plus_flipped_residual_blocks_zeroed_as_r
         )
 
 
-def test_an_unknown_null_fits_or_a_refit_null_without_draws_is_refused(bundled):
+def test_an_unknown_null_fits_or_a_refit_null_without_draws_is_refused(bundled_stances):
+    bundled = list(bundled_stances)
     from gc_ocp.diagnosis import diagnose_stances
 
     with pytest.raises(InputError, match="null_fits must be one of one-step, refit"):

@@ -16,18 +16,15 @@ from gc_ocp.diagnosis.result import RankRow
 
 
 @pytest.fixture(scope="module")
-def diagnosis():
+def diagnosis(bundled_stances):
     """A cheap diagnosis of the bundled trial: the registered base and one candidate."""
     from gc_ocp.diagnosis import diagnose_stances
-    from gc_ocp.io import load_trial
-    from gc_ocp.kinematics import compute_kinematics
-    from gc_ocp.workflow.fitting import fit_data
 
-    trial = load_trial()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # LLS start / height notes are tested elsewhere
-        _, data, _ = fit_data([(trial, compute_kinematics(trial))])
-        return diagnose_stances(data, candidates=["damping"], n_boot=200, mismatch_draws=4)
+        return diagnose_stances(
+            list(bundled_stances), candidates=["damping"], n_boot=200, mismatch_draws=4
+        )
 
 
 @pytest.fixture(scope="module")
@@ -439,7 +436,7 @@ def test_the_summary_says_which_round_s_null_stopped_early():
     assert f"round {len(cal)}'s null stopped after 8 of 32 mismatch draws" in text
 
 
-def test_the_one_step_s_miss_of_the_parent_is_measured_and_noted(diagnosis):
+def test_the_one_step_s_miss_of_the_parent_is_measured_and_noted(diagnosis, bundled_stances):
     """Each round records how far the test's one step puts its parent's held-out score from the
     parent's refitted folds' (here recomputed directly from the base's evaluation), and a note
     says so exactly when that exceeds the rule's effect-size floor."""
@@ -447,14 +444,8 @@ def test_the_one_step_s_miss_of_the_parent_is_measured_and_noted(diagnosis):
     from gc_ocp.diagnosis.diagnose import step_note, unseen_gains
     from gc_ocp.diagnosis.onestep import fold_prior_means, heldout_energy, linearize_parent
     from gc_ocp.diagnosis.selection import MIN_REDUCTION_PCT
-    from gc_ocp.io import load_trial
-    from gc_ocp.kinematics import compute_kinematics
-    from gc_ocp.workflow.fitting import fit_data
 
-    trial = load_trial()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        _, data, _ = fit_data([(trial, compute_kinematics(trial))])
+    data = list(bundled_stances)
     base = diagnosis.evaluations["base"]
     plan = fold_plan(data)
     lp = linearize_parent(data, base.model, base.full, None)
