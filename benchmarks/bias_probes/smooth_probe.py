@@ -1,9 +1,11 @@
 """One-off probe of the bias correction (issue 23); see README.md beside it.
 
-``smooth_probe.py DRAWS [shared]``: the replicates as ``bias_corrected`` makes them (``white``)
-against replicates whose seen motion also gets a smooth error drawn from the fit's estimated
-widths, independent per stance (default) or, with ``shared``, sharing the measured fraction
-``rho`` of it across a foot's stances (``PoseCorrection.shared``)."""
+``smooth_probe.py DRAWS [shared] [indep] [NOISE_MM]``: the replicates as ``bias_corrected``
+makes them (``white``) against replicates whose seen motion also gets a smooth error drawn from
+the fit's estimated widths, independent per stance (default) or, with ``shared``, sharing the
+measured fraction ``rho`` of it across a foot's stances (``PoseCorrection.shared``). ``indep``:
+the data's drift is each stance's own (``coverage.py --drift-independent``) instead of a
+pattern a foot's strides share; ``NOISE_MM``: the markers' white noise (default 1)."""
 
 import dataclasses
 import sys
@@ -49,10 +51,12 @@ def smooth_error(rep, pose, rho, r):
 
 truth = default_truth()
 disp = cv.sole_displacement()
-mode = "shared" if len(sys.argv) > 2 and sys.argv[2] == "shared" else "smooth"
+mode = "shared" if "shared" in sys.argv[2:] else "smooth"
+indep = "indep" in sys.argv[2:]
+noise = next((float(a) for a in sys.argv[2:] if a[0].isdigit()), 1.0) * 1e-3
 for i in [int(a) for a in sys.argv[1].split(",")]:
     rng = np.random.default_rng(100 + i)
-    data, seen = cv.draw(rng, truth, disp, 0.9, 1e-3, 3.0, 0.75, False)
+    data, seen = cv.draw(rng, truth, disp, 0.9, noise, 3.0, 0.75, indep)
     model = recovery_model()
     res = solve(build_estimation(data, model), IpoptOptions())
     fitted, res, sc = estimate_pose_scale(data, model, res, sole=True)
