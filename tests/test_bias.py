@@ -67,7 +67,7 @@ def test_a_replicate_walks_the_recorded_motion_seen_through_new_noise():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = solve(build_estimation(sts, model), IpoptOptions())
-    rep = replicate_data(sts, model, res, np.random.default_rng(0))
+    rep = replicate_data(sts, model, res, np.random.default_rng(0), drift=False)
     pb = build_estimation(sts, model)
     x0 = res.x.copy()
     for s in pb.variables.specs:
@@ -94,6 +94,70 @@ def test_a_replicate_walks_the_recorded_motion_seen_through_new_noise():
         np.testing.assert_allclose(np.abs(e_rep[m]), np.abs(e_fit[m]), rtol=1e-6, atol=1e-6)
         flipped = np.sign(e_rep[m, 2]) != np.sign(e_fit[m, 2])
         assert 0 < flipped.sum() < m.sum()
+
+
+def test_a_drawn_smooth_pose_error_has_the_widths_and_the_shared_fraction_of_the_prior():
+    from gc_ocp.estimation.components.pose import PoseCorrection
+    from gc_ocp.stance import StanceData
+    from gc_ocp.synthetic_foot import rolling_foot
+
+    foot = rolling_foot("left", duration=0.6)
+    T = foot.time.size
+    st = [StanceData("left", f"s{j}", foot, np.zeros((T, 6)), np.zeros(3)) for j in range(2)]
+    pose = PoseCorrection(sigma_mm=(1.0, 2.0, 3.0), sigma_deg=(0.5, 1.0, 1.5))
+    B = pose.basis(foot.time)[0]
+    rng = np.random.default_rng(0)
+    for rho in (0.0, 0.6):
+        draws = [pose.draw(st, {"left": rho}, rng) for _ in range(1500)]
+        d0 = np.array([d[0][0] for d in draws])  # (draws, T, 3): stance 0's translation
+        d1 = np.array([d[1][0] for d in draws])
+        r0 = np.array([d[0][1] for d in draws])
+        # each coefficient N(0, width^2): the variance at frame t is width^2 (B B^T)_tt; 1500
+        # draws give a variance's relative SE of sqrt(2 / 1500) = 3.7 %; 15 % is four of them
+        expect = np.einsum("tk,tk->t", B, B)
+        for axis, (w_mm, w_deg) in enumerate(zip(pose.sigma_mm, pose.sigma_deg, strict=True)):
+            got = d0[:, :, axis].var(axis=0).mean() / expect.mean()
+            assert got == pytest.approx((w_mm * 1e-3) ** 2, rel=0.15)
+            got = r0[:, :, axis].var(axis=0).mean() / expect.mean()
+            assert got == pytest.approx(np.deg2rad(w_deg) ** 2, rel=0.15)
+        # two stances of the foot (same length: the shared map is the identity) share rho of
+        # the variance; the correlation's SE over 1500 draws is under 0.03, 0.1 is over three
+        c = np.corrcoef(d0[:, T // 2, 2], d1[:, T // 2, 2])[0, 1]
+        assert c == pytest.approx(rho, abs=0.1)
+
+
+def test_a_replicate_also_draws_the_smooth_pose_error_of_the_fitted_widths():
+    from gc_ocp.estimation import build_estimation
+    from gc_ocp.estimation.solve import IpoptOptions, solve
+    from gc_ocp.estimation.synthetic import recovery_model
+
+    sts, _ = synthetic_stances(np.random.default_rng(5), 1e-3, per_foot=2)
+    model = recovery_model()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = solve(build_estimation(sts, model), IpoptOptions())
+
+    # the same generator state: with the drift the seen feet move further (a 2 mm width per
+    # coefficient, against the sub-millimetre low-passed noise alone)
+    def moved(drift):
+        rep = replicate_data(sts, model, res, np.random.default_rng(0), drift=drift)
+        return np.sqrt(
+            np.mean(
+                [
+                    np.mean((r.foot.hindfoot_pose[:, :3, 3] - st.foot.hindfoot_pose[:, :3, 3]) ** 2)
+                    for r, st in zip(rep, sts, strict=True)
+                ]
+            )
+        )
+
+    white, smooth = moved(False), moved(True)
+    assert white < 0.5e-3 and smooth > 2 * white
+    assert all(
+        r.foot.pose_noise is st.foot.pose_noise
+        for r, st in zip(
+            replicate_data(sts, model, res, np.random.default_rng(0)), sts, strict=True
+        )
+    )
 
 
 def test_the_correction_subtracts_the_replicates_mean_change_and_adds_its_error():

@@ -58,7 +58,7 @@ tr = recorded_truth(motion, fitted, res)
 r = np.random.default_rng(7)
 ch = []
 for _b in range(12):
-    rep = replicate_data(motion, fitted, res, r, truth=tr)
+    rep = replicate_data(motion, fitted, res, r, truth=tr, drift=False)  # as when run
     if mode == "drift":
         rep = drift(rep, dmm * 1e-3, 0.75, r, 0.25)
     pr = build_estimation(rep, fitted)

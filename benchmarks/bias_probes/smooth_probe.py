@@ -68,7 +68,7 @@ for i in [int(a) for a in sys.argv[1].split(",")]:
     for m in ("white", mode):
         ch = []
         for _ in range(16):
-            rep = replicate_data(data, fitted, res, r, truth=tr)
+            rep = replicate_data(data, fitted, res, r, truth=tr, drift=False)
             if m != "white":
                 rep = smooth_error(rep, pose, rho, r)
             pr = build_estimation(rep, fitted)

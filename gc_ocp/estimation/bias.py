@@ -46,6 +46,7 @@ import numpy as np
 from scipy.signal import butter, filtfilt
 
 from gc_ocp.errors import InputError, SolveError
+from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.measurement import censored
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
@@ -104,6 +105,26 @@ def draw_pose_noise(foot: FootKinematics, rng: np.random.Generator) -> FootKinem
     return dataclasses.replace(seen, pose_noise=pn)
 
 
+def draw_pose_drift(
+    data: Sequence[StanceData], model: tuple, result: EstimationResult, rng: np.random.Generator
+) -> list[StanceData]:
+    """``data`` seen through a fresh draw of the smooth pose error that ``model``'s
+    :class:`~gc_ocp.estimation.components.pose.PoseCorrection` stands for: its widths (as fitted
+    by :mod:`gc_ocp.estimation.pose_scale`, or as declared), a foot's stances sharing the
+    fraction of it that ``result`` measured (:meth:`PoseCorrection.draw`); ``data`` itself
+    without one."""
+    pose = next((c for c in model if isinstance(c, PoseCorrection)), None)
+    if pose is None:
+        return list(data)
+    rho = result.blocks.get(pose.name, {}).get("shared_fraction", {})
+    out = []
+    for st, (d, th) in zip(data, pose.draw(list(data), rho, rng), strict=True):
+        R = st.foot.hindfoot_pose[:, :3, :3]  # the rotation about the origin, in hindfoot axes
+        seen = with_pose_error(st.foot, np.einsum("nji,nj->ni", R, th), d)
+        out.append(st.with_foot(dataclasses.replace(seen, pose_noise=st.foot.pose_noise)))
+    return out
+
+
 def _stance_columns(problem) -> np.ndarray:
     """Every stance's columns of ``problem``'s per-stance variables, together."""
     return np.concatenate([np.zeros(0, int), *problem.stance_columns()])
@@ -124,14 +145,17 @@ def replicate_data(
     result: EstimationResult,
     rng: np.random.Generator,
     truth: tuple | None = None,
+    drift: bool = True,
 ) -> list[StanceData]:
     """One replicate (module doc): the fitted model frozen, on the recorded motion, its plate
     data plus the fit's residual in sign-flipped blocks, censored as recorded, seen through a
-    fresh draw of the markers' noise (``truth``: :func:`recorded_truth`, when already made)."""
+    fresh draw of the markers' noise and (``drift``) of the smooth pose error
+    (:func:`draw_pose_drift`; ``truth``: :func:`recorded_truth`, when already made)."""
     truth = recorded_truth(data, model, result) if truth is None else truth
     sim = simulate(list(data), truth, rng, plate_noise_pct_bw=0.0)
+    seen = draw_pose_drift(data, model, result, rng) if drift else list(data)
     out = []
-    for st, s, f in zip(data, sim, result.stance_fits, strict=True):
+    for st, s, f, v in zip(data, sim, result.stance_fits, seen, strict=True):
         e = np.asarray(f["measured"], float) - np.asarray(f["model"], float)
         keep = ~censored(f["measured"], f.get("censor_below", 0.0))
         rate = 1.0 / float(np.median(np.diff(st.time)))
@@ -140,7 +164,7 @@ def replicate_data(
         if st.censor_below > 0:
             m = np.where(censored(m, st.censor_below)[:, None], 0.0, m)
         pt, pw = plate_signal(st.time, m)
-        rep = s.with_measured(m).with_foot(draw_pose_noise(st.foot, rng))
+        rep = s.with_measured(m).with_foot(draw_pose_noise(v.foot, rng))
         out.append(
             dataclasses.replace(rep, plate_time=pt, plate_wrench=pw, censor_below=st.censor_below)
         )
@@ -290,6 +314,7 @@ __all__ = [
     "block_signs",
     "check_replicates",
     "recorded_truth",
+    "draw_pose_drift",
     "draw_pose_noise",
     "replicate_data",
 ]

@@ -232,6 +232,37 @@ class PoseCorrection(Component):
                     out.append((cols, C))
         return out
 
+    def draw(self, stances: list, rho: dict, rng: np.random.Generator) -> list[tuple]:
+        """A draw of the smooth part's prior, per stance ``(translation (T, 3) [m], rotation
+        (T, 3) [rad])``, both in ``lab`` about the hindfoot origin, as the correction applies
+        them: each coefficient ``N(0, 1)`` in units of its width (through ``knot_correlation``),
+        the stances of a foot sharing ``rho[side]`` of the variance (:func:`shared_fraction`;
+        the covariance of :meth:`prior_covariance`, drawn as ``sqrt(1 - rho) e + sqrt(rho) E
+        g``). The error of the markers that the correction stands for, to simulate it
+        (:func:`gc_ocp.estimation.bias.replicate_data`)."""
+        widths = (
+            np.broadcast_to(np.asarray(self.sigma_mm, float), 3) * 1e-3,
+            np.deg2rad(np.broadcast_to(np.asarray(self.sigma_deg, float), 3)),
+        )
+        out: list = [None] * len(stances)
+        for side in SIDES:
+            idx = [i for i, st in enumerate(stances) if st.side == side]
+            if not idx:
+                continue
+            r = float(rho.get(side, 0.0)) if len(idx) > 1 and self.shared else 0.0
+            K_ref = _reference_knots(self, [stances[i] for i in idx])
+            pattern = rng.standard_normal((2, K_ref, 3))  # translation, rotation
+            for i in idx:
+                B = self.basis(stances[i].time)[0]
+                K = B.shape[1]
+                E = _shared_map(self, stances[i].time, K_ref)
+                BL = B @ self.correlation_factor(K)
+                out[i] = tuple(
+                    BL @ (np.sqrt(1.0 - r) * rng.standard_normal((K, 3)) + np.sqrt(r) * (E @ g)) * w
+                    for g, w in zip(pattern, widths, strict=True)
+                )
+        return out
+
     def signature(self) -> tuple:
         return ("PoseCorrection",)  # values, priors and knots only enter through its slots
 
