@@ -191,6 +191,14 @@ def main() -> None:
         "before then had it)",
     )
     ap.add_argument(
+        "--knot-correlation",
+        type=float,
+        default=None,
+        metavar="PHI",
+        help="a probe: the pose correction's coefficients correlated PHI**k k knots apart "
+        "(AR(1); default: independent, as gc_ocp.fit)",
+    )
+    ap.add_argument(
         "--bias-correction",
         type=int,
         default=0,
@@ -205,6 +213,14 @@ def main() -> None:
     if args.width is not None:
         model = tuple(
             dataclasses.replace(c, sigma_mm=args.width[0], sigma_deg=args.width[1])
+            if c.name == "pose"
+            else c
+            for c in model
+        )
+    if args.knot_correlation is not None:
+        phi = args.knot_correlation
+        model = tuple(
+            dataclasses.replace(c, knot_correlation=tuple(phi**k for k in range(200)))
             if c.name == "pose"
             else c
             for c in model

@@ -21,8 +21,12 @@ the markers gave, not the one the biased fit inflated) and makes the plate data,
 own residual with the sign of each 0.1-s block flipped (the plate noise and misfit, their
 autocorrelation kept), recorded with the stance's plate threshold; the fitter sees that motion
 with a fresh draw of the markers' noise (:func:`draw_pose_noise`, from the noise measured on the
-trial's markers, low-passed as the pipeline did). The model is refitted to each replicate,
-warm from the fit (its widths kept). The mean change of every shared parameter is the bias;
+trial's markers, low-passed as the pipeline did) and of the smooth pose error the pose correction
+stands for (:func:`draw_pose_drift`: its fitted widths, a foot's stances sharing the measured
+fraction of it). A soft-tissue drift slides the foot as the noise does and attenuates mu the
+same way: at 1 mm of noise with a 3 mm drift per stance, replicates of the white noise alone
+found -0.015 of a bias of -0.022, these -0.023 (``benchmarks/bias_probes/README.md``). The
+model is refitted to each replicate, warm from the fit (its widths kept). The mean change of every shared parameter is the bias;
 it is subtracted, and each stance's correction is re-estimated at the corrected values
 (:func:`bias_corrected`). The corrected values' covariance is the fit's (HAC) plus the
 replicates' covariance over ``B`` (the Monte Carlo error of the bias). Checked by simulation:
@@ -30,8 +34,10 @@ the replicates' mean change reproduces the fit's error (mu -0.019 against -0.018
 -0.053 against a mean error of -0.051 at 2 mm), and ``benchmarks/coverage.py
 --bias-correction`` scores the intervals.
 
-What it does not remove: an error the replicates do not have -- a soft-tissue pattern every
-stride of a foot shares, a lab's processing the stance does not record. It costs ``B`` warm
+What it does not remove: an error the replicates do not have -- a lab's processing the stance
+does not record, a drift whose shape the pose correction's prior does not describe. Nor does
+the covariance take in more of the drift's variance than the prior's linearisation gives
+(``docs/quality.md``, *Coverage under a drift per stance*). It costs ``B`` warm
 refits (~3 s each on the synthetic stances); it is off unless asked for
 (``fit(..., bias_correction=B)``, ``gc-ocp fit --bias-correction B``).
 """
