@@ -146,8 +146,9 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=0,
         metavar="B",
-        help="Remove the bias the markers' noise gives the parameters (the friction "
-        "coefficient most: -2 %% at 1 mm of marker noise, -6 %% at 2 mm), estimated from B "
+        help="Remove the bias the markers' noise and soft-tissue drift give the parameters "
+        "(the friction coefficient most: -2 %% at 1 mm of marker noise, -6 %% at 2 mm), "
+        "estimated from B "
         "simulated replicates of the fit, each a warm refit (16 is a good choice; default 0: "
         "off; docs/quality.md).",
     )

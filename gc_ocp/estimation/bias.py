@@ -201,7 +201,7 @@ class BiasCorrection:
         s = (
             f"bias correction ({self.replicates} replicates"
             + (f", {self.failed} failed" if self.failed else "")
-            + f", {self.seconds:.0f} s): the markers' noise moved the fit by "
+            + f", {self.seconds:.0f} s): the markers' noise and drift moved the fit by "
             + (", ".join(parts) or "nothing it could correct")
             + "; removed"
         )
