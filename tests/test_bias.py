@@ -12,7 +12,15 @@ import pytest
 from conftest import synthetic_stances
 
 from gc_ocp.errors import InputError
-from gc_ocp.estimation.bias import bias_corrected, block_signs, draw_pose_noise, replicate_data
+from gc_ocp.estimation.bias import (
+    BiasCorrection,
+    bias_corrected,
+    block_signs,
+    draw_pose_noise,
+    draws_drift,
+    replicate_data,
+)
+from gc_ocp.estimation.pose_scale import PLAUSIBLE_MM
 from gc_ocp.foot import PoseNoise
 from gc_ocp.marker_noise import filter_gain
 
@@ -152,6 +160,19 @@ def test_a_replicate_also_draws_the_smooth_pose_error_of_the_fitted_widths():
 
     white, smooth = moved(False), moved(True)
     assert white < 0.5e-3 and smooth > 2 * white
+    # a width stopped at soft tissue's limit measures the model's misfit: no drift is drawn,
+    # and the correction says the replicates drew the noise only
+    limit = tuple(
+        dataclasses.replace(c, sigma_mm=(2.0, PLAUSIBLE_MM, 2.0)) if c.name == "pose" else c
+        for c in model
+    )
+    assert draws_drift(model) and not draws_drift(limit)
+    a = replicate_data(sts, limit, res, np.random.default_rng(0))
+    b = replicate_data(sts, limit, res, np.random.default_rng(0), drift=False)
+    for x, y in zip(a, b, strict=True):
+        np.testing.assert_array_equal(x.foot.hindfoot_pose, y.foot.hindfoot_pose)
+    info = BiasCorrection(2, 0, {"mu": 0.8}, {"mu": -0.01}, {"mu": 0.002}, 1.0, drift=False)
+    assert "drew the markers' noise only" in info.message()
     assert all(
         r.foot.pose_noise is st.foot.pose_noise
         for r, st in zip(

@@ -54,6 +54,7 @@ from scipy.signal import butter, filtfilt
 from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.measurement import censored
+from gc_ocp.estimation.pose_scale import widths_plausible
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, decode, result_at, solve
@@ -111,6 +112,21 @@ def draw_pose_noise(foot: FootKinematics, rng: np.random.Generator) -> FootKinem
     return dataclasses.replace(seen, pose_noise=pn)
 
 
+def _pose(model: tuple) -> PoseCorrection | None:
+    return next((c for c in model if isinstance(c, PoseCorrection)), None)
+
+
+def draws_drift(model: tuple) -> bool:
+    """Whether the replicates draw a smooth pose error (:func:`draw_pose_drift`): the model has
+    a pose correction and its widths are within what soft tissue does. A width stopped at that
+    limit measures the contact model's misfit more than the markers' error
+    (:mod:`gc_ocp.estimation.pose_scale`), and simulating a drift of that size would make a
+    bias of an error the markers may not have: the replicates then draw the markers' noise
+    only, and the correction says so."""
+    pose = _pose(model)
+    return pose is not None and widths_plausible(pose.sigma_mm, pose.sigma_deg)
+
+
 def draw_pose_drift(
     data: Sequence[StanceData], model: tuple, result: EstimationResult, rng: np.random.Generator
 ) -> list[StanceData]:
@@ -118,9 +134,9 @@ def draw_pose_drift(
     :class:`~gc_ocp.estimation.components.pose.PoseCorrection` stands for: its widths (as fitted
     by :mod:`gc_ocp.estimation.pose_scale`, or as declared), a foot's stances sharing the
     fraction of it that ``result`` measured (:meth:`PoseCorrection.draw`); ``data`` itself
-    without one."""
-    pose = next((c for c in model if isinstance(c, PoseCorrection)), None)
-    if pose is None:
+    without one (:func:`draws_drift`)."""
+    pose = _pose(model)
+    if not draws_drift(model):
         return list(data)
     rho = result.blocks.get(pose.name, {}).get("shared_fraction", {})
     out = []
@@ -182,7 +198,8 @@ class BiasCorrection:
     """What :func:`bias_corrected` did: the replicates made and lost, the shared parameters
     as fitted, their estimated bias and its Monte Carlo error (``{name: value}``), seconds, and
     the parameters left uncorrected because the fit put them at a bound or the correction
-    would have crossed one."""
+    would have crossed one; ``drift``: the replicates drew the smooth pose error too
+    (:func:`draws_drift`)."""
 
     replicates: int
     failed: int
@@ -191,6 +208,7 @@ class BiasCorrection:
     bias_se: dict
     seconds: float
     at_bound: list = dataclasses.field(default_factory=list)
+    drift: bool = True
 
     def message(self) -> str:
         parts = [
@@ -201,10 +219,17 @@ class BiasCorrection:
         s = (
             f"bias correction ({self.replicates} replicates"
             + (f", {self.failed} failed" if self.failed else "")
-            + f", {self.seconds:.0f} s): the markers' noise and drift moved the fit by "
+            + f", {self.seconds:.0f} s): the markers' "
+            + ("noise and drift" if self.drift else "noise")
+            + " moved the fit by "
             + (", ".join(parts) or "nothing it could correct")
             + "; removed"
         )
+        if not self.drift:
+            s += (
+                " (the replicates drew the markers' noise only: the pose correction's width "
+                "stopped at its limit measures the contact model's misfit, not a drift)"
+            )
         if self.at_bound:
             s += "; left uncorrected (at a bound, or the correction would cross one): " + ", ".join(
                 f"{k} ({self.bias[k]:+.3g})" for k in self.at_bound
@@ -307,7 +332,9 @@ def bias_corrected(
     bias = {k: float(np.mean([r[k] for r in reps]) - before[k]) for k in before if k in after}
     se = {k: float(np.std([r[k] for r in reps], ddof=1) / np.sqrt(B)) for k in bias}
     at_bound = [k for k in bias if after[k] == before[k] and bias[k] != 0.0]
-    info = BiasCorrection(B, failed, before, bias, se, time.perf_counter() - t0, at_bound)
+    info = BiasCorrection(
+        B, failed, before, bias, se, time.perf_counter() - t0, at_bound, draws_drift(model)
+    )
     say(info.message())
     return corrected, info
 
@@ -321,6 +348,7 @@ __all__ = [
     "check_replicates",
     "recorded_truth",
     "draw_pose_drift",
+    "draws_drift",
     "draw_pose_noise",
     "replicate_data",
 ]

@@ -72,6 +72,15 @@ MIN_DEG = 0.1
 smaller, and a width near 0 would stop the estimate (a coefficient at 0 stays there)."""
 
 
+def widths_plausible(sigma_mm, sigma_deg) -> bool:
+    """No pose width stopped at the soft tissue's limit (:data:`PLAUSIBLE_MM`,
+    :data:`PLAUSIBLE_DEG`; a scalar or one per axis): the width measures a pose error, not a
+    misfit of the contact model (module doc)."""
+    return bool(
+        np.max(sigma_mm) < PLAUSIBLE_MM * 0.999 and np.max(sigma_deg) < PLAUSIBLE_DEG * 0.999
+    )
+
+
 @dataclass(frozen=True)
 class PoseScale:
     """The estimated widths [mm] x, y, z and [deg] about x, y, z, the coefficients each axis's
@@ -90,10 +99,8 @@ class PoseScale:
     def plausible(self) -> bool:
         """No width stopped at the soft tissue's limit (:data:`PLAUSIBLE_MM`, ``_DEG``,
         :data:`SOLE_PLAUSIBLE_MM`)."""
-        return (
-            max(self.sigma_mm) < PLAUSIBLE_MM * 0.999
-            and max(self.sigma_deg) < PLAUSIBLE_DEG * 0.999
-            and (self.sole_mm is None or self.sole_mm < SOLE_PLAUSIBLE_MM * 0.999)
+        return widths_plausible(self.sigma_mm, self.sigma_deg) and (
+            self.sole_mm is None or self.sole_mm < SOLE_PLAUSIBLE_MM * 0.999
         )
 
     def message(
@@ -291,4 +298,10 @@ def with_estimated_width(
     return tuple(pose if isinstance(c, PoseCorrection) else c for c in model), scale
 
 
-__all__ = ["PoseScale", "estimate_pose_scale", "mackay_update", "with_estimated_width"]
+__all__ = [
+    "widths_plausible",
+    "PoseScale",
+    "estimate_pose_scale",
+    "mackay_update",
+    "with_estimated_width",
+]
