@@ -1,0 +1,82 @@
+"""One-off probe (issue 23; README.md beside it): can the pose correction's knot-to-knot
+correlation be *estimated* (as its widths are), instead of fixed at 0.9 as
+``coverage.py --knot-correlation 0.9`` did?
+
+``phi_em_probe.py DRAWS [NOISE_MM] [DRIFT_MM]``: per draw (coverage.py's draws, drift per
+stance; ``DRIFT_MM`` 0: the markers' noise only), rounds of: fit with the current AR(1)
+correlation ``phi`` (widths estimated, as gc_ocp.fit), then the EM update of the coefficients'
+second moment in their own units, ``L (z z^T + S) L^T`` averaged along its diagonals over every
+stance and axis of a part (``z`` the stored coefficients, ``S`` their posterior covariance, ``L``
+the prior's correlation factor), and ``phi`` <- its lag-1 correlation (pooled over translation
+and rotation). Prints ``phi`` per round and mu's and n's errors."""
+
+import dataclasses
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
+import coverage as cv
+
+from gc_ocp.estimation import build_estimation
+from gc_ocp.estimation.components.pose import PoseCorrection
+from gc_ocp.estimation.pose_scale import estimate_pose_scale
+from gc_ocp.estimation.solve import IpoptOptions, solve
+from gc_ocp.estimation.synthetic import default_truth, recovery_model
+
+
+def with_phi(model, phi):
+    kc = None if phi <= 0 else tuple(phi**k for k in range(200))
+    return tuple(
+        dataclasses.replace(c, knot_correlation=kc) if isinstance(c, PoseCorrection) else c
+        for c in model
+    )
+
+
+def lag1(pb, x, pose):
+    r, J = pb.data_jacobian(x)
+    pw = np.asarray(pb.prior_weights, float)
+    Hi = np.linalg.inv((J.T @ J).toarray() + np.diag(pw**2))
+    spec = {s.key: s for s in pb.variables.specs}
+    m0 = m1 = 0.0
+    for st in pb.stances:
+        for part in ("trans", "rot"):
+            s = spec[("pose", st.label, part)]
+            K = s.size // 3
+            L = pose.correlation_factor(K)
+            for a in range(3):
+                cols = s.start + a + 3 * np.arange(K)
+                M = L @ (np.outer(x[cols], x[cols]) + Hi[np.ix_(cols, cols)]) @ L.T
+                m0 += np.trace(M) / K
+                m1 += np.trace(M, offset=1) / (K - 1)
+    return m1 / m0
+
+
+truth = default_truth()
+disp = cv.sole_displacement()
+noise = (float(sys.argv[2]) if len(sys.argv) > 2 else 0.5) * 1e-3
+drift_mm = float(sys.argv[3]) if len(sys.argv) > 3 else 3.0
+for i in [int(a) for a in sys.argv[1].split(",")]:
+    rng = np.random.default_rng(100 + i)
+    data, seen = cv.draw(rng, truth, disp, 0.9, noise, drift_mm, 0.25 * drift_mm, True)
+    phi, row = 0.0, []
+    for _ in range(5):
+        model = with_phi(recovery_model(), phi)
+        res = solve(build_estimation(data, model), IpoptOptions())
+        fitted, res, _ = estimate_pose_scale(data, model, res, sole=True)
+        pose = next(c for c in fitted if isinstance(c, PoseCorrection))
+        sh = res.params["shared"]
+        row.append(
+            f"phi {phi:.2f}: mu {sh['mu'] - truth['mu']:+.4f} (SE {sh['mu_se']:.4f}) "
+            f"n {sh['n'] - truth['n']:+.4f} (SE {sh['n_se']:.3f})"
+        )
+        new = float(np.clip(lag1(build_estimation(data, fitted), res.x, pose), 0.0, 0.98))
+        if abs(new - phi) < 0.02:
+            break
+        phi = new
+    print(
+        f"draw {i} (noise {noise * 1e3:g} mm, drift {drift_mm:g} mm): " + " | ".join(row),
+        flush=True,
+    )
