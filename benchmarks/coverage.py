@@ -199,6 +199,12 @@ def main() -> None:
         "(AR(1); default: independent, as gc_ocp.fit)",
     )
     ap.add_argument(
+        "--estimate-correlation",
+        action="store_true",
+        help="estimate the pose coefficients' knot-to-knot correlation with the widths "
+        "(estimate_pose_scale(correlation=True); default: independent, as gc_ocp.fit)",
+    )
+    ap.add_argument(
         "--bias-correction",
         type=int,
         default=0,
@@ -230,6 +236,7 @@ def main() -> None:
     bias: list = []
     bias_moves: list = []
     shared: list = []
+    phis: list = []
     t0 = time.perf_counter()
     done = 0
     for i in range(args.draws):
@@ -250,7 +257,11 @@ def main() -> None:
             fitted = model
             if not args.fixed_width and args.width is None:
                 sole = not args.fixed_sole_width  # as gc_ocp.fit: with the pose width
-                fitted, res, _ = estimate_pose_scale(data, model, res, sole=sole)
+                fitted, res, sc = estimate_pose_scale(
+                    data, model, res, sole=sole, correlation=args.estimate_correlation
+                )
+                if sc is not None and sc.knot_correlation is not None:
+                    phis.append(sc.knot_correlation)
                 pb = build_estimation(data, fitted)
             if args.bias_correction:
                 res, info = bias_corrected(data, fitted, res, args.bias_correction, seed=i)
@@ -297,6 +308,11 @@ def main() -> None:
             f"\nShared fraction of the pose error measured per foot (PoseCorrection.shared): "
             f"median {np.median(rho):.2f} ({np.min(rho):.2f}-{np.max(rho):.2f}) over "
             f"{len(rho)} feet"
+        )
+    if phis:
+        print(
+            f"\nKnots' correlation estimated per draw: median {np.median(phis):.2f} "
+            f"({np.min(phis):.2f}-{np.max(phis):.2f}) over {len(phis)} draws"
         )
     b = np.array(bias)
     print(

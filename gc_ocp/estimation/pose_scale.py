@@ -43,6 +43,11 @@ RTOL = 0.05
 """The rounds stop when no width changes by more than this fraction (a 5 % change of a prior
 width moves the fitted parameters by far less than their standard errors)."""
 
+CORRELATION_ATOL = 0.02
+"""With ``correlation``, the rounds also wait for the knots' correlation to move by less than
+this: near 0.9, 0.02 changes the prior's variance of a stance's mean offset by ~20 %
+(``(1 + phi) / (1 - phi)``), twice what the widths' :data:`RTOL` of 5 % does; near 0 by ~4 %."""
+
 MAX_ROUNDS = 8
 """At most this many refits (the bundled trial settles in 4-6)."""
 
@@ -94,6 +99,7 @@ class PoseScale:
     n_stances: int
     sole_mm: float | None = None  # the sole correction's width, when estimated too
     sole_gamma: float | None = None
+    knot_correlation: float | None = None  # AR(1) per knot, when estimated too
 
     @property
     def plausible(self) -> bool:
@@ -118,6 +124,8 @@ class PoseScale:
         )
         if self.sole_mm is not None:
             s += f"; sole correction's width {self.sole_mm:.1f} mm"
+        if self.knot_correlation is not None:
+            s += f"; its coefficients correlated {self.knot_correlation:.2f} one knot apart"
         if not self.plausible:
             s += (
                 f"; the forces ask for more than soft tissue moves a foot (stopped at "
@@ -142,6 +150,9 @@ class PoseScale:
                 if self.sole_mm is None
                 else {"sole_mm": self.sole_mm, "sole_gamma": self.sole_gamma}
             ),
+            **(
+                {} if self.knot_correlation is None else {"knot_correlation": self.knot_correlation}
+            ),
         }
 
 
@@ -156,12 +167,58 @@ def _axis_columns(problem, name: str, kind: str) -> list[np.ndarray]:
     return [np.asarray(o, int) for o in out]
 
 
-def _posterior_variances(problem, x: np.ndarray) -> np.ndarray:
-    """The diagonal of the Gauss-Newton posterior covariance at ``x`` (stored units: a prior
-    variable's prior variance is 1)."""
+def _posterior_covariance(problem, x: np.ndarray) -> np.ndarray:
+    """The Gauss-Newton posterior covariance at ``x`` (stored units: a prior variable's prior
+    variance is 1)."""
     _, J = problem.data_jacobian(x)
     H = (J.T @ J).toarray() + np.diag(problem.prior_weights**2)
-    return np.diag(np.linalg.inv(H))
+    return np.linalg.inv(H)
+
+
+def _posterior_variances(problem, x: np.ndarray) -> np.ndarray:
+    """The diagonal of :func:`_posterior_covariance`."""
+    return np.diag(_posterior_covariance(problem, x))
+
+
+MAX_KNOT_CORRELATION = 0.98
+"""The estimated correlation of neighbouring knots stops here: at 1 a stance's correction is
+one rigid offset and the correlation matrix is singular."""
+
+
+def ar1(phi: float, pose: PoseCorrection, stances: list) -> tuple[float, ...] | None:
+    """``knot_correlation`` of an AR(1) sequence with ``phi`` one knot apart, long enough for
+    every stance's knots (None for ``phi`` 0: independent coefficients)."""
+    if phi <= 0.0:
+        return None
+    K = max(pose.basis(st.time)[0].shape[1] for st in stances)
+    return tuple(float(phi**k) for k in range(K))
+
+
+def knot_correlation_update(problem, x: np.ndarray, pose: PoseCorrection, S: np.ndarray) -> float:
+    """The EM step for the correlation of neighbouring coefficients of the pose correction's
+    smooth part (an AR(1) prior along each stance): the expected second moment of the
+    coefficients in units of their widths, ``L (z z^T + S_zz) L^T`` (``z`` the stored variables,
+    ``S`` the posterior covariance, ``L`` the prior's correlation factor), its mean lag-1 product
+    over its mean square, pooled over every stance, part and axis; clipped to [0,
+    :data:`MAX_KNOT_CORRELATION`]. Under independent coefficients it is ~0 (the posterior's
+    smoothing is undone by ``S``); a drift that sits in the lowest frequencies (an offset and a
+    trend per stance) takes it to ~0.9 (``docs/quality.md``, *The lead: a pose prior whose
+    variance sits in the low frequencies*)."""
+    spec = {s_.key: s_ for s_ in problem.variables.specs}
+    m0 = m1 = 0.0
+    for st in problem.stances:
+        for part in ("trans", "rot"):
+            sp = spec[(pose.name, st.label, part)]
+            K = sp.size // 3
+            if K < 2:
+                continue
+            L = pose.correlation_factor(K)
+            for a in range(3):
+                cols = sp.start + a + 3 * np.arange(K)
+                M = L @ (np.outer(x[cols], x[cols]) + S[np.ix_(cols, cols)]) @ L.T
+                m0 += np.trace(M) / K
+                m1 += np.trace(M, offset=1) / (K - 1)
+    return float(np.clip(m1 / m0, 0.0, MAX_KNOT_CORRELATION)) if m0 > 0 else 0.0
 
 
 def mackay_update(
@@ -211,6 +268,7 @@ def estimate_pose_scale(
     refit: Callable[[object, np.ndarray, bool], EstimationResult] | None = None,
     sole: bool = False,
     covariance: bool = True,
+    correlation: bool = False,
 ) -> tuple[tuple, EstimationResult, PoseScale | None]:
     """The model with the pose correction's widths estimated on ``data`` (module doc), its fit
     (warm-started from ``result``, the fit with the current widths) and the estimate; the input
@@ -220,7 +278,9 @@ def estimate_pose_scale(
     width in the same rounds (:func:`sole_update`). ``covariance``: the returned fit carries its
     covariance (False: a caller that keeps only the widths); either way only the last round's
     refit computes it (whether the round is the last is known before its refit, from the
-    widths' change)."""
+    widths' change). ``correlation``: estimate the correlation of neighbouring coefficients in
+    the same rounds too (:func:`knot_correlation_update`; an AR(1) ``knot_correlation``; the
+    rounds stop when it moves by less than :data:`CORRELATION_ATOL`)."""
     say = progress or (lambda s: None)
     if refit is None:
 
@@ -235,13 +295,21 @@ def estimate_pose_scale(
         sole_c = None
     rounds = []
     sole_w = sole_g = None
+    phi = float(pose.knot_correlation[1]) if correlation and pose.knot_correlation else 0.0
     prob = build_estimation(data, model, weights)
     for k in range(MAX_ROUNDS):
-        Sd = _posterior_variances(prob, result.x)
+        S = _posterior_covariance(prob, result.x)
+        Sd = np.diag(S)
         mm, deg, gamma, n = mackay_update(prob, result.x, pose, Sd)
         old = np.r_[np.broadcast_to(pose.sigma_mm, 3), np.broadcast_to(pose.sigma_deg, 3)]
         change = float(np.max(np.abs(np.r_[mm, deg] / old - 1.0)))
         pose = replace(pose, sigma_mm=mm, sigma_deg=deg)
+        if correlation:
+            new_phi = knot_correlation_update(prob, result.x, pose, S)
+            # a move of CORRELATION_ATOL counts as a width's change of RTOL
+            change = max(change, abs(new_phi - phi) / CORRELATION_ATOL * RTOL)
+            phi = new_phi
+            pose = replace(pose, knot_correlation=ar1(phi, pose, data))
         new = {PoseCorrection: pose}
         if sole_c is not None:
             sole_w, sole_g = sole_update(prob, result.x, sole_c, Sd)
@@ -255,11 +323,14 @@ def estimate_pose_scale(
         row = {"sigma_mm": list(mm), "sigma_deg": list(deg), "objective": result.objective}
         if sole_w is not None:
             row["sole_mm"] = sole_w * 1e3
+        if correlation:
+            row["knot_correlation"] = phi
         rounds.append(row)
         say(
             f"pose width round {k + 1}: {', '.join(f'{v:.2f}' for v in mm)} mm, "
             f"{', '.join(f'{v:.2f}' for v in deg)} deg"
             + ("" if sole_w is None else f", sole {sole_w * 1e3:.2f} mm")
+            + (f", knots correlated {phi:.2f}" if correlation else "")
             + f"; J = {result.objective:.1f}"
         )
         if last:
@@ -273,6 +344,7 @@ def estimate_pose_scale(
         len(data),
         sole_mm=None if sole_w is None else sole_w * 1e3,
         sole_gamma=sole_g,
+        knot_correlation=phi if correlation else None,
     )
     return model, result, est
 
@@ -299,6 +371,8 @@ def with_estimated_width(
 
 
 __all__ = [
+    "ar1",
+    "knot_correlation_update",
     "widths_plausible",
     "PoseScale",
     "estimate_pose_scale",

@@ -312,7 +312,8 @@ def _trajectory(comp: PoseCorrection, spec_of, x: np.ndarray, stance) -> np.ndar
     rows = []
     for part in ("trans", "rot"):
         z = np.asarray(x[spec_of[(comp.name, stance.label, part)].slice], float)
-        rows.append(z.reshape(-1, 3).T @ B.T)  # stored column-major 3 x K
+        # stored column-major 3 x K; the coefficients are L z (knot_correlation)
+        rows.append((comp.correlation_factor(B.shape[1]) @ z.reshape(-1, 3)).T @ B.T)
     return np.vstack(rows)
 
 
@@ -323,10 +324,10 @@ def shared_fraction(comp: PoseCorrection, specs: list, stances: list, x: np.ndar
     normalised time (:func:`_trajectory`), pooled over the six axes in units of their widths,
     clipped to [0, 1]. Independent errors give ~0 (more so with more stances), one pattern in
     every stride 1. Only feet with two or more stances (with one, a shared pattern is that
-    stance's own error), and only for independent coefficients (no ``knot_correlation``: the
-    stored variables are then the coefficients)."""
-    if comp.knot_correlation is not None:
-        return {}
+    stance's own error). With ``knot_correlation`` the trajectories are those of the
+    coefficients ``L z``, and :meth:`PoseCorrection.prior_covariance` shares ``rho`` of the
+    stored (white) variables ``z``: stances of equal length then share it in the coefficients
+    too (the AR(1) factor of a shorter stance is the leading block of a longer one's)."""
     spec_of = {s.key: s for s in specs}
     out = {}
     for side in SIDES:
