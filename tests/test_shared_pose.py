@@ -113,3 +113,41 @@ def test_a_shared_correction_widens_the_exponent_and_is_reported(problem):
     assert independent.pose_shared_fraction == {}
     se = {r: res.params["shared"]["n_se"] for r, res in (("s", shared), ("i", independent))}
     assert se["s"] > se["i"]
+
+
+def test_the_knots_correlation_is_estimated_from_the_coefficients_and_their_uncertainty(problem):
+    """``pose_scale.knot_correlation_update``: the EM step's lag-1 correlation of
+    ``L (z z^T + S) L^T``. Coefficients drawn from an AR(1) of 0.8 give back ~0.8, white ones
+    ~0, and coefficients the data did not inform (z = 0, S = I) 0, not the posterior's
+    smoothing; under a correlated prior the stored white variables map back through L."""
+    from gc_ocp.estimation.pose_scale import ar1, knot_correlation_update
+
+    comp, specs = _pose(problem)
+    rng = np.random.default_rng(3)
+    n = problem.x0.size
+
+    def draw(phi, pose):
+        x = np.zeros(n)
+        for s in specs:
+            K = s.size // 3
+            C = phi ** np.abs(np.subtract.outer(np.arange(K), np.arange(K)))
+            c = np.linalg.cholesky(C) @ rng.standard_normal((K, 3))  # (K, 3) per axis
+            x[s.slice] = np.linalg.solve(pose.correlation_factor(K), c).ravel()  # z = L^-1 c
+        return x
+
+    # 6 stances x 2 parts x 3 axes x ~8 neighbouring pairs: the lag-1 estimate's SD is
+    # (1 - phi^2) / sqrt(~290), 0.06 at 0 and 0.02 at 0.8; 0.15 is over two of the larger
+    zero = np.zeros((n, n))
+    assert knot_correlation_update(problem, draw(0.8, comp), comp, zero) == pytest.approx(
+        0.8, abs=0.15
+    )
+    assert knot_correlation_update(problem, draw(0.0, comp), comp, zero) == pytest.approx(
+        0.0, abs=0.15
+    )
+    assert knot_correlation_update(problem, np.zeros(n), comp, np.eye(n)) == 0.0
+    correlated = dataclasses.replace(comp, knot_correlation=ar1(0.6, comp, problem.stances))
+    assert correlated.knot_correlation[:3] == pytest.approx((1.0, 0.6, 0.36))
+    assert knot_correlation_update(
+        problem, draw(0.8, correlated), correlated, zero
+    ) == pytest.approx(0.8, abs=0.15)
+    assert ar1(0.0, comp, problem.stances) is None
