@@ -142,6 +142,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--fixed-pose-width keeps it too.",
     )
     p.add_argument(
+        "--pose-correlation",
+        action="store_true",
+        help="Also estimate the foot-pose correction's knot-to-knot correlation (a prior whose "
+        "variance sits in the low frequencies, as a soft-tissue drift's does; an option, "
+        "measured on synthetic drifts only: docs/quality.md).",
+    )
+    p.add_argument(
         "--bias-correction",
         type=int,
         default=0,

@@ -121,6 +121,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
                 pose_scale=not args.fixed_pose_width,
                 sole_scale=False if args.fixed_sole_width else None,
                 bias_correction=args.bias_correction,
+                pose_correlation=args.pose_correlation,
             )
         except SolveError as e:
             if e.result is not None:

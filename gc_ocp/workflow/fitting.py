@@ -191,6 +191,7 @@ def fit(
     pose_scale: bool = True,
     sole_scale: bool | None = None,
     bias_correction: int = 0,
+    pose_correlation: bool = False,
 ) -> FitReport:
     """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
 
@@ -207,9 +208,16 @@ def fit(
     component's prior. sole_scale: estimate the sole correction's width in the same rounds
     (:func:`~gc_ocp.estimation.pose_scale.sole_update`); None (default): whenever the pose
     width is estimated; False: the component's 5 mm prior (``docs/quality.md``, 'The sole
-    correction's width').
+    correction's width'). pose_correlation: estimate the pose coefficients' knot-to-knot
+    correlation in the same rounds too (an option, measured on synthetic drifts only:
+    ``docs/quality.md``, *The lead: a pose prior whose variance sits in the low frequencies*).
     """
     say = progress or (lambda s: None)
+    if pose_correlation and not pose_scale:
+        raise InputError(
+            "The pose correction's knot correlation is estimated in the pose width's rounds: "
+            "keep pose_scale=True (drop --fixed-pose-width) to estimate it."
+        )
     if sole_scale is None:
         sole_scale = pose_scale
     if sole_scale and not pose_scale:
@@ -270,6 +278,7 @@ def fit(
             say,
             sole=sole_scale,
             covariance=not bias_correction,
+            correlation=pose_correlation,
         )
     bias = None
     if bias_correction:
