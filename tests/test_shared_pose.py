@@ -151,3 +151,11 @@ def test_the_knots_correlation_is_estimated_from_the_coefficients_and_their_unce
         problem, draw(0.8, correlated), correlated, zero
     ) == pytest.approx(0.8, abs=0.15)
     assert ar1(0.0, comp, problem.stances) is None
+
+
+def test_a_fit_refuses_the_knots_correlation_without_the_width_rounds():
+    from gc_ocp.errors import InputError
+    from gc_ocp.workflow.fitting import fit
+
+    with pytest.raises(InputError, match="pose width's rounds"):
+        fit([], pose_scale=False, sole_scale=False, pose_correlation=True)
