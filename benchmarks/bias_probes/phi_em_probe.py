@@ -8,7 +8,8 @@ correlation ``phi`` (widths estimated, as gc_ocp.fit), then the EM update of the
 second moment in their own units, ``L (z z^T + S) L^T`` averaged along its diagonals over every
 stance and axis of a part (``z`` the stored coefficients, ``S`` their posterior covariance, ``L``
 the prior's correlation factor), and ``phi`` <- its lag-1 correlation (pooled over translation
-and rotation). Prints ``phi`` per round and mu's and n's errors."""
+and rotation; the step is now the package's ``pose_scale.knot_correlation_update``, the same
+sums the probe first wrote out). Prints ``phi`` per round and mu's and n's errors."""
 
 import dataclasses
 import sys
@@ -22,7 +23,11 @@ import coverage as cv
 
 from gc_ocp.estimation import build_estimation
 from gc_ocp.estimation.components.pose import PoseCorrection
-from gc_ocp.estimation.pose_scale import estimate_pose_scale
+from gc_ocp.estimation.pose_scale import (
+    _posterior_covariance,
+    estimate_pose_scale,
+    knot_correlation_update,
+)
 from gc_ocp.estimation.solve import IpoptOptions, solve
 from gc_ocp.estimation.synthetic import default_truth, recovery_model
 
@@ -33,25 +38,6 @@ def with_phi(model, phi):
         dataclasses.replace(c, knot_correlation=kc) if isinstance(c, PoseCorrection) else c
         for c in model
     )
-
-
-def lag1(pb, x, pose):
-    r, J = pb.data_jacobian(x)
-    pw = np.asarray(pb.prior_weights, float)
-    Hi = np.linalg.inv((J.T @ J).toarray() + np.diag(pw**2))
-    spec = {s.key: s for s in pb.variables.specs}
-    m0 = m1 = 0.0
-    for st in pb.stances:
-        for part in ("trans", "rot"):
-            s = spec[("pose", st.label, part)]
-            K = s.size // 3
-            L = pose.correlation_factor(K)
-            for a in range(3):
-                cols = s.start + a + 3 * np.arange(K)
-                M = L @ (np.outer(x[cols], x[cols]) + Hi[np.ix_(cols, cols)]) @ L.T
-                m0 += np.trace(M) / K
-                m1 += np.trace(M, offset=1) / (K - 1)
-    return m1 / m0
 
 
 truth = default_truth()
@@ -72,7 +58,8 @@ for i in [int(a) for a in sys.argv[1].split(",")]:
             f"phi {phi:.2f}: mu {sh['mu'] - truth['mu']:+.4f} (SE {sh['mu_se']:.4f}) "
             f"n {sh['n'] - truth['n']:+.4f} (SE {sh['n_se']:.3f})"
         )
-        new = float(np.clip(lag1(build_estimation(data, fitted), res.x, pose), 0.0, 0.98))
+        pb = build_estimation(data, fitted)
+        new = knot_correlation_update(pb, res.x, pose, _posterior_covariance(pb, res.x))
         if abs(new - phi) < 0.02:
             break
         phi = new
