@@ -414,4 +414,7 @@ def test_fit_with_a_bias_correction_reports_what_it_removed(tmp_path, capsys):
     assert d["provenance"]["options"]["bias_correction"] == 2
     assert "bias correction (2 replicates" in printed
     page = (out / "report.html").read_text()
-    assert "noise: bias correction (2 replicates" in page, page[:3000]
+    assert "replicates of the fit): bias correction (2 replicates" in page, page[:3000]
+    # this trial's pose widths stop at soft tissue's limit (a misfit): no drift is drawn, and
+    # the correction says so
+    assert b["drift"] is False and "drew the markers&#39; noise only" in page
