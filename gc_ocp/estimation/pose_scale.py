@@ -186,12 +186,14 @@ one rigid offset and the correlation matrix is singular."""
 
 
 def ar1(phi: float, pose: PoseCorrection, stances: list) -> tuple[float, ...] | None:
-    """``knot_correlation`` of an AR(1) sequence with ``phi`` one knot apart, long enough for
-    every stance's knots (None for ``phi`` 0: independent coefficients)."""
+    """``knot_correlation`` of an AR(1) sequence with ``phi`` one knot apart (None for ``phi``
+    0: independent coefficients), long enough for four times the longest of ``stances`` and at
+    least 256 knots: a held-out or other stance built with it later may be longer, and a
+    sequence cut short (zeros beyond) need not be a valid correlation."""
     if phi <= 0.0:
         return None
     K = max(pose.basis(st.time)[0].shape[1] for st in stances)
-    return tuple(float(phi**k) for k in range(K))
+    return tuple(float(phi**k) for k in range(max(4 * K, 256)))
 
 
 def knot_correlation_update(problem, x: np.ndarray, pose: PoseCorrection, S: np.ndarray) -> float:
