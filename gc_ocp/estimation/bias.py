@@ -26,10 +26,11 @@ stands for (:func:`draw_pose_drift`: its fitted widths, a foot's stances sharing
 fraction of it). A soft-tissue drift slides the foot as the noise does and attenuates mu the
 same way: at 1 mm of noise with a 3 mm drift per stance, replicates of the white noise alone
 found -0.015 of a bias of -0.022, these -0.023 (``benchmarks/bias_probes/README.md``). The
-model is refitted to each replicate, warm from the fit (its widths kept). The mean change of every shared parameter is the bias;
-it is subtracted, and each stance's correction is re-estimated at the corrected values
-(:func:`bias_corrected`). The corrected values' covariance is the fit's (HAC) plus the
-replicates' covariance over ``B`` (the Monte Carlo error of the bias). Checked by simulation:
+model is refitted to each replicate, warm from the fit (its widths kept). The mean change of
+every shared parameter is the bias; it is subtracted, and each stance's correction is
+re-estimated at the corrected values (:func:`bias_corrected`). The corrected values'
+covariance is the fit's (HAC) plus the replicates' covariance over ``B`` (the Monte Carlo
+error of the bias). Checked by simulation:
 the replicates' mean change reproduces the fit's error (mu -0.019 against -0.018 at 1 mm,
 -0.053 against a mean error of -0.051 at 2 mm), and ``benchmarks/coverage.py
 --bias-correction`` scores the intervals.
