@@ -35,7 +35,7 @@ from scipy.spatial.transform import Rotation
 from gc_ocp.diagnosis.mismatch import drift, drift_pattern
 from gc_ocp.estimation import build_estimation
 from gc_ocp.estimation.bias import bias_corrected
-from gc_ocp.estimation.pose_scale import estimate_pose_scale
+from gc_ocp.estimation.pose_scale import ar1_knot_correlation, estimate_pose_scale
 from gc_ocp.estimation.solve import IpoptOptions, _covariance, decode, solve
 from gc_ocp.estimation.synthetic import (
     default_truth,
@@ -223,14 +223,6 @@ def main() -> None:
             else c
             for c in model
         )
-    if args.knot_correlation is not None:
-        phi = args.knot_correlation
-        model = tuple(
-            dataclasses.replace(c, knot_correlation=tuple(phi**k for k in range(200)))
-            if c.name == "pose"
-            else c
-            for c in model
-        )
     drift_deg = 0.25 * args.drift_mm if args.drift_deg is None else args.drift_deg
     hits: dict = {}
     bias: list = []
@@ -251,6 +243,15 @@ def main() -> None:
             drift_deg,
             args.drift_independent,
         )
+        if args.knot_correlation is not None:  # the AR(1) sequence as the package builds it
+            model = tuple(
+                dataclasses.replace(
+                    c, knot_correlation=ar1_knot_correlation(args.knot_correlation, c, data)
+                )
+                if c.name == "pose"
+                else c
+                for c in model
+            )
         pb = build_estimation(data, model)
         try:
             res = solve(pb, IpoptOptions())

@@ -120,7 +120,7 @@ def test_the_knots_correlation_is_estimated_from_the_coefficients_and_their_unce
     ``L (z z^T + S) L^T``. Coefficients drawn from an AR(1) of 0.8 give back ~0.8, white ones
     ~0, and coefficients the data did not inform (z = 0, S = I) 0, not the posterior's
     smoothing; under a correlated prior the stored white variables map back through L."""
-    from gc_ocp.estimation.pose_scale import ar1, knot_correlation_update
+    from gc_ocp.estimation.pose_scale import ar1_knot_correlation, knot_correlation_update
 
     comp, specs = _pose(problem)
     rng = np.random.default_rng(3)
@@ -145,12 +145,14 @@ def test_the_knots_correlation_is_estimated_from_the_coefficients_and_their_unce
         0.0, abs=0.15
     )
     assert knot_correlation_update(problem, np.zeros(n), comp, np.eye(n)) == 0.0
-    correlated = dataclasses.replace(comp, knot_correlation=ar1(0.6, comp, problem.stances))
+    correlated = dataclasses.replace(
+        comp, knot_correlation=ar1_knot_correlation(0.6, comp, problem.stances)
+    )
     assert correlated.knot_correlation[:3] == pytest.approx((1.0, 0.6, 0.36))
     assert knot_correlation_update(
         problem, draw(0.8, correlated), correlated, zero
     ) == pytest.approx(0.8, abs=0.15)
-    assert ar1(0.0, comp, problem.stances) is None
+    assert ar1_knot_correlation(0.0, comp, problem.stances) is None
 
 
 def test_a_fit_refuses_the_knots_correlation_without_the_width_rounds():

@@ -25,6 +25,7 @@ from gc_ocp.estimation import build_estimation
 from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.pose_scale import (
     _posterior_covariance,
+    ar1_knot_correlation,
     estimate_pose_scale,
     knot_correlation_update,
 )
@@ -32,10 +33,11 @@ from gc_ocp.estimation.solve import IpoptOptions, solve
 from gc_ocp.estimation.synthetic import default_truth, recovery_model
 
 
-def with_phi(model, phi):
-    kc = None if phi <= 0 else tuple(phi**k for k in range(200))
+def with_phi(model, phi, stances):
     return tuple(
-        dataclasses.replace(c, knot_correlation=kc) if isinstance(c, PoseCorrection) else c
+        dataclasses.replace(c, knot_correlation=ar1_knot_correlation(phi, c, stances))
+        if isinstance(c, PoseCorrection)
+        else c
         for c in model
     )
 
@@ -49,7 +51,7 @@ for i in [int(a) for a in sys.argv[1].split(",")]:
     data, seen = cv.draw(rng, truth, disp, 0.9, noise, drift_mm, 0.25 * drift_mm, True)
     phi, row = 0.0, []
     for _ in range(5):
-        model = with_phi(recovery_model(), phi)
+        model = with_phi(recovery_model(), phi, data)
         res = solve(build_estimation(data, model), IpoptOptions())
         fitted, res, _ = estimate_pose_scale(data, model, res, sole=True)
         pose = next(c for c in fitted if isinstance(c, PoseCorrection))

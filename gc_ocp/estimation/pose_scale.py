@@ -185,7 +185,9 @@ MAX_KNOT_CORRELATION = 0.98
 one rigid offset and the correlation matrix is singular."""
 
 
-def ar1(phi: float, pose: PoseCorrection, stances: list) -> tuple[float, ...] | None:
+def ar1_knot_correlation(
+    phi: float, pose: PoseCorrection, stances: list
+) -> tuple[float, ...] | None:
     """``knot_correlation`` of an AR(1) sequence with ``phi`` one knot apart (None for ``phi``
     0: independent coefficients), long enough for four times the longest of ``stances`` and at
     least 256 knots: a held-out or other stance built with it later may be longer, and a
@@ -311,7 +313,7 @@ def estimate_pose_scale(
             # a move of CORRELATION_ATOL counts as a width's change of RTOL
             change = max(change, abs(new_phi - phi) / CORRELATION_ATOL * RTOL)
             phi = new_phi
-            pose = replace(pose, knot_correlation=ar1(phi, pose, data))
+            pose = replace(pose, knot_correlation=ar1_knot_correlation(phi, pose, data))
         new = {PoseCorrection: pose}
         if sole_c is not None:
             sole_w, sole_g = sole_update(prob, result.x, sole_c, Sd)
@@ -373,7 +375,7 @@ def with_estimated_width(
 
 
 __all__ = [
-    "ar1",
+    "ar1_knot_correlation",
     "knot_correlation_update",
     "widths_plausible",
     "PoseScale",
