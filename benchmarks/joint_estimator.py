@@ -2,6 +2,7 @@
 before it (issue 23's Done means: "not worse on RMS; far fewer flags").
 
 Run:  PYTHONPATH=. python benchmarks/joint_estimator.py [--data ../shared/data] [--only SUBSTR]
+      [--correlation]
 
 *Before*: the pose correction with its guessed prior (2 mm, 1 deg) and no marker-noise part.
 *Now*: the markers' measured noise modelled (``gc_ocp/marker_noise.py``) and the
@@ -10,6 +11,10 @@ Per file, one stance held out (the last one of a foot that has two; none when no
 superior-force RMS [% BW] in sample (mean of the feet) and held out, COP RMS [mm] in sample,
 the markers' white noise of the foot segments [mm], the estimated widths, the flags of
 corrections beyond 3 sigma of their prior (``prior_exceeded``) and all flags, and the time.
+
+``--correlation``: *before* is today's default (``gc_ocp.fit``), *now* adds the pose
+coefficients' knot-to-knot correlation estimated with the widths (``pose_correlation=True``);
+the widths column then ends with the estimated correlation one knot apart.
 """
 
 from __future__ import annotations
@@ -32,18 +37,25 @@ def _holdout(trial) -> str | None:
     return two[0][-1].label if two else None
 
 
-def _row(pairs, now: bool, holdout):
+def _row(pairs, kind: str, holdout):
+    """kind: "prior" (before issue 23), "default" (``gc_ocp.fit``), "correlation"."""
     import gc_ocp
     from gc_ocp.estimation.components import PoseCorrection
 
     model = gc_ocp.full_model()
-    if not now:
+    if kind == "prior":
         model = tuple(
             PoseCorrection(marker_noise=False) if isinstance(c, PoseCorrection) else c
             for c in model
         )
     t0 = time.perf_counter()
-    rep = gc_ocp.fit(pairs, model=model, holdout=holdout, pose_scale=now)
+    rep = gc_ocp.fit(
+        pairs,
+        model=model,
+        holdout=holdout,
+        pose_scale=kind != "prior",
+        pose_correlation=kind == "correlation",
+    )
     dt = time.perf_counter() - t0
     r = rep.result
     sup = [v["superior_force_pct_bw"] for v in r.rms.values()]
@@ -66,7 +78,13 @@ def main() -> None:
         "--data", type=Path, default=Path(__file__).parents[1].parent / "shared" / "data"
     )
     ap.add_argument("--only", default="")
+    ap.add_argument(
+        "--correlation",
+        action="store_true",
+        help="before: the default; now: the knots' correlation estimated too",
+    )
     args = ap.parse_args()
+    kinds = ("default", "correlation") if args.correlation else ("prior", "default")
     print(
         "| file | marker noise, foot [mm] | held out | superior RMS in / held out [% BW] | COP [mm] | corrections > 3 sigma (all flags) | widths (mm; deg) | s |"
     )
@@ -79,8 +97,8 @@ def main() -> None:
             try:
                 pairs = [_load(args.data / rel)]
                 ho = _holdout(pairs[0][0])
-                old = _row(pairs, False, ho)
-                new = _row(pairs, True, ho)
+                old = _row(pairs, kinds[0], ho)
+                new = _row(pairs, kinds[1], ho)
             except Exception as e:  # a file the fit refuses: say why, go on
                 print(f"| {rel} | {type(e).__name__}: {str(e)[:120]} | | | | | | |", flush=True)
                 continue
@@ -99,6 +117,7 @@ def main() -> None:
             else "/".join(f"{v:.1f}" for v in sc.sigma_mm)
             + "; "
             + "/".join(f"{v:.1f}" for v in sc.sigma_deg)
+            + ("" if sc.knot_correlation is None else f"; phi {sc.knot_correlation:.2f}")
         )
         print(
             f"| {rel} | {foot} | {ho or '-'} | {f(old['in'])} / {f(old['held'])} -> "
