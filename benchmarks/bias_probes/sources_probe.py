@@ -4,77 +4,38 @@ drawn from its own random stream (so a source's draw is the same whichever other
 ``plate`` (AR(1) plate noise, 1 % BW, rho 0.9), ``marker`` (0.5 mm of white marker noise,
 low-passed), ``drift`` (3 mm / 0.75 deg per stance: offset and trend), ``drift+marker``, ``all``.
 
-``sources_probe.py VARIANT SEEDS``: per seed, the fit (widths estimated, as gc_ocp.fit), mu's
-error and SE, n's error."""
+``sources_probe.py VARIANT SEEDS [MM DEG]``: per seed, the fit (widths estimated, as
+gc_ocp.fit; with MM DEG: the pose widths fixed there, the sole's 5 mm prior), mu's error and
+SE, n's error."""
 
+import dataclasses
 import sys
 from pathlib import Path
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-import coverage as cv
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from sources_probe_data import FLAGS, make  # noqa: E402
 
-from gc_ocp.diagnosis.mismatch import drift
 from gc_ocp.estimation import build_estimation
 from gc_ocp.estimation.pose_scale import estimate_pose_scale
 from gc_ocp.estimation.solve import IpoptOptions, solve
-from gc_ocp.estimation.synthetic import (
-    default_truth,
-    noisy_pose,
-    nominal_points,
-    recovery_model,
-    synthetic_stance,
-)
-
-SIDES = cv.SIDES
-truth = default_truth()
-disp = cv.sole_displacement()
-
-
-def make(seed, use_drift, use_marker, use_plate):
-    r_d, r_m, r_p = (np.random.default_rng([seed, k]) for k in range(3))
-    sts = []
-    for side, t_off in (("left", 0.0), ("right", 0.55)):
-        for j in range(3):
-            sts.append(
-                synthetic_stance(
-                    side,
-                    truth,
-                    nominal_points(side) + disp[side],
-                    t0=1.1 * j + t_off,
-                    sink=0.010,
-                    rng=r_m,
-                    label=f"syn:{side}{j}",
-                )
-            )
-    if use_drift:
-        pattern = {s: (np.zeros((2, 3)), np.zeros((2, 3))) for s in SIDES}
-        sts = drift(sts, 3e-3, 0.75, r_d, 1.0, pattern=pattern)
-    if use_marker:
-        sts = [st.with_foot(noisy_pose(st.foot, 0.5e-3, r_m)) for st in sts]
-    out = []
-    for st in sts:
-        sd = 0.01 * st.body_weight
-        noise = cv.ar1(r_p, st.n, 0.9, 1.0, (6,)) * np.array([sd, sd, sd, *(3 * [sd * 0.02])])
-        out.append(st.with_measured(st.measured + (noise if use_plate else 0)))
-    return out
-
+from gc_ocp.estimation.synthetic import recovery_model
 
 variant = sys.argv[1]
-flags = {
-    "drift": (1, 0, 0),
-    "marker": (0, 1, 0),
-    "plate": (0, 0, 1),
-    "all": (1, 1, 1),
-    "drift+marker": (1, 1, 0),
-}[variant]
+flags = FLAGS[variant]
+fixed = [float(a) for a in sys.argv[3:5]] if len(sys.argv) > 4 else None
 for seed in [int(a) for a in sys.argv[2].split(",")]:
     data = make(seed, *flags)
     model = recovery_model()
+    if fixed is not None:
+        model = tuple(
+            dataclasses.replace(c, sigma_mm=fixed[0], sigma_deg=fixed[1]) if c.name == "pose" else c
+            for c in model
+        )
     res = solve(build_estimation(data, model), IpoptOptions())
-    fitted, res, sc = estimate_pose_scale(data, model, res, sole=True)
+    if fixed is None:
+        fitted, res, sc = estimate_pose_scale(data, model, res, sole=True)
     print(
         variant,
         seed,

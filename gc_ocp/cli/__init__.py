@@ -145,8 +145,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--pose-correlation",
         action="store_true",
         help="Also estimate the foot-pose correction's knot-to-knot correlation (a prior whose "
-        "variance sits in the low frequencies, as a soft-tissue drift's does; an option, "
-        "measured on synthetic drifts only: docs/quality.md).",
+        "variance sits in the low frequencies, as a soft-tissue drift's does). Better on "
+        "synthetic drifts, worse on real files whose pose widths stop at their limit: "
+        "docs/quality.md.",
     )
     p.add_argument(
         "--bias-correction",

@@ -209,8 +209,9 @@ def fit(
     (:func:`~gc_ocp.estimation.pose_scale.sole_update`); None (default): whenever the pose
     width is estimated; False: the component's 5 mm prior (``docs/quality.md``, 'The sole
     correction's width'). pose_correlation: estimate the pose coefficients' knot-to-knot
-    correlation in the same rounds too (an option, measured on synthetic drifts only:
-    ``docs/quality.md``, *The lead: a pose prior whose variance sits in the low frequencies*).
+    correlation in the same rounds too (an option: better on synthetic drifts, worse on the
+    shared labs' files, where it measures the contact model's misfit; ``docs/quality.md``, *The
+    lead: a pose prior whose variance sits in the low frequencies*).
     """
     say = progress or (lambda s: None)
     if pose_correlation and not pose_scale:
