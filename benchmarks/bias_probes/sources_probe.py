@@ -4,9 +4,10 @@ drawn from its own random stream (so a source's draw is the same whichever other
 ``plate`` (AR(1) plate noise, 1 % BW, rho 0.9), ``marker`` (0.5 mm of white marker noise,
 low-passed), ``drift`` (3 mm / 0.75 deg per stance: offset and trend), ``drift+marker``, ``all``.
 
-``sources_probe.py VARIANT SEEDS [MM DEG]``: per seed, the fit (widths estimated, as
-gc_ocp.fit; with MM DEG: the pose widths fixed there, the sole's 5 mm prior), mu's error and
-SE, n's error."""
+``sources_probe.py VARIANT SEEDS [MM DEG [no-noise-part]]``: per seed, the fit (widths
+estimated, as gc_ocp.fit; with MM DEG: the pose widths fixed there, the sole's 5 mm prior;
+``no-noise-part``: the pose correction without its measured-noise part; ``knots=S``: its
+smooth part's knot spacing S seconds, default 0.1), mu's error and SE, n's error."""
 
 import dataclasses
 import sys
@@ -27,7 +28,13 @@ flags = FLAGS[variant]
 fixed = [float(a) for a in sys.argv[3:5]] if len(sys.argv) > 4 else None
 for seed in [int(a) for a in sys.argv[2].split(",")]:
     data = make(seed, *flags)
-    model = recovery_model()
+    model = recovery_model(marker_noise="no-noise-part" not in sys.argv)
+    for a in sys.argv:
+        if a.startswith("knots="):
+            model = tuple(
+                dataclasses.replace(c, knot_spacing=float(a[6:])) if c.name == "pose" else c
+                for c in model
+            )
     if fixed is not None:
         model = tuple(
             dataclasses.replace(c, sigma_mm=fixed[0], sigma_deg=fixed[1]) if c.name == "pose" else c
