@@ -13,14 +13,11 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import t as t_dist
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-import coverage as cv
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from per_stance_draw import TRUTH, draws_and_noise, fitted_draw  # noqa: E402
 
-from gc_ocp.estimation import build_estimation
-from gc_ocp.estimation.pose_scale import estimate_pose_scale
-from gc_ocp.estimation.solve import IpoptOptions, decode, solve
-from gc_ocp.estimation.synthetic import default_truth, recovery_model
+from gc_ocp.estimation import build_estimation  # noqa: E402
+from gc_ocp.estimation.solve import decode  # noqa: E402
 
 
 def stance_clustered_covariance(problem, x, by="stance"):
@@ -60,21 +57,15 @@ def stance_clustered_covariance(problem, x, by="stance"):
     return 0.5 * (cov + cov.T), G
 
 
-truth = default_truth()
-disp = cv.sole_displacement()
-noise = (float(sys.argv[2]) if len(sys.argv) > 2 else 0.5) * 1e-3
-for i in [int(a) for a in sys.argv[1].split(",")]:
-    rng = np.random.default_rng(100 + i)
-    data, seen = cv.draw(rng, truth, disp, 0.9, noise, 3.0, 0.75, True)
-    model = recovery_model()
-    res = solve(build_estimation(data, model), IpoptOptions())
-    fitted, res, sc = estimate_pose_scale(data, model, res, sole=True)
+draws, noise = draws_and_noise(0.5)
+for i in draws:
+    data, fitted, res, _ = fitted_draw(i, noise)
     pb = build_estimation(data, fitted)
     cl, G = stance_clustered_covariance(pb, res.x)
     q = float(t_dist.ppf(0.975, G - 1))
     out = []
     for p in ("mu", "n"):
-        err = res.params["shared"][p] - truth[p]
+        err = res.params["shared"][p] - TRUTH[p]
         se_cl = decode(pb, res.x, cl)[0]["contact"]["shared"][p + "_se"]
         se = res.params["shared"][p + "_se"]
         out.append(

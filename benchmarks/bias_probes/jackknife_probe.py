@@ -15,25 +15,16 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import t as t_dist
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-import coverage as cv
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from per_stance_draw import TRUTH, draws_and_noise, fitted_draw  # noqa: E402
 
-from gc_ocp.estimation import build_estimation
-from gc_ocp.estimation.pose_scale import estimate_pose_scale
-from gc_ocp.estimation.solve import IpoptOptions, solve
-from gc_ocp.estimation.starts import rescaled_start
-from gc_ocp.estimation.synthetic import default_truth, recovery_model
+from gc_ocp.estimation import build_estimation  # noqa: E402
+from gc_ocp.estimation.solve import IpoptOptions, solve  # noqa: E402
+from gc_ocp.estimation.starts import rescaled_start  # noqa: E402
 
-truth = default_truth()
-disp = cv.sole_displacement()
-noise = (float(sys.argv[2]) if len(sys.argv) > 2 else 0.5) * 1e-3
-for i in [int(a) for a in sys.argv[1].split(",")]:
-    rng = np.random.default_rng(100 + i)
-    data, seen = cv.draw(rng, truth, disp, 0.9, noise, 3.0, 0.75, True)
-    model = recovery_model()
-    res = solve(build_estimation(data, model), IpoptOptions())
-    fitted, res, sc = estimate_pose_scale(data, model, res, sole=True)
+draws, noise = draws_and_noise(0.5)
+for i in draws:
+    data, fitted, res, _ = fitted_draw(i, noise)
     G = len(data)
     loo = []
     for s in range(G):
@@ -46,7 +37,7 @@ for i in [int(a) for a in sys.argv[1].split(",")]:
     q = float(t_dist.ppf(0.975, G - 1))
     out = []
     for j, p in enumerate(("mu", "n")):
-        err = res.params["shared"][p] - truth[p]
+        err = res.params["shared"][p] - TRUTH[p]
         se = res.params["shared"][p + "_se"]
         out.append(
             f"{p} err {err:+.4f} SE {se:.4f} jackknife {se_j[j]:.4f} "

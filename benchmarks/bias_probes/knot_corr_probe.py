@@ -14,24 +14,15 @@ from pathlib import Path
 import numpy as np
 from scipy.linalg import toeplitz
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-import coverage as cv
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from per_stance_draw import TRUTH, draws_and_noise, fitted_draw  # noqa: E402
 
-from gc_ocp.estimation import build_estimation
-from gc_ocp.estimation.pose_scale import estimate_pose_scale
-from gc_ocp.estimation.solve import IpoptOptions, _covariance, decode, solve
-from gc_ocp.estimation.synthetic import default_truth, recovery_model
+from gc_ocp.estimation import build_estimation  # noqa: E402
+from gc_ocp.estimation.solve import _covariance, decode  # noqa: E402
 
-truth = default_truth()
-disp = cv.sole_displacement()
-noise = (float(sys.argv[2]) if len(sys.argv) > 2 else 1.0) * 1e-3
-for i in [int(a) for a in sys.argv[1].split(",")]:
-    rng = np.random.default_rng(100 + i)
-    data, seen = cv.draw(rng, truth, disp, 0.9, noise, 3.0, 0.75, True)
-    model = recovery_model()
-    res = solve(build_estimation(data, model), IpoptOptions())
-    fitted, res, sc = estimate_pose_scale(data, model, res, sole=True)
+draws, noise = draws_and_noise(1.0)
+for i in draws:
+    data, fitted, res, sc = fitted_draw(i, noise)
     pb = build_estimation(data, fitted)
     x = res.x
     r, J = pb.data_jacobian(x)
@@ -73,7 +64,7 @@ for i in [int(a) for a in sys.argv[1].split(",")]:
     b1, _ = decode(pb, x, cov_t)
     s0, s1 = b0["contact"]["shared"], b1["contact"]["shared"]
     print(
-        f"draw {i}: err mu {s0['mu'] - truth['mu']:+.4f} n {s0['n'] - truth['n']:+.4f}; "
+        f"draw {i}: err mu {s0['mu'] - TRUTH['mu']:+.4f} n {s0['n'] - TRUTH['n']:+.4f}; "
         f"lag corr trans {np.round(corr['trans'][:6], 2)} rot {np.round(corr['rot'][:6], 2)}; "
         f"SE mu {s0['mu_se']:.4f} -> {s1['mu_se']:.4f}, n {s0['n_se']:.4f} -> {s1['n_se']:.4f}",
         flush=True,
