@@ -68,21 +68,27 @@ def ar1(rng, T, rho, sd, shape):
     return e
 
 
+def true_stances(rng, truth, disp, marker_noise=0.0):
+    """The benchmark's six stances (three per foot) of ``truth`` with the units displaced by
+    ``disp``; ``marker_noise`` [m]: the pose the fitter sees from noisy markers."""
+    return [
+        synthetic_stance(
+            side,
+            truth,
+            nominal_points(side) + disp[side],
+            t0=1.1 * j + t_off,
+            sink=0.010,
+            rng=rng,
+            marker_noise=marker_noise,
+            label=f"syn:{side}{j}",
+        )
+        for side, t_off in (("left", 0.0), ("right", 0.55))
+        for j in range(3)
+    ]
+
+
 def draw(rng, truth, disp, rho, marker_noise, drift_mm=0.0, drift_deg=0.0, independent=False):
-    sts = []
-    for side, t_off in (("left", 0.0), ("right", 0.55)):
-        for j in range(3):
-            st = synthetic_stance(
-                side,
-                truth,
-                nominal_points(side) + disp[side],
-                t0=1.1 * j + t_off,
-                sink=0.010,
-                rng=rng,
-                marker_noise=marker_noise if drift_mm == 0 else 0.0,
-                label=f"syn:{side}{j}",
-            )
-            sts.append(st)
+    sts = true_stances(rng, truth, disp, marker_noise if drift_mm == 0 else 0.0)
     seen = disp
     if drift_mm > 0:
         # soft tissue first (a smooth rigid drift of the marker cluster, the pattern shared by a

@@ -37,9 +37,7 @@ from gc_ocp.estimation.solve import IpoptOptions, solve  # noqa: E402
 from gc_ocp.estimation.synthetic import (  # noqa: E402
     default_truth,
     noisy_pose,
-    nominal_points,
     recovery_model,
-    synthetic_stance,
     with_pose_error,
 )
 
@@ -62,33 +60,24 @@ CASES = (
 def stances(rng, truth, disp, noise, axis=None, kind=None, noise_scale=1.0):
     out = []
     sign = {s: rng.choice([-1.0, 1.0]) for s in cv.SIDES}
-    for side, t_off in (("left", 0.0), ("right", 0.55)):
-        for j in range(3):
-            st = synthetic_stance(
-                side,
-                truth,
-                nominal_points(side) + disp[side],
-                t0=1.1 * j + t_off,
-                sink=0.010,
-                rng=rng,
-                label=f"syn:{side}{j}",
+    # synthetic_stance draws nothing without noise: the stream's order is the loop's below
+    for st in cv.true_stances(rng, truth, disp):
+        t = st.time
+        if axis is not None:
+            s = (2 * (t - t[0]) / (t[-1] - t[0]) - 1) * np.sqrt(3)  # unit RMS
+            tr = np.zeros((t.size, 3))
+            tr[:, axis] = 3e-3 * sign[st.side] * (s if kind == "trend" else 1.0)
+            st = st.with_foot(with_pose_error(st.foot, np.zeros((t.size, 3)), tr))
+        st = st.with_foot(noisy_pose(st.foot, noise, rng))
+        if noise_scale != 1.0:
+            pn = st.foot.pose_noise
+            pn = dataclasses.replace(
+                pn, cov=pn.cov * noise_scale**2, sigma_marker=pn.sigma_marker * noise_scale
             )
-            t = st.time
-            if axis is not None:
-                s = (2 * (t - t[0]) / (t[-1] - t[0]) - 1) * np.sqrt(3)  # unit RMS
-                tr = np.zeros((t.size, 3))
-                tr[:, axis] = 3e-3 * sign[side] * (s if kind == "trend" else 1.0)
-                st = st.with_foot(with_pose_error(st.foot, np.zeros((t.size, 3)), tr))
-            st = st.with_foot(noisy_pose(st.foot, noise, rng))
-            if noise_scale != 1.0:
-                pn = st.foot.pose_noise
-                pn = dataclasses.replace(
-                    pn, cov=pn.cov * noise_scale**2, sigma_marker=pn.sigma_marker * noise_scale
-                )
-                st = st.with_foot(dataclasses.replace(st.foot, pose_noise=pn))
-            sd = 0.01 * st.body_weight
-            e = cv.ar1(rng, st.n, 0.9, 1.0, (6,)) * np.array([sd, sd, sd, *(3 * [sd * 0.02])])
-            out.append(st.with_measured(st.measured + e))
+            st = st.with_foot(dataclasses.replace(st.foot, pose_noise=pn))
+        sd = 0.01 * st.body_weight
+        e = cv.ar1(rng, st.n, 0.9, 1.0, (6,)) * np.array([sd, sd, sd, *(3 * [sd * 0.02])])
+        out.append(st.with_measured(st.measured + e))
     return out
 
 

@@ -18,9 +18,7 @@ from gc_ocp.estimation.solve import IpoptOptions, solve
 from gc_ocp.estimation.starts import rescaled_start
 from gc_ocp.estimation.synthetic import (
     default_truth,
-    nominal_points,
     recovery_model,
-    synthetic_stance,
 )
 
 truth = default_truth()
@@ -30,20 +28,7 @@ rng = np.random.default_rng(100 + i)
 data, seen = cv.draw(rng, truth, disp, 0.9, noise, dmm, 0.75, False)
 # the true motion of the same draw (same construction, no error)
 rng2 = np.random.default_rng(100 + i)
-true_sts = []
-for side, t_off in (("left", 0.0), ("right", 0.55)):
-    for j in range(3):
-        true_sts.append(
-            synthetic_stance(
-                side,
-                truth,
-                nominal_points(side) + disp[side],
-                t0=1.1 * j + t_off,
-                sink=0.010,
-                rng=rng2,
-                label=f"syn:{side}{j}",
-            )
-        )
+true_sts = cv.true_stances(rng2, truth, disp)
 model = recovery_model()
 res = solve(build_estimation(data, model), IpoptOptions())
 fitted, res, sc = estimate_pose_scale(data, model, res, sole=True)

@@ -12,7 +12,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 import coverage as cv
 
 from gc_ocp.diagnosis.mismatch import drift
-from gc_ocp.estimation.synthetic import default_truth, noisy_pose, nominal_points, synthetic_stance
+from gc_ocp.estimation.synthetic import default_truth, noisy_pose
 
 SIDES = cv.SIDES
 truth = default_truth()
@@ -21,20 +21,7 @@ disp = cv.sole_displacement()
 
 def make(seed, use_drift, use_marker, use_plate):
     r_d, r_m, r_p = (np.random.default_rng([seed, k]) for k in range(3))
-    sts = []
-    for side, t_off in (("left", 0.0), ("right", 0.55)):
-        for j in range(3):
-            sts.append(
-                synthetic_stance(
-                    side,
-                    truth,
-                    nominal_points(side) + disp[side],
-                    t0=1.1 * j + t_off,
-                    sink=0.010,
-                    rng=r_m,
-                    label=f"syn:{side}{j}",
-                )
-            )
+    sts = cv.true_stances(r_m, truth, disp)
     if use_drift:
         pattern = {s: (np.zeros((2, 3)), np.zeros((2, 3))) for s in SIDES}
         sts = drift(sts, 3e-3, 0.75, r_d, 1.0, pattern=pattern)
