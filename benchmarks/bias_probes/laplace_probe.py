@@ -12,7 +12,6 @@ path ``z_hat(theta)`` (central differences, ``dz/dtheta = -H_zz^-1 H_z theta``).
 ``laplace_probe.py VARIANT SEEDS [MM DEG]``: ``sources_probe.py``'s data; per seed mu's and
 n's error before and after the step, and the step's size."""
 
-import dataclasses
 import sys
 from pathlib import Path
 
@@ -21,11 +20,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from sources_probe_data import FLAGS, make  # noqa: E402
+from sources_probe_data import FLAGS, fitted, make  # noqa: E402
 
 from gc_ocp.estimation import build_estimation  # noqa: E402
-from gc_ocp.estimation.pose_scale import estimate_pose_scale  # noqa: E402
-from gc_ocp.estimation.solve import IpoptOptions, decode, solve  # noqa: E402
+from gc_ocp.estimation.solve import decode  # noqa: E402
 from gc_ocp.estimation.synthetic import recovery_model  # noqa: E402
 
 
@@ -76,17 +74,7 @@ if __name__ == "__main__":
     fixed = [float(a) for a in sys.argv[3:5]] if len(sys.argv) > 4 else None
     for seed in [int(a) for a in sys.argv[2].split(",")]:
         data = make(seed, *FLAGS[variant])
-        model = recovery_model()
-        if fixed is not None:
-            model = tuple(
-                dataclasses.replace(c, sigma_mm=fixed[0], sigma_deg=fixed[1])
-                if c.name == "pose"
-                else c
-                for c in model
-            )
-        res = solve(build_estimation(data, model), IpoptOptions())
-        if fixed is None:
-            model, res, _ = estimate_pose_scale(data, model, res, sole=True)
+        model, res = fitted(data, recovery_model(), fixed)
         pb = build_estimation(data, model)
         x1 = laplace_step(pb, res.x)
         after = decode(pb, x1)[0]["contact"]["shared"]

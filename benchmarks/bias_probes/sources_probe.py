@@ -9,18 +9,14 @@ estimated, as gc_ocp.fit; with MM DEG: the pose widths fixed there, the sole's 5
 ``no-noise-part``: the pose correction without its measured-noise part; ``knots=S``: its
 smooth part's knot spacing S seconds, default 0.1), mu's error and SE, n's error."""
 
-import dataclasses
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from sources_probe_data import FLAGS, make  # noqa: E402
+from sources_probe_data import FLAGS, fitted, make, with_pose  # noqa: E402
 
-from gc_ocp.estimation import build_estimation
-from gc_ocp.estimation.pose_scale import estimate_pose_scale
-from gc_ocp.estimation.solve import IpoptOptions, solve
 from gc_ocp.estimation.synthetic import recovery_model
 
 variant = sys.argv[1]
@@ -31,18 +27,8 @@ for seed in [int(a) for a in sys.argv[2].split(",")]:
     model = recovery_model(marker_noise="no-noise-part" not in sys.argv)
     for a in sys.argv:
         if a.startswith("knots="):
-            model = tuple(
-                dataclasses.replace(c, knot_spacing=float(a[6:])) if c.name == "pose" else c
-                for c in model
-            )
-    if fixed is not None:
-        model = tuple(
-            dataclasses.replace(c, sigma_mm=fixed[0], sigma_deg=fixed[1]) if c.name == "pose" else c
-            for c in model
-        )
-    res = solve(build_estimation(data, model), IpoptOptions())
-    if fixed is None:
-        fitted, res, sc = estimate_pose_scale(data, model, res, sole=True)
+            model = with_pose(model, knot_spacing=float(a[6:]))
+    _, res = fitted(data, model, fixed)
     print(
         variant,
         seed,

@@ -2,6 +2,7 @@
 stances, each error source (``drift``, ``marker``, ``plate``) from its own random stream, so a
 source's draw is the same whichever others are on."""
 
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -12,6 +13,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 import coverage as cv
 
 from gc_ocp.diagnosis.mismatch import drift
+from gc_ocp.estimation import build_estimation
+from gc_ocp.estimation.pose_scale import estimate_pose_scale
+from gc_ocp.estimation.solve import IpoptOptions, solve
 from gc_ocp.estimation.synthetic import default_truth, noisy_pose
 
 SIDES = cv.SIDES
@@ -42,3 +46,19 @@ FLAGS = {  # variant: (drift, markers' noise, plate noise)
     "all": (1, 1, 1),
     "drift+marker": (1, 1, 0),
 }
+
+
+def with_pose(model: tuple, **changes) -> tuple:
+    """``model`` with its pose correction's fields ``changes`` replaced."""
+    return tuple(dataclasses.replace(c, **changes) if c.name == "pose" else c for c in model)
+
+
+def fitted(data, model: tuple, fixed=None) -> tuple:
+    """``(model, fit)``: the pose and sole widths estimated as gc_ocp.fit does, or with
+    ``fixed`` ``(mm, deg)`` the pose widths fixed there (the sole's 5 mm prior)."""
+    if fixed is not None:
+        model = with_pose(model, sigma_mm=fixed[0], sigma_deg=fixed[1])
+    res = solve(build_estimation(data, model), IpoptOptions())
+    if fixed is None:
+        model, res, _ = estimate_pose_scale(data, model, res, sole=True)
+    return model, res
