@@ -19,6 +19,8 @@ from gc_ocp.estimation import (
     REGISTRY,
     ContactLaw,
     Param,
+    PoseCorrection,
+    SoleCorrection,
     Weights,
     build_estimation,
     frozen_model,
@@ -126,6 +128,75 @@ def test_frame_function_cache_follows_the_signature(stances):
     c = build_estimation(stances[:1], (ContactLaw(k=Param("unit", 1e5, 1, 1e9)),)).blocks[0].fm
     assert a is not b  # the smoothing changes the expression graph
     assert a is c  # a parameter's start value only enters through the slots
+
+
+def _with_widths(name):
+    """``_model(name)`` with a sole and a pose correction, where it has none: every component
+    that has prior widths, beside the one named."""
+    model = _model(name)
+    extra = [
+        c
+        for c in (SoleCorrection(), PoseCorrection(marker_noise=False))
+        if c.name not in {m.name for m in model}
+    ]
+    return model + tuple(extra)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_model_with_other_prior_widths_is_the_same_problem_rescaled(stances, name):
+    """``width_fields`` (components/base.py) are widths and nothing else: the problem rebuilt with
+    every width 1.7 times wider equals the first problem's parametric one at the rescaled
+    columns (objective, gradient, Hessian), which is what lets the continuation's stages and the
+    widths' rounds share one solver (``EstimationProblem.rescaled``). The two differ by
+    round-off only: the maps' columns are multiplied by the ratio of the widths instead of built
+    at the new ones (1e-12 relative leaves room for the sums of ~1e3 terms)."""
+    import casadi as ca
+
+    model = _with_widths(name)
+    wider = tuple(c.with_prior_scale(1.7) for c in model)
+    anchor = build_estimation(stances, model, compile=False)  # the same functions, uncompiled
+    rescaled = anchor.rescaled(stances, wider)
+    rebuilt = build_estimation(stances, wider, compile=False)
+    if rescaled is None:  # only where a width is a parameter's prior weight (toe hinge's pitch)
+        assert not np.array_equal(anchor.prior_weights, rebuilt.prior_weights), name
+        return
+    assert not np.all(rescaled.anchor_scale == 1.0)
+    assert np.array_equal(rescaled.lbx, rebuilt.lbx) and np.array_equal(rescaled.ubx, rebuilt.ubx)
+    x = np.clip(
+        rebuilt.x0 + 0.2 * np.random.default_rng(2).normal(size=rebuilt.x0.size),
+        rebuilt.lbx,
+        rebuilt.ubx,
+    )
+    par = anchor.parametric()
+    ours = ca.Function("f", [par.x, par.column_scale], [par.objective, par.gradient, par.hessian])
+    theirs = ca.Function("f", [rebuilt.x], [rebuilt.objective, rebuilt.gradient, rebuilt.hessian])
+    for a, b in zip(ours(x, rescaled.anchor_scale), theirs(x), strict=True):
+        a, b = np.asarray(a), np.asarray(b)
+        assert np.abs(a - b).max() <= 1e-12 * max(1.0, np.abs(b).max()), name
+    # at its own widths, the parametric problem is the problem itself, to the bit
+    plain = ca.Function("f", [anchor.x], [anchor.objective, anchor.gradient, anchor.hessian])
+    for a, b in zip(ours(x, np.ones(x.size)), plain(x), strict=True):
+        assert np.array_equal(np.asarray(a), np.asarray(b)), name
+
+
+def test_a_rescaled_problem_solves_as_the_rebuilt_one(stances):
+    """The solver of the anchor, reused at another scale, ends where a solver of the rebuilt
+    problem ends (the same Ipopt path up to round-off: 1e-8 relative on the objective and 1e-5
+    on the stored variables, Ipopt's tolerance), and anything other than a width change is not
+    a rescaling (a pose spline with other knots)."""
+    model = _with_widths("contact")
+    anchor = build_estimation(stances, model)
+    first = solve(anchor)
+    wider = tuple(c.with_prior_scale(2.5) for c in model)
+    a = solve(anchor.rescaled(stances, wider), x0=first.x, warm=True)
+    b = solve(build_estimation(stances, wider), x0=first.x, warm=True)
+    assert a.objective == pytest.approx(b.objective, rel=1e-8)
+    np.testing.assert_allclose(a.x, b.x, rtol=1e-5, atol=1e-5)
+    other = tuple(
+        dataclasses.replace(c, knot_spacing=0.2) if isinstance(c, PoseCorrection) else c
+        for c in model
+    )
+    assert anchor.rescaled(stances, other) is None
 
 
 def test_throwaway_component_is_fitted():

@@ -27,7 +27,7 @@ import functools
 import hashlib
 import threading
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import casadi as ca
 import numpy as np
@@ -116,14 +116,27 @@ class SlotMap:
     data): ``A`` as SciPy CSR and the constant and per-frame parts of the Hessian's product
     (:func:`_stance_hessian`)."""
 
-    def __init__(self, A: ca.DM, y0: ca.DM):
-        self.A, self.y0 = A, y0
+    def __init__(self, A: ca.DM | None, y0: ca.DM, A_csr: sp.csr_matrix | None = None):
+        self.y0 = y0
+        if A is not None:
+            self.__dict__["A"] = A
+        if A_csr is not None:
+            self.__dict__["A_csr"] = A_csr
+
+    @functools.cached_property
+    def A(self) -> ca.DM:
+        """``A`` as a sparse CasADi DM (from :attr:`A_csr` when made from it)."""
+        return sparse_dm(self.A_csr)
 
     @functools.cached_property
     def A_csr(self) -> sp.csr_matrix:
         """``A`` as a scipy CSR matrix (converted once: the conversion costs more than the
         product it serves)."""
         return self.A.sparse().tocsr()
+
+    def scaled(self, s: np.ndarray) -> SlotMap:
+        """The map of ``x`` whose column ``j`` is this map's column times ``s[j]``."""
+        return SlotMap(None, self.y0, (self.A_csr @ sp.diags(s)).tocsr())
 
     @functools.cached_property
     def y0_array(self) -> np.ndarray:
@@ -297,9 +310,22 @@ class EstimationProblem:
     blocks: list[StanceBlock] = field(default_factory=list)
     prior_weights: np.ndarray | None = None
     prior_means: np.ndarray | None = None
+    column_scale: ca.MX | None = None
+    """A symbolic parameter ``s`` (nx): the slots read ``s * x`` where they read ``x`` (the prior
+    reads ``x``). Set by :meth:`parametric` only."""
+    anchor: EstimationProblem | None = field(default=None, repr=False)
+    anchor_scale: np.ndarray | None = None
+    """A problem made by :meth:`rescaled` is its ``anchor``'s parametric problem at ``s =
+    anchor_scale``: the solver solves it as that (one solver for every rescaling)."""
+    solvers: dict = field(default_factory=dict, repr=False, compare=False)
+    """The parametric solvers of an anchor, by their settings (``gc_ocp.estimation.solve``)."""
+
+    @functools.cached_property
+    def _x_slots(self) -> ca.MX:
+        return self.x if self.column_scale is None else self.x * self.column_scale
 
     def _stance_inputs(self, b: StanceBlock) -> ca.MX:
-        return ca.reshape(ca.mtimes(b.map.A, self.x) + b.map.y0, b.fm.slots.size, b.T)
+        return ca.reshape(ca.mtimes(b.map.A, self._x_slots) + b.map.y0, b.fm.slots.size, b.T)
 
     @functools.cached_property
     def residuals(self) -> ca.MX:
@@ -325,7 +351,10 @@ class EstimationProblem:
             ca.mtimes(b.map.A.T, ca.vec(b.fm.grad.map(b.T)(b.D, self._stance_inputs(b))))
             for b in self.blocks
         ]
-        return grad + ca.sum2(ca.horzcat(*gs)) if gs else grad
+        if not gs:
+            return grad
+        data = ca.sum2(ca.horzcat(*gs))
+        return grad + (data if self.column_scale is None else data * self.column_scale)
 
     @functools.cached_property
     def hessian(self) -> ca.MX:
@@ -334,7 +363,59 @@ class EstimationProblem:
         from a dense array would make it dense)."""
         nx, pw = self.x.numel(), self.prior_weights
         hs = [_stance_hessian(b, self._stance_inputs(b)) for b in self.blocks]
-        return _assemble_hessian(hs, nx) + ca.DM(ca.Sparsity.diag(nx), pw**2)
+        data = _assemble_hessian(hs, nx)
+        if self.column_scale is not None:  # diag(s) H diag(s), sparse
+            S = ca.diag(self.column_scale)
+            data = ca.mtimes(S, ca.mtimes(data, S))
+        return data + ca.DM(ca.Sparsity.diag(nx), pw**2)
+
+    def parametric(self) -> EstimationProblem:
+        """This problem with its slots reading ``s * x`` (:attr:`column_scale`, a parameter):
+        at ``s`` = 1 the same problem, to the bit."""
+        return replace(self, column_scale=ca.MX.sym("s", self.x.numel()), solvers={})
+
+    def rescaled(self, stances: list[StanceData], model: tuple) -> EstimationProblem | None:
+        """The problem of ``model`` on ``stances`` (what :func:`build_estimation` would build)
+        when it differs from this one's only in prior widths (the components'
+        :attr:`~gc_ocp.estimation.components.base.Component.width_fields`), else None.
+
+        A prior variable is stored in units of its width, so a width changed from ``w`` to
+        ``w'`` scales its columns of every stance's map by ``s = w' / w``: the problem is this
+        one's :meth:`parametric` problem at that ``s``, with the new bounds, and is solved by
+        its solver (:attr:`anchor`). Its maps are this one's scaled (no symbolic Jacobian), so
+        it also costs far less to make than a build."""
+        if self.anchor is not None:
+            return self.anchor.rescaled(stances, model)
+        if self.column_scale is not None:
+            return None
+        new_model, _, variables = declare(stances, model)
+        if len(new_model) != len(self.model) or not all(
+            _same_but_widths(a, b) for a, b in zip(self.model, new_model, strict=True)
+        ):
+            return None
+        s = _column_scale(self.variables.specs, variables.specs)
+        if s is None:
+            return None
+        blocks = [
+            StanceBlock(b.map if np.all(s == 1.0) else b.map.scaled(s), b.D, b.T, b.fm)
+            for b in self.blocks
+        ]
+        return EstimationProblem(
+            stances=self.stances,
+            model=new_model,
+            weights=self.weights,
+            variables=variables,
+            x=variables.finalize(),
+            n_data=self.n_data,
+            x0=variables.vector("x0"),
+            lbx=variables.vector("lb"),
+            ubx=variables.vector("ub"),
+            blocks=blocks,
+            prior_weights=variables.vector("prior_weight"),
+            prior_means=variables.vector("prior_mean"),
+            anchor=self,
+            anchor_scale=s,
+        )
 
     def objective_function(self) -> ca.Function:
         return ca.Function("J", [self.x], [self.objective])
@@ -417,6 +498,38 @@ class EstimationProblem:
         return np.concatenate(
             [np.asarray(b.fm.frame.map(b.T)(b.D, b.Y(x))[0]).T.ravel() for b in self.blocks]
         )
+
+
+def _same_but_widths(a, b) -> bool:
+    """Components ``a`` and ``b`` are the same but for their prior widths."""
+    if type(a) is not type(b):
+        return False
+    try:
+        return bool(a == replace(b, **{f: getattr(a, f) for f in a.width_fields}))
+    except (TypeError, ValueError):  # a field without a plain equality (an array): not known
+        return False
+
+
+def _column_scale(old: list, new: list) -> np.ndarray | None:
+    """``s`` with ``new``'s prior variables' widths over ``old``'s per column (1 elsewhere),
+    when the two layouts are the same but for those widths (and bounds); else None."""
+    if len(old) != len(new):
+        return None
+    s = np.ones(sum(o.size for o in old))
+    for o, n in zip(old, new, strict=True):
+        if (o.key, o.start, o.size, o.kind, o.log) != (n.key, n.start, n.size, n.kind, n.log):
+            return None
+        if not (
+            np.array_equal(o.prior_weight, n.prior_weight)
+            and np.array_equal(o.prior_mean, n.prior_mean)
+            and np.array_equal(o.x0, n.x0)
+        ):
+            return None
+        if o.kind == "prior" and not o.log:
+            s[o.slice] = n.scale / o.scale
+        elif not np.array_equal(o.scale, n.scale):
+            return None
+    return s
 
 
 def _check_stances(stances: list[StanceData]) -> None:

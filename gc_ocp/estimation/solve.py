@@ -74,7 +74,7 @@ def gauss_newton_hessian(problem: EstimationProblem) -> ca.Function:
     H = ca.triu(ca.mtimes(Jr.T, Jr))
     lam_f = ca.MX.sym("lam_f")
     lam_g = ca.MX.sym("lam_g", 0, 1)
-    p = ca.MX.sym("p", 0, 1)
+    p = _parameter(problem)
     return ca.Function(
         "nlp_hess_l",
         [problem.x, p, lam_f, lam_g],
@@ -82,6 +82,12 @@ def gauss_newton_hessian(problem: EstimationProblem) -> ca.Function:
         ["x", "p", "lam_f", "lam_g"],
         ["triu_hess_gamma_x_x"],
     )
+
+
+def _parameter(problem: EstimationProblem) -> ca.MX:
+    """The NLP's parameter: the column scale of a parametric problem
+    (:meth:`~gc_ocp.estimation.problem.EstimationProblem.parametric`), else none."""
+    return ca.MX.sym("p", 0, 1) if problem.column_scale is None else problem.column_scale
 
 
 def _covariance(problem: EstimationProblem, x: np.ndarray) -> np.ndarray:
@@ -196,9 +202,11 @@ def make_solver(
     """The Ipopt solver (a ``casadi.Function``) with our gradient and structured Hessian callbacks
     (``warm``: set up for a warm solve, :class:`IpoptOptions`)."""
     options = options or IpoptOptions()
+    p = _parameter(problem)
     nlp = {"x": problem.x, "f": problem.objective}
+    if problem.column_scale is not None:
+        nlp["p"] = p
     opts = options.as_dict(warm)
-    p = ca.MX.sym("p", 0, 1)
     opts["grad_f"] = ca.Function(
         "nlp_grad_f",
         [problem.x, p],
@@ -241,10 +249,18 @@ def solve(
     ``warm_*`` settings); other starts from a given point (a fold, a null draw, an effect from
     its parent) keep Ipopt's defaults (``docs/estimation.md``, *Warm starts*)."""
     options = options or IpoptOptions()
-    solver = make_solver(problem, options, warm=warm and x0 is not None)
-    x_init = problem.x0 if x0 is None else x0
+    warm = warm and x0 is not None
+    args = {"x0": problem.x0 if x0 is None else x0, "lbx": problem.lbx, "ubx": problem.ubx}
+    if problem.anchor is None:
+        solver = make_solver(problem, options, warm=warm)
+    else:  # a rescaled problem: its anchor's parametric solver at its scale, made once
+        solvers = problem.anchor.solvers
+        if (options, warm) not in solvers:
+            solvers[(options, warm)] = make_solver(problem.anchor.parametric(), options, warm)
+        solver = solvers[(options, warm)]
+        args["p"] = problem.anchor_scale
     t0 = _time.perf_counter()
-    sol = solver(x0=x_init, lbx=problem.lbx, ubx=problem.ubx)
+    sol = solver(**args)
     seconds = _time.perf_counter() - t0
     stats = solver.stats()
     # Ipopt relaxes the bounds by its bound_relax_factor (1e-8, relative): its solution can lie

@@ -131,7 +131,7 @@ def _estimate(
     """:func:`estimate`, and the last stage's problem (the one its result is a point of)."""
     say = progress or (lambda s: None)
     steps = continuation if any(c.has_prior_scale for c in model) else (1.0,)
-    prev = None
+    prev = anchor = None
     total_s, total_it = 0.0, 0
     res = None
     for f in steps:
@@ -139,7 +139,11 @@ def _estimate(
             c.with_prior_scale(f) if hasattr(c, "with_prior_scale") and f != 1.0 else c
             for c in model
         )
-        prob = build_estimation(data, m, weights)
+        # the stages differ in prior widths only: one solver serves them (problem.rescaled)
+        prob = None if anchor is None else anchor.rescaled(data, m)
+        if prob is None:
+            anchor = build_estimation(data, m, weights)
+            prob = anchor.rescaled(data, m) if len(steps) > 1 else anchor
         x0 = rescaled_start(prev, prob) if prev is not None else None
         last = f == steps[-1]
         res = solve(

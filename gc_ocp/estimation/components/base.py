@@ -37,7 +37,7 @@ one new file with one class, plus one line in :data:`gc_ocp.estimation.component
 
 from __future__ import annotations
 
-from dataclasses import astuple, dataclass
+from dataclasses import astuple, dataclass, replace
 from typing import TYPE_CHECKING, Any, ClassVar, Literal, NamedTuple
 
 import numpy as np
@@ -298,13 +298,30 @@ class Component:
         with the fields that change the expression graph)."""
         return (type(self).__name__, astuple(self) if hasattr(self, "__dataclass_fields__") else ())
 
+    width_fields: ClassVar[tuple[str, ...]] = ()
+    """The fields that are prior widths and nothing else: no slot or per-frame function reads
+    them. Where they set the ``sigma`` of prior variables (stored in units of it,
+    :meth:`~gc_ocp.estimation.variables.Variables.prior_variable`; their bounds may follow),
+    two models that differ only there are one problem with its columns rescaled
+    (:meth:`~gc_ocp.estimation.problem.EstimationProblem.rescaled`: the continuation's stages
+    and the widths' rounds share one solver); where they set a parameter's prior weight (the toe
+    hinge's pitch drive), the weights differ and the problem is built again.
+    ``tests/test_components.py`` checks every component that has them."""
+
     def with_prior_scale(self, factor: float) -> Component:
-        """The component with its prior widths multiplied by ``factor`` (fit's continuation)."""
-        return self
+        """The component with its prior widths (:attr:`width_fields`; a scalar or a tuple
+        each) multiplied by ``factor`` (fit's continuation)."""
+
+        def scaled(v):
+            return v * factor if np.isscalar(v) else tuple(float(a) * factor for a in v)
+
+        if not self.width_fields:
+            return self
+        return replace(self, **{f: scaled(getattr(self, f)) for f in self.width_fields})
 
     @property
     def has_prior_scale(self) -> bool:
-        return type(self).with_prior_scale is not Component.with_prior_scale
+        return bool(self.width_fields)
 
 
 __all__ = ["Component", "DecodeContext", "Scope", "SummaryRow"]

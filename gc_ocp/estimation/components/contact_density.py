@@ -118,9 +118,7 @@ class DenseSoleCorrection(Component):
     fixed: dict | None = None
     name: str = "sole"
     neutral_at_zero = True
-
-    def with_prior_scale(self, factor: float) -> DenseSoleCorrection:
-        return replace(self, sigma=self.sigma * factor)
+    width_fields = ("sigma",)  # the bound is kept
 
     def declare(self, variables, stances) -> None:
         if self.fixed is None:

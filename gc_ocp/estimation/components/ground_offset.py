@@ -75,6 +75,7 @@ class GroundOffset(Component):
     name: str = "ground_offset"
     scope = "stance"
     neutral_at_zero = True
+    width_fields = ("sigma_mm", "sigma_deg")  # bounds follow (bound_sigmas)
     candidate = True
     benchmark_values = {
         "small": (1e-3, 0.25),
@@ -102,10 +103,6 @@ class GroundOffset(Component):
 
     def _free(self, label: str) -> bool:
         return self.fixed is None or label not in self.fixed
-
-    def with_prior_scale(self, factor: float) -> GroundOffset:
-        """The same component with its prior widths multiplied by ``factor`` (bounds follow)."""
-        return replace(self, sigma_mm=self.sigma_mm * factor, sigma_deg=self.sigma_deg * factor)
 
     def declare(self, variables, stances) -> None:
         unique_labels(self.name, stances)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -91,6 +91,7 @@ class PoseCorrection(Component):
     scope = "stance"
     neutral_at_zero = True
     candidate = True
+    width_fields = ("sigma_mm", "sigma_deg")  # bounds follow (bound_sigmas)
     benchmark_values = {  # marker noise [m], drift [m], drift [deg]
         "small": (0.25e-3, 1e-3, 0.25),
         "moderate": (0.5e-3, 2e-3, 0.5),
@@ -106,14 +107,6 @@ class PoseCorrection(Component):
     def benchmark_kinematic_error(cls, value) -> tuple[float, float, float]:
         """``value`` = (marker noise [m], drift [m], drift [deg]) is the kinematic error."""
         return value
-
-    def with_prior_scale(self, factor: float) -> PoseCorrection:
-        """The same component with its prior widths multiplied by ``factor`` (bounds follow)."""
-
-        def scaled(v):
-            return v * factor if np.isscalar(v) else tuple(float(a) * factor for a in v)
-
-        return replace(self, sigma_mm=scaled(self.sigma_mm), sigma_deg=scaled(self.sigma_deg))
 
     def basis(self, time: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """B-spline design matrices ``(n, K)`` for value and time derivative on ``time`` [s]

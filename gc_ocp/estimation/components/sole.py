@@ -31,6 +31,7 @@ class SoleCorrection(Component):
     fixed: dict | None = None
     name: str = "sole"
     neutral_at_zero = True
+    width_fields = ("sigma",)  # the bound is kept
     candidate = True
     benchmark_values = {
         "small": 1e-3,
@@ -62,10 +63,6 @@ class SoleCorrection(Component):
             fixed=self.fixed,
             name=self.name,
         )
-
-    def with_prior_scale(self, factor: float) -> SoleCorrection:
-        """The same component with its prior width multiplied by ``factor`` (the bound is kept)."""
-        return replace(self, sigma=self.sigma * factor)
 
     def declare(self, variables, stances) -> None:
         if self.fixed is not None:

@@ -182,6 +182,7 @@ class ToeJoint(Component):
     pitch_fixed: dict | None = None
     name: str = "toe_joint"
     neutral_at_zero = True
+    width_fields = ("sigma_deg", "gain_sigma", "onset_sigma_deg")  # its drive uses some
     candidate = True
     benchmark_values = {
         "small": 5.0,
