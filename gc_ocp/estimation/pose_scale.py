@@ -321,8 +321,8 @@ def estimate_pose_scale(
             sole_c = replace(sole_c, sigma=sole_w)
             new[SoleCorrection] = sole_c
         model = tuple(new.get(type(c), c) for c in model)
-        # the rounds differ in widths only: one solver serves them (problem.rescaled)
-        prob = prob.rescaled(data, model) or build_estimation(data, model, weights)
+        # the rounds differ in widths only: one solver serves them (``like``)
+        prob = build_estimation(data, model, weights, like=prob)
         last = change < RTOL or k == MAX_ROUNDS - 1
         result = refit(prob, rescaled_start(result, prob), covariance and last)
         row = {"sigma_mm": list(mm), "sigma_deg": list(deg), "objective": result.objective}

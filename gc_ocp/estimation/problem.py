@@ -318,7 +318,10 @@ class EstimationProblem:
     """A problem made by :meth:`rescaled` is its ``anchor``'s parametric problem at ``s =
     anchor_scale``: the solver solves it as that (one solver for every rescaling)."""
     solvers: dict = field(default_factory=dict, repr=False, compare=False)
-    """The parametric solvers of an anchor, by their settings (``gc_ocp.estimation.solve``)."""
+    """Its parametric solvers, by their settings (``gc_ocp.estimation.solve``): every problem
+    is solved as its anchor's (or its own) :meth:`parametric` problem."""
+    inputs: list = field(default_factory=list, repr=False, compare=False)
+    """The stances it was built from (before the components prepared them)."""
 
     @functools.cached_property
     def _x_slots(self) -> ca.MX:
@@ -374,19 +377,27 @@ class EstimationProblem:
         at ``s`` = 1 the same problem, to the bit."""
         return replace(self, column_scale=ca.MX.sym("s", self.x.numel()), solvers={})
 
-    def rescaled(self, stances: list[StanceData], model: tuple) -> EstimationProblem | None:
+    def rescaled(
+        self, stances: list[StanceData], model: tuple, weights: Weights | None = None
+    ) -> EstimationProblem | None:
         """The problem of ``model`` on ``stances`` (what :func:`build_estimation` would build)
         when it differs from this one's only in prior widths (the components'
-        :attr:`~gc_ocp.estimation.components.base.Component.width_fields`), else None.
+        :attr:`~gc_ocp.estimation.components.base.Component.width_fields`; the same stance
+        objects and weights), else None.
 
         A prior variable is stored in units of its width, so a width changed from ``w`` to
         ``w'`` scales its columns of every stance's map by ``s = w' / w``: the problem is this
         one's :meth:`parametric` problem at that ``s``, with the new bounds, and is solved by
-        its solver (:attr:`anchor`). Its maps are this one's scaled (no symbolic Jacobian), so
-        it also costs far less to make than a build."""
+        the same solver (:attr:`anchor`; made at the first solve of either). Its maps are this
+        one's scaled (no symbolic Jacobian), so it also costs far less to make than a build."""
         if self.anchor is not None:
-            return self.anchor.rescaled(stances, model)
-        if self.column_scale is not None:
+            return self.anchor.rescaled(stances, model, weights)
+        if (
+            self.column_scale is not None
+            or len(stances) != len(self.inputs)
+            or any(a is not b for a, b in zip(stances, self.inputs, strict=True))
+            or (weights or Weights()) != self.weights
+        ):
             return None
         new_model, _, variables = declare(stances, model)
         if len(new_model) != len(self.model) or not all(
@@ -415,6 +426,7 @@ class EstimationProblem:
             prior_means=variables.vector("prior_mean"),
             anchor=self,
             anchor_scale=s,
+            inputs=self.inputs,
         )
 
     def objective_function(self) -> ca.Function:
@@ -607,13 +619,25 @@ def _slot_map(x: ca.MX, Y: ca.MX) -> SlotMap:
 
 
 def build_estimation(
-    stances: list[StanceData], model: tuple, weights: Weights | None = None, compile: bool = True
+    stances: list[StanceData],
+    model: tuple,
+    weights: Weights | None = None,
+    compile: bool = True,
+    like: EstimationProblem | None = None,
 ) -> EstimationProblem:
     """Build the NLP for ``stances`` under ``model`` (a tuple of components). ``compile=False``:
     the per-frame derivatives are not compiled to C (:func:`~gc_ocp.estimation.frame.frame_model`;
-    for a problem that is evaluated rather than solved, e.g. a simulation)."""
+    for a problem that is evaluated rather than solved, e.g. a simulation). ``like``: a problem
+    this one may differ from only in prior widths (a continuation's stage, a widths' round): it
+    is then that problem rescaled (:meth:`EstimationProblem.rescaled`), which shares its solver
+    and costs a fraction of a build."""
+    if like is not None:
+        same = like.rescaled(stances, model, weights)
+        if same is not None:
+            return same
     _check_stances(stances)
     weights = weights or Weights()
+    inputs = stances
     model, stances, variables = declare(stances, model)
     x = variables.finalize()
     models: dict = {}
@@ -644,6 +668,7 @@ def build_estimation(
         blocks=blocks,
         prior_weights=variables.vector("prior_weight"),
         prior_means=variables.vector("prior_mean"),
+        inputs=list(inputs),
     )
 
 

@@ -250,15 +250,15 @@ def solve(
     its parent) keep Ipopt's defaults (``docs/estimation.md``, *Warm starts*)."""
     options = options or IpoptOptions()
     warm = warm and x0 is not None
+    # every problem is solved as its anchor's parametric problem (its own at s = 1, to the bit),
+    # so that the problems rescaled from it (EstimationProblem.rescaled) share the solver
+    anchor = problem.anchor or problem
+    scale = problem.anchor_scale if problem.anchor is not None else np.ones(problem.x0.size)
+    if (options, warm) not in anchor.solvers:
+        anchor.solvers[(options, warm)] = make_solver(anchor.parametric(), options, warm)
+    solver = anchor.solvers[(options, warm)]
     args = {"x0": problem.x0 if x0 is None else x0, "lbx": problem.lbx, "ubx": problem.ubx}
-    if problem.anchor is None:
-        solver = make_solver(problem, options, warm=warm)
-    else:  # a rescaled problem: its anchor's parametric solver at its scale, made once
-        solvers = problem.anchor.solvers
-        if (options, warm) not in solvers:
-            solvers[(options, warm)] = make_solver(problem.anchor.parametric(), options, warm)
-        solver = solvers[(options, warm)]
-        args["p"] = problem.anchor_scale
+    args["p"] = scale
     t0 = _time.perf_counter()
     sol = solver(**args)
     seconds = _time.perf_counter() - t0

@@ -18,7 +18,7 @@ import numpy as np
 
 from gc_ocp.contact.lls import fit_stiffness_lls
 from gc_ocp.errors import RankError, SolveError
-from gc_ocp.estimation.problem import Weights, build_estimation
+from gc_ocp.estimation.problem import EstimationProblem, Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
 from gc_ocp.stance import StanceData
@@ -127,11 +127,14 @@ def _estimate(
     continuation: tuple[float, ...],
     progress: Callable[[str], None] | None,
     covariance: bool,
+    like: EstimationProblem | None = None,
 ):
-    """:func:`estimate`, and the last stage's problem (the one its result is a point of)."""
+    """:func:`estimate`, and the last stage's problem (the one its result is a point of).
+    ``like``: a problem of the same stances that may differ from the stages' only in prior
+    widths (one solver for all, :func:`~gc_ocp.estimation.problem.build_estimation`)."""
     say = progress or (lambda s: None)
     steps = continuation if any(c.has_prior_scale for c in model) else (1.0,)
-    prev = anchor = None
+    prev = None
     total_s, total_it = 0.0, 0
     res = None
     for f in steps:
@@ -139,11 +142,9 @@ def _estimate(
             c.with_prior_scale(f) if hasattr(c, "with_prior_scale") and f != 1.0 else c
             for c in model
         )
-        # the stages differ in prior widths only: one solver serves them (problem.rescaled)
-        prob = None if anchor is None else anchor.rescaled(data, m)
-        if prob is None:
-            anchor = build_estimation(data, m, weights)
-            prob = anchor.rescaled(data, m) if len(steps) > 1 else anchor
+        # the stages differ in prior widths only: one solver serves them (``like``)
+        prob = build_estimation(data, m, weights, like=like)
+        like = prob
         x0 = rescaled_start(prev, prob) if prev is not None else None
         last = f == steps[-1]
         res = solve(
@@ -198,10 +199,11 @@ def best_of(
             starts.append(("the fit without censoring", p))
         except SolveError as e:
             err = e
+    prob = None  # the starts' problems differ in prior widths only: one solver (``like``)
     for what, s0 in starts:
         say(f"start: from {what}")
         try:
-            prob = build_estimation(data, model, weights)
+            prob = build_estimation(data, model, weights, like=prob)
             r = solve(prob, options, x0=rescaled_start(s0, prob), covariance=False)
             total_s += r.seconds
             total_it += r.iterations
@@ -212,7 +214,7 @@ def best_of(
     for steps in strategies:
         say(f"start: prior scales {steps}")
         try:
-            r, prob = _estimate(data, model, weights, options, steps, say, covariance=False)
+            r, prob = _estimate(data, model, weights, options, steps, say, False, like=prob)
         except SolveError as e:
             err = e
             if e.result is not None:
