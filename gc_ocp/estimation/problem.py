@@ -411,22 +411,9 @@ class EstimationProblem:
             StanceBlock(b.map if np.all(s == 1.0) else b.map.scaled(s), b.D, b.T, b.fm)
             for b in self.blocks
         ]
-        return EstimationProblem(
-            stances=self.stances,
-            model=new_model,
-            weights=self.weights,
-            variables=variables,
-            x=variables.finalize(),
-            n_data=self.n_data,
-            x0=variables.vector("x0"),
-            lbx=variables.vector("lb"),
-            ubx=variables.vector("ub"),
-            blocks=blocks,
-            prior_weights=variables.vector("prior_weight"),
-            prior_means=variables.vector("prior_mean"),
-            anchor=self,
-            anchor_scale=s,
-            inputs=self.inputs,
+        variables.finalize()
+        return _assembled(
+            self.stances, new_model, self.weights, variables, blocks, self.inputs, self, s
         )
 
     def objective_function(self) -> ca.Function:
@@ -655,12 +642,20 @@ def build_estimation(
         # Y = reshape(A x + y0): A is constant because every component maps x linearly
         smap = _slot_map(x, _stance_slots(model, variables, i, st, fm))
         blocks.append(StanceBlock(smap, frame_data(st, weights, fm, model), st.n, fm))
+    return _assembled(stances, model, weights, variables, blocks, inputs)
+
+
+def _assembled(
+    stances, model, weights, variables, blocks, inputs, anchor=None, anchor_scale=None
+) -> EstimationProblem:
+    """The problem of the finalised ``variables`` and the stances' ``blocks`` (built from
+    ``inputs``; ``anchor``, ``anchor_scale``: :meth:`EstimationProblem.rescaled`'s)."""
     return EstimationProblem(
         stances=list(stances),
         model=model,
         weights=weights,
         variables=variables,
-        x=x,
+        x=variables.x,
         n_data=sum(6 * b.T for b in blocks),
         x0=variables.vector("x0"),
         lbx=variables.vector("lb"),
@@ -668,6 +663,8 @@ def build_estimation(
         blocks=blocks,
         prior_weights=variables.vector("prior_weight"),
         prior_means=variables.vector("prior_mean"),
+        anchor=anchor,
+        anchor_scale=anchor_scale,
         inputs=list(inputs),
     )
 
