@@ -488,7 +488,7 @@ class EstimationProblem:
             res, jac = (np.asarray(a) for a in b.fm.jac.map(b.T)(b.D, b.Y(x)))
             rs.append(res.T.ravel())
             blocks = jac.reshape(6, b.T, ny).transpose(1, 0, 2)  # (T, 6, n_y)
-            Js.append(sp.block_diag(list(blocks), format="csr") @ b.map.A_csr)
+            Js.append(_block_diagonal(blocks) @ b.map.A_csr)
         return np.concatenate(rs), sp.vstack(Js, format="csr")
 
     def data_residuals(self, x: np.ndarray) -> np.ndarray:
@@ -497,6 +497,17 @@ class EstimationProblem:
         return np.concatenate(
             [np.asarray(b.fm.frame.map(b.T)(b.D, b.Y(x))[0]).T.ravel() for b in self.blocks]
         )
+
+
+def _block_diagonal(blocks: np.ndarray) -> sp.csr_matrix:
+    """The block-diagonal CSR matrix of ``blocks`` (T, m, n), its index arrays written directly
+    (``scipy.sparse.block_diag`` of T small blocks costs about 20 times more)."""
+    T, m, n = blocks.shape
+    cols = np.arange(T)[:, None, None] * n + np.arange(n)[None, None, :]
+    indices = np.broadcast_to(cols, (T, m, n)).ravel()
+    return sp.csr_matrix(
+        (blocks.ravel(), indices, np.arange(0, T * m * n + 1, n)), shape=(T * m, T * n)
+    )
 
 
 def _same_but_widths(a, b) -> bool:
