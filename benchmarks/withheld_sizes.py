@@ -13,9 +13,10 @@ Runs (each a ``gc-ocp benchmark-diagnosis`` folder; ``--resume`` continues one):
 (the guessed pose width, the diagnosis's default until 2026-11-28; the same command without
 ``--pose-width prior`` and with ``--out .../{motion}_N_width`` is the rerun on the estimated
 width, the default since, which :func:`widths` sets beside it case by case). Then
-``python benchmarks/withheld_sizes.py [ROOT]`` writes the Markdown to stdout from every
-``ROOT/{motion}_{N}/confusion.json`` present (ROOT: ``benchmarks/withheld_mismatch``; partial
-runs included, their case counts shown).
+``python benchmarks/withheld_sizes.py [ROOT ...]`` writes the Markdown to stdout from every
+``ROOT/{motion}_{N}/confusion.json`` present (ROOTs: ``benchmarks/withheld_mismatch`` and
+``benchmarks/withheld_steps``, the steps-needed screens and reruns; partial runs included, their
+case counts shown; the base-width comparison reads the first ROOT only).
 
 **What stops an effect** (per case whose truth is not the answer): ``test`` (the calibrated
 test does not name the truth), ``floor`` (it does, but the refitted held-out or in-sample
@@ -45,9 +46,11 @@ from gc_ocp.diagnosis.result import RankRow
 from gc_ocp.diagnosis.selection import floor_stances
 
 HERE = Path(__file__).parent / "withheld_mismatch"
+STEPS = Path(__file__).parent / "withheld_steps"
+"""The steps-needed reruns and the screens they come from (read beside :data:`HERE`)."""
 
 
-def load(root: Path = HERE) -> dict[tuple[str, int], dict]:
+def load(*roots: Path) -> dict[tuple[str, int], dict]:
     """``{(motion and base, stances per foot): run}``: ``{motion}_{N}`` is a run on the guessed
     pose width, ``{motion}_{N}_width`` on the estimated one (the default since 2026-11-28); the
     two bases are kept apart, so that sizes and the steps-needed check compare like with like.
@@ -57,16 +60,18 @@ def load(root: Path = HERE) -> dict[tuple[str, int], dict]:
     once. Other suffixes (``_own_fit``: a rerun of single cases on a later version) are not
     read."""
     out: dict[tuple[str, int], dict] = {}
-    for p in sorted(root.glob("*_*/confusion.json")):
+    for p in [p for root in roots or (HERE,) for p in sorted(root.glob("*_*/confusion.json"))]:
         m = re.fullmatch(r"(.+)_(\d+)(_width)?(_seed\d+)?(_part\w+)?", p.parent.name)
         if not m:
             continue
         base = "estimated width" if m.group(3) else "guessed width"
         key = (f"{m.group(1)}, {base}", int(m.group(2)))
         run = json.loads(p.read_text())
+        run["steps"] = p.parent.parent == STEPS
         if key not in out:
             out[key] = run
             continue
+        out[key]["steps"] |= run["steps"]
         have = {case_key(c) for c in out[key]["cases"]}
         out[key]["cases"] += [c for c in run["cases"] if case_key(c) not in have]
         out[key]["seconds"]["cases_total"] += run["seconds"]["cases_total"]
@@ -119,8 +124,8 @@ def rule_stances(row: dict) -> int | None:
     return RankRow.rule_stances(test, floor_stances(red, row["calibrated"]["n_heldout"]))
 
 
-def main(root: Path = HERE) -> None:
-    runs = load(root)
+def main(*roots: Path) -> None:
+    runs = load(*roots)
     motions = sorted({m for m, _ in runs})
     print("# Withheld-effect benchmark with the mismatch family, by stances per foot\n")
     print(
@@ -136,16 +141,24 @@ def main(root: Path = HERE) -> None:
         + ' | "none" rejected | time [min]: all cases, median case |'
     )
     print("|---|---|---|" + "---|" * len(MAGNITUDES) + "---|---|")
+    print_note = any(r["steps"] for r in runs.values())
     for (motion, n), res in sorted(runs.items()):
         cs = res["cases"]
         by = [[c for c in cs if c["magnitude"] == m] for m in MAGNITUDES]
         non = [c for c in cs if c["truth"] == "none"]
         print(
-            f"| {motion} | {n} | {len(cs)} | "
+            f"| {motion} | {n}{' (s)' if res['steps'] else ''} | {len(cs)} | "
             + " | ".join(_pct(sum(c["correct"] for c in g), len(g)) for g in by)
             + f" | {_pct(sum(c['correct'] for c in non), len(non))} | "
             f"{res['seconds']['cases_total'] / 60:.0f}, "
             f"{median(c['seconds_generate'] + c['seconds_diagnose'] for c in cs) / 60:.1f} |"
+        )
+    if print_note:
+        print(
+            "\n(s): the size holds cases of `withheld_steps`: the steps-needed check's screens "
+            "(further seeds at 2 per foot) and its reruns of the truths those left inconclusive, "
+            "at the size predicted (cases chosen for being inconclusive, not a sample of the "
+            "effects: *Steps needed, checked*), and the estimated width's cases at 8 per foot."
         )
     for motion in motions:
         sizes = sorted(n for m, n in runs if m == motion)
@@ -300,6 +313,6 @@ def widths(root: Path = HERE) -> None:
 if __name__ == "__main__":
     import sys
 
-    root = Path(sys.argv[1]) if len(sys.argv) > 1 else HERE
-    main(root)
-    widths(root)
+    roots = [Path(a) for a in sys.argv[1:]] or [HERE, STEPS]
+    main(*roots)
+    widths(roots[0])
