@@ -257,10 +257,9 @@ def solve(
     if (options, warm) not in anchor.solvers:
         anchor.solvers[(options, warm)] = make_solver(anchor.parametric(), options, warm)
     solver = anchor.solvers[(options, warm)]
-    args = {"x0": problem.x0 if x0 is None else x0, "lbx": problem.lbx, "ubx": problem.ubx}
-    args["p"] = scale
+    x_init = problem.x0 if x0 is None else x0
     t0 = _time.perf_counter()
-    sol = solver(**args)
+    sol = solver(x0=x_init, lbx=problem.lbx, ubx=problem.ubx, p=scale)
     seconds = _time.perf_counter() - t0
     stats = solver.stats()
     # Ipopt relaxes the bounds by its bound_relax_factor (1e-8, relative): its solution can lie
