@@ -67,7 +67,7 @@ def load(*roots: Path) -> dict[tuple[str, int], dict]:
         base = "estimated width" if m.group(3) else "guessed width"
         key = (f"{m.group(1)}, {base}", int(m.group(2)))
         run = json.loads(p.read_text())
-        run["steps"] = p.parent.parent == STEPS
+        run["steps"] = p.parent.parent.resolve() == STEPS.resolve()
         if key not in out:
             out[key] = run
             continue

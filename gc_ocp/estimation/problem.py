@@ -407,9 +407,9 @@ class EstimationProblem:
         s = _column_scale(self.variables.specs, variables.specs)
         if s is None:
             return None
+        same = bool(np.all(s == 1.0))
         blocks = [
-            StanceBlock(b.map if np.all(s == 1.0) else b.map.scaled(s), b.D, b.T, b.fm)
-            for b in self.blocks
+            StanceBlock(b.map if same else b.map.scaled(s), b.D, b.T, b.fm) for b in self.blocks
         ]
         variables.finalize()
         return _assembled(

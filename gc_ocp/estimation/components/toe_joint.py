@@ -182,7 +182,7 @@ class ToeJoint(Component):
     pitch_fixed: dict | None = None
     name: str = "toe_joint"
     neutral_at_zero = True
-    width_fields = ("sigma_deg", "gain_sigma", "onset_sigma_deg")  # its drive uses some
+    width_fields = ("sigma_deg", "gain_sigma", "onset_sigma_deg")  # each drive reads its own
     candidate = True
     benchmark_values = {
         "small": 5.0,
@@ -220,16 +220,6 @@ class ToeJoint(Component):
         there as the ``kinematic_correction`` candidate's pose is: like for like."""
         stance_scoped = any(c.scope == "stance" for c in model)
         return cls(drive="pitch" if stance_scoped else "spline")
-
-    def with_prior_scale(self, factor: float) -> ToeJoint:
-        """The same component with its prior widths multiplied by ``factor`` (bounds kept)."""
-        if self.drive == "spline":
-            return replace(self, sigma_deg=self.sigma_deg * factor)
-        return replace(
-            self,
-            gain_sigma=self.gain_sigma * factor,
-            onset_sigma_deg=self.onset_sigma_deg * factor,
-        )
 
     def basis(self, time: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """B-spline design matrices ``(T, K)`` of ``phi`` and ``phi_dot`` on ``time`` [s]."""
