@@ -1,6 +1,6 @@
 """Data types shared by every layer: a walking trial, its force plates and stances.
 
-Conventions (see ``docs/conventions.md``):
+Conventions (README, *Conventions and decisions*):
 
 * SI units inside the code (m, s, N, N·m, kg).
 * Arrays are time-first: markers ``(n_frames, n_markers, 3)``, plate force ``(n_samples, 3)``.

@@ -461,3 +461,43 @@ def test_non_numeric_mot_cell_names_file_line_and_column(tmp_path):
         InputError, match=rf'damaged.mot, line {k + 1}: column "{names[1]}" is "n/a"'
     ):
         load_trial(RAJ[0], grf=mot, mass=RAJ_MASS)
+
+
+def _relabelled(tmp_path, rename):
+    """The bundled C3D with every marker label passed through ``rename(label, column)``."""
+    import ezc3d
+
+    from gc_ocp.io.load import bundled_example_path
+
+    c = ezc3d.c3d(str(bundled_example_path()))
+    labels = list(c["parameters"]["POINT"]["LABELS"]["value"])
+    c["parameters"]["POINT"]["LABELS"]["value"] = [rename(s, i) for i, s in enumerate(labels)]
+    out = tmp_path / "relabelled.c3d"
+    c.write(str(out))
+    return out
+
+
+def test_a_vicon_subject_prefix_is_dropped_and_the_trial_reads_as_without_it(tmp_path):
+    """Vicon Nexus labels a subject's markers ``Subject:LHEE``. Before, the shipped Plug-in Gait
+    set did not match them, recognition put LANK on the shank instead of the hindfoot, and the
+    fit changed (mu 0.244 -> 0.196 on the bundled trial) without a word."""
+    from gc_ocp.io.c3d import read_c3d
+    from gc_ocp.io.load import bundled_example_path
+    from gc_ocp.model.markerset import detect_markerset
+
+    clean = read_c3d(bundled_example_path())
+    raw = read_c3d(_relabelled(tmp_path, lambda s, i: "Bob:" + s))
+    assert raw.marker_names == clean.marker_names
+    np.testing.assert_array_equal(np.isnan(raw.markers), np.isnan(clean.markers))
+    assert any('prefix "Bob:"' in n for n in raw.notes)
+    a = detect_markerset(clean.marker_names, clean.markers)
+    b = detect_markerset(raw.marker_names, raw.markers)
+    assert a.name == b.name
+
+
+def test_markers_of_two_subjects_in_one_file_are_an_error_naming_them(tmp_path):
+    from gc_ocp.io.c3d import read_c3d
+
+    path = _relabelled(tmp_path, lambda s, i: ("Ann:" if i % 2 else "Bob:") + s)
+    with pytest.raises(MarkerError, match=r"several subjects .*Ann:, Bob:"):
+        read_c3d(path)

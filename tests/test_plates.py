@@ -233,15 +233,26 @@ def test_circuit_stances_have_their_own_heading():
 
 
 def _readings(path):
-    """(ezc3d-based readings, readings computed from the analogs) of a C3D's plates."""
+    """(ezc3d's own platform readings, ours from the analogs) of a C3D's plates, in the file
+    frame, SI: ezc3d is the independent reference (its moments converted with its own unit)."""
     import ezc3d
 
-    from gc_ocp.io.c3d import _analog_reading, _plate_readings
+    from gc_ocp.io.c3d import _plate_readings
 
     c = ezc3d.c3d(str(path), extract_forceplat_data=True)
-    params = c["parameters"]
-    ez = _plate_readings(c, params, c["data"]["platform"], path)
-    own = [_analog_reading(c, params, i, r["type"], 1e-3, path) for i, r in enumerate(ez)]
+    own = _plate_readings(c, c["parameters"], path)
+    ez = []
+    for r, pf in zip(own, c["data"]["platform"], strict=True):
+        mom = {"nmm": 1e-3, "nm": 1.0}[pf["unit_moment"].lower()]
+        ez.append(
+            {
+                "type": r["type"],
+                "force": np.asarray(pf["force"], float).T,
+                "moment": np.asarray(pf["moment"], float).T * mom,
+                "corners": np.asarray(pf["corners"], float).T
+                * {"mm": 1e-3, "m": 1.0}[pf["unit_position"]],
+            }
+        )
     return ez, own, c
 
 
@@ -700,3 +711,154 @@ def test_type3_file_reads_the_same_wrench_as_its_type2_original(tmp_path):
         transport_moment(p.force, p.moment, p.reference_point, centre),
         atol=1e-3,
     )
+
+
+# --- units of a C3D's plates: each channel in the unit the file gives it ---------------------
+
+
+def _bundled_c3d():
+    from gc_ocp.io.load import bundled_example_path
+
+    return bundled_example_path()
+
+
+def _moment_channels(c) -> list[int]:
+    ch = np.asarray(c["parameters"]["FORCE_PLATFORM"]["CHANNEL"]["value"], int) - 1
+    return [int(j) for j in ch[3:6].ravel()]
+
+
+def _wrenches(path):
+    from gc_ocp.io.c3d import read_c3d
+
+    raw = read_c3d(Path(path))
+    return [(p.name, p.force, p.moment, p.reference_point) for p in raw.plates]
+
+
+@pytest.mark.parametrize("variant", ["markers_in_metres", "moments_in_Nm"])
+def test_plate_wrench_follows_each_channels_own_unit(tmp_path, variant):
+    """Two valid ways a lab stores the same trial: POINT:UNITS m (markers, CORNERS and ORIGIN
+    in metres) with the moment channels still in N mm, or markers in mm with the moments in
+    N m. Both must give the clean file's plates (the values are divided by 1000 in
+    float32 storage, so agreement is to float32's ~1e-7 of each channel's scale, checked at
+    1e-5 of the peak). ezc3d's
+    platform wrench takes the moments' unit from POINT:UNITS and came out 1000x off here."""
+    import ezc3d
+
+    src = _bundled_c3d()
+    c = ezc3d.c3d(str(src))
+    if variant == "markers_in_metres":
+        c["parameters"]["POINT"]["UNITS"]["value"] = ["m"]
+        c["data"]["points"][:3] /= 1000.0
+        fp = c["parameters"]["FORCE_PLATFORM"]
+        fp["CORNERS"]["value"] = np.asarray(fp["CORNERS"]["value"]) / 1000.0
+        fp["ORIGIN"]["value"] = np.asarray(fp["ORIGIN"]["value"]) / 1000.0
+    else:
+        units = list(c["parameters"]["ANALOG"]["UNITS"]["value"])
+        for j in _moment_channels(c):
+            units[j] = "Nm"
+            c["data"]["analogs"][0, j, :] /= 1000.0
+        c["parameters"]["ANALOG"]["UNITS"]["value"] = units
+    out = tmp_path / "variant.c3d"
+    c.write(str(out))
+    clean, other = _wrenches(src), _wrenches(out)
+    assert [p[0] for p in clean] == [p[0] for p in other]
+    for (_, f0, m0, r0), (_, f1, m1, r1) in zip(clean, other, strict=True):
+        # float32 storage of a value divided by 1000: ~1e-7 relative per sample
+        np.testing.assert_allclose(f1, f0, atol=1e-5 * np.abs(f0).max() + 1e-6)
+        np.testing.assert_allclose(m1, m0, atol=1e-5 * np.abs(m0).max() + 1e-6)
+        np.testing.assert_allclose(r1, r0, atol=1e-6)
+
+
+def _variant(tmp_path, change):
+    """The bundled C3D with ``change(c)`` applied (ezc3d), written to ``tmp_path``."""
+    import ezc3d
+
+    c = ezc3d.c3d(str(_bundled_c3d()))
+    change(c)
+    out = tmp_path / "variant.c3d"
+    c.write(str(out))
+    return out
+
+
+def _plate_channel(c, plate: int, comp: int) -> int:
+    ch = np.asarray(c["parameters"]["FORCE_PLATFORM"]["CHANNEL"]["value"], int) - 1
+    return int(ch[comp, plate])
+
+
+def _most_loaded_plate() -> int:
+    from gc_ocp.io.c3d import read_c3d
+
+    raw = read_c3d(_bundled_c3d())
+    return int(np.argmax([np.nanmax(p.force[:, 2]) for p in raw.plates]))
+
+
+def test_plates_storing_the_force_on_the_plate_are_negated_with_a_note(tmp_path):
+    """Every channel of every plate negated (a writer that stores the action on the plate):
+    the same ground reactions as the clean file, and the reading says what it did."""
+    from gc_ocp.io.c3d import read_c3d
+
+    def negate_all(c):
+        ch = np.asarray(c["parameters"]["FORCE_PLATFORM"]["CHANNEL"]["value"], int) - 1
+        c["data"]["analogs"][0, ch.ravel(), :] *= -1.0
+
+    clean = _wrenches(_bundled_c3d())
+    raw = read_c3d(_variant(tmp_path, negate_all))
+    assert any("negated" in n for n in raw.notes)
+    for (_, f0, m0, _), p in zip(clean, raw.plates, strict=True):
+        np.testing.assert_allclose(p.force, f0, atol=1e-9 * np.abs(f0).max())
+        np.testing.assert_allclose(p.moment, m0, atol=1e-9 * np.abs(m0).max())
+
+
+def test_one_plate_with_a_negative_vertical_force_is_named(tmp_path):
+    """One plate's vertical channel with the wrong sign (its ANALOG:SCALE): the plates disagree.
+    Before, that plate's stance silently vanished (its loaded samples were looked for among
+    positive forces only) and the fit ran on the others."""
+    k = _most_loaded_plate()
+
+    def flip_fz(c):
+        c["data"]["analogs"][0, _plate_channel(c, k, 2), :] *= -1.0
+
+    with pytest.raises(PlateError, match=rf"plate{k + 1} read a negative vertical force.*CORNERS"):
+        load_trial(_variant(tmp_path, flip_fz))
+
+
+@pytest.mark.parametrize("how", ["collinear", "nan"])
+def test_a_loaded_plate_with_unusable_corners_is_an_error_naming_them(tmp_path, how):
+    """Before, a loaded plate whose corners do not span a surface was skipped with a note and
+    its stance silently lost."""
+    k = _most_loaded_plate()
+
+    def break_corners(c):
+        fp = c["parameters"]["FORCE_PLATFORM"]
+        corners = np.asarray(fp["CORNERS"]["value"], float).copy()  # (3, 4, n_plates)
+        if how == "nan":
+            corners[:, 2, k] = np.nan
+        else:
+            corners[:, 3, k] = corners[:, 0, k] + 0.5 * (corners[:, 1, k] - corners[:, 0, k])
+        fp["CORNERS"]["value"] = corners
+
+    with pytest.raises(PlateError, match=rf"Plate {k + 1} .*CORNERS"):
+        load_trial(_variant(tmp_path, break_corners))
+
+
+def test_a_plate_never_unloaded_keeps_its_reading(tmp_path):
+    """A quiet stretch at hundreds of newtons is a load, not an amplifier's zero: it is not
+    subtracted (before, 600 N were removed as an 'unloaded offset')."""
+    from gc_ocp.io.c3d import read_c3d
+
+    clean = read_c3d(_bundled_c3d())
+    k = int(np.argmin([np.nanmax(p.force[:, 2]) for p in clean.plates]))  # the least loaded
+
+    from gc_ocp.io.plates import plate_axes
+
+    # the channel is along the plate's z axis, which points down into it (the C3D
+    # convention): 600 N upward on the subject is -600 in the channel
+    z_up = plate_axes(clean.plates[k].corners)[2, 2]
+
+    def load_it(c):
+        c["data"]["analogs"][0, _plate_channel(c, k, 2), :] += 600.0 / z_up
+
+    with pytest.warns(UserWarning, match="a load, not an unloaded offset"):
+        raw = read_c3d(_variant(tmp_path, load_it))
+    assert raw.plates[k].zero_offset is None
+    assert abs(np.median(raw.plates[k].force[:, 2])) > 500.0

@@ -194,7 +194,7 @@ class RankRow:
         refit = self.heldout_rms_reduction_pct
         if refit is not None and refit > 0:
             # the refit gains but one step from the parent's solution does not: a gain reached
-            # only by moving the other parameters far (docs/diagnosis.md, "like for like")
+            # only by moving the other parameters far (docs/diagnosis.md, "Like for like")
             return (
                 f"not named ({p}): no gain one step from the parent's solution (the test's "
                 f"statistic, {c.observed_pct:+.1f} %), although the refit gains {refit:+.1f} %"

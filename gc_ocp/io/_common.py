@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gc_ocp.errors import UnitsError
+from gc_ocp.errors import MarkerError, UnitsError
 from gc_ocp.model.landmarks import classify, vocabulary
 from gc_ocp.trial import Plate
 
@@ -199,6 +199,41 @@ def heel_toe(names: list[str] | tuple[str, ...], side: str) -> tuple[int | None,
             if toe is not None:
                 break
     return heel, toe
+
+
+SUBJECT_MIN_LANDMARKS = 3
+"""A label prefix (``Name:``) that carries at least this many landmark labels names a subject;
+fewer is a prop or a device's points (``Wand:Tip``), kept as they are."""
+
+
+def without_subject_prefix(labels: list[str], path: Path) -> tuple[list[str], str]:
+    """``labels`` with the subject prefix dropped, and a note saying so (``""`` if none).
+
+    Vicon Nexus labels a subject's markers ``Subject:LHEE``; the prefix names the subject, not
+    the landmark, and stands in the way of the marker sets (``LHEE``) and of a static trial
+    saved without it. A prefix is a subject's when :data:`SUBJECT_MIN_LANDMARKS` of its labels
+    are landmarks of the vocabulary; two such prefixes are two subjects in one file: a
+    :class:`MarkerError` naming them (gc_ocp fits one subject per trial)."""
+    heads: dict[str, int] = {}
+    for lab in labels:
+        head, sep, name = lab.rpartition(":")
+        if sep and classify(name.strip())[0] == "landmark":
+            heads[head.strip()] = heads.get(head.strip(), 0) + 1
+    subjects = sorted(h for h, k in heads.items() if k >= SUBJECT_MIN_LANDMARKS)
+    if not subjects:
+        return labels, ""
+    if len(subjects) > 1:
+        raise MarkerError(
+            f"{path} holds the markers of several subjects (label prefixes "
+            f"{', '.join(h + ':' for h in subjects)}): gc_ocp fits one subject per trial. Export "
+            f"one subject's markers, or remove the others from the file."
+        )
+    head = subjects[0]
+    out = [
+        lab.rpartition(":")[2].strip() if lab.rpartition(":")[0].strip() == head else lab
+        for lab in labels
+    ]
+    return out, f'marker labels carry the subject prefix "{head}:": dropped'
 
 
 def warn(message: str) -> None:

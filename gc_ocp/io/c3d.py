@@ -1,6 +1,9 @@
 """C3D reader (ezc3d): real markers, force plates about their electrical centre, subject.
 
-What ezc3d gives, checked numerically on the bundled Vicon file (``tests/test_io.py``):
+ezc3d reads the file; every plate's wrench is computed here from its analog channels
+(:func:`_plate_readings`, :mod:`gc_ocp.io.plates`). ezc3d's own platform wrench is the
+independent reference of the tests; what it gives, checked numerically on the bundled Vicon file
+(``tests/test_io.py``):
 
 * ``platform[i]['force']`` is the ground reaction on the subject in the C3D global frame (N).
 * ``platform[i]['moment']`` is about the **geometric centre of the plate surface** (mean of the
@@ -37,6 +40,7 @@ from gc_ocp.io._common import (
     unit_scale,
     up_to_lab,
     warn,
+    without_subject_prefix,
 )
 from gc_ocp.io.plates import N_CHANNELS, SUPPORTED_TYPES, plate_axes, plate_wrench
 from gc_ocp.trial import Plate
@@ -73,7 +77,8 @@ def _model_outputs(params: dict, labels: list[str]) -> set[str]:
 
     Vicon lists them in POINT:ANGLES/FORCES/MOMENTS/POWERS/MODELED_MARKERS; we also drop names
     ending in Angle(s)/Force/Moment/Power/COM/CentreOfMass*, and Plug-in Gait "bone" points:
-    four labels ``XXXO``, ``XXXA``, ``XXXL``, ``XXXP`` sharing a 3-letter segment prefix.
+    four labels ``XXXO``, ``XXXA``, ``XXXL``, ``XXXP`` sharing a 3-letter segment prefix (after
+    a subject prefix ``Name:``, if any).
     """
     out: set[str] = set()
     point = params.get("POINT", {})
@@ -81,11 +86,16 @@ def _model_outputs(params: dict, labels: list[str]) -> set[str]:
         if g in point:
             out.update(str(v).strip() for v in point[g]["value"])
     out.update(lab for lab in labels if _MODEL_OUTPUT_NAME.search(lab))
-    prefixes = {lab[:3] for lab in labels if len(lab) == 4 and lab[3] == "O"}
-    for p in prefixes:
-        bone = {p + s for s in "OALP"}
-        if bone <= set(labels):
-            out.update(bone)
+    # a subject prefix (Vicon Nexus: ``Subject:PELO``) kept in front of the bone points
+    by_name: dict[tuple[str, str], str] = {}
+    for lab in labels:
+        head, _, name = lab.rpartition(":")
+        by_name[(head, name)] = lab
+    for head, name in list(by_name):
+        if len(name) == 4 and name[3] == "O":
+            bone = [(head, name[:3] + s) for s in "OALP"]
+            if all(b in by_name for b in bone):
+                out.update(by_name[b] for b in bone)
     return out
 
 
@@ -187,14 +197,17 @@ def _moment_scale(unit: str, pos: float) -> float:
     return {"nmm": 1e-3, "nm": 1.0}.get(key, pos)
 
 
-def _plate_readings(c, params: dict, platforms: list, path: Path) -> list[dict]:
+def _plate_readings(c, params: dict, path: Path) -> list[dict]:
     """Each plate's force [N] and moment about its surface centre [N·m] in the file frame,
     corners [m], ORIGIN [m] (``None`` for types 1 and 3, whose wrench is about the centre).
 
-    Types 2 and 4 come from ezc3d (checked against :mod:`gc_ocp.io.plates` in the tests);
-    types 1 and 3 are computed from the analog channels by :func:`gc_ocp.io.plates.plate_wrench`
-    (ezc3d's type-1 moment has the opposite sign to its force: its COP is right, the wrench
-    is not)."""
+    Every type is computed from its analog channels by :func:`gc_ocp.io.plates.plate_wrench`,
+    each moment channel in the unit ANALOG:UNITS gives it (``Nmm``, ``Nm``; a length unit the
+    file does not say is the point unit). ezc3d's own platform wrench equals ours to round-off on
+    the shared type-2 and type-4 files (``tests/test_plates.py``) but takes the moments' unit from
+    POINT:UNITS: a file with markers in metres and moments in N·mm (or markers in mm and moments
+    in N·m), both valid C3D, came out 1000 times off (its type-1 moment also has the opposite
+    sign to its force)."""
     t = _param(params, "FORCE_PLATFORM", "TYPE")
     kinds = [int(v) for v in np.ravel(t if t is not None else [])]
     used = _first_number(_param(params, "FORCE_PLATFORM", "USED"))
@@ -210,34 +223,7 @@ def _plate_readings(c, params: dict, platforms: list, path: Path) -> list[dict]:
                 f"{list(SUPPORTED_TYPES)}. Export the C3D again with type-2 or type-4 plates from "
                 f"your motion-capture software (or give a TRC with --grf FILE.mot)."
             )
-        if kind in (2, 4) and i < len(platforms):
-            pf = platforms[i]
-            ppos = unit_scale(pf["unit_position"], path, f"plate {i + 1} position unit")
-            mom = {"nmm": 1e-3, "nm": 1.0}.get(pf["unit_moment"].lower().replace(".", ""))
-            if mom is None:
-                raise PlateError(
-                    f'Unknown moment unit "{pf["unit_moment"]}" of plate {i + 1} in {path}: '
-                    f"set ANALOG:UNITS of its moment channels to Nmm or Nm."
-                )
-            origin = _param(params, "FORCE_PLATFORM", "ORIGIN")
-            if origin is None or np.asarray(origin).ndim != 2 or np.asarray(origin).shape[1] <= i:
-                raise PlateError(
-                    f"Plate {i + 1} in {path} has no FORCE_PLATFORM:ORIGIN parameter (the "
-                    f"electrical centre below the surface): export the C3D again with the "
-                    f"force-plate calibration from your motion-capture software."
-                )
-            out.append(
-                {
-                    "number": i + 1,
-                    "type": kind,
-                    "force": np.asarray(pf["force"], dtype=float).T,
-                    "moment": np.asarray(pf["moment"], dtype=float).T * mom,
-                    "corners": np.asarray(pf["corners"], dtype=float).T * ppos,
-                    "origin": np.asarray(origin, float)[:, i] * ppos,
-                }
-            )
-        else:
-            out.append(_analog_reading(c, params, i, kind, pos, path))
+        out.append(_analog_reading(c, params, i, kind, pos, path))
     return out
 
 
@@ -297,6 +283,57 @@ def _analog_reading(c, params: dict, i: int, kind: int, pos: float, path: Path) 
     }
 
 
+LOADED_N = 50.0
+"""A plate whose vertical force exceeds this [N] in absolute value carries someone (a few
+per cent of an adult's weight; far above the plates' noise of ~1-5 N)."""
+
+
+OFFSET_MAX_N = 100.0
+"""The largest vertical offset [N] removed as an unloaded plate's zero: an amplifier's zero or a
+piezo plate's drift over a trial is tens of newtons (the shared files: up to 32 N); a quiet
+stretch reading more is someone standing on the plate (100 N: a 10 kg toddler)."""
+
+
+def _corners_problem(corners: np.ndarray) -> str:
+    """What makes a plate's four corners unusable (``""`` if nothing): not finite, or not
+    spanning a surface (coincident or collinear: the plate axes ``c1 - c2`` and ``c1 - c4``
+    of :func:`~gc_ocp.io.plates.plate_axes` would not exist). A real plate is at least
+    10 cm on a side, so a spanned area under 1 cm^2 is a broken set-up, not a small plate."""
+    if not np.all(np.isfinite(corners)):
+        return "are not numbers (NaN)"
+    area = float(np.linalg.norm(np.cross(corners[0] - corners[1], corners[0] - corners[3])))
+    if area < 1e-4:
+        return f"do not span a surface (area {area * 1e4:.2g} cm^2: coincident or collinear)"
+    return ""
+
+
+def _negative_plates(kept: list, path: Path) -> bool:
+    """Whether every loaded plate's vertical force is negative while loaded (the file stores
+    the force the subject exerts on the plate, a convention some writers use: the caller
+    negates every plate). A file whose plates disagree (some negative, some positive) has a
+    plate set up wrongly (a vertical channel's sign, ANALOG:SCALE, or a mirrored CORNERS
+    order): an error naming the plates, since negating one plate's six channels would not
+    undo a wrong sign of one of them."""
+    signs = {}
+    for _r, name, force, *_ in kept:
+        fz = force[:, 2]
+        loaded = np.abs(np.nan_to_num(fz)) > LOADED_N
+        if loaded.any():
+            signs[name] = float(np.median(fz[loaded]))
+    negative = [n for n, m in signs.items() if m < 0]
+    if not negative or len(negative) == len(signs):
+        return bool(negative)
+    positive = [n for n in signs if n not in negative]
+    raise PlateError(
+        f"In {path}, {', '.join(negative)} read a negative vertical force while loaded "
+        f"(median {', '.join(f'{signs[n]:.0f}' for n in negative)} N) but "
+        f"{', '.join(positive)} a positive one: the plates disagree, so the sign of a vertical "
+        f"channel (ANALOG:SCALE) or the order of FORCE_PLATFORM:CORNERS of "
+        f"{', '.join(negative)} is wrong. Fix that plate's set-up in the file (or export it "
+        f"again from your motion-capture software)."
+    )
+
+
 def read_c3d(path: Path) -> RawTrial:
     """Read markers, plates and subject data of a C3D file (SI, C3D global frame, Z up)."""
     head = path.read_bytes()[:512]
@@ -310,17 +347,12 @@ def read_c3d(path: Path) -> RawTrial:
                 f"from your motion-capture software."
             )
     try:
-        c = ezc3d.c3d(str(path), extract_forceplat_data=True)
-        platforms = c["data"].get("platform", [])
-    except Exception:  # ezc3d raises plain RuntimeError/IOError, also for unusable plates
-        try:
-            c = ezc3d.c3d(str(path))
-        except Exception as exc:
-            raise InputError(
-                f"Could not read {path} as a C3D file ({exc}); export it again as C3D from your "
-                f"motion-capture software."
-            ) from exc
-        platforms = []
+        c = ezc3d.c3d(str(path))
+    except Exception as exc:  # ezc3d raises plain RuntimeError/IOError
+        raise InputError(
+            f"Could not read {path} as a C3D file ({exc}); export it again as C3D from your "
+            f"motion-capture software."
+        ) from exc
     params = c["parameters"]
     announced = header_frames(path)
     n_read = int(np.asarray(c["data"]["points"]).shape[2])
@@ -352,13 +384,13 @@ def read_c3d(path: Path) -> RawTrial:
     check_body_span(xyz, path, unit, "POINT:UNITS")
     point_rate = float(c["header"]["points"]["frame_rate"])
     marker_time = np.arange(xyz.shape[0]) / point_rate
-    names = [labels[i] for i in keep]
+    names, prefix_note = without_subject_prefix([labels[i] for i in keep], path)
 
     # Plates ----------------------------------------------------------------------------
     plates: list[Plate] = []
-    notes: list[str] = []
+    notes: list[str] = [prefix_note] if prefix_note else []
     analog_rate = float(c["header"]["analogs"]["frame_rate"])
-    readings = _plate_readings(c, params, platforms, path)
+    readings = _plate_readings(c, params, path)
     axis, sign, how = vertical_axis(
         [r["force"] for r in readings],
         [r["corners"] for r in readings if np.ptp(r["corners"]) > 0],
@@ -381,15 +413,26 @@ def read_c3d(path: Path) -> RawTrial:
             f"POINT:Y_SCREEN of {path.name} says {screen} is up on screen, but the data say "
             f"{'+' if sign > 0 else '-'}{AXIS_NAMES[axis]} (gravity and the plates): the data win"
         )
+    kept = []
     for r in readings:
         name = f"plate{r['number']}"
         force = to_lab(r["force"])
         moment_c = to_lab(r["moment"])
         corners = to_lab(r["corners"])
-        centre = corners.mean(axis=0)
-        if not np.isfinite(force).any() or np.ptp(corners, axis=0).max() == 0:
-            notes.append(f"{name}: no corners or no data, skipped")
+        if not np.isfinite(force).any():
+            notes.append(f"{name}: no data, skipped")
             continue
+        bad = _corners_problem(corners)
+        if bad:
+            if np.nanmax(np.abs(force[:, 2])) > LOADED_N:
+                raise PlateError(
+                    f"Plate {r['number']} of {path} carries load but its FORCE_PLATFORM:CORNERS "
+                    f"{bad}: its forces cannot be placed in the lab. Fix the plate's corners in "
+                    f"the file (or export it again with the force-plate set-up)."
+                )
+            notes.append(f"{name}: never loaded and its corners {bad}, skipped")
+            continue
+        centre = corners.mean(axis=0)
         if r["origin"] is None:  # types 1 and 3: the wrench is given about the surface centre
             reference, kind = centre, "surface_center"
         else:
@@ -399,8 +442,15 @@ def read_c3d(path: Path) -> RawTrial:
             reference, kind = centre + offset, "electrical_center"
         base, t_unloaded = unloaded_baseline(np.hstack([force, moment_c]), analog_rate)
         removed = t_unloaded >= 0.1
+        if removed and abs(base[2]) > OFFSET_MAX_N:
+            warn(
+                f"{name} of {path}: its quietest stretch reads {base[2]:.0f} N, a load, not an "
+                f"unloaded offset (the plate is never unloaded in this file); offset not removed."
+            )
+            removed = False
         if not removed:
-            warn(f"{name} of {path}: no unloaded stretch >= 0.1 s; offset not removed.")
+            if t_unloaded < 0.1:
+                warn(f"{name} of {path}: no unloaded stretch >= 0.1 s; offset not removed.")
             base = np.zeros(6)
         else:
             notes.append(
@@ -409,10 +459,16 @@ def read_c3d(path: Path) -> RawTrial:
             )
         force = force - base[:3]
         moment_c = moment_c - base[3:]
-        loaded = force[:, 2] > 50.0
-        if loaded.any() and np.median(force[loaded, 2]) < 0:
-            force, moment_c = -force, -moment_c  # stored as action on the plate
-            base = -base
+        kept.append((r, name, force, moment_c, corners, centre, reference, kind, base, removed))
+    flip = _negative_plates(kept, path)
+    if flip:
+        notes.append(
+            f"the plates of {path.name} store the force on the plate (vertical force negative "
+            f"while loaded): negated to the ground reaction on the subject"
+        )
+    for r, name, force, moment_c, corners, centre, reference, kind, base, removed in kept:
+        if flip:
+            force, moment_c, base = -force, -moment_c, -base
         moment_e = transport_moment(force, moment_c, centre, reference)
         plates.append(
             Plate(

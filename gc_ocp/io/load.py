@@ -12,7 +12,7 @@ import numpy as np
 
 from gc_ocp.errors import InputError
 from gc_ocp.gaps import fill_short_gaps
-from gc_ocp.io._common import Y_UP_TO_LAB, foot_markers, warn
+from gc_ocp.io._common import Y_UP_TO_LAB, foot_markers, warn, without_subject_prefix
 from gc_ocp.io.c3d import read_c3d
 from gc_ocp.io.checks import stance_gap_report
 from gc_ocp.io.opensim import read_opensim, read_trc
@@ -257,6 +257,7 @@ def load_static(path: str | Path, walking: Trial) -> Trial:
     suffix = path.suffix.lower()
     if suffix == ".trc":
         names, markers, time = read_trc(path)  # already Z-up
+        names, _ = without_subject_prefix(names, path)
         file_rot = Y_UP_TO_LAB
     elif suffix == ".c3d":
         raw = read_c3d(path)

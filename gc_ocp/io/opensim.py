@@ -27,7 +27,14 @@ from pathlib import Path
 import numpy as np
 
 from gc_ocp.errors import InputError, PlateError
-from gc_ocp.io._common import Y_UP_TO_LAB, RawTrial, check_body_span, check_metres, unit_scale
+from gc_ocp.io._common import (
+    Y_UP_TO_LAB,
+    RawTrial,
+    check_body_span,
+    check_metres,
+    unit_scale,
+    without_subject_prefix,
+)
 from gc_ocp.trial import Plate
 
 COP_MIN_FORCE = 20.0
@@ -191,6 +198,7 @@ def grf_sets(names: list[str]) -> list[dict]:
 def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawTrial:
     """Read a TRC + MOT pair into a :class:`RawTrial` (SI, Z-up)."""
     names, xyz, time = read_trc(trc)
+    names, prefix_note = without_subject_prefix(names, trc)
     cols, data, header = read_mot(grf)
     if "time" not in [c.lower() for c in cols]:
         raise InputError(f"{grf} has no 'time' column; columns are {cols}.")
@@ -203,7 +211,7 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
             f"reactions. Columns found: {cols}"
         )
     plates = []
-    notes = []
+    notes = [prefix_note] if prefix_note else []
     for s in sets:
         f = data[:, s["force"]] @ Y_UP_TO_LAB.T
         p = data[:, s["point"]] @ Y_UP_TO_LAB.T
