@@ -22,6 +22,57 @@ cycle: a cubic spline through the neighbouring frames is then well below marker 
 markers."""
 
 
+MAX_MARKER_SPEED = 25.0
+"""[m/s] No skin marker moves faster: in walking the swing foot peaks at ~6 m/s, a sprinter's
+at ~20 m/s. A marker that leaves its path faster and comes back is a ghost or a mislabelled
+point for those frames (:func:`marker_spikes`)."""
+
+MAX_SPIKE = 0.1
+"""[s] Longest excursion :func:`marker_spikes` removes (as :data:`MAX_GAP_FILL`, so that the
+gap it leaves is filled); a marker that jumps and stays away longer is left as it is."""
+
+
+def marker_spikes(
+    x: np.ndarray, time: np.ndarray
+) -> tuple[np.ndarray, list[tuple[int, float, float]]]:
+    """Remove excursions no marker can make: a jump away from the marker's path faster than
+    :data:`MAX_MARKER_SPEED`, then back to it within :data:`MAX_SPIKE` (a ghost point, or
+    another marker's position for a few frames). ``x``: ``(n, m, 3)`` [m] at ``time`` ``(n,)``
+    [s]. Returns a copy with those frames NaN (gaps, filled by :func:`fill_short_gaps`) and
+    ``(marker, t_first, t_last)`` of each excursion removed."""
+    out = np.array(x, dtype=float, copy=True)
+    out[~np.isfinite(out)] = np.nan  # an infinite coordinate is a gap too
+    if len(time) < 3:
+        return out, []
+    dt = float(np.median(np.diff(time)))
+    step = MAX_MARKER_SPEED * dt
+    longest = int(round(MAX_SPIKE / dt))
+    found: list[tuple[int, float, float]] = []
+    for j in range(out.shape[1]):
+        p = out[:, j]
+        ok = np.all(np.isfinite(p), axis=1)
+        jump = np.zeros(len(time) - 1, bool)
+        both = ok[:-1] & ok[1:]
+        jump[both] = np.linalg.norm(p[1:][both] - p[:-1][both], axis=1) > step
+        k = 0
+        starts = np.flatnonzero(jump)
+        while k < len(starts):
+            a = starts[k]  # the path's last sample before the excursion is a
+            back = [
+                b
+                for b in starts[k + 1 :]
+                if b - a <= longest and np.linalg.norm(p[b + 1] - p[a]) <= step * (b + 1 - a)
+            ]
+            if not back:
+                k += 1
+                continue
+            b = back[0]  # the excursion is a + 1 .. b; the path resumes at b + 1
+            out[a + 1 : b + 1, j] = np.nan
+            found.append((j, float(time[a + 1]), float(time[b])))
+            k = int(np.searchsorted(starts, b + 1))
+    return out, found
+
+
 def nan_runs(valid: np.ndarray) -> list[tuple[int, int]]:
     """Half-open index ranges ``[a, b)`` where ``valid`` ``(n,)`` is False; ``b - a`` is the
     number of missing samples ``g`` of the gap."""

@@ -501,3 +501,74 @@ def test_markers_of_two_subjects_in_one_file_are_an_error_naming_them(tmp_path):
     path = _relabelled(tmp_path, lambda s, i: ("Ann:" if i % 2 else "Bob:") + s)
     with pytest.raises(MarkerError, match=r"several subjects .*Ann:, Bob:"):
         read_c3d(path)
+
+
+def test_a_ghost_marker_is_removed_as_a_gap_and_named(tmp_path):
+    """A heel marker that is 5 m away for one frame (a ghost, or another point's label) and
+    back: before, the stance under it was excluded as 'force not under this foot'. Now the
+    frame is a gap, filled from its neighbours, and the note names the marker and the time."""
+    from gc_ocp.io.load import bundled_example_path
+
+    clean = load_trial(bundled_example_path())
+    j = clean.marker_names.index("LHEE")
+    k = len(clean.marker_time) // 2
+    import ezc3d
+
+    c = ezc3d.c3d(str(bundled_example_path()))
+    labels = [str(s).strip() for s in c["parameters"]["POINT"]["LABELS"]["value"]]
+    c["data"]["points"][:3, labels.index("LHEE"), k] += 5000.0  # mm
+    out = tmp_path / "ghost.c3d"
+    c.write(str(out))
+    t = load_trial(out)
+    assert [s.label for s in t.stances] == [s.label for s in clean.stances]
+    notes = [n for n in t.load_notes if n.startswith("marker LHEE")]
+    assert len(notes) == 1 and f"{clean.marker_time[k]:.3f}" in notes[0]
+    # the filled frame: a cubic spline through neighbours 10 ms apart, within a millimetre
+    # of the recorded position (the heel moves ~1-10 mm per frame)
+    assert np.linalg.norm(t.markers[k, j] - clean.markers[k, j]) < 1e-3
+    untouched = np.ones(len(t.marker_time), bool)
+    untouched[k] = False
+    np.testing.assert_array_equal(t.markers[untouched], clean.markers[untouched])
+
+
+def test_marker_spikes_keep_fast_real_motion_and_a_marker_that_moves_away():
+    """What is not a spike: a foot in swing at 6 m/s, and a marker that jumps and stays (a
+    relabelling for the rest of the trial is not a short excursion: left for the checks)."""
+    from gc_ocp.gaps import marker_spikes
+
+    t = np.arange(200) / 100.0
+    x = np.zeros((200, 2, 3))
+    x[:, 0, 0] = 6.0 * t  # 6 m/s
+    x[:, 1, 0] = np.where(t < 1.0, 0.0, 0.5)  # one jump of 0.5 m, no return
+    out, found = marker_spikes(x, t)
+    assert found == []
+    np.testing.assert_array_equal(out, x)
+    x[50:53, 1, 2] = 3.0  # three frames away and back: removed
+    out, found = marker_spikes(x, t)
+    assert found == [(1, t[50], t[52])]
+    assert (
+        np.isnan(out[50:53, 1]).all() and np.isfinite(np.delete(out[:, 1], [50, 51, 52], 0)).all()
+    )
+
+
+def test_provenance_lists_the_stances_the_fit_uses():
+    """A stance the checks before a fit exclude (here: its force is under the other foot) is in
+    ``stances_excluded`` with the reason, not in ``stances_used`` (before, the provenance was
+    taken from the trial as loaded and listed it as used)."""
+    import types
+
+    from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.workflow.provenance import provenance
+
+    trial = load_trial()
+    kin = compute_kinematics(trial)
+    s0 = trial.stances[0]
+    other = "left" if s0.side == "right" else "right"
+    wrong = dataclasses.replace(s0, side=other, label=f"{other}@{s0.t_on:.3f}s")
+    swapped = dataclasses.replace(trial, stances=(wrong,) + trial.stances[1:])
+    prov = provenance(types.SimpleNamespace(command="fit"), [(swapped, kin)])
+    t = prov["trials"][0]
+    assert wrong.label not in t["stances_used"]
+    assert [s.label for s in trial.stances[1:]] == t["stances_used"]
+    excluded = [e for e in t["stances_excluded"] if e["t_on"] == s0.t_on]
+    assert len(excluded) == 1 and "not under this foot" in excluded[0]["reason"]

@@ -211,7 +211,13 @@ def _plate_readings(c, params: dict, path: Path) -> list[dict]:
     t = _param(params, "FORCE_PLATFORM", "TYPE")
     kinds = [int(v) for v in np.ravel(t if t is not None else [])]
     used = _first_number(_param(params, "FORCE_PLATFORM", "USED"))
-    n = min(int(used or 0), len(kinds)) if used is not None else len(kinds)
+    if used is not None and int(used) > len(kinds):
+        raise PlateError(
+            f"{path}: FORCE_PLATFORM:USED says {int(used)} plates but FORCE_PLATFORM:TYPE lists "
+            f"{len(kinds)}: the plate set-up in the file is incomplete. Export the C3D again with "
+            f"the force-plate set-up from your motion-capture software."
+        )
+    n = int(used) if used is not None else len(kinds)
     point_unit = (_param(params, "POINT", "UNITS") or ["mm"])[0]
     pos = unit_scale(point_unit, path, "POINT:UNITS")
     out = []

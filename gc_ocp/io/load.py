@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from gc_ocp.errors import InputError
-from gc_ocp.gaps import fill_short_gaps
+from gc_ocp.gaps import MAX_MARKER_SPEED, fill_short_gaps, marker_spikes
 from gc_ocp.io._common import Y_UP_TO_LAB, foot_markers, warn, without_subject_prefix
 from gc_ocp.io.c3d import read_c3d
 from gc_ocp.io.checks import stance_gap_report
@@ -107,6 +107,13 @@ def load_trial(
     raw.notes.append(rot_note)
     markers = raw.markers @ rot.T
     plates = [_rotate_plate(p, rot) for p in raw.plates]
+    markers, spikes = marker_spikes(markers, raw.marker_time)
+    for j, t0, t1 in spikes:
+        raw.notes.append(
+            f"marker {raw.marker_names[j]}: {t0:.3f}-{t1:.3f} s leave its path faster than "
+            f"{MAX_MARKER_SPEED:.0f} m/s and come back (a ghost or mislabelled point): removed "
+            f"as a gap"
+        )
     markers, _gaps = fill_short_gaps(markers, raw.marker_time)
 
     if raw.mass is None:

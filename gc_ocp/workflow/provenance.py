@@ -36,9 +36,13 @@ def provenance(args, pairs) -> dict:
     import platform
 
     from gc_ocp import __version__
+    from gc_ocp.io.consistency import check_for_fit
     from gc_ocp.io.processing import detect_processing
     from gc_ocp.stance import trial_names
 
+    # the stances as the fit uses them: the checks before it exclude a stance whose force is
+    # not under its foot (before, such a stance was listed as used)
+    pairs, _ = check_for_fit(list(pairs))
     trials = []
     for (t, kin), name in zip(pairs, trial_names([t.source for t, _ in pairs]), strict=True):
         files = [p for p in (t.source, t.grf_source) if p is not None]
