@@ -862,3 +862,34 @@ def test_a_plate_never_unloaded_keeps_its_reading(tmp_path):
         raw = read_c3d(_variant(tmp_path, load_it))
     assert raw.plates[k].zero_offset is None
     assert abs(np.median(raw.plates[k].force[:, 2])) > 500.0
+
+
+@pytest.mark.parametrize("lost", [0.0, np.nan])
+def test_a_plate_dropout_inside_a_stance_is_named_not_split_into_two(tmp_path, lost):
+    """200 ms of zeros (or NaN) in a loaded plate's channels mid-stance. Before, zeros split
+    the stance into two 'stances' that were both fitted, and NaN made it vanish silently."""
+    from gc_ocp.io.c3d import read_c3d
+
+    clean = load_trial(_bundled_c3d())
+    k = _most_loaded_plate()
+    s = next(s for s in clean.stances if s.plate == k)
+    rate = 1.0 / float(np.median(np.diff(read_c3d(_bundled_c3d()).plates[k].time)))
+    a, b = int((s.t_on + 0.3 * s.duration) * rate), int((s.t_on + 0.3 * s.duration + 0.2) * rate)
+
+    def drop(c):
+        ch = np.asarray(c["parameters"]["FORCE_PLATFORM"]["CHANNEL"]["value"], int)[:, k] - 1
+        c["data"]["analogs"][0, ch, a:b] = lost
+
+    t = load_trial(_variant(tmp_path, drop))
+    assert [x.label for x in t.stances] == [x.label for x in clean.stances if x is not s]
+    gone = [e for e in t.excluded_stances if e.plate == k]
+    assert len(gone) == 2 and all("dropped out" in e.reason for e in gone)
+
+
+def test_more_plates_used_than_described_is_an_error(tmp_path):
+    def short(c):
+        fp = c["parameters"]["FORCE_PLATFORM"]
+        fp["TYPE"]["value"] = np.asarray(fp["TYPE"]["value"])[:1]
+
+    with pytest.raises(PlateError, match="USED says 4 plates but FORCE_PLATFORM:TYPE lists 1"):
+        load_trial(_variant(tmp_path, short))

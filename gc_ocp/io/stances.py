@@ -22,7 +22,9 @@
   the foot partly off the plate (a stance-foot marker low enough to touch the floor outside the
   outline by more than :data:`EDGE_TOL`); two feet on one plate (the other foot's markers on the
   plate, low and still, for more than 50 ms while loaded). The last three need the plate corners
-  (C3D), not available for MOT channels.
+  (C3D), not available for MOT channels. Two contacts of one foot on one plate less than
+  :data:`MIN_SWING` apart while the foot's markers stay put are one contact the plate lost
+  for a while (zeros or NaN: a dropout): both parts are excluded, naming the gap.
 """
 
 from __future__ import annotations
@@ -81,6 +83,8 @@ def contact_windows(plate: Plate, threshold: float) -> list[tuple[int, int, floa
 
 
 def _crossing(t, f, i, j, level) -> float:
+    if not (np.isfinite(f[i]) and np.isfinite(f[j])):  # a run that ends at missing samples
+        return float(t[i] if np.isfinite(f[i]) else t[j])
     if f[j] == f[i]:
         return float(t[j])
     return float(t[i] + (level - f[i]) * (t[j] - t[i]) / (f[j] - f[i]))
@@ -128,7 +132,10 @@ def detect_stances(
     notes: list[str] = []
     for ip, plate in enumerate(plates):
         cop = plate.cop(min_vertical=threshold)
-        for a, b, t_on, t_off in contact_windows(plate, threshold):
+        windows = contact_windows(plate, threshold)
+        sides: list[str] = []
+        dists: list[dict] = []
+        for a, b, t_on, t_off in windows:
             t_mid = 0.5 * (t_on + t_off)
             i_mid = int(np.argmin(np.abs(plate.time - t_mid)))
             # side: nearest foot marker to the COP at mid-stance (skip frames with NaN COP)
@@ -150,6 +157,11 @@ def detect_stances(
                 side = plate.name.rsplit("_", 1)[1]
             else:
                 side = "unknown"
+            sides.append(side)
+            dists.append(dist)
+        dropouts = _dropouts(plate, windows, sides, feet, markers, marker_time)
+        for (a, b, t_on, t_off), side, dist in zip(windows, sides, dists, strict=True):
+            window = np.arange(a, b)
             if plate.name in ("grf_left", "grf_right") and side != plate.name[4:] and dist:
                 notes.append(
                     f"{plate.name} at {t_on:.3f}-{t_off:.3f} s: the {side} foot markers are "
@@ -177,6 +189,7 @@ def detect_stances(
             )
             if not reason.startswith("clipped"):
                 reason = _not_walking(t_on, t_off, motion) or reason
+            reason = reason or dropouts.get(a, "")
             if reason:
                 warn(
                     f"{source}: stance {side} on {plate.name} {t_on:.3f}-{t_off:.3f} s "
@@ -196,6 +209,44 @@ def detect_stances(
     stances.sort(key=lambda s: s.t_on)
     excluded.sort(key=lambda s: s.t_on)
     return stances, excluded, notes
+
+
+MIN_SWING = 0.25
+"""Shortest time [s] between two contacts of one foot: a swing lasts 0.35-0.45 s in walking
+(and longer in running). A plate that reads no force for less than this inside what the
+markers place as one foot's contact has dropped out (:func:`_dropouts`)."""
+
+
+STILL_MARKER = 0.02
+"""[m] A planted foot's markers move less than this (skin on bone, the foot rolling over); a
+foot that lifts, however briefly, moves its markers farther (:func:`_dropouts`)."""
+
+
+def _dropouts(plate: Plate, windows, sides: list[str], feet, markers, mtime) -> dict[int, str]:
+    """Reasons to exclude, keyed by a window's first sample: two contacts of the same foot on
+    ``plate`` separated by less than :data:`MIN_SWING` while the foot's markers stay within
+    :data:`STILL_MARKER` of where they were (the foot never left the plate) are one contact
+    whose force the plate lost in between (zeros, NaN, a cable): neither part is a stance, and
+    the gap is named. A foot that lifts in between (a shuffle, a step in place) is not this."""
+    out: dict[int, str] = {}
+    for (a0, b0, _, t_off0), (a1, _, t_on1, _), s0, s1 in zip(
+        windows, windows[1:], sides, sides[1:], strict=False
+    ):
+        gap = t_on1 - t_off0
+        if s0 != s1 or gap >= MIN_SWING or not feet.get(s0):
+            continue
+        m = _markers_at(markers, mtime, feet[s0], np.linspace(t_off0, t_on1, 12))
+        moved = np.linalg.norm(m - m[:1], axis=2)
+        if np.isfinite(moved).any() and np.nanmax(moved) < STILL_MARKER:
+            lost = plate.force[b0:a1, 2]
+            what = "no value (NaN)" if np.isnan(lost).any() else "no force"
+            reason = (
+                f"plate {plate.name} reads {what} for {gap * 1e3:.0f} ms at {t_off0:.3f} s inside "
+                f"one contact of the {s0} foot (a swing takes at least {MIN_SWING:.2f} s): the "
+                f"plate dropped out; check its cable or amplifier, or the file's analog data"
+            )
+            out[a0] = out[a1] = reason
+    return out
 
 
 def _stance_motion(names, markers, mtime, foot, side, t_on, t_off):
