@@ -634,3 +634,15 @@ def test_a_markerset_given_overrides_recognition():
     lm = kin.info["landmarks"]
     assert lm["markerset"] == "plugingait"
     assert {m["label"]: m["segment"] for m in lm["markers"]}["LANK"] == "hindfoot_l"
+
+
+def test_a_foot_whose_markers_are_empty_columns_says_so():
+    """Labels present but never a position (a file exported with the foot's markers blank):
+    the message names them as empty, not as missing."""
+    from gc_ocp.model.recognition import recognise_landmarks
+
+    labels = ["LHEE", "LTOE", "LANK", "RHEE", "RTOE", "RANK", "RMT5"]
+    markers = np.random.default_rng(0).normal(size=(10, len(labels), 3))
+    markers[:, :3] = np.nan
+    with pytest.raises(MarkerError, match=r"left foot .*LHEE, LTOE, LANK but no position"):
+        recognise_landmarks(labels, markers, "x.c3d")

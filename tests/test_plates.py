@@ -893,3 +893,17 @@ def test_more_plates_used_than_described_is_an_error(tmp_path):
 
     with pytest.raises(PlateError, match="USED says 4 plates but FORCE_PLATFORM:TYPE lists 1"):
         load_trial(_variant(tmp_path, short))
+
+
+def test_a_plate_with_ten_times_its_gain_is_named(tmp_path):
+    """Every channel of one loaded plate 10x (a wrong calibration): its stance peaks at ~6.6 kN
+    against the others' ~0.66 kN. Before, the file read without a word (and, without a stored
+    mass, the mass was estimated at 358 kg)."""
+    k = _most_loaded_plate()
+
+    def gain(c):
+        ch = np.asarray(c["parameters"]["FORCE_PLATFORM"]["CHANNEL"]["value"], int)[:, k] - 1
+        c["data"]["analogs"][0, ch, :] *= 10.0
+
+    with pytest.raises(PlateError, match=rf"peak vertical forces disagree by .*plate{k + 1}"):
+        load_trial(_variant(tmp_path, gain))

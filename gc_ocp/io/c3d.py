@@ -333,8 +333,8 @@ def _negative_plates(kept: list, path: Path) -> bool:
     raise PlateError(
         f"In {path}, {', '.join(negative)} read a negative vertical force while loaded "
         f"(median {', '.join(f'{signs[n]:.0f}' for n in negative)} N) but "
-        f"{', '.join(positive)} a positive one: the plates disagree, so the sign of a vertical "
-        f"channel (ANALOG:SCALE) or the order of FORCE_PLATFORM:CORNERS of "
+        f"{', '.join(positive)} a positive one: the plates disagree, so the sign or scale of a "
+        f"vertical channel (ANALOG:SCALE), its zero, or the order of FORCE_PLATFORM:CORNERS of "
         f"{', '.join(negative)} is wrong. Fix that plate's set-up in the file (or export it "
         f"again from your motion-capture software)."
     )

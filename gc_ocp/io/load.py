@@ -17,7 +17,7 @@ from gc_ocp.io.c3d import read_c3d
 from gc_ocp.io.checks import stance_gap_report
 from gc_ocp.io.opensim import read_opensim, read_trc
 from gc_ocp.io.orientation import walking_rotation
-from gc_ocp.io.stances import DEFAULT_THRESHOLD, detect_stances
+from gc_ocp.io.stances import DEFAULT_THRESHOLD, check_peaks, detect_stances
 from gc_ocp.io.subject import estimate_body_weight, read_subject_metadata
 from gc_ocp.trial import GRAVITY, ExcludedStance, Plate, Trial
 
@@ -129,6 +129,7 @@ def load_trial(
         source=str(path),
     )
     raw.notes.extend(side_notes)
+    check_peaks(plates, stances, str(path))
     if belt_speed is not None and belt_speed < 0:
         raise InputError(
             f"belt_speed={belt_speed}: give the belt speed as a positive number in m/s."
@@ -170,6 +171,7 @@ def _estimate_mass(raw, plates, markers, threshold: float, path: Path) -> tuple[
         stances, _, _ = detect_stances(
             plates, raw.marker_names, markers, raw.marker_time, None, threshold, str(path)
         )
+    check_peaks(plates, stances, str(path))  # a plate's wrong gain would make the estimate
     est = estimate_body_weight(plates, stances)
     files = f"{path}{' or ' + str(raw.grf_source) if raw.grf_source else ''}"
     if est is None:

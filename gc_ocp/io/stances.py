@@ -33,6 +33,7 @@ import warnings
 
 import numpy as np
 
+from gc_ocp.errors import PlateError
 from gc_ocp.io._common import foot_markers, heel_toe, warn
 from gc_ocp.io.orientation import MIN_OVERGROUND_SPEED, body_velocity
 from gc_ocp.trial import ExcludedStance, Plate, Stance
@@ -247,6 +248,42 @@ def _dropouts(plate: Plate, windows, sides: list[str], feet, markers, mtime) -> 
             )
             out[a0] = out[a1] = reason
     return out
+
+
+PEAK_RATIO = 2.5
+"""Largest ratio of two stances' peak vertical forces in one trial: a walking stance peaks at
+1.0-1.4 body weights whatever the speed (running: 2-3, but every stance alike), so plates that
+disagree by more have a wrong gain (ANALOG:SCALE, the calibration) or are of another trial."""
+
+
+def check_peaks(plates, stances: list[Stance], source: str) -> None:
+    """A :class:`~gc_ocp.errors.PlateError` naming the plates when the stances' peak vertical
+    forces disagree by more than :data:`PEAK_RATIO` (before: a plate read 10 times too high gave
+    an estimated mass of 358 kg)."""
+    peaks = [
+        (
+            float(
+                np.nanmax(
+                    plates[s.plate].force[
+                        (plates[s.plate].time >= s.t_on) & (plates[s.plate].time <= s.t_off), 2
+                    ]
+                )
+            ),
+            s,
+        )
+        for s in stances
+    ]
+    if len(peaks) < 2:
+        return
+    lo, hi = min(peaks, key=lambda p: p[0]), max(peaks, key=lambda p: p[0])
+    if hi[0] > PEAK_RATIO * lo[0]:
+        raise PlateError(
+            f"{source}: the stances' peak vertical forces disagree by {hi[0] / lo[0]:.1f}x "
+            f"({plates[hi[1].plate].name} {hi[0]:.0f} N at {hi[1].t_on:.3f} s, "
+            f"{plates[lo[1].plate].name} {lo[0]:.0f} N at {lo[1].t_on:.3f} s; walking stances "
+            f"of one subject peak within ~30 % of each other): a plate's gain (ANALOG:SCALE, its "
+            f"calibration) is wrong. Fix that plate's set-up in the file."
+        )
 
 
 def _stance_motion(names, markers, mtime, foot, side, t_on, t_off):

@@ -289,6 +289,16 @@ def recognise_landmarks(
             problem = foot_problem(rec, side)
             if problem:
                 found = [f"{m.label}={m.landmark}" for m in rec.matches if m.side == side]
+                empty = [
+                    lab
+                    for lab, _, why in ignored
+                    if why.startswith("empty") and _foot_landmark_of(lab, side, v)
+                ]
+                if empty:
+                    problem += (
+                        f" (the file has {', '.join(empty)} but no position of them in any "
+                        f"frame: empty columns)"
+                    )
                 raise MarkerError(
                     f"Cannot track the {side} foot of {source}: {problem}. {side.capitalize()} "
                     f"markers recognised: {found or 'none'}; all labels: {labels[:40]}"
@@ -298,6 +308,15 @@ def recognise_landmarks(
                     "the file, or give a marker-set TOML (--markerset FILE, docs/markersets.md)."
                 )
     return rec
+
+
+def _foot_landmark_of(label: str, side: str, v) -> bool:
+    """Whether ``label`` names a landmark of the ``side`` foot (or its malleoli)."""
+    kind, key, lab_side = classify(label, v)
+    if kind != "landmark" or lab_side != side:
+        return False
+    lm = v.landmarks[key]
+    return lm.is_foot or bool(lm.role)
 
 
 def _foot_point(lm: Landmark) -> np.ndarray:
