@@ -907,3 +907,22 @@ def test_a_plate_with_ten_times_its_gain_is_named(tmp_path):
 
     with pytest.raises(PlateError, match=rf"peak vertical forces disagree by .*plate{k + 1}"):
         load_trial(_variant(tmp_path, gain))
+
+
+@pytest.mark.parametrize("order", [(3, 0, 1, 2), (1, 0, 3, 2)])  # rotated, mirrored
+def test_plates_whose_corners_are_listed_in_another_order_lose_their_stances_with_the_reason(
+    tmp_path, order
+):
+    """The corners in another order turn the plate's axes: the COP then moves across the foot
+    or from toe to heel. Before, the rotated set-up was fitted silently (shear axes swapped:
+    mu 0.13 against 0.24, c at its bound)."""
+
+    def reorder(c):
+        fp = c["parameters"]["FORCE_PLATFORM"]
+        fp["CORNERS"]["value"] = np.asarray(fp["CORNERS"]["value"], float)[:, list(order), :]
+
+    t = load_trial(_variant(tmp_path, reorder))
+    assert not t.stances
+    assert t.excluded_stances and all(
+        "heel to toe" in e.reason and "CORNERS" in e.reason for e in t.excluded_stances
+    )

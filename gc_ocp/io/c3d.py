@@ -384,6 +384,7 @@ def read_c3d(path: Path) -> RawTrial:
     if res is not None:
         xyz[np.asarray(res)[keep].T < 0] = np.nan  # C3D: residual < 0 = invalid point
     xyz[np.all(xyz == 0.0, axis=2)] = np.nan  # all-zero = occluded (old writers)
+    xyz[~np.all(np.isfinite(xyz), axis=2)] = np.nan  # an infinite coordinate: a gap too
     if scale == 1.0:
         check_metres(xyz, path, "Marker coordinates", unit)
     xyz *= scale

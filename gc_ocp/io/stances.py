@@ -24,7 +24,9 @@
   plate, low and still, for more than 50 ms while loaded). The last three need the plate corners
   (C3D), not available for MOT channels. Two contacts of one foot on one plate less than
   :data:`MIN_SWING` apart while the foot's markers stay put are one contact the plate lost
-  for a while (zeros or NaN: a dropout): both parts are excluded, naming the gap.
+  for a while (zeros or NaN: a dropout): both parts are excluded, naming the gap. A centre of
+  pressure that does not roll from heel to toe in the foot's frame (:data:`COP_ACROSS`) means
+  the plate's axes are wrong (corners in another order): excluded, naming the set-up.
 """
 
 from __future__ import annotations
@@ -333,6 +335,43 @@ def _not_walking(t_on, t_off, motion) -> str:
     return ""
 
 
+COP_BACKWARD = 0.05
+COP_ACROSS = 0.08
+"""[m] How a walking stance's centre of pressure moves in the foot's frame (heel -> toe axis
+from the markers), from the median of its first to its last quarter while loaded (> 20 % BW):
+forward by 6-16 cm in every stance of the shared walking files (turns included; +1 cm in one
+child's stance), across by at most 3 cm. A path more than 5 cm backward, or more than 8 cm
+across and more across than along, is not a walking foot's: the plate's axes are wrong (corners
+listed in another order move it 13-17 cm across or 15 cm backward)."""
+
+
+def _cop_path(cop, fz, times, side, names, markers, mtime, bw) -> tuple[float, float] | None:
+    """``(along, across)`` [m]: how the COP moves in the stance foot's frame (see
+    :data:`COP_ACROSS`); ``None`` without heel and toe markers or loaded COP samples."""
+    h, t = heel_toe(names, side)
+    if h is None or t is None:
+        return None
+    ok = np.all(np.isfinite(cop[:, :2]), axis=1) & (fz > (0.2 * bw if bw else 100.0))
+    if ok.sum() < 8:
+        return None
+    heel = _markers_at(markers, mtime, [h], times[ok])[:, 0, :2]
+    toe = _markers_at(markers, mtime, [t], times[ok])[:, 0, :2]
+    axis = toe - heel
+    norm = np.linalg.norm(axis, axis=1)
+    good = np.isfinite(norm) & (norm > 0.05)
+    if good.sum() < 8:
+        return None
+    axis = axis[good] / norm[good, None]
+    rel = cop[ok][good, :2] - heel[good]
+    along = np.sum(rel * axis, axis=1)
+    across = rel[:, 0] * -axis[:, 1] + rel[:, 1] * axis[:, 0]
+    q = max(len(along) // 4, 1)
+    return (
+        float(np.median(along[-q:]) - np.median(along[:q])),
+        float(np.median(across[-q:]) - np.median(across[:q])),
+    )
+
+
 def _exclusion(plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime, bw, thr, notes):
     n = len(plate.time)
     if a == 0:
@@ -366,6 +405,16 @@ def _exclusion(plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime,
                 f"{side} stance on {plate.name} {t_on:.3f}-{t_off:.3f} s: COP outside the plate "
                 f"for {out.sum() * dt * 1e3:.0f} ms (<= {COP_OFF_TIME * 1e3:.0f} ms: a transient, "
                 f"ignored)"
+            )
+    path = _cop_path(cop[a:b], plate.force[a:b, 2], times, side, names, markers, mtime, bw)
+    if path is not None:
+        along, across = path
+        if along < -COP_BACKWARD or (abs(across) > COP_ACROSS and abs(across) > along):
+            return (
+                f"its centre of pressure moves {along * 100:+.0f} cm along the {side} foot "
+                f"(heel to toe) and {across * 100:+.0f} cm across it; a walking stance rolls "
+                f"from heel to toe: the plate's axes are wrong in the file (FORCE_PLATFORM:"
+                f"CORNERS order, ORIGIN, or its moment/COP channels); fix the force-plate set-up"
             )
     if side in feet and feet[side]:
         m = _markers_at(markers, mtime, feet[side], times)
