@@ -572,3 +572,22 @@ def test_provenance_lists_the_stances_the_fit_uses():
     assert [s.label for s in trial.stances[1:]] == t["stances_used"]
     excluded = [e for e in t["stances_excluded"] if e["t_on"] == s0.t_on]
     assert len(excluded) == 1 and "not under this foot" in excluded[0]["reason"]
+
+
+@needs_data
+def test_a_subject_prefix_does_not_turn_model_outputs_into_markers(tmp_path):
+    """Plug-in Gait's outputs (``LAnkleAnglesV``...) are listed in POINT:ANGLES without the
+    prefix the labels carry: they stay model outputs (before: 12 angle 'markers' were kept and
+    the body's speed, a median over markers, read 0.08 m/s: a stance excluded as standing)."""
+    import ezc3d
+
+    from gc_ocp.io.c3d import read_c3d
+
+    src = DATA / "vicon_plugingait_btk" / "PiG_Motion3_FF.c3d"
+    c = ezc3d.c3d(str(src))
+    labels = list(c["parameters"]["POINT"]["LABELS"]["value"])
+    c["parameters"]["POINT"]["LABELS"]["value"] = ["Bob:" + s for s in labels]
+    out = tmp_path / "prefixed.c3d"
+    c.write(str(out))
+    assert read_c3d(out).marker_names == read_c3d(src).marker_names
+    assert len(load_trial(out).stances) == len(load_trial(src).stances)

@@ -82,9 +82,12 @@ def _model_outputs(params: dict, labels: list[str]) -> set[str]:
     """
     out: set[str] = set()
     point = params.get("POINT", {})
+    listed: set[str] = set()
     for g in _MODEL_OUTPUT_GROUPS:
         if g in point:
-            out.update(str(v).strip() for v in point[g]["value"])
+            listed.update(str(v).rpartition(":")[2].strip() for v in point[g]["value"])
+    # with or without a subject prefix on either side (``Subject:LAnkleAngles``)
+    out.update(lab for lab in labels if lab.rpartition(":")[2].strip() in listed)
     out.update(lab for lab in labels if _MODEL_OUTPUT_NAME.search(lab))
     # a subject prefix (Vicon Nexus: ``Subject:PELO``) kept in front of the bone points
     by_name: dict[tuple[str, str], str] = {}
