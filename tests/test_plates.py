@@ -926,3 +926,22 @@ def test_plates_whose_corners_are_listed_in_another_order_lose_their_stances_wit
     assert t.excluded_stances and all(
         "heel to toe" in e.reason and "CORNERS" in e.reason for e in t.excluded_stances
     )
+
+
+def test_a_large_amplifier_offset_on_a_loaded_plate_is_still_removed(tmp_path):
+    """200 N of offset on the most loaded plate's vertical channel (an amplifier not zeroed):
+    small against the ~660 N its stance adds, so it is the plate's zero and is removed; the
+    ground reaction is the clean file's (float32 storage: 1e-4 N)."""
+    from gc_ocp.io.c3d import read_c3d
+    from gc_ocp.io.plates import plate_axes
+
+    clean = read_c3d(_bundled_c3d())
+    k = _most_loaded_plate()
+    z_up = plate_axes(clean.plates[k].corners)[2, 2]
+
+    def offset(c):
+        c["data"]["analogs"][0, _plate_channel(c, k, 2), :] += -200.0 / z_up
+
+    raw = read_c3d(_variant(tmp_path, offset))
+    assert raw.plates[k].zero_offset is not None
+    np.testing.assert_allclose(raw.plates[k].force, clean.plates[k].force, atol=1e-4)

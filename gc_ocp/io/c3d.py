@@ -297,10 +297,12 @@ LOADED_N = 50.0
 per cent of an adult's weight; far above the plates' noise of ~1-5 N)."""
 
 
-OFFSET_MAX_N = 100.0
-"""The largest vertical offset [N] removed as an unloaded plate's zero: an amplifier's zero or a
-piezo plate's drift over a trial is tens of newtons (the shared files: up to 32 N); a quiet
-stretch reading more is someone standing on the plate (100 N: a 10 kg toddler)."""
+OFFSET_MAX_FRACTION = 0.5
+"""An unloaded plate's offset (an amplifier's zero, a piezo plate's drift) is small against the
+load a foot puts on it (the shared files: at most 32 N against ~600 N; a 200 N offset is still
+recovered). A quiet stretch whose level is more than this fraction of the largest change from
+it, and more than a load (:data:`LOADED_N`), is someone standing on the plate for the whole
+file, not its zero: it is not subtracted (the stance is then clipped: excluded, named)."""
 
 
 def _corners_problem(corners: np.ndarray) -> str:
@@ -452,10 +454,12 @@ def read_c3d(path: Path) -> RawTrial:
             reference, kind = centre + offset, "electrical_center"
         base, t_unloaded = unloaded_baseline(np.hstack([force, moment_c]), analog_rate)
         removed = t_unloaded >= 0.1
-        if removed and abs(base[2]) > OFFSET_MAX_N:
+        swing = float(np.nanmax(np.abs(force[:, 2] - base[2])))
+        if removed and abs(base[2]) > max(OFFSET_MAX_FRACTION * swing, LOADED_N):
             warn(
-                f"{name} of {path}: its quietest stretch reads {base[2]:.0f} N, a load, not an "
-                f"unloaded offset (the plate is never unloaded in this file); offset not removed."
+                f"{name} of {path}: its quietest stretch reads {base[2]:.0f} N against loads of "
+                f"{swing:.0f} N above it: a load, not an unloaded offset (the plate is never "
+                f"unloaded in this file); offset not removed."
             )
             removed = False
         if not removed:
