@@ -10,13 +10,13 @@ from pathlib import Path
 
 import numpy as np
 
-from gc_ocp.errors import InputError
+from gc_ocp.errors import InputError, MarkerError
 from gc_ocp.gaps import MAX_MARKER_SPEED, fill_short_gaps, marker_spikes
 from gc_ocp.io._common import Y_UP_TO_LAB, foot_markers, warn, without_subject_prefix
 from gc_ocp.io.c3d import read_c3d
 from gc_ocp.io.checks import stance_gap_report
 from gc_ocp.io.opensim import read_opensim, read_trc
-from gc_ocp.io.orientation import walking_rotation
+from gc_ocp.io.orientation import LEG_SEGMENTS, leg_pairs, mirrored_pairs, walking_rotation
 from gc_ocp.io.stances import DEFAULT_THRESHOLD, check_peaks, detect_stances
 from gc_ocp.io.subject import estimate_body_weight, read_subject_metadata
 from gc_ocp.trial import GRAVITY, ExcludedStance, Plate, Trial
@@ -107,6 +107,26 @@ def load_trial(
     raw.notes.append(rot_note)
     markers = raw.markers @ rot.T
     plates = [_rotate_plate(p, rot) for p in raw.plates]
+    swapped = mirrored_pairs(raw.marker_names, markers, raw.marker_time)
+    legs = [p for p in swapped if p[3] in LEG_SEGMENTS]
+    if len(legs) == 1 and len(leg_pairs(raw.marker_names)) > 1:
+        # one leg pair alone (a medial pair of a narrow-based or crossover gait) is not a
+        # swap: relabelled feet or mirrored axes move every pair
+        swapped, legs = [p for p in swapped if p not in legs], []
+    said = ", ".join(f"{a}/{b} {d * 100:+.0f} cm" for a, b, d, _ in (legs or swapped)[:6])
+    if legs:
+        raise MarkerError(
+            f"In {path} the left-side leg markers lie to the subject's right of the right-side "
+            f"ones ({said}; the subject's left is positive, forward being the feet's heel -> "
+            f"toe): left and right are swapped, by the labels or by mirrored (left-handed) axes "
+            f"in the file. Fix the labels, or export the file again."
+        )
+    if swapped:
+        raw.notes.append(
+            f"left and right labels of {said} are exchanged in the file (the left one lies to "
+            f"the subject's right); they do not pose the feet and are used as labelled"
+        )
+        warn(f"{path}: {raw.notes[-1]}.")
     markers, spikes = marker_spikes(markers, raw.marker_time)
     for j, t0, t1 in spikes:
         raw.notes.append(

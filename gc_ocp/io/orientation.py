@@ -99,3 +99,84 @@ def walking_rotation(
         rot,
         f"walking direction {angle:.0f} deg in file axes from {how}; rotated {-90 * k} deg about Z",
     )
+
+
+SIDE_SWAP = 0.02
+"""[m] A left landmark lies to the subject's left of its right counterpart: by a pelvis or knee
+width, and the feet by about the step width (5-15 cm; a crossover step brings them near 0).
+A median over the frames more than this far to the *right* is a swap (:func:`mirrored_pairs`)."""
+
+
+LEG_SEGMENTS = ("hindfoot", "toes", "shank", "thigh")
+"""Segments whose landmarks pose the feet (directly, or through the chain of a two-landmark
+foot): a swap there is an error; elsewhere (shoulders, arms, head) it is noted."""
+
+
+def _sided_landmarks(names) -> dict[str, dict[str, int]]:
+    """``{landmark: {side: column}}`` of the labels the vocabulary reads as sided landmarks."""
+    from gc_ocp.io._common import _landmark
+
+    sides: dict[str, dict[str, int]] = {}
+    for j, name in enumerate(names):
+        key, side = _landmark(name)
+        if key and side:
+            sides.setdefault(key, {}).setdefault(side, j)
+    return sides
+
+
+def leg_pairs(names) -> list[str]:
+    """The landmarks of :data:`LEG_SEGMENTS` present on both sides."""
+    from gc_ocp.model.landmarks import vocabulary
+
+    v = vocabulary()
+    return [
+        k
+        for k, pair in _sided_landmarks(names).items()
+        if len(pair) == 2 and v.landmarks[k].segment in LEG_SEGMENTS
+    ]
+
+
+def mirrored_pairs(
+    names, markers: np.ndarray, time: np.ndarray
+) -> list[tuple[str, str, float, str]]:
+    """``(left label, right label, lateral offset [m], segment)`` of each sided landmark pair
+    whose left
+    member lies, median over the frames, more than :data:`SIDE_SWAP` to the subject's right of
+    the right one: left and right swapped (labels exchanged, or a file with mirrored,
+    left-handed axes). The subject's forward is the heel -> toe direction of the feet (anatomy:
+    it holds for walking backward and on a treadmill), else the body's velocity. ``markers``
+    ``(n, m, 3)`` in ``lab`` (Z up)."""
+    n = markers.shape[0]
+    fwd = np.full((n, 2), np.nan)
+    parts = []
+    for side in ("left", "right"):
+        h, t = heel_toe(list(names), side)
+        if h is not None and t is not None:
+            parts.append(markers[:, t, :2] - markers[:, h, :2])
+    if parts:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            fwd = np.nanmean(np.stack(parts), axis=0)
+    else:
+        fwd = body_velocity(markers, time)
+    norm = np.linalg.norm(fwd, axis=1)
+    ok = np.isfinite(norm) & (norm > 1e-6)
+    if not ok.any():
+        return []
+    left = np.full((n, 2), np.nan)
+    left[ok] = np.column_stack([-fwd[ok, 1], fwd[ok, 0]]) / norm[ok, None]
+    from gc_ocp.model.landmarks import vocabulary
+
+    sides = _sided_landmarks(names)
+    out = []
+    for key, pair in sides.items():
+        if len(pair) < 2:
+            continue
+        lj, rj = pair["left"], pair["right"]
+        lateral = np.sum((markers[:, lj, :2] - markers[:, rj, :2]) * left, axis=1)
+        if np.isfinite(lateral).sum() < 3:
+            continue
+        med = float(np.nanmedian(lateral))
+        if med < -SIDE_SWAP:
+            out.append((names[lj], names[rj], med, vocabulary().landmarks[key].segment))
+    return out
