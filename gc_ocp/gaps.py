@@ -36,39 +36,40 @@ def marker_spikes(
     x: np.ndarray, time: np.ndarray
 ) -> tuple[np.ndarray, list[tuple[int, float, float]]]:
     """Remove excursions no marker can make: a jump away from the marker's path faster than
-    :data:`MAX_MARKER_SPEED`, then back to it within :data:`MAX_SPIKE` (a ghost point, or
-    another marker's position for a few frames). ``x``: ``(n, m, 3)`` [m] at ``time`` ``(n,)``
+    :data:`MAX_MARKER_SPEED`, then back to it within :data:`MAX_SPIKE` (a ghost point, or a
+    label on a point far away for a few frames: farther than 25 m/s over the frame interval,
+    25 cm at 100 Hz), measured between valid samples across gaps (a ghost next to a gap is
+    caught; one on the first or last sample is not: no path on its other side). ``x``:
+    ``(n, m, 3)`` [m] at ``time`` ``(n,)``
     [s]. Returns a copy with those frames NaN (gaps, filled by :func:`fill_short_gaps`) and
     ``(marker, t_first, t_last)`` of each excursion removed."""
     out = np.array(x, dtype=float, copy=True)
     out[~np.isfinite(out)] = np.nan  # an infinite coordinate is a gap too
     if len(time) < 3:
         return out, []
-    dt = float(np.median(np.diff(time)))
-    step = MAX_MARKER_SPEED * dt
-    longest = int(round(MAX_SPIKE / dt))
     found: list[tuple[int, float, float]] = []
     for j in range(out.shape[1]):
-        p = out[:, j]
-        ok = np.all(np.isfinite(p), axis=1)
-        jump = np.zeros(len(time) - 1, bool)
-        both = ok[:-1] & ok[1:]
-        jump[both] = np.linalg.norm(p[1:][both] - p[:-1][both], axis=1) > step
-        k = 0
+        idx = np.flatnonzero(np.all(np.isfinite(out[:, j]), axis=1))  # across gaps too
+        if len(idx) < 3:
+            continue
+        p, t = out[idx, j], time[idx]
+        jump = np.linalg.norm(np.diff(p, axis=0), axis=1) > MAX_MARKER_SPEED * np.diff(t)
         starts = np.flatnonzero(jump)
+        k = 0
         while k < len(starts):
             a = starts[k]  # the path's last sample before the excursion is a
             back = [
                 b
                 for b in starts[k + 1 :]
-                if b - a <= longest and np.linalg.norm(p[b + 1] - p[a]) <= step * (b + 1 - a)
+                if t[b] - t[a + 1] <= MAX_SPIKE + 1e-9
+                and np.linalg.norm(p[b + 1] - p[a]) <= MAX_MARKER_SPEED * (t[b + 1] - t[a])
             ]
             if not back:
                 k += 1
                 continue
             b = back[0]  # the excursion is a + 1 .. b; the path resumes at b + 1
-            out[a + 1 : b + 1, j] = np.nan
-            found.append((j, float(time[a + 1]), float(time[b])))
+            out[idx[a + 1 : b + 1], j] = np.nan
+            found.append((j, float(t[a + 1]), float(t[b])))
             k = int(np.searchsorted(starts, b + 1))
     return out, found
 

@@ -549,6 +549,11 @@ def test_marker_spikes_keep_fast_real_motion_and_a_marker_that_moves_away():
     assert (
         np.isnan(out[50:53, 1]).all() and np.isfinite(np.delete(out[:, 1], [50, 51, 52], 0)).all()
     )
+    x[50:53, 1, 2] = 0.0
+    x[80:83, 1] = np.nan  # a gap, then a ghost on the sample after it
+    x[83, 1, 2] = 3.0
+    out, found = marker_spikes(x, t)
+    assert found == [(1, t[83], t[83])]
 
 
 def test_provenance_lists_the_stances_the_fit_uses():

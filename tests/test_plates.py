@@ -822,7 +822,7 @@ def test_one_plate_with_a_negative_vertical_force_is_named(tmp_path):
         load_trial(_variant(tmp_path, flip_fz))
 
 
-@pytest.mark.parametrize("how", ["collinear", "nan"])
+@pytest.mark.parametrize("how", ["collinear", "nan", "nan_first", "zero"])
 def test_a_loaded_plate_with_unusable_corners_is_an_error_naming_them(tmp_path, how):
     """Before, a loaded plate whose corners do not span a surface was skipped with a note and
     its stance silently lost."""
@@ -833,6 +833,10 @@ def test_a_loaded_plate_with_unusable_corners_is_an_error_naming_them(tmp_path, 
         corners = np.asarray(fp["CORNERS"]["value"], float).copy()  # (3, 4, n_plates)
         if how == "nan":
             corners[:, 2, k] = np.nan
+        elif how == "nan_first":  # a corner the plate's axes are built from
+            corners[:, 0, k] = np.nan
+        elif how == "zero":  # a plate never set up
+            corners[:, :, k] = 0.0
         else:
             corners[:, 3, k] = corners[:, 0, k] + 0.5 * (corners[:, 1, k] - corners[:, 0, k])
         fp["CORNERS"]["value"] = corners
@@ -842,26 +846,30 @@ def test_a_loaded_plate_with_unusable_corners_is_an_error_naming_them(tmp_path, 
 
 
 def test_a_plate_never_unloaded_keeps_its_reading(tmp_path):
-    """A quiet stretch at hundreds of newtons is a load, not an amplifier's zero: it is not
-    subtracted (before, 600 N were removed as an 'unloaded offset')."""
+    """A plate loaded for the whole file (600 N), with a stance's load changing on top of it:
+    its quiet stretch at 600 N is a load, not an amplifier's zero, and is not subtracted
+    (before, it was removed as an 'unloaded offset'). A plate whose reading never changes by a
+    load is unloaded, and its level is its zero however large (the bundled plates 3-4 read
+    -32 and -16 N unloaded)."""
     from gc_ocp.io.c3d import read_c3d
-
-    clean = read_c3d(_bundled_c3d())
-    k = int(np.argmin([np.nanmax(p.force[:, 2]) for p in clean.plates]))  # the least loaded
-
     from gc_ocp.io.plates import plate_axes
 
+    clean = read_c3d(_bundled_c3d())
+    peaks = [np.nanmax(p.force[:, 2]) for p in clean.plates]
+    k, m = int(np.argmin(peaks)), int(np.argmax(peaks))  # the least and the most loaded plate
     # the channel is along the plate's z axis, which points down into it (the C3D
-    # convention): 600 N upward on the subject is -600 in the channel
-    z_up = plate_axes(clean.plates[k].corners)[2, 2]
+    # convention): a force upward on the subject is negative in the channel
+    z_k = plate_axes(clean.plates[k].corners)[2, 2]
+    z_m = plate_axes(clean.plates[m].corners)[2, 2]
 
     def load_it(c):
-        c["data"]["analogs"][0, _plate_channel(c, k, 2), :] += 600.0 / z_up
+        fz_m = c["data"]["analogs"][0, _plate_channel(c, m, 2), :] * z_m  # upward [N]
+        c["data"]["analogs"][0, _plate_channel(c, k, 2), :] += (600.0 + fz_m) / z_k
 
     with pytest.warns(UserWarning, match="a load, not an unloaded offset"):
         raw = read_c3d(_variant(tmp_path, load_it))
     assert raw.plates[k].zero_offset is None
-    assert abs(np.median(raw.plates[k].force[:, 2])) > 500.0
+    assert np.median(raw.plates[k].force[:, 2]) > 500.0
 
 
 @pytest.mark.parametrize("lost", [0.0, np.nan])
@@ -905,7 +913,7 @@ def test_a_plate_with_ten_times_its_gain_is_named(tmp_path):
         ch = np.asarray(c["parameters"]["FORCE_PLATFORM"]["CHANNEL"]["value"], int)[:, k] - 1
         c["data"]["analogs"][0, ch, :] *= 10.0
 
-    with pytest.raises(PlateError, match=rf"peak vertical forces disagree by .*plate{k + 1}"):
+    with pytest.raises(PlateError, match=rf"stance peaks disagree by .*plate{k + 1}"):
         load_trial(_variant(tmp_path, gain))
 
 
@@ -945,3 +953,38 @@ def test_a_large_amplifier_offset_on_a_loaded_plate_is_still_removed(tmp_path):
     raw = read_c3d(_variant(tmp_path, offset))
     assert raw.plates[k].zero_offset is not None
     np.testing.assert_allclose(raw.plates[k].force, clean.plates[k].force, atol=1e-4)
+
+
+def test_a_nan_dropout_on_a_noisy_plate_reads(tmp_path):
+    """A missing stretch of samples in a plate whose noise is ~3 N: the zero is found on the
+    whole windows (before, one NaN made every window 'not quiet' and the reading crashed)."""
+    k = _most_loaded_plate()
+    rng = np.random.default_rng(0)
+
+    def noisy_gap(c):
+        ch = np.asarray(c["parameters"]["FORCE_PLATFORM"]["CHANNEL"]["value"], int)[:, k] - 1
+        a = c["data"]["analogs"]
+        a[0, ch, :] += rng.normal(0.0, 3.0, size=a[0, ch, :].shape)
+        a[0, ch, 100:130] = np.nan
+
+    from gc_ocp.io.c3d import read_c3d
+
+    raw = read_c3d(_variant(tmp_path, noisy_gap))
+    assert raw.plates[k].zero_offset is not None
+    assert abs(raw.plates[k].zero_offset[2]) < 3.0  # the noise's mean over the quiet windows
+
+
+def test_walking_backward_keeps_its_stances(tmp_path):
+    """The bundled trial played backwards: the subject walks backward and each stance's COP
+    rolls from toe to heel, forward in the direction of travel; no stance is taken for a plate
+    with wrong axes."""
+
+    def reverse(c):
+        c["data"]["points"] = c["data"]["points"][:, :, ::-1].copy()
+        c["data"]["analogs"] = c["data"]["analogs"][:, :, ::-1].copy()
+        for k in ("residuals", "camera_masks"):
+            c["data"]["meta_points"][k] = c["data"]["meta_points"][k][:, :, ::-1].copy()
+
+    t = load_trial(_variant(tmp_path, reverse))
+    assert len(t.stances) == len(load_trial(_bundled_c3d()).stances)
+    assert not t.excluded_stances

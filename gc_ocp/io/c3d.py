@@ -118,9 +118,14 @@ def unloaded_baseline(wrench: np.ndarray, rate: float) -> tuple[np.ndarray, floa
     if nw == 0:
         return np.zeros(6), 0.0
     w = wrench[: nw * n].reshape(nw, n, 6)
-    fz_mean = w[:, :, 2].mean(axis=1)
-    fz_std = w[:, :, 2].std(axis=1)
+    whole = np.all(np.isfinite(w), axis=(1, 2))  # a window with a missing sample is not used
+    if not whole.any():
+        return np.zeros(6), 0.0
+    fz_mean = np.where(whole, np.nan_to_num(w[:, :, 2]).mean(axis=1), np.nan)
+    fz_std = np.where(whole, np.nan_to_num(w[:, :, 2]).std(axis=1), np.inf)
     quiet = fz_std < max(2.0, 3.0 * float(fz_std.min()))
+    if not quiet.any():
+        return np.zeros(6), 0.0
     level = fz_mean[quiet][np.argmin(np.abs(fz_mean[quiet]))]
     unloaded = quiet & (np.abs(fz_mean - level) < 5.0)
     samples = w[unloaded].reshape(-1, 6)
@@ -196,11 +201,17 @@ def _screen_up(params: dict) -> str:
 def _moment_scale(unit: str, pos: float) -> float:
     """[N·m] per unit of a moment channel: ``Nmm`` / ``Nm``; anything else (``V`` with a
     scale of 1, as some writers store) is taken as N x the point unit."""
-    key = unit.strip().lower().replace(".", "").replace(" ", "")
+    key = re.sub(r"[\s.\-*·]", "", unit.strip().lower())
     return {"nmm": 1e-3, "nm": 1.0}.get(key, pos)
 
 
-def _plate_readings(c, params: dict, path: Path) -> list[dict]:
+def _length_scale(unit: str, pos: float) -> float:
+    """[m] per unit of a COP channel (type 1): ``mm``, ``cm``, ``m``; anything else (``V``) is
+    the point unit."""
+    return {"mm": 1e-3, "cm": 1e-2, "m": 1.0}.get(unit.strip().lower(), pos)
+
+
+def _plate_readings(c, params: dict, path: Path, strict: bool = True) -> list[dict]:
     """Each plate's force [N] and moment about its surface centre [N·m] in the file frame,
     corners [m], ORIGIN [m] (``None`` for types 1 and 3, whose wrench is about the centre).
 
@@ -214,13 +225,13 @@ def _plate_readings(c, params: dict, path: Path) -> list[dict]:
     t = _param(params, "FORCE_PLATFORM", "TYPE")
     kinds = [int(v) for v in np.ravel(t if t is not None else [])]
     used = _first_number(_param(params, "FORCE_PLATFORM", "USED"))
-    if used is not None and int(used) > len(kinds):
+    if strict and used is not None and int(used) > len(kinds):
         raise PlateError(
             f"{path}: FORCE_PLATFORM:USED says {int(used)} plates but FORCE_PLATFORM:TYPE lists "
             f"{len(kinds)}: the plate set-up in the file is incomplete. Export the C3D again with "
             f"the force-plate set-up from your motion-capture software."
         )
-    n = int(used) if used is not None else len(kinds)
+    n = min(int(used), len(kinds)) if used is not None else len(kinds)
     point_unit = (_param(params, "POINT", "UNITS") or ["mm"])[0]
     pos = unit_scale(point_unit, path, "POINT:UNITS")
     out = []
@@ -232,12 +243,16 @@ def _plate_readings(c, params: dict, path: Path) -> list[dict]:
                 f"{list(SUPPORTED_TYPES)}. Export the C3D again with type-2 or type-4 plates from "
                 f"your motion-capture software (or give a TRC with --grf FILE.mot)."
             )
-        out.append(_analog_reading(c, params, i, kind, pos, path))
+        out.append(_analog_reading(c, params, i, kind, pos, path, strict))
     return out
 
 
-def _analog_reading(c, params: dict, i: int, kind: int, pos: float, path: Path) -> dict:
-    """One plate's reading computed from its analog channels (see :func:`_plate_readings`)."""
+def _analog_reading(
+    c, params: dict, i: int, kind: int, pos: float, path: Path, strict: bool = True
+) -> dict:
+    """One plate's reading computed from its analog channels (see :func:`_plate_readings`);
+    ``{"number", "skip": why}`` for a plate whose corners are unusable and that is never loaded
+    (or, not ``strict``, whatever its load)."""
     fp = params.get("FORCE_PLATFORM", {})
     try:
         channel = np.asarray(fp["CHANNEL"]["value"], dtype=int)[:, i] - 1
@@ -260,8 +275,11 @@ def _analog_reading(c, params: dict, i: int, kind: int, pos: float, path: Path) 
     u = _param(params, "ANALOG", "UNITS")
     units = [str(x) for x in np.ravel(u if u is not None else [])]
 
+    def unit_of(j: int) -> str:
+        return units[channel[j]] if channel[j] < len(units) else ""
+
     def mom_scale(j: int) -> float:
-        return _moment_scale(units[channel[j]] if channel[j] < len(units) else "", pos)
+        return _moment_scale(unit_of(j), pos)
 
     cal = None
     if kind == 4:
@@ -276,11 +294,22 @@ def _analog_reading(c, params: dict, i: int, kind: int, pos: float, path: Path) 
     else:
         kind_eff = kind
     if kind_eff == 1:
-        ch[:, 3:5] *= pos  # COP [m]
+        for j in (3, 4):  # COP [m], each in its own unit
+            ch[:, j] *= _length_scale(unit_of(j), pos)
         ch[:, 5] *= mom_scale(5)
     elif kind_eff == 2:
-        ch[:, 3:6] *= mom_scale(3)
+        for j in (3, 4, 5):
+            ch[:, j] *= mom_scale(j)
     force, moment = plate_wrench(kind_eff, ch, origin, cal)
+    bad = _corners_problem(corners)  # before the axes, which need usable corners
+    if bad:
+        if strict and np.nanmax(np.abs(np.nan_to_num(force[:, 2]))) > LOADED_N:
+            raise PlateError(
+                f"Plate {i + 1} of {path} carries load but its FORCE_PLATFORM:CORNERS {bad}: "
+                f"its forces cannot be placed in the lab. Fix the plate's corners in the file "
+                f"(or export it again with the force-plate set-up)."
+            )
+        return {"number": i + 1, "skip": f"its corners {bad}"}
     axes = plate_axes(corners)
     return {
         "number": i + 1,
@@ -300,9 +329,11 @@ per cent of an adult's weight; far above the plates' noise of ~1-5 N)."""
 OFFSET_MAX_FRACTION = 0.5
 """An unloaded plate's offset (an amplifier's zero, a piezo plate's drift) is small against the
 load a foot puts on it (the shared files: at most 32 N against ~600 N; a 200 N offset is still
-recovered). A quiet stretch whose level is more than this fraction of the largest change from
-it, and more than a load (:data:`LOADED_N`), is someone standing on the plate for the whole
-file, not its zero: it is not subtracted (the stance is then clipped: excluded, named)."""
+recovered). On a plate whose reading changes by a load (:data:`LOADED_N`), a quiet stretch
+whose level is more than this fraction of the largest change from it, and more than a load, is
+someone standing on the plate for the whole file, not its zero: it is not subtracted (the
+stance is then clipped: excluded, named). A plate whose reading never changes that much is
+unloaded, and its level is its zero, however large."""
 
 
 def _corners_problem(corners: np.ndarray) -> str:
@@ -318,7 +349,7 @@ def _corners_problem(corners: np.ndarray) -> str:
     return ""
 
 
-def _negative_plates(kept: list, path: Path) -> bool:
+def _negative_plates(kept: list, path: Path, strict: bool = True) -> bool:
     """Whether every loaded plate's vertical force is negative while loaded (the file stores
     the force the subject exerts on the plate, a convention some writers use: the caller
     negates every plate). A file whose plates disagree (some negative, some positive) has a
@@ -332,8 +363,8 @@ def _negative_plates(kept: list, path: Path) -> bool:
         if loaded.any():
             signs[name] = float(np.median(fz[loaded]))
     negative = [n for n, m in signs.items() if m < 0]
-    if not negative or len(negative) == len(signs):
-        return bool(negative)
+    if not negative or len(negative) == len(signs) or not strict:
+        return bool(negative) and len(negative) == len(signs)
     positive = [n for n in signs if n not in negative]
     raise PlateError(
         f"In {path}, {', '.join(negative)} read a negative vertical force while loaded "
@@ -345,8 +376,10 @@ def _negative_plates(kept: list, path: Path) -> bool:
     )
 
 
-def read_c3d(path: Path) -> RawTrial:
-    """Read markers, plates and subject data of a C3D file (SI, C3D global frame, Z up)."""
+def read_c3d(path: Path, strict: bool = True) -> RawTrial:
+    """Read markers, plates and subject data of a C3D file (SI, C3D global frame, Z up).
+    ``strict=False`` (a static trial, whose plates only help find the vertical axis): a plate
+    set-up that is wrong skips that plate instead of an error."""
     head = path.read_bytes()[:512]
     if len(head) == 512 and head[1] == 0x50:
         order = _byte_order(path, head)  # data-start word: a file cut before it stalls ezc3d
@@ -402,7 +435,12 @@ def read_c3d(path: Path) -> RawTrial:
     plates: list[Plate] = []
     notes: list[str] = [prefix_note] if prefix_note else []
     analog_rate = float(c["header"]["analogs"]["frame_rate"])
-    readings = _plate_readings(c, params, path)
+    readings = []
+    for r in _plate_readings(c, params, path, strict):
+        if "skip" in r:
+            notes.append(f"plate{r['number']}: never loaded and {r['skip']}, skipped")
+        else:
+            readings.append(r)
     axis, sign, how = vertical_axis(
         [r["force"] for r in readings],
         [r["corners"] for r in readings if np.ptp(r["corners"]) > 0],
@@ -434,16 +472,6 @@ def read_c3d(path: Path) -> RawTrial:
         if not np.isfinite(force).any():
             notes.append(f"{name}: no data, skipped")
             continue
-        bad = _corners_problem(corners)
-        if bad:
-            if np.nanmax(np.abs(force[:, 2])) > LOADED_N:
-                raise PlateError(
-                    f"Plate {r['number']} of {path} carries load but its FORCE_PLATFORM:CORNERS "
-                    f"{bad}: its forces cannot be placed in the lab. Fix the plate's corners in "
-                    f"the file (or export it again with the force-plate set-up)."
-                )
-            notes.append(f"{name}: never loaded and its corners {bad}, skipped")
-            continue
         centre = corners.mean(axis=0)
         if r["origin"] is None:  # types 1 and 3: the wrench is given about the surface centre
             reference, kind = centre, "surface_center"
@@ -455,7 +483,11 @@ def read_c3d(path: Path) -> RawTrial:
         base, t_unloaded = unloaded_baseline(np.hstack([force, moment_c]), analog_rate)
         removed = t_unloaded >= 0.1
         swing = float(np.nanmax(np.abs(force[:, 2] - base[2])))
-        if removed and abs(base[2]) > max(OFFSET_MAX_FRACTION * swing, LOADED_N):
+        if (
+            removed
+            and swing > LOADED_N
+            and abs(base[2]) > max(OFFSET_MAX_FRACTION * swing, LOADED_N)
+        ):
             warn(
                 f"{name} of {path}: its quietest stretch reads {base[2]:.0f} N against loads of "
                 f"{swing:.0f} N above it: a load, not an unloaded offset (the plate is never "
@@ -474,7 +506,7 @@ def read_c3d(path: Path) -> RawTrial:
         force = force - base[:3]
         moment_c = moment_c - base[3:]
         kept.append((r, name, force, moment_c, corners, centre, reference, kind, base, removed))
-    flip = _negative_plates(kept, path)
+    flip = _negative_plates(kept, path, strict)
     if flip:
         notes.append(
             f"the plates of {path.name} store the force on the plate (vertical force negative "

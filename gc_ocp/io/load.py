@@ -16,7 +16,12 @@ from gc_ocp.io._common import Y_UP_TO_LAB, foot_markers, warn, without_subject_p
 from gc_ocp.io.c3d import read_c3d
 from gc_ocp.io.checks import stance_gap_report
 from gc_ocp.io.opensim import read_opensim, read_trc
-from gc_ocp.io.orientation import LEG_SEGMENTS, leg_pairs, mirrored_pairs, walking_rotation
+from gc_ocp.io.orientation import (
+    FOOT_CROSSOVER,
+    LEG_SEGMENTS,
+    mirrored_pairs,
+    walking_rotation,
+)
 from gc_ocp.io.stances import DEFAULT_THRESHOLD, check_peaks, detect_stances
 from gc_ocp.io.subject import estimate_body_weight, read_subject_metadata
 from gc_ocp.trial import GRAVITY, ExcludedStance, Plate, Trial
@@ -109,9 +114,9 @@ def load_trial(
     plates = [_rotate_plate(p, rot) for p in raw.plates]
     swapped = mirrored_pairs(raw.marker_names, markers, raw.marker_time)
     legs = [p for p in swapped if p[3] in LEG_SEGMENTS]
-    if len(legs) == 1 and len(leg_pairs(raw.marker_names)) > 1:
-        # one leg pair alone (a medial pair of a narrow-based or crossover gait) is not a
-        # swap: relabelled feet or mirrored axes move every pair
+    # the feet of a crossover or tandem gait can lie a few cm the wrong way round; the shanks and
+    # thighs cannot, nor the feet by more than FOOT_CROSSOVER
+    if not any(p[3] not in ("hindfoot", "toes") or p[2] < -FOOT_CROSSOVER for p in legs):
         swapped, legs = [p for p in swapped if p not in legs], []
     said = ", ".join(f"{a}/{b} {d * 100:+.0f} cm" for a, b, d, _ in (legs or swapped)[:6])
     if legs:
@@ -289,7 +294,7 @@ def load_static(path: str | Path, walking: Trial) -> Trial:
         names, _ = without_subject_prefix(names, path)
         file_rot = Y_UP_TO_LAB
     elif suffix == ".c3d":
-        raw = read_c3d(path)
+        raw = read_c3d(path, strict=False)  # its plates only help find the vertical axis
         names, time, markers, file_rot = (
             raw.marker_names,
             raw.marker_time,

@@ -107,9 +107,14 @@ width, and the feet by about the step width (5-15 cm; a crossover step brings th
 A median over the frames more than this far to the *right* is a swap (:func:`mirrored_pairs`)."""
 
 
+FOOT_CROSSOVER = 0.05
+"""[m] How far a foot landmark may lie the wrong way round of its counterpart (median over the
+frames) in a crossover or tandem gait; a shank or thigh pair cannot cross."""
+
 LEG_SEGMENTS = ("hindfoot", "toes", "shank", "thigh")
 """Segments whose landmarks pose the feet (directly, or through the chain of a two-landmark
-foot): a swap there is an error; elsewhere (shoulders, arms, head) it is noted."""
+foot): a swap there is an error (a shank or thigh pair, or a foot pair beyond
+:data:`FOOT_CROSSOVER`); elsewhere (shoulders, arms, head) it is noted."""
 
 
 def _sided_landmarks(names) -> dict[str, dict[str, int]]:
@@ -122,18 +127,6 @@ def _sided_landmarks(names) -> dict[str, dict[str, int]]:
         if key and side:
             sides.setdefault(key, {}).setdefault(side, j)
     return sides
-
-
-def leg_pairs(names) -> list[str]:
-    """The landmarks of :data:`LEG_SEGMENTS` present on both sides."""
-    from gc_ocp.model.landmarks import vocabulary
-
-    v = vocabulary()
-    return [
-        k
-        for k, pair in _sided_landmarks(names).items()
-        if len(pair) == 2 and v.landmarks[k].segment in LEG_SEGMENTS
-    ]
 
 
 def mirrored_pairs(
@@ -157,7 +150,7 @@ def mirrored_pairs(
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             fwd = np.nanmean(np.stack(parts), axis=0)
-    else:
+    if not np.isfinite(fwd).all(axis=1).any():  # no feet, or their columns empty
         fwd = body_velocity(markers, time)
     norm = np.linalg.norm(fwd, axis=1)
     ok = np.isfinite(norm) & (norm > 1e-6)
