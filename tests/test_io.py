@@ -638,3 +638,30 @@ def test_exchanged_shoulder_labels_are_noted_not_refused(tmp_path):
     t = load_trial(_relabelled(tmp_path, _swap([("LSHO", "RSHO")])))
     assert any("LSHO/RSHO" in n and "exchanged" in n for n in t.load_notes)
     assert len(t.stances) == 3
+
+
+def test_a_crossover_gait_is_not_taken_for_swapped_sides(tmp_path):
+    """Tandem walking brings the feet a few cm the wrong way round (here heel and toe pairs,
+    3 cm crossed) while the knees stay a knee width apart: not a swap."""
+    from gc_ocp.io.load import bundled_example_path
+
+    clean = load_trial(bundled_example_path())
+    import ezc3d
+
+    c = ezc3d.c3d(str(bundled_example_path()))
+    labels = [str(s).strip() for s in c["parameters"]["POINT"]["LABELS"]["value"]]
+    pts = c["data"]["points"]
+    for name in ("HEE", "TOE"):  # +y is the subject's left in this file
+        left, right = labels.index("L" + name), labels.index("R" + name)
+        mid = 0.5 * (pts[1, left] + pts[1, right])
+        pts[1, left], pts[1, right] = mid - 15.0, mid + 15.0  # mm: 3 cm crossed
+    out = tmp_path / "tandem.c3d"
+    c.write(str(out))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = load_trial(out)
+    assert t.marker_names == clean.marker_names
+    from gc_ocp.io.orientation import mirrored_pairs
+
+    crossed = mirrored_pairs(t.marker_names, t.markers, t.marker_time)
+    assert {(a, b) for a, b, _, _ in crossed} == {("LHEE", "RHEE"), ("LTOE", "RTOE")}
