@@ -988,3 +988,24 @@ def test_walking_backward_keeps_its_stances(tmp_path):
     t = load_trial(_variant(tmp_path, reverse))
     assert len(t.stances) == len(load_trial(_bundled_c3d()).stances)
     assert not t.excluded_stances
+
+
+def test_a_dropout_just_after_heel_strike_is_named(tmp_path):
+    """Zeros from 50 to 150 ms into a stance leave a first part shorter than a contact (0.1 s):
+    before, it was dropped as no contact and the rest kept as a stance without its loading
+    response."""
+    from gc_ocp.io.c3d import read_c3d
+
+    clean = load_trial(_bundled_c3d())
+    k = _most_loaded_plate()
+    s = next(s for s in clean.stances if s.plate == k)
+    rate = 1.0 / float(np.median(np.diff(read_c3d(_bundled_c3d()).plates[k].time)))
+    a, b = int((s.t_on + 0.05) * rate), int((s.t_on + 0.15) * rate)
+
+    def drop(c):
+        ch = np.asarray(c["parameters"]["FORCE_PLATFORM"]["CHANNEL"]["value"], int)[:, k] - 1
+        c["data"]["analogs"][0, ch, a:b] = 0.0
+
+    t = load_trial(_variant(tmp_path, drop))
+    assert all(x.plate != k for x in t.stances)
+    assert any(e.plate == k and "dropped out" in e.reason for e in t.excluded_stances)

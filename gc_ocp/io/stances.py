@@ -63,8 +63,11 @@ COP_OFF_TIME = 0.02
 excluded (impact transients at heel strike last a few ms)."""
 
 
-def contact_windows(plate: Plate, threshold: float) -> list[tuple[int, int, float, float]]:
-    """Runs where ``Fz > threshold``: ``(i_on, i_off, t_on, t_off)``, ``i_off`` exclusive."""
+def contact_windows(
+    plate: Plate, threshold: float, keep_short: bool = False
+) -> list[tuple[int, int, float, float]]:
+    """Runs where ``Fz > threshold``: ``(i_on, i_off, t_on, t_off)``, ``i_off`` exclusive;
+    those shorter than :data:`MIN_DURATION` only with ``keep_short``."""
     fz = plate.force[:, 2]
     t = plate.time
     above = fz > threshold
@@ -80,7 +83,7 @@ def contact_windows(plate: Plate, threshold: float) -> list[tuple[int, int, floa
     for a, b in runs:
         t_on = _crossing(t, fz, a - 1, a, threshold) if a > 0 else float(t[0])
         t_off = _crossing(t, fz, b - 1, b, threshold) if b < len(t) else float(t[-1])
-        if t_off - t_on >= MIN_DURATION:
+        if keep_short or t_off - t_on >= MIN_DURATION:
             out.append((a, b, t_on, t_off))
     return out
 
@@ -135,7 +138,8 @@ def detect_stances(
     notes: list[str] = []
     for ip, plate in enumerate(plates):
         cop = plate.cop(min_vertical=threshold)
-        windows = contact_windows(plate, threshold)
+        runs = contact_windows(plate, threshold, keep_short=True)
+        windows = [w for w in runs if w[3] - w[2] >= MIN_DURATION]
         sides: list[str] = []
         dists: list[dict] = []
         for a, b, t_on, t_off in windows:
@@ -162,7 +166,8 @@ def detect_stances(
                 side = "unknown"
             sides.append(side)
             dists.append(dist)
-        dropouts = _dropouts(plate, windows, sides, feet, markers, marker_time)
+        by_run = dict(zip(windows, sides, strict=True))
+        dropouts = _dropouts(plate, runs, by_run, feet, markers, marker_time)
         for (a, b, t_on, t_off), side, dist in zip(windows, sides, dists, strict=True):
             window = np.arange(a, b)
             if plate.name in ("grf_left", "grf_right") and side != plate.name[4:] and dist:
@@ -226,16 +231,23 @@ while it is flat, the toe in heel rise: skin on bone, the foot rolling over); a 
 lifts, however briefly, moves them all farther (:func:`_dropouts`)."""
 
 
-def _dropouts(plate: Plate, windows, sides: list[str], feet, markers, mtime) -> dict[int, str]:
+def _dropouts(plate: Plate, runs, sides: dict, feet, markers, mtime) -> dict[int, str]:
     """Reasons to exclude, keyed by a window's first sample: two contacts of the same foot on
     ``plate`` separated by less than :data:`MIN_SWING` while the foot's markers stay within
     :data:`STILL_MARKER` of where they were (the foot never left the plate) are one contact
     whose force the plate lost in between (zeros, NaN, a cable): neither part is a stance, and
-    the gap is named. A foot that lifts in between (a shuffle, a step in place) is not this."""
+    the gap is named. A foot that lifts in between (a shuffle, a step in place) is not this.
+    ``runs``: every contact of the plate in time order, those shorter than
+    :data:`MIN_DURATION` included (a dropout near heel strike or toe-off leaves such a part);
+    ``sides``: the foot of each run long enough to be a window (a short part takes its
+    neighbour's)."""
     out: dict[int, str] = {}
-    for (a0, b0, _, t_off0), (a1, _, t_on1, _), s0, s1 in zip(
-        windows, windows[1:], sides, sides[1:], strict=False
-    ):
+    for r0, r1 in zip(runs, runs[1:], strict=False):
+        (a0, b0, _, t_off0), (a1, _, t_on1, _) = r0, r1
+        s0, s1 = sides.get(r0), sides.get(r1)
+        if s0 is None and s1 is None:
+            continue
+        s0, s1 = s0 or s1, s1 or s0
         gap = t_on1 - t_off0
         if s0 != s1 or gap >= MIN_SWING or not feet.get(s0):
             continue
