@@ -665,3 +665,18 @@ def test_a_crossover_gait_is_not_taken_for_swapped_sides(tmp_path):
 
     crossed = mirrored_pairs(t.marker_names, t.markers, t.marker_time)
     assert {(a, b) for a, b, _, _ in crossed} == {("LHEE", "RHEE"), ("LTOE", "RTOE")}
+
+
+def test_the_side_check_falls_back_to_the_body_s_motion_without_feet():
+    """Heel and toe labels present but empty: forward is the body's velocity (+x here), and a
+    mirrored pair is still found."""
+    from gc_ocp.io.orientation import mirrored_pairs
+
+    t = np.arange(100) / 100.0
+    names = ["LHEE", "RHEE", "LTOE", "RTOE", "LKNE", "RKNE", "LASI", "RASI"]
+    x = np.full((100, len(names), 3), np.nan)
+    where = [(-0.1, 0.5), (0.1, 0.5), (-0.12, 0.9), (0.12, 0.9)]
+    for j, (y, z) in zip(range(4, 8), where, strict=True):
+        x[:, j] = np.column_stack([1.2 * t, np.full(100, y), np.full(100, z)])  # L on the right
+    found = mirrored_pairs(names, x, t)
+    assert {(a, b) for a, b, _, _ in found} == {("LKNE", "RKNE"), ("LASI", "RASI")}

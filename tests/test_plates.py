@@ -1009,3 +1009,67 @@ def test_a_dropout_just_after_heel_strike_is_named(tmp_path):
     t = load_trial(_variant(tmp_path, drop))
     assert all(x.plate != k for x in t.stances)
     assert any(e.plate == k and "dropped out" in e.reason for e in t.excluded_stances)
+
+
+def test_an_unused_plate_with_a_large_flat_offset_is_zeroed(tmp_path):
+    """80 N of offset on a plate nobody steps on: its reading never changes by a load, so the
+    level is its zero however large (before the review's fix, it was kept as 'a load' and the
+    plates then disagreed in sign)."""
+    from gc_ocp.io.c3d import read_c3d
+    from gc_ocp.io.plates import plate_axes
+
+    clean = read_c3d(_bundled_c3d())
+    k = int(np.argmin([np.nanmax(p.force[:, 2]) for p in clean.plates]))
+    z_up = plate_axes(clean.plates[k].corners)[2, 2]
+
+    def offset(c):
+        c["data"]["analogs"][0, _plate_channel(c, k, 2), :] += -80.0 / z_up
+
+    raw = read_c3d(_variant(tmp_path, offset))
+    assert raw.plates[k].zero_offset is not None
+    np.testing.assert_allclose(raw.plates[k].force, clean.plates[k].force, atol=1e-3)
+
+
+def test_a_static_trial_with_a_broken_plate_still_loads(tmp_path):
+    """A static trial needs its markers; its plates only help find the vertical axis, so a
+    plate set up wrongly there is skipped, not an error (``load_static`` reads it so)."""
+    from gc_ocp.io.c3d import read_c3d
+
+    k = _most_loaded_plate()
+
+    def break_corners(c):
+        fp = c["parameters"]["FORCE_PLATFORM"]
+        corners = np.asarray(fp["CORNERS"]["value"], float).copy()
+        corners[:, 0, k] = np.nan
+        fp["CORNERS"]["value"] = corners
+
+    path = _variant(tmp_path, break_corners)
+    with pytest.raises(PlateError, match="CORNERS"):
+        load_trial(path)
+    # as load_static reads it (its own check then wants a standing subject: this file walks)
+    raw = read_c3d(path, strict=False)
+    assert raw.marker_names == read_c3d(_bundled_c3d()).marker_names
+    assert f"plate{k + 1}: loaded but its corners are not numbers (NaN), skipped" in raw.notes
+    assert all(p.name != f"plate{k + 1}" for p in raw.plates)
+
+
+@needs_data
+def test_type_1_cop_channels_are_read_in_their_own_unit(tmp_path):
+    """A BTS (type-1) trial whose COP channels are stored in metres (ANALOG:UNITS m) with the
+    markers in mm: the same plates (before, the COP was scaled by the markers' unit)."""
+    import ezc3d
+
+    from gc_ocp.io.c3d import read_c3d
+
+    src = DATA / "bts_unipd_5trials" / "Walking1.c3d"
+    c = ezc3d.c3d(str(src))
+    ch = np.asarray(c["parameters"]["FORCE_PLATFORM"]["CHANNEL"]["value"], int) - 1
+    units = list(c["parameters"]["ANALOG"]["UNITS"]["value"])
+    for j in ch[3:5].ravel():  # Px, Py of every plate
+        units[j] = "m"
+        c["data"]["analogs"][0, j, :] /= 1000.0
+    c["parameters"]["ANALOG"]["UNITS"]["value"] = units
+    out = tmp_path / "cop_in_m.c3d"
+    c.write(str(out))
+    for a, b in zip(read_c3d(src).plates, read_c3d(out).plates, strict=True):
+        np.testing.assert_allclose(b.moment, a.moment, atol=1e-5 * np.abs(a.moment).max())

@@ -303,13 +303,17 @@ def _analog_reading(
     force, moment = plate_wrench(kind_eff, ch, origin, cal)
     bad = _corners_problem(corners)  # before the axes, which need usable corners
     if bad:
-        if strict and np.nanmax(np.abs(np.nan_to_num(force[:, 2]))) > LOADED_N:
+        loaded = np.nanmax(np.abs(np.nan_to_num(force[:, 2]))) > LOADED_N
+        if strict and loaded:
             raise PlateError(
                 f"Plate {i + 1} of {path} carries load but its FORCE_PLATFORM:CORNERS {bad}: "
                 f"its forces cannot be placed in the lab. Fix the plate's corners in the file "
                 f"(or export it again with the force-plate set-up)."
             )
-        return {"number": i + 1, "skip": f"its corners {bad}"}
+        return {
+            "number": i + 1,
+            "skip": f"{'loaded' if loaded else 'never loaded'} but its corners {bad}",
+        }
     axes = plate_axes(corners)
     return {
         "number": i + 1,
@@ -438,7 +442,7 @@ def read_c3d(path: Path, strict: bool = True) -> RawTrial:
     readings = []
     for r in _plate_readings(c, params, path, strict):
         if "skip" in r:
-            notes.append(f"plate{r['number']}: never loaded and {r['skip']}, skipped")
+            notes.append(f"plate{r['number']}: {r['skip']}, skipped")
         else:
             readings.append(r)
     axis, sign, how = vertical_axis(
