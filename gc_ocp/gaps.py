@@ -40,8 +40,7 @@ def marker_spikes(
     label on a point far away for a few frames: farther than 25 m/s over the frame interval,
     25 cm at 100 Hz), measured between valid samples across gaps (a ghost next to a gap is
     caught; one on the first or last sample is not: no path on its other side). ``x``:
-    ``(n, m, 3)`` [m] at ``time`` ``(n,)``
-    [s]. Returns a copy with those frames NaN (gaps, filled by :func:`fill_short_gaps`) and
+    ``(n, m, 3)`` [m] at ``time`` ``(n,)`` [s]. Returns a copy with those frames NaN (gaps, filled by :func:`fill_short_gaps`) and
     ``(marker, t_first, t_last)`` of each excursion removed."""
     out = np.array(x, dtype=float, copy=True)
     out[~np.isfinite(out)] = np.nan  # an infinite coordinate is a gap too

@@ -353,19 +353,19 @@ def _corners_problem(corners: np.ndarray) -> str:
     return ""
 
 
-def _negative_plates(kept: list, path: Path, strict: bool = True) -> bool:
-    """Whether every loaded plate's vertical force is negative while loaded (the file stores
+def _negative_plates(fz: dict[str, np.ndarray], path: Path, strict: bool = True) -> bool:
+    """Whether every loaded plate's vertical force (``fz``, by plate name) is negative while
+    loaded (the file stores
     the force the subject exerts on the plate, a convention some writers use: the caller
     negates every plate). A file whose plates disagree (some negative, some positive) has a
     plate set up wrongly (a vertical channel's sign, ANALOG:SCALE, or a mirrored CORNERS
     order): an error naming the plates, since negating one plate's six channels would not
     undo a wrong sign of one of them."""
     signs = {}
-    for _r, name, force, *_ in kept:
-        fz = force[:, 2]
-        loaded = np.abs(np.nan_to_num(fz)) > LOADED_N
+    for name, f in fz.items():
+        loaded = np.abs(np.nan_to_num(f)) > LOADED_N
         if loaded.any():
-            signs[name] = float(np.median(fz[loaded]))
+            signs[name] = float(np.median(f[loaded]))
     negative = [n for n, m in signs.items() if m < 0]
     if not negative or len(negative) == len(signs) or not strict:
         return bool(negative) and len(negative) == len(signs)
@@ -447,7 +447,7 @@ def read_c3d(path: Path, strict: bool = True) -> RawTrial:
             readings.append(r)
     axis, sign, how = vertical_axis(
         [r["force"] for r in readings],
-        [r["corners"] for r in readings if np.ptp(r["corners"]) > 0],
+        [r["corners"] for r in readings],  # unusable corners were skipped
         xyz,
     )
     rot = up_to_lab(axis, sign)
@@ -510,7 +510,7 @@ def read_c3d(path: Path, strict: bool = True) -> RawTrial:
         force = force - base[:3]
         moment_c = moment_c - base[3:]
         kept.append((r, name, force, moment_c, corners, centre, reference, kind, base, removed))
-    flip = _negative_plates(kept, path, strict)
+    flip = _negative_plates({name: f[:, 2] for _, name, f, *_ in kept}, path, strict)
     if flip:
         notes.append(
             f"the plates of {path.name} store the force on the plate (vertical force negative "

@@ -8,7 +8,8 @@ import warnings
 
 import numpy as np
 
-from gc_ocp.io._common import heel_toe, rotation_z, warn
+from gc_ocp.io._common import _landmark, heel_toe, rotation_z, warn
+from gc_ocp.model.landmarks import vocabulary
 
 MIN_OVERGROUND_SPEED = 0.3
 """Centroid speed [m/s] above which a trial is taken as overground (direction from the centroid);
@@ -119,8 +120,6 @@ foot): a swap there is an error (a shank or thigh pair, or a foot pair beyond
 
 def _sided_landmarks(names) -> dict[str, dict[str, int]]:
     """``{landmark: {side: column}}`` of the labels the vocabulary reads as sided landmarks."""
-    from gc_ocp.io._common import _landmark
-
     sides: dict[str, dict[str, int]] = {}
     for j, name in enumerate(names):
         key, side = _landmark(name)
@@ -133,9 +132,8 @@ def mirrored_pairs(
     names, markers: np.ndarray, time: np.ndarray
 ) -> list[tuple[str, str, float, str]]:
     """``(left label, right label, lateral offset [m], segment)`` of each sided landmark pair
-    whose left
-    member lies, median over the frames, more than :data:`SIDE_SWAP` to the subject's right of
-    the right one: left and right swapped (labels exchanged, or a file with mirrored,
+    whose left member lies, median over the frames, more than :data:`SIDE_SWAP` to the subject's
+    right of the right one: left and right swapped (labels exchanged, or a file with mirrored,
     left-handed axes). The subject's forward is the heel -> toe direction of the feet (anatomy:
     it holds for walking backward and on a treadmill), else the body's velocity. ``markers``
     ``(n, m, 3)`` in ``lab`` (Z up)."""
@@ -158,11 +156,8 @@ def mirrored_pairs(
         return []
     left = np.full((n, 2), np.nan)
     left[ok] = np.column_stack([-fwd[ok, 1], fwd[ok, 0]]) / norm[ok, None]
-    from gc_ocp.model.landmarks import vocabulary
-
-    sides = _sided_landmarks(names)
     out = []
-    for key, pair in sides.items():
+    for key, pair in _sided_landmarks(names).items():
         if len(pair) < 2:
             continue
         lj, rj = pair["left"], pair["right"]

@@ -179,6 +179,8 @@ def detect_stances(
             heading, motion = _stance_motion(
                 marker_names, markers, marker_time, feet.get(side, []), side, t_on, t_off
             )
+            # the body's direction of travel over the stance (None: it stands, or a treadmill)
+            travel = heading if motion.get("body", 0.0) > MIN_OVERGROUND_SPEED else None
             reason = _exclusion(
                 plate,
                 a,
@@ -194,6 +196,7 @@ def detect_stances(
                 body_weight,
                 threshold,
                 notes,
+                travel,
             )
             if not reason.startswith("clipped"):
                 reason = _not_walking(t_on, t_off, motion) or reason
@@ -363,13 +366,17 @@ across and more across than along, is not a walking foot's: the plate's axes are
 listed in another order move it 13-17 cm across or 15 cm backward)."""
 
 
-def _cop_path(cop, fz, times, side, names, markers, mtime, bw) -> tuple[float, float] | None:
+def _cop_path(
+    cop, loaded, times, side, names, markers, mtime, travel
+) -> tuple[float, float] | None:
     """``(along, across)`` [m]: how the COP moves in the stance foot's frame (see
-    :data:`COP_ACROSS`); ``None`` without heel and toe markers or loaded COP samples."""
+    :data:`COP_ACROSS`) over the ``loaded`` samples; ``along`` in the direction of
+    ``travel`` (the body's heading [rad], ``None`` when it stands); ``None`` without heel and
+    toe markers or loaded COP samples."""
     h, t = heel_toe(names, side)
     if h is None or t is None:
         return None
-    ok = np.all(np.isfinite(cop[:, :2]), axis=1) & (fz > (0.2 * bw if bw else 100.0))
+    ok = np.all(np.isfinite(cop[:, :2]), axis=1) & loaded
     if ok.sum() < 8:
         return None
     heel = _markers_at(markers, mtime, [h], times[ok])[:, 0, :2]
@@ -386,18 +393,14 @@ def _cop_path(cop, fz, times, side, names, markers, mtime, bw) -> tuple[float, f
     q = max(len(along) // 4, 1)
     along_m = float(np.median(along[-q:]) - np.median(along[:q]))
     # walking backward the COP rolls from toe to heel: measured along the direction of travel
-    sel = (mtime >= times[0]) & (mtime <= times[-1])
-    if sel.sum() >= 3:
-        v = body_velocity(markers[sel], mtime[sel])
-        v = v[np.all(np.isfinite(v), axis=1)]
-        if len(v):
-            v = v.mean(axis=0)
-            if np.linalg.norm(v) > MIN_OVERGROUND_SPEED and float(v @ axis.mean(axis=0)) < 0:
-                along_m = -along_m
+    if travel is not None and float(axis.mean(axis=0) @ [np.cos(travel), np.sin(travel)]) < 0:
+        along_m = -along_m
     return along_m, float(np.median(across[-q:]) - np.median(across[:q]))
 
 
-def _exclusion(plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime, bw, thr, notes):
+def _exclusion(
+    plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime, bw, thr, notes, travel
+):
     n = len(plate.time)
     if a == 0:
         return "clipped: force already above threshold at the first sample of the file"
@@ -431,7 +434,7 @@ def _exclusion(plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime,
                 f"for {out.sum() * dt * 1e3:.0f} ms (<= {COP_OFF_TIME * 1e3:.0f} ms: a transient, "
                 f"ignored)"
             )
-    path = _cop_path(cop[a:b], plate.force[a:b, 2], times, side, names, markers, mtime, bw)
+    path = _cop_path(cop[a:b], heavy, times, side, names, markers, mtime, travel)
     if path is not None:
         along, across = path
         if along < -COP_BACKWARD or (abs(across) > COP_ACROSS and abs(across) > along):
