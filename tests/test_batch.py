@@ -154,8 +154,10 @@ def test_a_broken_trial_is_recorded_and_the_others_complete_then_a_rerun_skips_t
     good = tmp_path / "in" / "good.c3d"
     good.parent.mkdir()
     shutil.copy(EXAMPLE, good)
+    # S1's second trial is broken too: skipped with its reason, S1 fitted on the good one
+    extra = _broken(tmp_path / "in" / "s1_extra")
     subjects = [
-        Subject("S1", (TrialSpec(good),)),
+        Subject("S1", (TrialSpec(good), TrialSpec(extra))),
         Subject("BAD", (TrialSpec(_broken(tmp_path / "in" / "bad")),)),
     ]
     out = tmp_path / "out"
@@ -177,12 +179,16 @@ def test_a_broken_trial_is_recorded_and_the_others_complete_then_a_rerun_skips_t
             r = rows[("S1", foot)]
             assert r["status"] == "done" and np.isfinite(r["n"]) and r["n_se"] > 0
             assert 0 < r["rms_superior_force_pct_bw"] < 10  # % BW: a fit, not a failure
+            assert r["trials"] == 1 and r["trials_skipped"] == 1
+        [skip] = json.loads((out / "S1" / "fit.json").read_text())["provenance"]["trials_skipped"]
+        assert skip["files"] == [str(extra.resolve())] and "truncated" in skip["message"]
         assert rows[("S1", "right")]["heldout_stance"]  # "auto": the right foot has two
         page = (out / "summary.html").read_text(encoding="utf-8")
         # self-contained but for the subjects' own reports beside it
         assert set(re.findall(r'href="([^"]+)"', page)) == {"S1/report.html"}  # one per foot row
         assert "<script" not in page and page.count('src="data:image/png;base64,') == 2
         assert "broken.c3d" in page and "InputError" in page
+        assert page.count("+1 not used</b>") == 2  # S1's rows: its skipped trial
         assert (out / "S1" / "report.html").is_file()
         done = out / "S1" / "done.json"
         stamp = done.stat().st_mtime_ns

@@ -126,13 +126,18 @@ def test_unexpected_exception_is_one_line_internal_error_exit_3(monkeypatch, cap
     assert "Traceback" in capsys.readouterr().err
 
 
-def test_fit_outputs_are_one_consistent_set(tmp_path):
+def test_fit_outputs_are_one_consistent_set(tmp_path, capsys):
     """A rerun replaces the command's whole set (a stale held-out figure and fit_failed.json go;
-    the user's own files stay); files follow the umask; fit.json carries provenance and flags."""
+    the user's own files stay); files follow the umask; fit.json carries provenance and flags.
+    The rerun is given a second, truncated trial: it is skipped with its reason (printed, in
+    fit.json's provenance and in report.html) and the fit uses the bundled one."""
     import json
     import os
+    import re
     import stat
+    from pathlib import Path
 
+    import gc_ocp
     from gc_ocp.cli import main
 
     out = tmp_path / "fit"
@@ -141,11 +146,19 @@ def test_fit_outputs_are_one_consistent_set(tmp_path):
     _check_fit_report(out)
     (out / "fit_failed.json").write_text("{}")  # stale, from an imagined earlier failed run
     (out / "notes.txt").write_text("mine")
+    example = Path(gc_ocp.__file__).parent / "data" / "test_small.c3d"
+    broken = tmp_path / "copy_interrupted.c3d"
+    broken.write_bytes(example.read_bytes()[:5000])  # cut before its data section
+    broken = broken.resolve()  # as the provenance records files
+    capsys.readouterr()
     old = os.umask(0o022)
     try:
-        assert main(["fit", "--out", str(out)]) == 0
+        assert main(["fit", str(example), str(broken), "--out", str(out)]) == 0
     finally:
         os.umask(old)
+    printed = capsys.readouterr()
+    assert f"skipped trial {broken}: " in printed.err
+    assert re.search(rf"not used: skipped trial {re.escape(str(broken))}: .*truncated", printed.out)
     names = sorted(p.name for p in out.iterdir())
     assert names == [
         "fit.json",
@@ -164,6 +177,12 @@ def test_fit_outputs_are_one_consistent_set(tmp_path):
     trial = d["provenance"]["trials"][0]
     assert len(trial["files"][0]["sha256"]) == 64 and trial["mass_source"]
     assert d["provenance"]["gc_ocp_version"] and isinstance(d["flags"], list)
+    assert len(d["provenance"]["trials"]) == 1
+    [skip] = d["provenance"]["trials_skipped"]
+    assert skip["files"] == [str(broken)] and skip["error"] == "InputError"
+    assert "truncated" in skip["message"]
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert f"Trial not used: <code>{broken}</code>" in page
     assert not list(tmp_path.glob(".fit.*"))  # no staging folder left
 
 

@@ -53,12 +53,14 @@ class Settings:
     as ``gc-ocp fit`` does by default), ``sole_scale`` (estimate the sole correction's width
     too; None: as :func:`gc_ocp.workflow.fitting.fit` decides, with ``pose_scale``),
     ``bias_correction`` (replicates of the markers' noise's bias correction, 0: none;
-    :mod:`gc_ocp.estimation.bias`)."""
+    :mod:`gc_ocp.estimation.bias`), ``strict_trials`` (a trial that cannot be used fails its
+    subject, instead of being skipped with its reason: :mod:`gc_ocp.workflow.trials`)."""
 
     diagnose: bool = False
     pose_scale: bool = True
     sole_scale: bool | None = None
     bias_correction: int = 0
+    strict_trials: bool = False
 
     def __post_init__(self) -> None:
         check_replicates(self.bias_correction)  # before any subject is fitted
@@ -154,24 +156,30 @@ def subject_files(subject: Subject) -> list:
     ]
 
 
-def load_subject(subject: Subject, cache_root: Path) -> list:
-    """``[(Trial, TrialKinematics), ...]`` of the subject (ground reactions paired as
-    ``gc-ocp fit`` pairs them)."""
+def load_subject(subject: Subject, cache_root: Path, *, strict: bool = False) -> tuple:
+    """``([(Trial, TrialKinematics), ...], [SkippedTrial, ...])`` of the subject (ground
+    reactions paired as ``gc-ocp fit`` pairs them): a trial that cannot be used is skipped with
+    its reason when others remain, unless ``strict`` (:mod:`gc_ocp.workflow.trials`)."""
     from gc_ocp.io import load_trial
+    from gc_ocp.workflow.trials import usable_trials
 
     files = subject_files(subject)
-    pairs = []
-    for f, spec in zip(files, subject.trials, strict=True):
-        trial = load_trial(
+    specs = dict(zip(map(id, files), subject.trials, strict=True))
+
+    def load(f):
+        return load_trial(
             f.trial,
             grf=f.grf,
             mass=subject.mass,
             height=subject.height,
             belt_speed=subject.belt_speed,
         )
-        spec = dataclasses.replace(spec, grf=f.grf)
-        pairs.append((trial, _kinematics(trial, subject, spec, cache_root)))
-    return pairs
+
+    def pose(f, trial):
+        spec = dataclasses.replace(specs[id(f)], grf=f.grf)
+        return _kinematics(trial, subject, spec, cache_root)
+
+    return usable_trials(files, load, pose, strict=strict)
 
 
 def _fix(error: BaseException) -> str:
@@ -265,21 +273,18 @@ def _fit_subject(
 ) -> tuple[list[dict], list[str]]:
     """Fit (and diagnose) one subject; its files committed into ``folder``. Returns the summary
     rows and the names of the files written."""
-    from gc_ocp.io.checks import require_stances
     from gc_ocp.workflow.fit_files import FIT_OUTPUTS, write_fit
     from gc_ocp.workflow.fitting import fit
     from gc_ocp.workflow.provenance import provenance
 
-    pairs = load_subject(subject, cache_root)
-    for t, _ in pairs:
-        require_stances(t)
+    pairs, skipped = load_subject(subject, cache_root, strict=settings.strict_trials)
     options = types.SimpleNamespace(
         command="batch",
         subject=subject.id,
         **{k: v for k, v in dataclasses.asdict(subject).items() if k not in ("id", "trials")},
         **settings.to_json(),
     )
-    prov = provenance(options, pairs)
+    prov = provenance(options, pairs, skipped)
     out = OutputSet(folder, FIT_OUTPUTS + DIAGNOSIS_OUTPUTS + (ERROR,))
     try:
         report = fit(

@@ -28,6 +28,7 @@ COLUMNS = (
     "foot",
     "status",
     "trials",
+    "trials_skipped",
     "stances",
     "mass_kg",
     "height_m",
@@ -101,6 +102,8 @@ def subject_rows(subject, fit_doc: dict, diagnosis: dict | None) -> list[dict]:
             "foot": foot,
             "status": "done",
             "trials": len(trials),
+            # given but not used: each one's error is in fit.json (gc_ocp.workflow.trials)
+            "trials_skipped": len(fit_doc["provenance"].get("trials_skipped", [])),
             "stances": sum(f.get("side") == foot for f in fits),
             "mass_kg": mass,
             "height_m": height,

@@ -29,7 +29,7 @@ from gc_ocp.cli.commands import (
     cmd_kinematics,
     cmd_reproduce_seed,
 )
-from gc_ocp.cli.common import _add_trial_args
+from gc_ocp.cli.common import _add_strict_trials, _add_trial_args
 from gc_ocp.errors import GcOcpError, SolveError
 
 
@@ -121,6 +121,7 @@ def build_parser() -> argparse.ArgumentParser:
         "not converge (the result is written to fit_failed.json), 2 on bad input.",
     )
     _add_trial_args(p)
+    _add_strict_trials(p)
     p.add_argument(
         "--sensitivity",
         action="store_true",
@@ -184,6 +185,7 @@ def build_parser() -> argparse.ArgumentParser:
         "input.",
     )
     _add_trial_args(p)
+    _add_strict_trials(p)
     p.add_argument(
         "--base",
         choices=("seed", "registered", "full"),
@@ -341,6 +343,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="Remove the markers' noise's bias from every fit with B replicates (as gc-ocp "
         "fit --bias-correction; default 0: off).",
     )
+    _add_strict_trials(p)
     p.set_defaults(func=cmd_batch)
 
     p = sub.add_parser(

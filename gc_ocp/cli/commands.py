@@ -12,11 +12,18 @@ from gc_ocp.cli.common import (
     _effect_list,
     _kinematics,
     _load,
+    _load_subject,
     _print_landmarks,
     _progress,
 )
 from gc_ocp.errors import InputError, SolveError
 from gc_ocp.workflow.provenance import provenance
+
+
+def _print_skipped(skipped) -> None:
+    """The trials left out of a fit or diagnosis, after its summary (also printed as skipped)."""
+    for s in skipped:
+        print(f"not used: {s.describe()}")
 
 
 def cmd_info(args: argparse.Namespace) -> int:
@@ -91,20 +98,14 @@ def fit_model(effects: list[str] | None) -> tuple | None:
 
 def cmd_fit(args: argparse.Namespace) -> int:
     from gc_ocp.estimation.components import full_model
-    from gc_ocp.io.checks import require_stances
     from gc_ocp.outputs import OutputSet, check_writable
     from gc_ocp.workflow.fit_files import FIT_OUTPUTS, write_fit
     from gc_ocp.workflow.fitting import fit
 
     check_writable(args.out)  # before any computation
     model = fit_model(None if args.effects is None else _effect_list(args.effects))
-    trials = _load(args)
-    for t in trials:
-        require_stances(t)
-    pairs = [(t, _kinematics(t, args)) for t in trials]
-    for _, kin in pairs:
-        _print_landmarks(kin)
-    prov = provenance(args, pairs)
+    pairs, skipped = _load_subject(args)
+    prov = provenance(args, pairs, skipped)
     out = OutputSet(args.out, FIT_OUTPUTS)
     landmarks = {"trials": [kin.info.get("landmarks") for _, kin in pairs]}
     try:
@@ -136,6 +137,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
                 )
             raise
         print(report.summary())
+        _print_skipped(skipped)
         write_fit(out, report, prov, landmarks)
         if args.sensitivity:
             from gc_ocp.io import load_static
@@ -206,9 +208,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
     check_writable(args.out)  # before any computation
     effects = _effects(args)
-    trials = _load(args)
-    pairs = [(t, _kinematics(t, args)) for t in trials]
-    prov = provenance(args, pairs)
+    pairs, skipped = _load_subject(args)
+    prov = provenance(args, pairs, skipped)
     kw = {"pose_width": args.pose_width, "null_fits": args.null_fits}
     if args.null_draws is not None:
         if args.null_draws < 0:
@@ -220,6 +221,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
         kw["workers"] = args.workers
     d = diagnose(pairs, base=args.base, candidates=effects, progress=_progress, **kw)
     print(d.summary())
+    _print_skipped(skipped)
     pngs = report_pngs(d)
     out = OutputSet(args.out, DIAGNOSE_OUTPUTS)
     try:
@@ -284,6 +286,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
             pose_scale=not args.fixed_pose_width,
             sole_scale=False if args.fixed_sole_width else None,
             bias_correction=args.bias_correction,
+            strict_trials=args.strict_trials,
         ),
         workers=args.workers,
         scheduler=args.scheduler,

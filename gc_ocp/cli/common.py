@@ -74,22 +74,60 @@ def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> Non
         )
 
 
+def _add_strict_trials(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--strict-trials",
+        action="store_true",
+        dest="strict_trials",
+        help="Stop at the first trial that cannot be used. Default: with several trials, such "
+        "a trial is skipped with its reason (printed and recorded in the provenance) and the "
+        "others are used (docs/data_formats.md, 'A trial that cannot be used').",
+    )
+
+
 def _load(args: argparse.Namespace):
     """The trials of the command line (several trials = one subject), each TRC paired with its
     ground reactions (:func:`gc_ocp.io.pairing.pair_trials`; the pairing is printed)."""
+    return [_load_one(args, f) for f in _trial_files(args)]
+
+
+def _load_one(args: argparse.Namespace, f):
+    """One trial's files (:class:`~gc_ocp.io.pairing.TrialFiles`) read with the subject's
+    values of the command line."""
     from gc_ocp.io import load_trial
+
+    return load_trial(
+        f.trial, grf=f.grf, mass=args.mass, height=args.height, belt_speed=args.belt_speed
+    )
+
+
+def _trial_files(args: argparse.Namespace) -> list:
+    """The command line's trials paired with their ground reactions, the pairing printed."""
     from gc_ocp.io.pairing import pair_trials
 
     files = pair_trials(args.trial, args.grf)
     for f in files:  # what was found, and every trial of a multi-trial command
         if (f.grf is not None and not args.grf) or len(files) > 1:
             _progress(f.describe())
-    return [
-        load_trial(
-            f.trial, grf=f.grf, mass=args.mass, height=args.height, belt_speed=args.belt_speed
-        )
-        for f in files
-    ]
+    return files
+
+
+def _load_subject(args: argparse.Namespace):
+    """``(pairs, skipped)``: the trials of a fit or diagnosis with their kinematics, a trial
+    that cannot be used skipped with its reason when others remain (``--strict-trials``: stop
+    instead; :mod:`gc_ocp.workflow.trials`)."""
+    from gc_ocp.workflow.trials import usable_trials
+
+    pairs, skipped = usable_trials(
+        _trial_files(args),
+        lambda f: _load_one(args, f),
+        lambda f, trial: _kinematics(trial, args),
+        strict=args.strict_trials,
+        progress=_progress,
+    )
+    for _, kin in pairs:
+        _print_landmarks(kin)
+    return pairs, skipped
 
 
 def _progress(msg: str) -> None:

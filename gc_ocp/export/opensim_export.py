@@ -646,7 +646,7 @@ def fit_pairs(cal: CalibratedContact, say=lambda s: None) -> list:
     )
     say("loading the fit's trials and computing their kinematics")
     with tempfile.TemporaryDirectory(prefix="gc_ocp_export_") as tmp:
-        return load_subject(subject, Path(tmp))
+        return load_subject(subject, Path(tmp), strict=True)[0]  # the fit used each
 
 
 __all__ = (

@@ -27,11 +27,13 @@ def _sha256(path: str, size: int, mtime_ns: int) -> str:
     return h.hexdigest()
 
 
-def provenance(args, pairs) -> dict:
+def provenance(args, pairs, skipped=()) -> dict:
     """What a ``fit.json`` (or ``diagnosis.json``) was computed from: inputs with content
     hashes, command and options, subject values and their sources, stances used and excluded
-    (with the reason), package version, date. ``args``: the command's options (an
-    ``argparse.Namespace``, or any object whose attributes are the options, with ``command``)."""
+    (with the reason), the trials given but not used (``skipped``: their
+    :class:`~gc_ocp.workflow.trials.SkippedTrial`), package version, date. ``args``: the
+    command's options (an ``argparse.Namespace``, or any object whose attributes are the
+    options, with ``command``)."""
     import datetime
     import platform
 
@@ -95,6 +97,8 @@ def provenance(args, pairs) -> dict:
         "command": f"gc-ocp {args.command}",
         "options": options,
         "trials": trials,
+        # given but not used, each with the error that names its problem (gc_ocp.workflow.trials)
+        "trials_skipped": [s.to_json() for s in skipped],
     }
 
 

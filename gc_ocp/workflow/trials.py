@@ -1,0 +1,97 @@
+"""A subject's trials, each loaded, posed and checked on its own, so that one unusable trial does
+not stop the others: the one definition ``gc-ocp fit``, ``gc-ocp diagnose`` and ``gc-ocp batch``
+share.
+
+A trial is *unusable* when loading it, posing its feet or the checks of one trial before a fit
+raise an :class:`~gc_ocp.errors.InputError` (a plate set up wrongly, a foot that cannot be
+tracked, no stance alone on a plate, a body weight the plates contradict, ...). With other trials
+left, such a trial is skipped: its files and the error are reported as it happens and recorded
+in the output's provenance (``trials_skipped``), and the fit uses the rest. What is never
+skipped:
+
+* a single trial's error (nothing would be left to fit: it is raised as it is);
+* every trial unusable (one error naming each file and its reason);
+* ``strict=True`` (``--strict-trials``): the first unusable trial stops the run, as before
+  2026-11-30;
+* errors of the trials together (the same motion given twice), of the solver and of the code:
+  they are not a property of one trial's files.
+
+Decision (2026-11-30): skipping is the default. A subject's five walking trials with one broken
+plate in one of them is the common case in a lab's archive; stopping the other four would make
+the user delete the file by hand and lose the record of why. The skipped trial is not silent: it
+is printed, in ``fit.json``/``diagnosis.json`` and in the HTML report's provenance, and counted
+in a study's summary table.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from gc_ocp.errors import InputError
+
+
+@dataclasses.dataclass(frozen=True)
+class SkippedTrial:
+    """One trial left out: its files, and the error's type and message (which name the fix)."""
+
+    files: tuple[str, ...]
+    error: str
+    message: str
+
+    def describe(self) -> str:
+        return f"skipped trial {' + '.join(self.files)}: {self.message}"
+
+    def to_json(self) -> dict:
+        return {"files": list(self.files), "error": self.error, "message": self.message}
+
+
+def usable_trials(
+    files: Sequence,
+    load: Callable,
+    pose: Callable,
+    *,
+    strict: bool = False,
+    progress: Callable[[str], None] | None = None,
+) -> tuple[list, list[SkippedTrial]]:
+    """``([(trial, kinematics), ...], [SkippedTrial, ...])`` of ``files`` (each a
+    :class:`~gc_ocp.io.pairing.TrialFiles`); ``load(files) -> Trial`` reads one trial and
+    ``pose(files, trial) -> TrialKinematics`` computes its kinematics (after the trial is known to have
+    a stance to fit). Each pair passes the checks of one trial before a fit
+    (:func:`~gc_ocp.io.consistency.check_for_fit` on it alone); see the module doc for what is
+    skipped and what is raised."""
+    from gc_ocp.io.checks import require_stances
+    from gc_ocp.io.consistency import check_for_fit
+
+    pairs, skipped = [], []
+    for f in files:
+        try:
+            trial = load(f)
+            require_stances(trial)
+            pair = (trial, pose(f, trial))
+            check_for_fit([pair])  # the fit checks them again, together (a duplicate motion)
+        except InputError as e:
+            if strict or len(files) == 1:
+                raise
+            s = SkippedTrial(_names(f), type(e).__name__, str(e))
+            skipped.append(s)
+            if progress is not None:
+                progress(s.describe())
+            continue
+        pairs.append(pair)
+    if not pairs:
+        raise InputError(
+            f"none of the {len(files)} trials can be used: "
+            + "; ".join(f"{' + '.join(s.files)}: {s.message}" for s in skipped)
+        )
+    return pairs, skipped
+
+
+def _names(f) -> tuple[str, ...]:
+    paths = [p for p in (f.trial, f.grf) if p is not None]
+    # absolute, as the provenance lists the files used
+    return tuple(str(Path(p).resolve()) for p in paths) or ("the bundled example",)
+
+
+__all__ = ("SkippedTrial", "usable_trials")

@@ -1,0 +1,87 @@
+"""A subject's unusable trial is skipped with its reason, never silently, and only when others
+remain (gc_ocp.workflow.trials; the command line's and the study's use of it: test_cli.py,
+test_batch.py)."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import warnings
+from pathlib import Path
+
+import pytest
+
+from gc_ocp.errors import InputError, PlateError, SolveError
+from gc_ocp.io.pairing import TrialFiles
+from gc_ocp.workflow.trials import usable_trials
+
+
+@functools.cache
+def _bundled():
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+
+    trial = load_trial()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the height estimate's note is tested elsewhere
+        return trial, compute_kinematics(trial)
+
+
+def _load(f: TrialFiles):
+    """The bundled trial for ``good*``; a plate error for ``unreadable*``; the bundled trial
+    without its stances for ``standing*`` (what a trial with no foot alone on a plate loads as)."""
+    trial, _ = _bundled()
+    name = f.trial.name
+    if name.startswith("unreadable"):
+        raise PlateError(f"{f.trial}: plate 2's corners are all zero; re-export the set-up.")
+    if name.startswith("standing"):
+        return dataclasses.replace(trial, stances=(), source=f.trial)
+    return trial
+
+
+def _pose(f, trial):
+    return _bundled()[1]
+
+
+def _files(*names: str) -> list[TrialFiles]:
+    return [TrialFiles(Path("/lab") / n, None, "C3D") for n in names]
+
+
+def test_an_unusable_trial_is_skipped_with_its_reason_and_the_others_are_used():
+    said = []
+    pairs, skipped = usable_trials(
+        _files("good.c3d", "unreadable.c3d", "standing.c3d"), _load, _pose, progress=said.append
+    )
+    assert len(pairs) == 1 and pairs[0] == _bundled()
+    assert [s.files for s in skipped] == [("/lab/unreadable.c3d",), ("/lab/standing.c3d",)]
+    assert [s.error for s in skipped] == ["PlateError", "PlateError"]
+    assert "corners are all zero" in skipped[0].message
+    assert "no usable stance" in skipped[1].message  # require_stances' message, with its fix
+    assert said == [s.describe() for s in skipped]  # reported as it happens
+    assert skipped[0].to_json() == {
+        "files": ["/lab/unreadable.c3d"],
+        "error": "PlateError",
+        "message": skipped[0].message,
+    }
+
+
+def test_one_trial_strict_runs_and_errors_of_the_code_are_raised_as_they_are():
+    with pytest.raises(PlateError, match="corners are all zero"):
+        usable_trials(_files("unreadable.c3d"), _load, _pose)  # nothing else to fit
+    with pytest.raises(PlateError, match="corners are all zero"):
+        usable_trials(_files("good.c3d", "unreadable.c3d"), _load, _pose, strict=True)
+
+    def failing_pose(f, trial):
+        raise SolveError("inverse kinematics did not converge")
+
+    with pytest.raises(SolveError):  # not a property of the trial's files: never skipped
+        usable_trials(_files("good.c3d", "good2.c3d"), _load, failing_pose)
+
+
+def test_every_trial_unusable_is_one_error_naming_each_file_and_reason():
+    with pytest.raises(InputError) as e:
+        usable_trials(_files("unreadable.c3d", "standing.c3d"), _load, _pose)
+    msg = str(e.value)
+    assert msg.startswith("none of the 2 trials can be used")
+    assert "/lab/unreadable.c3d: " in msg and "corners are all zero" in msg
+    assert "/lab/standing.c3d: " in msg and "no usable stance" in msg
