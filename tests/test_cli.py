@@ -52,6 +52,22 @@ def test_info_on_bundled_example(capsys):
     assert "test_small" in out and "right" in out and "left" in out
 
 
+def test_info_describes_every_readable_trial_and_names_the_unreadable_one(tmp_path, capsys):
+    from pathlib import Path
+
+    import gc_ocp
+
+    example = Path(gc_ocp.__file__).parent / "data" / "test_small.c3d"
+    broken = tmp_path / "copy_interrupted.c3d"
+    broken.write_bytes(example.read_bytes()[:5000])  # cut before its data section
+    assert main(["info", str(broken), str(example)]) == 2  # one failed: bad input
+    printed = capsys.readouterr()
+    assert "copy_interrupted.c3d" in printed.err and "truncated" in printed.err
+    assert "1 of 2 trials could not be read" in printed.err
+    assert "test_small" in printed.out and "stance" in printed.out  # the other, described
+    assert "Traceback" not in printed.err
+
+
 def test_kinematics_cli_writes_trajectories_summary_and_figure(tmp_path):
     import numpy as np
 

@@ -12,9 +12,11 @@ from gc_ocp.cli.common import (
     _effect_list,
     _kinematics,
     _load,
+    _load_one,
     _load_subject,
     _print_landmarks,
     _progress,
+    _trial_files,
 )
 from gc_ocp.errors import InputError, SolveError
 from gc_ocp.workflow.provenance import provenance
@@ -27,11 +29,30 @@ def _print_skipped(skipped) -> None:
 
 
 def cmd_info(args: argparse.Namespace) -> int:
+    """Describe every trial; one that cannot be read is reported and the others described
+    (exit status 2 at the end if any failed: a lab's folder is checked in one run)."""
     from gc_ocp.io import describe_trial
 
-    for trial in _load(args):
+    files = _trial_files(args)
+    failed = 0
+    for f in files:
+        try:
+            trial = _load_one(args, f)
+        except InputError as e:
+            if len(files) == 1:
+                raise
+            failed += 1
+            print(f"gc-ocp info: error: {' '.join(str(e).split())}", file=sys.stderr)
+            continue
         print(describe_trial(trial))
         print()
+    if failed:
+        print(
+            f"gc-ocp info: {failed} of {len(files)} trials could not be read (above); the "
+            "others are described.",
+            file=sys.stderr,
+        )
+        return 2
     return 0
 
 
