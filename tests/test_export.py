@@ -367,3 +367,34 @@ def test_forward_wrench_is_the_fit_model(bundled):
         w = transport_wrench(w, np.zeros(3), st.reference_point)
         np.testing.assert_allclose(w, st.measured, atol=1e-9 * st.body_weight)
     assert dataclasses.is_dataclass(fw)
+
+
+def test_a_treadmill_fit_s_model_forces_are_on_its_belt():
+    """The exported model's forces on a treadmill trial loaded again (no belt speed until a
+    fit's checks find it) use the fit's belt: the model's anterior force follows the plates as
+    in the fit (in-sample 1.7 % BW on this trial), where friction against the foot's speed over
+    the ground gave 18 % BW."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from conftest import gait2392_trial
+
+    from gc_ocp.export.fitted_kinematics import fitted_kinematics
+    from gc_ocp.export.opensim_export import compare, model_wrenches, plate_wrenches
+    from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.workflow import fit
+
+    trial = gait2392_trial()
+    assert not np.any(trial.belt_velocity)  # as loaded: the fit's checks find the belt
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        kin = compute_kinematics(trial)
+        doc = json.loads(json.dumps(fit([(trial, kin)]).to_json()))
+    cal = CalibratedContact.from_fit(doc, trial=trial.name)
+    assert cal.belt_speed > 1.0  # the fitted belt (about 1.17 m/s)
+    feet = cal.feet(fitted_kinematics(doc, kin, cal.points, trial.name).kin)
+    time = np.asarray(kin.time, float)
+    rms = compare(trial, time, model_wrenches(cal, trial, feet), plate_wrenches(trial, time), cal)
+    # the whole stances on the fitted feet: 1.9 % BW measured; twice the fit's in-sample RMS
+    # leaves room for the frames the fit's margins do not hold, and is far below 18 % BW
+    assert rms["all"]["anterior_force"] < 2 * doc["rms"]["right"]["anterior_force_pct_bw"] + 1

@@ -459,6 +459,15 @@ def plate_wrenches(trial, time) -> dict[str, np.ndarray]:
     return out
 
 
+def model_wrenches(cal: CalibratedContact, trial, kin) -> dict[str, np.ndarray]:
+    """The calibrated model's wrench per foot on every frame of ``kin`` (about the ``lab``
+    origin), on the fit's belt: a treadmill trial loaded again has no belt speed until a fit's
+    checks find it, and friction against the foot's speed over the ground instead of over the
+    belt would be a different model (tens of % BW of anterior force)."""
+    on_belt = dataclasses.replace(trial, belt_velocity=np.array([-cal.belt_speed, 0.0, 0.0]))
+    return foot_wrenches(cal.model(), on_belt, kin, cal.ground_height).wrench
+
+
 def export_opensim(
     fit,
     out: str | Path,
@@ -533,7 +542,7 @@ def export_opensim(
         write_table(
             outset.path("sole_points.sto"), cols, np.concatenate(blocks, axis=1), "sole_points"
         )
-        ours = foot_wrenches(cal.model(), trial, feet, cal.ground_height).wrench
+        ours = model_wrenches(cal, trial, feet)
         plates = plate_wrenches(trial, time)
         for name, w in (("plates", plates), ("model", ours)):
             grf = outset.path(f"grf_{name}.mot")
@@ -660,6 +669,7 @@ __all__ = (
     "hertz_refit",
     "map_law",
     "model_job",
+    "model_wrenches",
     "opensim_forces",
     "plate_wrenches",
 )
