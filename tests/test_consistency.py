@@ -109,3 +109,41 @@ def test_stance_partly_off_its_plate_is_excluded(walk):
     kept = {s.label for s in t2.stances}
     assert s0.label not in kept and len(kept) == len(t.stances) - 1
     assert any("off plate" in e.reason for e in t2.excluded_stances)
+
+
+def _as(t, name, **kw):
+    return dataclasses.replace(t, source=t.source.with_name(name), **kw)
+
+
+def test_trials_of_two_people_are_refused_naming_each_file_and_value():
+    """Recorded masses 16 % apart (63.6 and 74 kg, the bundled trial and PiG_Motion3's) or
+    heights 18 cm apart are two people; 2 % and 1 cm are one person's sessions."""
+    from gc_ocp.io.consistency import one_subject
+
+    t = c3d_trial()  # 63.6 kg, 1.58 m, both from the file
+    with pytest.raises(InputError, match="not of one subject: their recorded masses") as e:
+        one_subject([t, _as(t, "other.c3d", mass=74.0)])
+    assert str(t.source) in str(e.value) and "other.c3d: 74 kg" in str(e.value)
+    assert "--mass" in str(e.value)
+    with pytest.raises(InputError, match="recorded heights differ"):
+        one_subject([t, _as(t, "other.c3d", height=1.76)])
+    same, notes = one_subject([t, _as(t, "b.c3d", mass=t.mass * 1.02, height=t.height + 0.01)])
+    assert [x.mass for x in same] == [t.mass, t.mass * 1.02] and notes == []
+
+
+def test_masses_estimated_per_trial_become_one_for_the_subject():
+    from gc_ocp.io.consistency import one_subject
+
+    t = c3d_trial()
+    est = [
+        _as(t, f"w{i}.c3d", mass=m, mass_source=f"ESTIMATE {m:.1f} kg from the force data (...)")
+        for i, m in enumerate((83.5, 84.5, 86.0))
+    ]
+    pooled, [note] = one_subject(est)
+    assert [x.mass for x in pooled] == [pytest.approx(84.667, abs=1e-3)] * 3
+    assert pooled[0].mass_source.startswith("ESTIMATE 84.7 kg: the mean")
+    assert "83.5, 84.5, 86.0" in note
+    # a trial with a recorded mass gives it to the others (their estimates are not averaged in)
+    mixed, _ = one_subject([est[0], t, est[2]])
+    assert [x.mass for x in mixed] == [t.mass] * 3
+    assert str(t.source) in mixed[0].mass_source

@@ -24,6 +24,12 @@ or excludes a stance / corrects a setting with a warning that is recorded in the
   :data:`DRIFT_N` means an unzeroed or drifting plate: warning (its stances are kept; the fit's
   flags will show the consequence).
 * **Duplicates**: the same trial given twice (same file content or identical markers): error.
+* **One subject** (:func:`one_subject`): the trials of a fit are one person's. Masses recorded
+  in the files (or given) that differ by more than :data:`SUBJECT_MASS_SPREAD`, or heights by
+  more than :data:`SUBJECT_HEIGHT_SPREAD`, are trials of different people: error. A mass
+  ESTIMATED per trial from its plates is replaced by one value for the subject (the recorded
+  mass when another trial has one, else the mean of the trials' estimates), so that every
+  trial's forces are in the same % body weight.
 """
 
 from __future__ import annotations
@@ -49,6 +55,13 @@ PLATE_MARGIN = 0.02  # [m]
 CONTACT_BAND = 0.01  # [m] units within this of the lowest one count as touching
 DRIFT_N = 20.0  # [N]
 LOADED_FRACTION_BW = 0.2
+SUBJECT_MASS_SPREAD = 0.05
+"""Largest relative difference of the masses recorded for one subject's trials: a person's mass
+varies by 1-2 % from day to day, and one session's files carry one value; 74 against 63.6 kg
+(16 %) are two people."""
+SUBJECT_HEIGHT_SPREAD = 0.03
+"""[m] Largest difference of the heights recorded for one subject's trials (a stadiometer
+reads to a centimetre; 1.76 against 1.58 m are two people)."""
 
 
 def _hull_distance(points_xy: np.ndarray, p: np.ndarray) -> float:
@@ -215,11 +228,63 @@ def _stance_problem(trial: Trial, foot, s) -> str | None:
     return None
 
 
+def _estimated(trial: Trial) -> bool:
+    return trial.mass_source.startswith("ESTIMATE")
+
+
+def one_subject(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
+    """The trials as one subject's (module doc): different recorded masses or heights raise;
+    estimated masses become one. Returns ``(trials, notes)``."""
+    if len(trials) < 2:
+        return list(trials), []
+    for what, values, spread in (
+        ("mass", [(t, t.mass, t.mass_source) for t in trials if not _estimated(t)], None),
+        (
+            "height",
+            [
+                (t, t.height, t.height_source)
+                for t in trials
+                if t.height is not None and not t.height_source.startswith("estimated")
+            ],
+            SUBJECT_HEIGHT_SPREAD,
+        ),
+    ):
+        if len(values) < 2:
+            continue
+        lo, hi = min(v for _, v, _ in values), max(v for _, v, _ in values)
+        if (hi - lo > spread) if spread is not None else (hi / lo - 1 > SUBJECT_MASS_SPREAD):
+            unit = "kg" if what == "mass" else "m"
+            listed = "; ".join(f"{t.source}: {v:.3g} {unit} ({src})" for t, v, src in values)
+            raise InputError(
+                f"The trials are not of one subject: their recorded {what}{'es' if what == 'mass' else 's'} differ ({listed}). Fit "
+                f"each subject's trials on their own (gc-ocp batch fits many subjects), or, if "
+                f"one file's value is wrong, pass --{what} to set it for all."
+            )
+    if not any(_estimated(t) for t in trials):
+        return list(trials), []
+    recorded = [t for t in trials if not _estimated(t)]
+    if recorded:
+        mass = recorded[0].mass
+        source = f"{recorded[0].mass_source}, in {recorded[0].source} (the subject's trial)"
+    else:
+        mass = float(np.mean([t.mass for t in trials]))
+        each = ", ".join(f"{t.mass:.1f}" for t in trials)
+        source = f"ESTIMATE {mass:.1f} kg: the mean of the subject's trials' estimates ({each} kg)"
+    out = [
+        dataclasses.replace(t, mass=mass, mass_source=source) if _estimated(t) else t
+        for t in trials
+    ]
+    note = f"one mass for the subject's {len(trials)} trials: {mass:.1f} kg ({source})"
+    return out, [note]
+
+
 def check_for_fit(pairs: list) -> tuple[list, list[str]]:
     """Check ``[(trial, kinematics)]`` before fitting: errors raise, the rest returns as
-    ``(checked pairs, notes)`` (stances excluded, belt speed set)."""
+    ``(checked pairs, notes)`` (stances excluded, belt speed set, one mass for the subject)."""
     duplicates([t for t, _ in pairs])
-    out, notes = [], []
+    trials, notes = one_subject([t for t, _ in pairs])
+    pairs = [(t, kin) for t, (_, kin) in zip(trials, pairs, strict=True)]
+    out = []
     for t, kin in pairs:
         notes += body_weight(t)
         t, n = belt(t)
@@ -231,4 +296,4 @@ def check_for_fit(pairs: list) -> tuple[list, list[str]]:
     return out, notes
 
 
-__all__ = ["check_for_fit", "same_motion"]
+__all__ = ["check_for_fit", "one_subject", "same_motion"]
