@@ -138,6 +138,51 @@ PLATE_SIGNAL_MARGIN = 0.1
 plus an interpolation kernel."""
 
 
+MARGIN_QUIET_N = 20.0
+"""[N] In the unloaded margin around a stance the plate must read less than this vertical force
+(the stance detector's contact threshold, ``gc_ocp.io.stances.DEFAULT_THRESHOLD``: below it the
+foot is off by the detector's own definition). A plate that rings after toe-off (Camargo's
+plate 1: -151 to +97 N within 25 ms) or that something else loads is not measuring the foot;
+its margin frames from there outward are not fitted."""
+
+
+def quiet_margins(trial: Trial, stance: Stance, margin: float) -> tuple[float, float, list[str]]:
+    """``(t_lo, t_hi, reasons)``: the stance's window ``[t_on - margin, t_off + margin]`` cut
+    where its plate stops being quiet in a margin (:data:`MARGIN_QUIET_N`): frames at or
+    beyond the first loud plate sample after ``t_off`` (before ``t_on``) are left out; the
+    reasons say where and how loud, for the fit's notes."""
+    t_lo, t_hi, reasons = stance.t_on - margin, stance.t_off + margin, []
+    if margin <= 0:
+        return t_lo, t_hi, reasons
+    plate = trial.plates[stance.plate]
+    t, fz = plate.time, plate.force[:, 2]
+    loud = np.isfinite(fz) & (np.abs(fz) > MARGIN_QUIET_N)
+    after = np.flatnonzero(loud & (t > stance.t_off) & (t <= t_hi + 1e-9))
+    if after.size:
+        t_hi = float(t[after[0]]) - 1e-9
+        peak = _peak(fz, t, t[after[0]], stance.t_off + margin)
+        reasons.append(
+            f"plate {plate.name} reads {peak:+.0f} N within {margin * 1e3:.0f} ms after toe-off "
+            f"(from {t[after[0]]:.3f} s: ringing, or another load): its frames from there are "
+            "not fitted"
+        )
+    before = np.flatnonzero(loud & (t < stance.t_on) & (t >= t_lo - 1e-9))
+    if before.size:
+        t_lo = float(t[before[-1]]) + 1e-9
+        peak = _peak(fz, t, stance.t_on - margin, t[before[-1]])
+        reasons.append(
+            f"plate {plate.name} reads {peak:+.0f} N within {margin * 1e3:.0f} ms before heel "
+            f"strike (to {t[before[-1]]:.3f} s): its frames up to there are not fitted"
+        )
+    return t_lo, t_hi, reasons
+
+
+def _peak(fz: np.ndarray, t: np.ndarray, a: float, b: float) -> float:
+    sel = (t >= a - 1e-9) & (t <= b + 1e-9) & np.isfinite(fz)
+    seg = fz[sel]
+    return float(seg[np.argmax(np.abs(seg))]) if seg.size else float("nan")
+
+
 def stance_data(
     trial: Trial,
     kin: TrialKinematics,
@@ -148,7 +193,8 @@ def stance_data(
     censor_below: float = 0.0,
 ) -> StanceData:
     """Cut ``stance`` out of ``trial``: the frames of ``kin.feet[stance.side]`` within
-    ``[t_on - margin, t_off + margin]`` [s] and the measured wrench on them. Frames with non-finite
+    ``[t_on - margin, t_off + margin]`` [s] (a margin cut where its plate is not quiet:
+    :func:`quiet_margins`) and the measured wrench on them. Frames with non-finite
     kinematics or plate data are dropped; fewer than ``min_frames`` left is an :class:`InputError`
     naming the stance and the likely cause. ``name``: the trial's name in the label
     (``name:side@t_on``) and in ``StanceData.trial`` (default ``trial.name``, the file's stem;
@@ -161,7 +207,8 @@ def stance_data(
         )
     foot = kin.feet[stance.side]
     t = foot.time
-    sel = (t >= stance.t_on - margin - 1e-9) & (t <= stance.t_off + margin + 1e-9)
+    t_lo, t_hi, _ = quiet_margins(trial, stance, margin)
+    sel = (t >= t_lo - 1e-9) & (t <= t_hi + 1e-9)
     idx = np.flatnonzero(sel)
     ok = np.zeros(0, bool)
     if idx.size:

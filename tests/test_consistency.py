@@ -147,3 +147,34 @@ def test_masses_estimated_per_trial_become_one_for_the_subject():
     mixed, _ = one_subject([est[0], t, est[2]])
     assert [x.mass for x in mixed] == [t.mass] * 3
     assert str(t.source) in mixed[0].mass_source
+
+
+def test_a_plate_ringing_after_toe_off_is_not_fitted_and_the_fit_says_so(walk):
+    """Camargo's plate rings from -151 to +97 N in the 30 ms after a toe-off; its frames were
+    fitted as the foot's force (92 % of that fit's data cost). The same ringing put after the
+    bundled trial's first stance: the margin's frames stop at its first loud sample, the
+    stance's own frames are all kept, and the fit's notes name the plate."""
+    from gc_ocp.stance import MARGIN_QUIET_N, quiet_margins, stance_data
+    from gc_ocp.workflow.fitting import MARGIN, fit_data
+
+    t, k = walk
+    st = t.stances[0]
+    plate = t.plates[st.plate]
+    assert quiet_margins(t, st, MARGIN)[2] == []  # the real file is quiet there
+    force = plate.force.copy()
+    ring = (plate.time > st.t_off + 0.012) & (plate.time <= st.t_off + MARGIN)
+    force[ring, 2] = -151.0 * np.cos(2 * np.pi * 60 * (plate.time[ring] - st.t_off))
+    plates = list(t.plates)
+    plates[st.plate] = dataclasses.replace(plate, force=force)
+    rung = dataclasses.replace(t, plates=tuple(plates))
+    first_loud = plate.time[ring][np.abs(force[ring, 2]) > MARGIN_QUIET_N][0]
+    t_lo, t_hi, [reason] = quiet_margins(rung, st, MARGIN)
+    assert t_lo == st.t_on - MARGIN and first_loud - 1e-6 < t_hi < first_loud
+    assert f"plate {plate.name} reads" in reason and "after toe-off" in reason
+    clean, cut = stance_data(t, k, st, MARGIN), stance_data(rung, k, st, MARGIN)
+    assert cut.foot.time[-1] < first_loud <= clean.foot.time[-1]
+    assert cut.in_contact.sum() == clean.in_contact.sum()  # the stance itself is whole
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        notes = fit_data([(rung, k)])[2]
+    assert any(st.label in n and "after toe-off" in n for n in notes)

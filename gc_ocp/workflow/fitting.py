@@ -30,7 +30,7 @@ from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
 from gc_ocp.marker_noise import noise_modelled, unit_noise_sd
-from gc_ocp.stance import StanceData, fit_stances
+from gc_ocp.stance import StanceData, fit_stances, quiet_margins
 from gc_ocp.trial import Trial
 
 MARGIN = 0.03
@@ -140,6 +140,12 @@ def fit_data(
                     f"{t.source}: plate {t.plates[i].name} was zeroed below {x:.1f} N by the lab: "
                     "its samples below that are censored (not errors) in every fit"
                 )
+                notes.append(note)
+                say(f"check: {note}")
+    for t, _ in trials:
+        for st in t.stances:
+            for reason in quiet_margins(t, st, margin)[2]:
+                note = f"{t.source}: stance {st.label}: {reason}"
                 notes.append(note)
                 say(f"check: {note}")
     for t, k in trials:
