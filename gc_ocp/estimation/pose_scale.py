@@ -301,6 +301,8 @@ def estimate_pose_scale(
     sole_w = sole_g = None
     phi = float(pose.knot_correlation[1]) if correlation and pose.knot_correlation else 0.0
     prob = build_estimation(data, model, weights)
+    # the returned fit's seconds and iterations are the totals of the fit, as best_of's are
+    total_s, total_it = result.seconds, result.iterations
     for k in range(MAX_ROUNDS):
         S = _posterior_covariance(prob, result.x)
         Sd = np.diag(S)
@@ -325,7 +327,13 @@ def estimate_pose_scale(
         prob = build_estimation(data, model, weights, like=prob)
         last = change < RTOL or k == MAX_ROUNDS - 1
         result = refit(prob, rescaled_start(result, prob), covariance and last)
-        row = {"sigma_mm": list(mm), "sigma_deg": list(deg), "objective": result.objective}
+        total_s, total_it = total_s + result.seconds, total_it + result.iterations
+        row = {
+            "sigma_mm": list(mm),
+            "sigma_deg": list(deg),
+            "objective": result.objective,
+            "iterations": result.iterations,
+        }
         if sole_w is not None:
             row["sole_mm"] = sole_w * 1e3
         if correlation:
@@ -340,6 +348,7 @@ def estimate_pose_scale(
         )
         if last:
             break
+    result.seconds, result.iterations = total_s, total_it
     est = PoseScale(
         mm,
         deg,
