@@ -42,3 +42,18 @@ class SolveError(GcOcpError, RuntimeError):
     def __init__(self, message: str, result: object = None) -> None:
         super().__init__(message)
         self.result = result
+
+
+def require_file(path, what: str, fix: str) -> None:
+    """Raise :class:`InputError` unless ``path`` is a file: ``what`` names it (``"Trial
+    file"``), ``fix`` says what to give instead; a folder is named as a folder (a folder given
+    where a file belongs is the usual slip, and "does not exist" would send the user looking
+    for a typo)."""
+    from pathlib import Path
+
+    path = Path(path)
+    if path.is_file():
+        return
+    if path.is_dir():
+        raise InputError(f"{what} {path} is a folder, not a file; {fix}")
+    raise InputError(f"{what} {path} does not exist; {fix}")

@@ -87,10 +87,13 @@ def test_kinematics_cli_writes_trajectories_summary_and_figure(tmp_path):
         (["info", "no_such_trial.c3d"], "does not exist"),
         (["info", "walk.trc"], "does not exist"),
         (["fit", "--holdout", "nonexistent", "--out", "OUT"], "matches 0 stances"),
+        # a folder where a file belongs: named as a folder, not as missing
+        (["info", "FOLDER"], "is a folder, not a file; give a trial's .c3d file"),
+        (["export", "casadi", "FOLDER", "--out", "OUT"], "is a folder, not a file; give the fit"),
     ],
 )
 def test_bad_input_exits_2_with_one_clear_message(argv, needle, capsys, tmp_path):
-    argv = [str(tmp_path / "o") if a == "OUT" else a for a in argv]
+    argv = [{"OUT": str(tmp_path / "o"), "FOLDER": str(tmp_path)}.get(a, a) for a in argv]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert needle in err and "Traceback" not in err

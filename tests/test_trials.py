@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import re
 import warnings
 from pathlib import Path
 
@@ -85,3 +86,23 @@ def test_every_trial_unusable_is_one_error_naming_each_file_and_reason():
     assert msg.startswith("none of the 2 trials can be used")
     assert "/lab/unreadable.c3d: " in msg and "corners are all zero" in msg
     assert "/lab/standing.c3d: " in msg and "no usable stance" in msg
+
+
+def test_fit_names_the_usual_slips_of_its_first_argument():
+    """``fit([trial])``, ``fit((trial, kin))`` and the like: one message with the call to
+    make, not a TypeError from deep inside (the diagnosis takes the same pairs)."""
+    import gc_ocp
+
+    trial, kin = _bundled()
+    for bad, words in (
+        ([trial], "item 0 of the trials is a Trial without its kinematics"),
+        ((trial, kin), "got one (trial, kinematics) pair, not a list"),
+        (trial, "got Trial, not a list"),
+        ([], "got an empty list"),
+        ([(kin, trial)], "item 0 of the trials is tuple of (TrialKinematics, Trial)"),
+    ):
+        with pytest.raises(InputError, match=re.escape(words)) as e:
+            gc_ocp.fit(bad)
+        assert "gc_ocp.fit([(trial, kin)])" in str(e.value)
+    with pytest.raises(InputError, match="a Trial without its kinematics"):
+        gc_ocp.diagnose([trial])

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gc_ocp.errors import InputError
+from gc_ocp.errors import InputError, require_file
 from gc_ocp.estimation.components.contact import ContactLaw, Param
 from gc_ocp.foot import SEED_LAYOUT, TrialKinematics
 
@@ -158,8 +158,9 @@ def fit_document(fit) -> dict:
     ``fit.json`` dict or its path."""
     if isinstance(fit, str | Path):
         path = Path(fit)
-        if not path.is_file():
-            raise InputError(f"Fit file {path} does not exist; give the fit.json of a fit.")
+        require_file(
+            path, "Fit file", "give the fit.json of a fit (in the folder gc-ocp fit --out wrote)."
+        )
         try:
             return json.loads(path.read_text())
         except json.JSONDecodeError as e:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gc_ocp.errors import InputError, MarkerError
+from gc_ocp.errors import InputError, MarkerError, require_file
 from gc_ocp.gaps import MAX_MARKER_SPEED, fill_short_gaps, marker_spikes
 from gc_ocp.io._common import Y_UP_TO_LAB, foot_markers, warn, without_subject_prefix
 from gc_ocp.io.c3d import read_c3d
@@ -22,6 +22,7 @@ from gc_ocp.io.orientation import (
     mirrored_pairs,
     walking_rotation,
 )
+from gc_ocp.io.pairing import TRIAL_FIX
 from gc_ocp.io.stances import DEFAULT_THRESHOLD, check_peaks, detect_stances
 from gc_ocp.io.subject import estimate_body_weight, read_subject_metadata
 from gc_ocp.trial import GRAVITY, ExcludedStance, Plate, Trial
@@ -63,8 +64,7 @@ def load_trial(
     stance_threshold: vertical-force contact threshold in [N] (default 20 N).
     """
     path = bundled_example_path() if path is None else Path(path)
-    if not path.is_file():
-        raise InputError(f"Trial file {path} does not exist; check the path (a .c3d or .trc file).")
+    require_file(path, "Trial file", TRIAL_FIX)
     suffix = path.suffix.lower()
     threshold = DEFAULT_THRESHOLD if stance_threshold is None else float(stance_threshold)
     if suffix == ".c3d":
@@ -78,8 +78,7 @@ def load_trial(
                 f"(grf=FILE.mot/.sto with the OpenSim ground_force_* columns)."
             )
         grf = Path(grf)
-        if not grf.is_file():
-            raise InputError(f"Ground-reaction file {grf} does not exist; check the --grf path.")
+        require_file(grf, "Ground-reaction file", "give the trial's .mot or .sto file (--grf).")
         if grf.suffix.lower() not in (".mot", ".sto"):
             raise InputError(f"{grf}: expected an OpenSim .mot or .sto file for --grf.")
         raw = read_opensim(path, grf, threshold)
@@ -286,8 +285,7 @@ def load_static(path: str | Path, walking: Trial) -> Trial:
     height is the walking trial's plate surface.
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"Static trial {path} does not exist; check the --static path.")
+    require_file(path, "Static trial", "give the static trial's .c3d or .trc file (--static).")
     suffix = path.suffix.lower()
     if suffix == ".trc":
         names, markers, time = read_trc(path)  # already Z-up

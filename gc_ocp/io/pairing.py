@@ -23,7 +23,13 @@ import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
-from gc_ocp.errors import InputError
+from gc_ocp.errors import InputError, require_file
+
+TRIAL_FIX = (
+    "give a trial's .c3d file, or its .trc file (with the ground reactions beside it or --grf); "
+    "several files are one subject's trials (a folder of subjects is gc-ocp batch FOLDER)."
+)
+"""What a path given as a trial should be (the fix of a missing or folder path)."""
 
 GRF_SUFFIXES = (".mot", ".sto")
 
@@ -120,10 +126,7 @@ def pair_trials(
         elif grfs:
             out.append(TrialFiles(p, next(given), "given with --grf"))
         else:
-            if not p.is_file():
-                raise InputError(
-                    f"Trial file {p} does not exist; check the path (a .c3d or .trc file)."
-                )
+            require_file(p, "Trial file", TRIAL_FIX)
             grf, why = find_grf(p)
             out.append(TrialFiles(p, grf, why))
     if not grfs:

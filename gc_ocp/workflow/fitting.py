@@ -112,6 +112,39 @@ def auto_holdout(data: Sequence[StanceData]) -> str | None:
     return [d for d in data if d.side == side][-1].label
 
 
+def _require_pairs(trials) -> None:
+    """Raise :class:`InputError` unless ``trials`` is a list of ``(Trial, TrialKinematics)``
+    pairs (``fit([trial])`` or ``fit(trial, kin)`` are the usual slips)."""
+    how = (
+        "give a list of (trial, kinematics) pairs: kin = gc_ocp.compute_kinematics(trial); "
+        "gc_ocp.fit([(trial, kin)]) (several trials of one subject: one pair each)"
+    )
+    if isinstance(trials, tuple) and len(trials) == 2 and isinstance(trials[0], Trial):
+        raise InputError(f"got one (trial, kinematics) pair, not a list of them; {how}.")
+    if not isinstance(trials, Sequence) or isinstance(trials, str) or not trials:
+        got = "an empty list" if isinstance(trials, Sequence) else type(trials).__name__
+        raise InputError(f"got {got}, not a list of (trial, kinematics) pairs; {how}.")
+    for i, item in enumerate(trials):
+        ok = (
+            isinstance(item, tuple | list)
+            and len(item) == 2
+            and isinstance(item[0], Trial)
+            and isinstance(item[1], TrialKinematics)
+        )
+        if not ok:
+            got = (
+                "a Trial without its kinematics"
+                if isinstance(item, Trial)
+                else f"{type(item).__name__}"
+                + (
+                    f" of ({', '.join(type(x).__name__ for x in item)})"
+                    if isinstance(item, tuple | list)
+                    else ""
+                )
+            )
+            raise InputError(f"item {i} of the trials is {got}; {how}.")
+
+
 def fit_data(
     trials: list[tuple[Trial, TrialKinematics]],
     margin: float = MARGIN,
@@ -124,6 +157,7 @@ def fit_data(
     Stances are labelled ``trial:side@t_on`` with the trials named by
     :func:`gc_ocp.stance.trial_names` (``names``: one per trial instead)."""
     say = progress or (lambda s: None)
+    _require_pairs(trials)
     trials, notes = check_for_fit([(_with_height(t, k), k) for t, k in trials])
     for note in notes:
         warnings.warn(note, stacklevel=3)
