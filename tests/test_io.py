@@ -680,3 +680,25 @@ def test_the_side_check_falls_back_to_the_body_s_motion_without_feet():
         x[:, j] = np.column_stack([1.2 * t, np.full(100, y), np.full(100, z)])  # L on the right
     found = mirrored_pairs(names, x, t)
     assert {(a, b) for a, b, _, _ in found} == {("LKNE", "RKNE"), ("LASI", "RASI")}
+
+
+def test_a_standing_trial_given_as_a_walking_one_is_named_static():
+    """A walking command given a static trial ended in "no mass" or "no plate is loaded";
+    the message now says the markers stand still and where the trial belongs (--static)."""
+    import dataclasses
+
+    from gc_ocp.errors import PlateError
+    from gc_ocp.io.checks import require_stances
+    from gc_ocp.io.load import static_hint
+
+    t = load_trial()
+    assert static_hint(t.marker_names, t.markers) == ""  # walking: no hint
+    rng = np.random.default_rng(0)
+    still = t.markers[100:101].repeat(200, axis=0) + rng.normal(
+        0, 1e-3, (200, *t.markers.shape[1:])
+    )
+    hint = static_hint(t.marker_names, still)
+    assert "looks like a static (standing) trial; give it with --static FILE" in hint
+    standing = dataclasses.replace(t, markers=still, marker_time=np.arange(200) / 100, stances=())
+    with pytest.raises(PlateError, match="no usable stance .* looks like a static"):
+        require_stances(standing)

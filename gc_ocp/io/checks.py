@@ -51,11 +51,14 @@ def require_stances(trial: Trial) -> None:
         f"{e.side} on {trial.plates[e.plate].name} {e.t_on:.3f}-{e.t_off:.3f} s: {e.reason}"
         for e in trial.excluded_stances
     )
+    from gc_ocp.io.load import static_hint
+
     raise PlateError(
         f"{trial.source}: no usable stance ("
         + (why or "no plate is loaded above the contact threshold")
         + "). A stance needs one foot, fully and alone on one plate, in a walking step: give a "
         "trial where each foot lands cleanly on its own plate, or fix the plate set-up."
+        + static_hint(trial.marker_names, trial.markers)
     )
 
 

@@ -202,7 +202,7 @@ def _estimate_mass(raw, plates, markers, threshold: float, path: Path) -> tuple[
         raise InputError(
             f"No subject mass in {files} or beside it (subject JSON, OpenSim scale set-up), and "
             f"the force data hold neither quiet standing nor two consecutive walking stances to "
-            f"estimate it from; pass mass=... / --mass KG."
+            f"estimate it from; pass mass=... / --mass KG." + static_hint(raw.marker_names, markers)
         )
     bw, basis = est
     mass = bw / GRAVITY
@@ -236,23 +236,46 @@ def apply_stance_gaps(trial: Trial) -> Trial:
     )
 
 
+def marker_spread(names, markers: np.ndarray) -> dict[str, float]:
+    """[m] How far the markers ``(n, m, 3)`` move over the trial: the median over the markers
+    (and over the foot markers) of each one's positional standard deviation (0 without
+    frames)."""
+    std = np.full(markers.shape[1], np.nan)
+    if markers.shape[0] >= 2:
+        ok = np.isfinite(markers).all(axis=2)
+        for j in range(markers.shape[1]):
+            if ok[:, j].sum() >= 2:
+                std[j] = float(np.linalg.norm(markers[ok[:, j], j].std(axis=0)))
+    feet = [i for side in ("left", "right") for i in foot_markers(names, side)]
+    body = std[np.isfinite(std)]
+    foot = std[feet][np.isfinite(std[feet])] if feet else np.zeros(0)
+    return {
+        "markers": float(np.median(body)) if body.size else 0.0,
+        "foot markers": float(np.median(foot)) if foot.size else 0.0,
+    }
+
+
+def static_hint(names, markers: np.ndarray) -> str:
+    """A sentence for the error of a walking command given a standing trial (its markers move
+    less than :data:`STATIC_MAX_STD`), else ``""``."""
+    if markers.shape[0] < 2:
+        return ""
+    moved = marker_spread(names, markers)
+    if max(moved.values()) > STATIC_MAX_STD or not any(moved.values()):
+        return ""
+    return (
+        f" Its markers stand still ({moved['markers'] * 1e3:.0f} mm, the median standard "
+        "deviation): it looks like a static (standing) trial; give it with --static FILE "
+        "beside a walking trial, not as a walking trial."
+    )
+
+
 def check_static(path: Path, names, markers: np.ndarray) -> None:
     """Raise :class:`InputError` unless the markers ``(n, m, 3)`` [m] stand still
     (:data:`STATIC_MAX_STD`): a walking trial given as the static trial."""
     if markers.shape[0] < 2:
         return
-    ok = np.isfinite(markers).all(axis=2)
-    std = np.full(markers.shape[1], np.nan)
-    for j in range(markers.shape[1]):
-        if ok[:, j].sum() >= 2:
-            std[j] = float(np.linalg.norm(markers[ok[:, j], j].std(axis=0)))
-    feet = [i for side in ("left", "right") for i in foot_markers(names, side)]
-    body = std[np.isfinite(std)]
-    foot = std[feet][np.isfinite(std[feet])] if feet else np.zeros(0)
-    moved = {
-        "markers": float(np.median(body)) if body.size else 0.0,
-        "foot markers": float(np.median(foot)) if foot.size else 0.0,
-    }
+    moved = marker_spread(names, markers)
     if max(moved.values()) > STATIC_MAX_STD:
         what = ", ".join(f"{k} {v * 1e3:.0f} mm" for k, v in moved.items() if v)
         raise InputError(
