@@ -109,7 +109,16 @@ def test_casadi_function_reproduces_the_fit(tmp_path, bundled):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         rep = fit([bundled], model=(full_model()[0], SoleCorrection()), holdout=None)
-    path = write_casadi(rep, tmp_path / "contact.casadi")
+    import os
+    import stat
+
+    old = os.umask(0o022)
+    try:
+        path = write_casadi(rep, tmp_path / "contact.casadi")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o644  # as every output: the umask's
+    assert [p.name for p in tmp_path.iterdir()] == ["contact.casadi"]  # no temporary left
     f = ca.Function.load(str(path))
     cal = CalibratedContact.from_fit(rep)
     feet = cal.feet(kin)
@@ -201,6 +210,10 @@ def test_opensim_contact_forces_agree_with_ours(exported):
     # exponent 1.5: the Hertzian curve is the fitted one over every penetration visited
     assert all(u["curve_rms_pct"] < 1e-6 for u in doc["units"] if u["frames_in_contact"] >= 3)
     assert (out / "opensim_vs_gc_ocp.png").stat().st_size > 0
+    text = ex.summary()  # every figure with its unit; no exponent note on a Hertzian fit
+    assert f"superior force {rms['superior_force']:.2f} % BW" in text
+    assert f"mediolateral torque {rms['mediolateral_torque']:.2f} % BW x H" in text
+    assert "--hertz" not in text
     kin = doc["kinematics"]
     # the leg's solve is anchored to the IK angles (1 rad costs as much as 1 mm): where the leg
     # reaches the corrected foot, a correction of a few degrees leaves hundredths of a mm
@@ -336,6 +349,16 @@ def test_the_calibrated_belt_is_the_fitted_one(hertz_fit):
     assert CalibratedContact.from_fit(doc).belt_speed == 0.0
     doc["blocks"]["belt"] = {"walk": {"value": 1.17, "se": 0.004, "nominal": 1.056}}
     assert CalibratedContact.from_fit(doc).belt_speed == pytest.approx(1.17)
+
+
+def test_a_fit_whose_exponent_is_not_hertz_s_says_how_to_export_it(hertz_fit):
+    from gc_ocp.export.opensim_export import _notes
+
+    cal = CalibratedContact.from_fit(hertz_fit)
+    assert not any("--hertz" in n for n in _notes(cal))
+    law = dataclasses.replace(cal.law, n=dataclasses.replace(cal.law.n, value=1.2))
+    [note] = [n for n in _notes(dataclasses.replace(cal, law=law)) if "--hertz" in n]
+    assert "n = 1.2 is not OpenSim's Hertzian 1.5" in note
 
 
 def test_export_refuses_a_fit_it_cannot_carry(bundled):

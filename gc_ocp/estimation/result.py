@@ -152,7 +152,8 @@ class EstimationResult:
                 )
         for trial, v in self.belt_speed.items():
             lines.append(
-                f"belt speed ({trial}): {v['value']:.3f} ± {v['se']:.3f} m/s (given {v['nominal']:.3f})"
+                f"belt speed ({trial}): {v['value']:.3f} ± {v['se']:.3f} m/s (from "
+                f"{v['nominal']:.3f} m/s: given, or measured from the stance feet)"
             )
         shared = self.params.get("shared", {})
         for k, v in shared.items():

@@ -26,8 +26,6 @@ origin's linear velocity and the angular velocity, both in ``lab``, as
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import casadi as ca
@@ -140,18 +138,11 @@ def write_casadi(
 ) -> Path:
     """Save :func:`casadi_function` of ``fit`` to ``path`` (``.casadi``; complete or absent):
     ``casadi.Function.load(path)`` gives it back, in any CasADi of the same major version."""
-    path = Path(path)
+    from gc_ocp.outputs import atomic_write
+
     f = casadi_function(fit, sides, trial=trial)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    os.close(fd)
-    try:
-        f.save(tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+    # the file mode follows the umask, as every other output's (mkstemp alone gives 0600)
+    return atomic_write(path, lambda tmp: f.save(str(tmp)))
 
 
 def evaluate(

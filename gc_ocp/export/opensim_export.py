@@ -67,6 +67,8 @@ OUTPUTS = (
 """Every file the OpenSim export may write (one set, replaced as a whole)."""
 
 HINDFOOT = {"left": "hindfoot_l", "right": "hindfoot_r"}
+HERTZ_EXPONENT = 1.5
+"""The penetration exponent of OpenSim's ``SmoothSphereHalfSpaceForce`` (Hertz's sphere)."""
 """The body each foot's ground reaction is applied to."""
 
 
@@ -435,14 +437,19 @@ class OpenSimExport:
     files: list[Path]
     mapping: list[UnitMapping]
     rms: dict | None
+    notes: tuple[str, ...] = ()
 
     def summary(self) -> str:
         lines = [f"wrote {len(self.files)} files to {self.files[0].parent}"]
         if self.rms is not None:
             lines.append(
                 "OpenSim's contact forces against gc_ocp's on the trial's stances (RMS): "
-                + ", ".join(f"{c} {v:.2f}" for c, v in self.rms["all"].items())
+                + ", ".join(
+                    f"{c.replace('_', ' ')} {v:.2f} {'% BW' if c.endswith('force') else '% BW x H'}"
+                    for c, v in self.rms["all"].items()
+                )
             )
+        lines += [f"note: {n}" for n in self.notes]
         return "\n".join(lines)
 
 
@@ -588,7 +595,7 @@ def export_opensim(
         files = outset.commit()
     finally:
         outset.discard()
-    return OpenSimExport(files, mapping, rms)
+    return OpenSimExport(files, mapping, rms, tuple(_notes(cal)))
 
 
 def _notes(cal: CalibratedContact) -> list[str]:
@@ -598,6 +605,14 @@ def _notes(cal: CalibratedContact) -> list[str]:
             f"treadmill ({cal.belt_speed:.2f} m/s): OpenSim's half space does not move, so its "
             "friction acts on the foot's speed over the ground, not over the belt; the "
             "comparison's shear forces show the difference"
+        )
+    n = {cal.value("n", side) for side in cal.points}
+    if any(abs(v - HERTZ_EXPONENT) > 1e-9 for v in n):
+        notes.append(
+            f"the fitted exponent n = {', '.join(f'{v:.3g}' for v in sorted(n))} is not OpenSim's "
+            f"Hertzian {HERTZ_EXPONENT}: each sphere's stiffness matches the fitted law only on "
+            "average over its stances' depths, so the forces differ; gc-ocp export opensim "
+            f"--hertz (hertz_refit) refits with n = {HERTZ_EXPONENT} first"
         )
     return notes
 
@@ -613,7 +628,8 @@ def hertz_refit(pairs: Sequence, progress: Callable[[str], None] | None = None):
 
     model = full_model()
     model = tuple(
-        dataclasses.replace(c, n=Param("fixed", 1.5)) if c.name == "contact" else c for c in model
+        dataclasses.replace(c, n=Param("fixed", HERTZ_EXPONENT)) if c.name == "contact" else c
+        for c in model
     )
     return fit(list(pairs), model=model, holdout=None, progress=progress)
 

@@ -62,7 +62,8 @@ def provenance(args, pairs, skipped=()) -> dict:
                 "stances_excluded": [
                     {
                         "side": e.side,
-                        "plate": e.plate,
+                        "plate": e.plate,  # index into the trial's plates (from 0)
+                        "plate_name": t.plates[e.plate].name,  # as gc-ocp info prints it
                         "t_on": e.t_on,
                         "t_off": e.t_off,
                         "reason": e.reason,
