@@ -67,9 +67,14 @@ def _first_number(value) -> float | None:
     (a text subject parameter is treated as absent: the user is then asked for it)."""
     v = np.ravel(value)
     try:
-        return float(v[0]) if v.size else None
+        x = float(v[0]) if v.size else None
     except (TypeError, ValueError):
         return None
+    if x is not None and np.isfinite(x) and float(np.float32(x)) == x:
+        # C3D stores parameters as float32: 63.6 kg comes back as 63.599998474121094; the
+        # shortest decimal that is the same float32 is what the lab typed
+        x = float(np.format_float_positional(np.float32(x), unique=True))
+    return x
 
 
 def _model_outputs(params: dict, labels: list[str]) -> set[str]:
