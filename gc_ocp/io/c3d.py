@@ -507,9 +507,9 @@ def read_c3d(path: Path, strict: bool = True) -> RawTrial:
             if t_unloaded < 0.1:
                 warn(f"{name} of {path}: no unloaded stretch >= 0.1 s; offset not removed.")
             base = np.zeros(6)
-        else:
+        elif np.any(base != 0.0):  # a plate the lab zeroed reads exactly 0: nothing to say
             notes.append(
-                f"{name}: removed unloaded offset F={np.round(base[:3], 1).tolist()} N "
+                f"{name}: removed unloaded offset (file axes) F={np.round(base[:3], 1).tolist()} N "
                 f"(median over {t_unloaded:.2f} s unloaded)"
             )
         force = force - base[:3]

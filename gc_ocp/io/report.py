@@ -64,7 +64,7 @@ def describe_trial(trial: Trial) -> str:
         elif not np.any(off):
             zero = "zeroed (reads 0 N unloaded)"
         else:
-            zero = f"removed unloaded offset F={np.round(off[:3], 1).tolist()} N"
+            zero = f"removed unloaded offset (lab axes) F={np.round(off[:3], 1).tolist()} N"
         lines.append(
             f"  {p.name}: {p.plate_type or 'plate'}, {p.rate:.0f} Hz, reference "
             f"{p.reference_kind} {np.round(p.reference_point, 4).tolist()} m, surface z "
