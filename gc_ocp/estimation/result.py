@@ -255,7 +255,10 @@ def _shown(p: dict, unit: str, key: str, fmt: str) -> str:
     e = p[unit]
     if not e.get("identified", True):
         return f"{unit} not identified"
-    return f"{unit} {e[key]:{fmt}}±{e[key + '_se']:.2g}"
+    se = e.get(key + "_se")
+    if not se:  # fixed (a held-out stance's frozen law): no uncertainty of its own here
+        return f"{unit} {e[key]:{fmt}} (fixed)"
+    return f"{unit} {e[key]:{fmt}}±{se:.2g}"
 
 
 def fit_quality(fits: list) -> tuple[dict, dict]:

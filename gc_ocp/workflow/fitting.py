@@ -67,7 +67,8 @@ class FitReport:
         s = self.result.summary()
         if self.checks:
             s = "input checks:\n" + "\n".join(f"  - {c}" for c in self.checks) + "\n" + s
-        if self.pose_scale is not None:
+        if self.pose_scale is not None and self.pose_scale.plausible:
+            # an implausible width is one of the flags above, with this same message
             s += "\n" + self.pose_scale.message() + "\n"
         if self.bias is not None:
             s += self.bias.message() + "\n"
