@@ -203,8 +203,11 @@ def _stance_problem(trial: Trial, foot, s) -> str | None:
     )
     if dist.size and np.mean(dist > COP_MARGIN) > 0.5:
         return (
-            f"its centre of pressure is {np.median(dist) * 1e3:.0f} mm (median) outside the {s.side} foot "
-            "while the plate is loaded: the force is not under this foot"
+            f"its centre of pressure is {np.median(dist) * 1e3:.0f} mm (median) outside the "
+            f"{s.side} foot's contact units (more than the {COP_MARGIN * 1e3:.0f} mm a sole's edge "
+            "and the markers' placement allow) while the plate is loaded: the force is not under "
+            "this foot as its markers place it (force data of another moment, a plate origin "
+            "off, or a load on the sole's edge, as in a pivot, that the five units cannot carry)"
         )
     if plate.corners is not None:
         # every unit touching the ground (within CONTACT_BAND of the lowest one) must stand on the

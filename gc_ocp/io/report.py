@@ -78,6 +78,12 @@ def describe_trial(trial: Trial) -> str:
     lines.append(f"  height {h}")
     if np.any(trial.belt_velocity):
         lines.append(f"  treadmill belt velocity {trial.belt_velocity.tolist()} m/s (lab)")
+    if trial.stances:
+        # info reads the file alone: the fit's checks of each stance's force against the foot's
+        # posed markers (gc_ocp.io.consistency) come later and can exclude more
+        lines.append(
+            "  stances (usable as read; a fit also checks each force against the posed foot):"
+        )
     for s in trial.stances:
         p = trial.plates[s.plate]
         sel = (p.time >= s.t_on) & (p.time <= s.t_off)
