@@ -102,7 +102,8 @@ def describe_trial(trial: Trial) -> str:
     if check:
         v, t0, t1 = check
         lines.append(
-            f"  check: mean vertical force over the stride {t0:.3f}-{t1:.3f} s = {v:.0f} N "
+            f"  check: mean vertical force over the stride-long window {t0:.3f}-{t1:.3f} s = "
+            f"{v:.0f} N "
             f"({100 * (v / bw - 1):+.1f} % vs body weight)"
         )
     for n in trial.load_notes:
