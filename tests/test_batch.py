@@ -180,6 +180,9 @@ def test_a_broken_trial_is_recorded_and_the_others_complete_then_a_rerun_skips_t
             assert r["status"] == "done" and np.isfinite(r["n"]) and r["n_se"] > 0
             assert 0 < r["rms_superior_force_pct_bw"] < 10  # % BW: a fit, not a failure
             assert r["trials"] == 1 and r["trials_skipped"] == 1
+        # the worker's warnings are kept with the subject, not printed between progress lines
+        said = json.loads((out / "S1" / "done.json").read_text())["warnings"]
+        assert any("LLS initialisation" in w for w in said), said  # this subject's one warning
         [skip] = json.loads((out / "S1" / "fit.json").read_text())["provenance"]["trials_skipped"]
         assert skip["files"] == [str(extra.resolve())] and "truncated" in skip["message"]
         assert rows[("S1", "right")]["heldout_stance"]  # "auto": the right foot has two
@@ -243,3 +246,15 @@ def test_a_killed_run_restarts_without_redoing_finished_subjects(tmp_path):
         assert (out / sid / "done.json").stat().st_mtime_ns == stamp  # not redone
     assert "skipped" in res.stdout
     assert not list(out.glob(".S*"))  # no staging folder left behind
+
+
+def test_a_long_error_in_the_progress_line_is_cut_at_a_word_and_says_where_the_rest_is():
+    from gc_ocp.batch.run import Progress
+
+    msg = "The trials are not of one subject: their recorded masses differ " * 4
+    line = Progress(3, None).line(
+        {"subject": "P07", "status": "failed", "error": {"type": "InputError", "message": msg}}
+    )
+    cut = line.split("(InputError: ", 1)[1]
+    assert cut.startswith(msg[:100]) and "... (P07/error.json)" in cut
+    assert not cut.split("...")[0].endswith(("differ", "of one", "th"))  # a whole word last

@@ -86,7 +86,10 @@ class Progress:
             eta = f", about {_duration(elapsed / fitted * left)} left"
         what = outcome["status"]
         if outcome.get("error"):
-            what += f" ({outcome['error']['type']}: {outcome['error']['message'][:120]})"
+            msg = outcome["error"]["message"]
+            if len(msg) > 120:  # cut at a word, and say where the whole message is
+                msg = msg[:120].rsplit(" ", 1)[0] + f"... ({outcome['subject']}/error.json)"
+            what += f" ({outcome['error']['type']}: {msg})"
         return (
             f"[{finished}/{self.total}] {outcome['subject']} {what}; "
             f"done {self.status.get('done', 0)}, skipped {self.status.get('skipped', 0)}, "

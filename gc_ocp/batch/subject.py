@@ -31,6 +31,7 @@ import sys
 import time
 import traceback
 import types
+import warnings
 from pathlib import Path
 
 from gc_ocp.batch.manifest import Subject
@@ -229,15 +230,26 @@ def _process(subject: Subject, out_root: Path, settings: Settings) -> dict:
             "seconds": done.get("seconds"),
             "error": None,
         }
-    try:
-        rows, files = _fit_subject(subject, folder, out_root / KINEMATICS_CACHE, settings)
-    except Exception as e:  # every error of one subject is its result (module doc)
+    # a subject's warnings are recorded with it (done.json / error.json), not printed by the
+    # worker into the run's console between the progress lines; the notes among them are also
+    # in fit.json (its checks and provenance)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            rows, files = _fit_subject(subject, folder, out_root / KINEMATICS_CACHE, settings)
+            error = None
+        except Exception as e:  # every error of one subject is its result (module doc)
+            error = e, traceback.format_exc()
+    said = list(dict.fromkeys(str(w.message) for w in caught))
+    if error is not None:
+        e, trace = error
         seconds = time.perf_counter() - t0
         err = {
             "type": type(e).__name__,
             "message": str(e),
             "fix": _fix(e),
-            "traceback": traceback.format_exc(),
+            "traceback": trace,
+            "warnings": said,
         }
         folder.mkdir(parents=True, exist_ok=True)
         stale = folder / DONE
@@ -254,7 +266,14 @@ def _process(subject: Subject, out_root: Path, settings: Settings) -> dict:
     seconds = time.perf_counter() - t0
     for r in rows:
         r["seconds"] = seconds
-    doc = {"key": key, "subject": subject.id, "files": files, "rows": rows, "seconds": seconds}
+    doc = {
+        "key": key,
+        "subject": subject.id,
+        "files": files,
+        "rows": rows,
+        "seconds": seconds,
+        "warnings": said,
+    }
     atomic_write_text(folder / DONE, json.dumps(doc, indent=2))
     stale = folder / ERROR
     if stale.exists():
