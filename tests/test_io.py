@@ -288,6 +288,17 @@ def test_bundled_example_loads_without_arguments():
     assert [s.side for s in trial.stances] == ["right", "left", "right"]
     text = describe_trial(trial)
     assert "% BW" in text and "PROCESSING:Bodymass" in text and "check:" in text
+    assert "missing" not in text  # no marker gap in this file
+    # a heel lost within the first stance, and a head marker lost elsewhere: the foot's gap is
+    # named apart from the markers that do not pose the feet
+    m = trial.markers.copy()
+    st, t = trial.stances[0], trial.marker_time
+    heel, head = trial.marker_names.index("RHEE"), trial.marker_names.index("LFHD")
+    m[(t > st.t_on + 0.1) & (t < st.t_on + 0.3), heel] = np.nan
+    m[:30, head] = np.nan
+    text = describe_trial(dataclasses.replace(trial, markers=m))
+    assert "foot markers missing within a stance (gaps > 0.1 s, not filled): ['RHEE']" in text
+    assert "1 other markers missing in some frames" in text and ": LFHD" in text
 
 
 def test_short_gaps_filled_long_gaps_left():

@@ -54,9 +54,25 @@ def describe_trial(trial: Trial) -> str:
         idx = foot_markers(trial.marker_names, side)
         lines.append(f"  {side} foot markers: {[trial.marker_names[i] for i in idx]}")
     nan = np.isnan(trial.markers).any(axis=2)
-    gappy = [n for n, g in zip(trial.marker_names, nan.any(axis=0), strict=True) if g]
-    if gappy:
-        lines.append(f"  markers with gaps > {MAX_GAP_FILL} s left NaN: {gappy}")
+    feet = {i for side in ("left", "right") for i in foot_markers(trial.marker_names, side)}
+    t = trial.marker_time
+    inside = np.zeros(t.size, bool)
+    for s in trial.stances:
+        inside |= (t >= s.t_on) & (t <= s.t_off)
+    names = trial.marker_names
+    in_stance = [names[i] for i in sorted(feet) if nan[inside, i].any()]
+    other = [n for i, n in enumerate(names) if nan[:, i].any() and n not in in_stance]
+    if in_stance:  # what the fit needs: a foot marker lost within a stance
+        lines.append(
+            f"  foot markers missing within a stance (gaps > {MAX_GAP_FILL} s, not filled): "
+            f"{in_stance}"
+        )
+    if other:
+        shown = ", ".join(other[:8]) + (f" and {len(other) - 8} more" if len(other) > 8 else "")
+        lines.append(
+            f"  {len(other)} other markers missing in some frames (gaps > {MAX_GAP_FILL} s or "
+            f"the file's ends; none a foot marker within a stance): {shown}"
+        )
     for p in trial.plates:
         off = p.zero_offset
         if off is None:
