@@ -65,9 +65,15 @@ def test_no_heldout_frame_reaches_the_start_or_the_fit(bundled, monkeypatch):
     np.testing.assert_array_equal(spoiled.result.x, clean.result.x)
     assert spoiled.result.objective == clean.result.objective
     # the spoiled stance did reach the held-out evaluation (the test can fail)
-    m_clean = clean.heldout.stance_fits[0]["measured"]
-    m_spoiled = spoiled.heldout.stance_fits[0]["measured"]
-    np.testing.assert_allclose(m_spoiled, 1.25 * m_clean, rtol=1e-12)  # roundoff of one product
+    fc, fs = clean.heldout.stance_fits[0], spoiled.heldout.stance_fits[0]
+    # scaled by 1.25, the margin's last unloading samples (16-20 N) pass the 20 N a margin may
+    # read (gc_ocp.stance.quiet_margins), so the spoiled stance's margin may end sooner: the
+    # frames it keeps are the clean stance's, each with its measurement scaled
+    assert (
+        np.isin(fs["time"], fc["time"]).all() and fs["in_contact"].sum() == fc["in_contact"].sum()
+    )
+    same = np.isin(fc["time"], fs["time"])
+    np.testing.assert_allclose(fs["measured"], 1.25 * fc["measured"][same], rtol=1e-12)
 
 
 def test_a_training_frame_does_reach_the_fit(bundled):

@@ -699,8 +699,7 @@ def test_a_standing_trial_given_as_a_walking_one_is_named_static():
     import dataclasses
 
     from gc_ocp.errors import PlateError
-    from gc_ocp.io.checks import require_stances
-    from gc_ocp.io.load import static_hint
+    from gc_ocp.io.checks import require_stances, static_hint
 
     t = load_trial()
     assert static_hint(t.marker_names, t.markers) == ""  # walking: no hint

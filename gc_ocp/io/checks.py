@@ -16,6 +16,47 @@ visible ones for the visible markers to fix the foot's orientation: skin and mar
 ~2 mm over a 30 mm lever arm leaves ~4 deg about that line; collinear markers leave it free."""
 
 
+STATIC_MAX_STD = 0.02
+"""Largest marker movement [m] of a static (standing) trial: standard deviation over the trial of
+a marker's position, median over the markers (and over the foot markers). Quiet standing sways
+the body by ~1 cm and the feet stay put (~1 mm); walking moves the markers by decimetres, even on
+a treadmill (the feet swing +-0.3 m)."""
+
+
+def marker_spread(names, markers: np.ndarray) -> dict[str, float]:
+    """[m] How far the markers ``(n, m, 3)`` move over the trial: the median over the markers
+    (and over the foot markers) of each one's positional standard deviation (0 without
+    frames)."""
+    std = np.full(markers.shape[1], np.nan)
+    if markers.shape[0] >= 2:
+        ok = np.isfinite(markers).all(axis=2)
+        for j in range(markers.shape[1]):
+            if ok[:, j].sum() >= 2:
+                std[j] = float(np.linalg.norm(markers[ok[:, j], j].std(axis=0)))
+    feet = [i for side in ("left", "right") for i in foot_markers(names, side)]
+    body = std[np.isfinite(std)]
+    foot = std[feet][np.isfinite(std[feet])] if feet else np.zeros(0)
+    return {
+        "markers": float(np.median(body)) if body.size else 0.0,
+        "foot markers": float(np.median(foot)) if foot.size else 0.0,
+    }
+
+
+def static_hint(names, markers: np.ndarray) -> str:
+    """A sentence for the error of a walking command given a standing trial (its markers move
+    less than :data:`STATIC_MAX_STD`), else ``""``."""
+    if markers.shape[0] < 2:
+        return ""
+    moved = marker_spread(names, markers)
+    if max(moved.values()) > STATIC_MAX_STD or not any(moved.values()):
+        return ""
+    return (
+        f" Its markers stand still ({moved['markers'] * 1e3:.0f} mm, the median standard "
+        "deviation): it looks like a static (standing) trial; give it with --static FILE "
+        "beside a walking trial, not as a walking trial."
+    )
+
+
 def require_markers(trial: Trial, names) -> None:
     """Raise :class:`MarkerError` unless every marker in ``names`` is present without gaps.
 
@@ -51,8 +92,6 @@ def require_stances(trial: Trial) -> None:
         f"{e.side} on {trial.plates[e.plate].name} {e.t_on:.3f}-{e.t_off:.3f} s: {e.reason}"
         for e in trial.excluded_stances
     )
-    from gc_ocp.io.load import static_hint
-
     raise PlateError(
         f"{trial.source}: no usable stance ("
         + (why or "no plate is loaded above the contact threshold")

@@ -12,9 +12,9 @@ import numpy as np
 
 from gc_ocp.errors import InputError, MarkerError, require_file
 from gc_ocp.gaps import MAX_MARKER_SPEED, fill_short_gaps, marker_spikes
-from gc_ocp.io._common import Y_UP_TO_LAB, foot_markers, warn, without_subject_prefix
+from gc_ocp.io._common import Y_UP_TO_LAB, warn, without_subject_prefix
 from gc_ocp.io.c3d import read_c3d
-from gc_ocp.io.checks import stance_gap_report
+from gc_ocp.io.checks import STATIC_MAX_STD, marker_spread, stance_gap_report, static_hint
 from gc_ocp.io.opensim import read_opensim, read_trc
 from gc_ocp.io.orientation import (
     FOOT_CROSSOVER,
@@ -26,12 +26,6 @@ from gc_ocp.io.pairing import TRIAL_FIX
 from gc_ocp.io.stances import DEFAULT_THRESHOLD, check_peaks, detect_stances
 from gc_ocp.io.subject import estimate_body_weight, read_subject_metadata
 from gc_ocp.trial import GRAVITY, ExcludedStance, Plate, Trial
-
-STATIC_MAX_STD = 0.02
-"""Largest marker movement [m] of a static (standing) trial: standard deviation over the trial of
-a marker's position, median over the markers (and over the foot markers). Quiet standing sways
-the body by ~1 cm and the feet stay put (~1 mm); walking moves the markers by decimetres, even on
-a treadmill (the feet swing +-0.3 m)."""
 
 
 def bundled_example_path() -> Path:
@@ -233,40 +227,6 @@ def apply_stance_gaps(trial: Trial) -> Trial:
         stances=tuple(keep),
         excluded_stances=tuple(out),
         load_notes=tuple(trial.load_notes) + tuple(notes),
-    )
-
-
-def marker_spread(names, markers: np.ndarray) -> dict[str, float]:
-    """[m] How far the markers ``(n, m, 3)`` move over the trial: the median over the markers
-    (and over the foot markers) of each one's positional standard deviation (0 without
-    frames)."""
-    std = np.full(markers.shape[1], np.nan)
-    if markers.shape[0] >= 2:
-        ok = np.isfinite(markers).all(axis=2)
-        for j in range(markers.shape[1]):
-            if ok[:, j].sum() >= 2:
-                std[j] = float(np.linalg.norm(markers[ok[:, j], j].std(axis=0)))
-    feet = [i for side in ("left", "right") for i in foot_markers(names, side)]
-    body = std[np.isfinite(std)]
-    foot = std[feet][np.isfinite(std[feet])] if feet else np.zeros(0)
-    return {
-        "markers": float(np.median(body)) if body.size else 0.0,
-        "foot markers": float(np.median(foot)) if foot.size else 0.0,
-    }
-
-
-def static_hint(names, markers: np.ndarray) -> str:
-    """A sentence for the error of a walking command given a standing trial (its markers move
-    less than :data:`STATIC_MAX_STD`), else ``""``."""
-    if markers.shape[0] < 2:
-        return ""
-    moved = marker_spread(names, markers)
-    if max(moved.values()) > STATIC_MAX_STD or not any(moved.values()):
-        return ""
-    return (
-        f" Its markers stand still ({moved['markers'] * 1e3:.0f} mm, the median standard "
-        "deviation): it looks like a static (standing) trial; give it with --static FILE "
-        "beside a walking trial, not as a walking trial."
     )
 
 
