@@ -712,3 +712,16 @@ def test_a_standing_trial_given_as_a_walking_one_is_named_static():
     standing = dataclasses.replace(t, markers=still, marker_time=np.arange(200) / 100, stances=())
     with pytest.raises(PlateError, match="no usable stance .* looks like a static"):
         require_stances(standing)
+
+
+def test_a_label_the_file_uses_twice_is_shown_as_the_fit_names_it():
+    """Helen Hayes type-2a labels two markers LANK (and two RANK); info listed ['LANK', ...,
+    'LANK'] while the fit named the second LANK#2."""
+    from conftest import DATA, _need_data
+
+    _need_data()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        text = describe_trial(load_trial(DATA / "c3dorg_helenhayes_types" / "type-2a.c3d"))
+    assert "'LANK#2'] (the file labels two markers LANK)" in text
+    assert "missing within a stance (gaps > 0.1 s, not filled): ['RANK#2', 'LANK#2']" in text

@@ -50,18 +50,24 @@ def describe_trial(trial: Trial) -> str:
         f"  vertical axis: {vertical_axis_of(trial)} of the file is up (lab +Z); "
         + (walk or "walking direction: file X kept")
     )
+    names = list(trial.marker_names)
+    # a label the file uses twice is shown as the fit names it: LANK, LANK#2
+    shown = [n if (k := names[:i].count(n)) == 0 else f"{n}#{k + 1}" for i, n in enumerate(names)]
     for side in ("left", "right"):
         idx = foot_markers(trial.marker_names, side)
-        lines.append(f"  {side} foot markers: {[trial.marker_names[i] for i in idx]}")
+        twice = sorted({names[i] for i in idx if names.count(names[i]) > 1})
+        lines.append(
+            f"  {side} foot markers: {[shown[i] for i in idx]}"
+            + (f" (the file labels two markers {', '.join(twice)})" if twice else "")
+        )
     nan = np.isnan(trial.markers).any(axis=2)
     feet = {i for side in ("left", "right") for i in foot_markers(trial.marker_names, side)}
     t = trial.marker_time
     inside = np.zeros(t.size, bool)
     for s in trial.stances:
         inside |= (t >= s.t_on) & (t <= s.t_off)
-    names = trial.marker_names
-    in_stance = [names[i] for i in sorted(feet) if nan[inside, i].any()]
-    other = [n for i, n in enumerate(names) if nan[:, i].any() and n not in in_stance]
+    in_stance = [shown[i] for i in sorted(feet) if nan[inside, i].any()]
+    other = [shown[i] for i in range(len(names)) if nan[:, i].any() and shown[i] not in in_stance]
     if in_stance:  # what the fit needs: a foot marker lost within a stance
         lines.append(
             f"  foot markers missing within a stance (gaps > {MAX_GAP_FILL} s, not filled): "
