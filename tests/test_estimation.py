@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from pathlib import Path
@@ -469,7 +470,10 @@ def test_rms_is_normalised_per_stance():
     assert rms["left"]["superior_force_pct_bw"] == pytest.approx(1.0, rel=1e-12)
 
 
-def test_sensitivity_to_processing_choices(bundled):
+FIGS = ("fit_wrench.png", "fit_sole.png", "fit_pose_corrections.png", "heldout_wrench.png")
+
+
+def test_sensitivity_to_processing_choices(bundled, tmp_path):
     """Refits with another cutoff and margin: values per choice, the reference's SE, and a
     spread/SE ratio; the reference choice reproduces the default fit."""
     from gc_ocp.workflow import fit
@@ -481,6 +485,22 @@ def test_sensitivity_to_processing_choices(bundled):
     assert rep.values["n"][0] == pytest.approx(default, rel=1e-9)
     assert rep.spread("n") > 0 and rep.se["n"] > 0
     assert "spread / SE" in rep.summary()
+    # beyond SENSITIVE_RATIO SEs a parameter is flagged, in fit.json's flags and on the page
+    from gc_ocp.outputs import OutputSet
+    from gc_ocp.workflow.fit_files import write_fit
+    from gc_ocp.workflow.sensitivity import SENSITIVE_RATIO
+
+    flagged = {f["what"] for f in rep.flags()}
+    assert flagged == {p for p, _, _, r in rep.rows() if r > SENSITIVE_RATIO}
+    wide = dataclasses.replace(rep, se={**rep.se, "mu": rep.spread("mu") / 5})  # 5 SE
+    assert "mu" in {f["what"] for f in wide.flags()}
+    out = OutputSet(tmp_path / "fit", ("fit.json", "landmarks.json", "report.html", *FIGS))
+    doc = write_fit(out, fit([bundled]), {}, {}, wide)
+    out.commit()
+    assert doc["sensitivity"]["choices"] == rep.choices
+    assert any(f["code"] == "processing_sensitive" and f["what"] == "mu" for f in doc["flags"])
+    page = (tmp_path / "fit" / "report.html").read_text(encoding="utf-8")
+    assert "Sensitivity to processing choices" in page and "<b>5.0</b>" in page
 
 
 def test_extended_model_started_from_the_base_never_ends_higher():

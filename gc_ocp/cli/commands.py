@@ -159,7 +159,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
             raise
         print(report.summary())
         _print_skipped(skipped)
-        write_fit(out, report, prov, landmarks)
+        sens = None
         if args.sensitivity:
             from gc_ocp.io import load_static
             from gc_ocp.kinematics import compute_kinematics
@@ -181,8 +181,11 @@ def cmd_fit(args: argparse.Namespace) -> int:
             print(
                 "sensitivity of the headline parameters to processing choices:\n" + sens.summary()
             )
+            for f in sens.flags():  # also among fit.json's flags and the page's
+                print(f"  ! {f['message']}")
             out.text("sensitivity.json", json.dumps(sens.to_json(), indent=2))
             out.text("sensitivity.md", sens.summary() + "\n")
+        write_fit(out, report, prov, landmarks, sens)
         written = out.commit()
     finally:
         out.discard()

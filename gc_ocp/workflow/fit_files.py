@@ -43,19 +43,27 @@ def fit_figures(report: FitReport) -> dict:
     return figs
 
 
-def write_fit(out: OutputSet, report: FitReport, provenance: dict, landmarks: dict) -> dict:
+def write_fit(
+    out: OutputSet, report: FitReport, provenance: dict, landmarks: dict, sensitivity=None
+) -> dict:
     """Stage ``fit.json`` (the report with its ``provenance``), ``landmarks.json``, the figures
     and ``report.html`` in ``out`` (the caller commits); returns the JSON written as
-    ``fit.json``."""
+    ``fit.json``. ``sensitivity``: the fit's
+    :class:`~gc_ocp.workflow.sensitivity.SensitivityReport` (``gc-ocp fit --sensitivity``), in
+    ``fit.json``, its flags among the fit's, and a table of the page."""
     from gc_ocp.workflow.fit_report import fit_report_html
 
+    if sensitivity is not None:
+        report.result.flags.extend(sensitivity.flags())
     doc = {**report.to_json(), "provenance": provenance}
+    if sensitivity is not None:
+        doc["sensitivity"] = sensitivity.to_json()
     out.text("fit.json", json.dumps(doc, indent=2))
     out.text("landmarks.json", json.dumps(landmarks, indent=2))
     images = pngs(fit_figures(report), FIGURE_DPI)
     for name, png in images.items():
         atomic_write(out.path(name), lambda tmp, png=png: tmp.write_bytes(png))
-    out.text("report.html", fit_report_html(report, provenance, images))
+    out.text("report.html", fit_report_html(report, provenance, images, sensitivity))
     return doc
 
 

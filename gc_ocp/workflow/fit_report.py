@@ -28,10 +28,15 @@ def _flags(report: FitReport) -> list[dict]:
     return rows
 
 
-def fit_report_html(report: FitReport, provenance: dict | None, pngs: dict[str, bytes]) -> str:
+def fit_report_html(
+    report: FitReport, provenance: dict | None, pngs: dict[str, bytes], sensitivity=None
+) -> str:
     """The page of ``report`` (module doc); ``provenance`` as ``fit.json`` records it (None:
     version and date only); ``pngs``: the fit's figures as PNG bytes by file name
-    (:func:`gc_ocp.workflow.fit_files.fit_figures`, rendered)."""
+    (:func:`gc_ocp.workflow.fit_files.fit_figures`, rendered); ``sensitivity``: its
+    :class:`~gc_ocp.workflow.sensitivity.SensitivityReport` or None."""
+    from gc_ocp.workflow.sensitivity import SENSITIVE_RATIO
+
     res, held = report.result, report.heldout
     shared = res.params.get("shared", {})
     names = [p for p in ("n", "c", "mu") if p in shared]
@@ -61,6 +66,14 @@ def fit_report_html(report: FitReport, provenance: dict | None, pngs: dict[str, 
         "rms": rms_table(res, None if held is None else held.rms | _cop(held)),
         "figures": {name: data_uri(png) for name, png in pngs.items()},
         "provenance": provenance_context(provenance),
+        "sensitivity": None
+        if sensitivity is None
+        else {
+            "choices": sensitivity.choices,
+            "reference": sensitivity.reference,
+            "rows": sensitivity.rows(),
+            "limit": SENSITIVE_RATIO,
+        },
     }
     return environment().get_template(TEMPLATE).render(context)
 

@@ -20,6 +20,10 @@ from gc_ocp.workflow.fitting import MARGIN, fit
 
 DEFAULT_CUTOFFS = (4.0, 6.0, 8.0)
 DEFAULT_MARGINS = (0.03, 0.06)
+SENSITIVE_RATIO = 2.0
+"""A parameter whose values across the processing choices spread over more than this many of
+its SEs is flagged (``processing_sensitive``): the refits see the same data, so their spread is
+not noise, and at twice the SE the choices, not the noise, set how well it is known."""
 
 
 @dataclasses.dataclass
@@ -36,19 +40,40 @@ class SensitivityReport:
         v = np.asarray(self.values[p], float)
         return float(np.nanmax(v) - np.nanmin(v))
 
+    def ratio(self, p: str) -> float:
+        """The spread of ``p`` across the choices in units of its SE (NaN without an SE)."""
+        se = self.se.get(p, float("nan"))
+        return self.spread(p) / se if se and np.isfinite(se) and se > 0 else float("nan")
+
+    def rows(self) -> list[tuple[str, list, float, float]]:
+        """``(parameter, value per choice, spread, spread / SE)`` per parameter."""
+        return [(p, list(v), self.spread(p), self.ratio(p)) for p, v in self.values.items()]
+
+    def flags(self) -> list[dict]:
+        """A ``processing_sensitive`` flag per parameter beyond :data:`SENSITIVE_RATIO`."""
+        return [
+            {
+                "code": "processing_sensitive",
+                "what": p,
+                "message": f"{p} moves {r:.1f} SE across the processing choices tried "
+                f"({len(self.choices)} marker cutoffs and stance margins): its SE understates "
+                "what the processing adds",
+            }
+            for p, _, _, r in self.rows()
+            if r > SENSITIVE_RATIO
+        ]
+
     def summary(self) -> str:
         head = " | ".join(self.choices)
         lines = [
             f"| parameter | {head} | spread | spread / SE |",
             "|---|" + "---|" * (len(self.choices) + 2),
         ]
-        for p, vals in self.values.items():
-            se = self.se.get(p, float("nan"))
-            ratio = self.spread(p) / se if se and np.isfinite(se) and se > 0 else float("nan")
+        for p, vals, spread, ratio in self.rows():
             lines.append(
                 f"| {p} | "
                 + " | ".join(f"{v:.4g}" for v in vals)
-                + f" | {self.spread(p):.3g} | {ratio:.1f} |"
+                + f" | {spread:.3g} | {ratio:.1f} |"
             )
         return "\n".join(lines)
 
@@ -104,4 +129,4 @@ def sensitivity(
     )
 
 
-__all__ = ["SensitivityReport", "sensitivity"]
+__all__ = ["SENSITIVE_RATIO", "SensitivityReport", "sensitivity"]
