@@ -63,7 +63,9 @@ def test_an_unusable_trial_is_skipped_with_its_reason_and_the_others_are_used():
         "files": ["/lab/unreadable.c3d"],
         "error": "PlateError",
         "message": skipped[0].message,
+        "reason": "plate 2's corners are all zero; re-export the set-up.",  # without the file
     }
+    assert skipped[0].describe().count("/lab/unreadable.c3d") == 1
 
 
 def test_one_trial_strict_runs_and_errors_of_the_code_are_raised_as_they_are():

@@ -40,11 +40,24 @@ class SkippedTrial:
     error: str
     message: str
 
+    @property
+    def reason(self) -> str:
+        """The message without the file name it starts with (the files are listed beside it)."""
+        for f in self.files:
+            if self.message.startswith(f"{f}: "):
+                return self.message[len(f) + 2 :]
+        return self.message
+
     def describe(self) -> str:
-        return f"skipped trial {' + '.join(self.files)}: {self.message}"
+        return f"skipped trial {' + '.join(self.files)}: {self.reason}"
 
     def to_json(self) -> dict:
-        return {"files": list(self.files), "error": self.error, "message": self.message}
+        return {
+            "files": list(self.files),
+            "error": self.error,
+            "message": self.message,
+            "reason": self.reason,
+        }
 
 
 def usable_trials(
