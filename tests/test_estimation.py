@@ -495,8 +495,11 @@ def test_sensitivity_to_processing_choices(bundled, tmp_path):
     wide = dataclasses.replace(rep, se={**rep.se, "mu": rep.spread("mu") / 5})  # 5 SE
     assert "mu" in {f["what"] for f in wide.flags()}
     out = OutputSet(tmp_path / "fit", ("fit.json", "landmarks.json", "report.html", *FIGS))
-    doc = write_fit(out, fit([bundled]), {}, {}, wide)
+    report = fit([bundled])
+    before = list(report.result.flags)
+    doc = write_fit(out, report, {}, {}, wide)
     out.commit()
+    assert report.result.flags == before  # the caller's report is not changed
     assert doc["sensitivity"]["choices"] == rep.choices
     assert any(f["code"] == "processing_sensitive" and f["what"] == "mu" for f in doc["flags"])
     page = (tmp_path / "fit" / "report.html").read_text(encoding="utf-8")

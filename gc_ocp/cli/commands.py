@@ -185,11 +185,11 @@ def cmd_fit(args: argparse.Namespace) -> int:
                 print(f"  ! {f['message']}")
             out.text("sensitivity.json", json.dumps(sens.to_json(), indent=2))
             out.text("sensitivity.md", sens.summary() + "\n")
-        write_fit(out, report, prov, landmarks, sens)
+        doc = write_fit(out, report, prov, landmarks, sens)
         written = out.commit()
     finally:
         out.discard()
-    n_flags = len(report.result.flags) + (len(report.heldout.flags) if report.heldout else 0)
+    n_flags = len(doc["flags"]) + len(doc.get("heldout_flags", []))  # with --sensitivity's
     n_figs = sum(p.suffix == ".png" for p in written)
     print(
         f"wrote {len(written)} files to {args.out} (fit.json and {n_figs} figures); {n_flags} flags"

@@ -5,6 +5,7 @@ and for every subject of ``gc-ocp batch``."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 from gc_ocp.html import FIGURE_DPI, pngs
@@ -53,8 +54,11 @@ def write_fit(
     ``fit.json``, its flags among the fit's, and a table of the page."""
     from gc_ocp.workflow.fit_report import fit_report_html
 
-    if sensitivity is not None:
-        report.result.flags.extend(sensitivity.flags())
+    if sensitivity is not None:  # its flags join the fit's (the caller's report is not changed)
+        result = dataclasses.replace(
+            report.result, flags=[*report.result.flags, *sensitivity.flags()]
+        )
+        report = dataclasses.replace(report, result=result)
     doc = {**report.to_json(), "provenance": provenance}
     if sensitivity is not None:
         doc["sensitivity"] = sensitivity.to_json()
