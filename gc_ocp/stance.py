@@ -138,37 +138,34 @@ PLATE_SIGNAL_MARGIN = 0.1
 plus an interpolation kernel."""
 
 
-MARGIN_QUIET_N = 20.0
-"""[N] In the unloaded margin around a stance the plate must read less than this vertical force
-(the stance detector's contact threshold, ``gc_ocp.io.stances.DEFAULT_THRESHOLD``: below it the
-foot is off by the detector's own definition). A plate that rings after toe-off (Camargo's
-plate 1: -151 to +97 N within 25 ms) or that something else loads is not measuring the foot;
-its margin frames from there outward are not fitted."""
-
-
 def quiet_margins(trial: Trial, stance: Stance, margin: float) -> tuple[float, float, list[str]]:
-    """``(t_lo, t_hi, reasons)``: the stance's window ``[t_on - margin, t_off + margin]`` cut
-    where its plate stops being quiet in a margin (:data:`MARGIN_QUIET_N`): frames at or
-    beyond the first loud plate sample after ``t_off`` (before ``t_on``) are left out; the
-    reasons say where and how loud, for the fit's notes."""
-    t_lo, t_hi, reasons = stance.t_on - margin, stance.t_off + margin, []
+    """``(t_lo, t_hi, reasons)``: the frames of the stance's window ``[t_on - margin, t_off +
+    margin]`` to fit are those with ``t_lo < t < t_hi`` (open bounds), the window cut where its
+    plate stops being quiet in a margin: a sample reading more than the trial's contact
+    threshold (``Trial.contact_threshold``, 20 N by default; below it the foot is off by the
+    stance detector's own definition) after ``t_off`` (before ``t_on``) leaves out every frame
+    from that sample on (up to it). A plate that rings after toe-off (Camargo's plate 1: -151 to
+    +97 N within 25 ms) or that something else loads is not measuring the foot. The reasons say
+    where and how loud, for the fit's notes."""
+    eps = 1e-9
+    t_lo, t_hi, reasons = stance.t_on - margin - eps, stance.t_off + margin + eps, []
     if margin <= 0:
         return t_lo, t_hi, reasons
     plate = trial.plates[stance.plate]
     t, fz = plate.time, plate.force[:, 2]
-    loud = np.isfinite(fz) & (np.abs(fz) > MARGIN_QUIET_N)
-    after = np.flatnonzero(loud & (t > stance.t_off) & (t <= t_hi + 1e-9))
+    loud = np.isfinite(fz) & (np.abs(fz) > trial.contact_threshold)
+    after = np.flatnonzero(loud & (t > stance.t_off) & (t < t_hi))
     if after.size:
-        t_hi = float(t[after[0]]) - 1e-9
+        t_hi = float(t[after[0]])  # open bound: a frame at the loud sample is left out too
         peak = _peak(fz, t, t[after[0]], stance.t_off + margin)
         reasons.append(
             f"plate {plate.name} reads {peak:+.0f} N within {margin * 1e3:.0f} ms after toe-off "
             f"(from {t[after[0]]:.3f} s: ringing, or another load): its frames from there are "
             "not fitted"
         )
-    before = np.flatnonzero(loud & (t < stance.t_on) & (t >= t_lo - 1e-9))
+    before = np.flatnonzero(loud & (t < stance.t_on) & (t > t_lo))
     if before.size:
-        t_lo = float(t[before[-1]]) + 1e-9
+        t_lo = float(t[before[-1]])
         peak = _peak(fz, t, stance.t_on - margin, t[before[-1]])
         reasons.append(
             f"plate {plate.name} reads {peak:+.0f} N within {margin * 1e3:.0f} ms before heel "
@@ -208,7 +205,7 @@ def stance_data(
     foot = kin.feet[stance.side]
     t = foot.time
     t_lo, t_hi, _ = quiet_margins(trial, stance, margin)
-    sel = (t >= t_lo - 1e-9) & (t <= t_hi + 1e-9)
+    sel = (t > t_lo) & (t < t_hi)
     idx = np.flatnonzero(sel)
     ok = np.zeros(0, bool)
     if idx.size:

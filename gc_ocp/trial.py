@@ -141,6 +141,8 @@ class Trial:
     grf_source: path of the ground-reaction file (MOT/STO) when separate from ``source``.
     mass_source, height_source: where ``mass``/``height`` came from (file parameter or argument).
     load_notes: what the loader decided (offsets removed, rotation, GRF column sides...).
+    contact_threshold: [N] the vertical force above which a plate counted as loaded when the
+        stances were detected (below it the foot is off by that definition).
     """
 
     source: Path
@@ -158,6 +160,7 @@ class Trial:
     mass_source: str = ""
     height_source: str = ""
     load_notes: tuple[str, ...] = ()
+    contact_threshold: float = 20.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "load_notes", tuple(self.load_notes))

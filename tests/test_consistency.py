@@ -152,25 +152,28 @@ def test_masses_estimated_per_trial_become_one_for_the_subject():
 def test_a_plate_ringing_after_toe_off_is_not_fitted_and_the_fit_says_so(walk):
     """Camargo's plate rings from -151 to +97 N in the 30 ms after a toe-off; its frames were
     fitted as the foot's force (92 % of that fit's data cost). The same ringing put after the
-    bundled trial's first stance: the margin's frames stop at its first loud sample, the
-    stance's own frames are all kept, and the fit's notes name the plate."""
-    from gc_ocp.stance import MARGIN_QUIET_N, quiet_margins, stance_data
+    bundled trial's first stance, starting exactly on a marker frame: the margin's frames stop
+    before it (that frame too), the stance's own frames are all kept, the fit's notes name the
+    plate; with a contact threshold above the ringing (load_trial(stance_threshold=...)) the
+    margin is whole."""
+    from gc_ocp.stance import quiet_margins, stance_data
     from gc_ocp.workflow.fitting import MARGIN, fit_data
 
     t, k = walk
     st = t.stances[0]
     plate = t.plates[st.plate]
     assert quiet_margins(t, st, MARGIN)[2] == []  # the real file is quiet there
+    frames = k.feet[st.side].time
+    first_loud = frames[frames > st.t_off + 0.005][0]  # a marker frame inside the margin
     force = plate.force.copy()
-    ring = (plate.time > st.t_off + 0.012) & (plate.time <= st.t_off + MARGIN)
-    force[ring, 2] = -151.0 * np.cos(2 * np.pi * 60 * (plate.time[ring] - st.t_off))
+    ring = (plate.time >= first_loud - 1e-9) & (plate.time <= st.t_off + MARGIN)
+    force[ring, 2] = -151.0 * np.cos(2 * np.pi * 60 * (plate.time[ring] - first_loud))
     plates = list(t.plates)
     plates[st.plate] = dataclasses.replace(plate, force=force)
     rung = dataclasses.replace(t, plates=tuple(plates))
-    first_loud = plate.time[ring][np.abs(force[ring, 2]) > MARGIN_QUIET_N][0]
     t_lo, t_hi, [reason] = quiet_margins(rung, st, MARGIN)
-    assert t_lo == st.t_on - MARGIN and first_loud - 1e-6 < t_hi < first_loud
-    assert f"plate {plate.name} reads" in reason and "after toe-off" in reason
+    assert t_lo < st.t_on - MARGIN and abs(t_hi - first_loud) < 1e-6
+    assert f"plate {plate.name} reads -151 N" in reason and "after toe-off" in reason
     clean, cut = stance_data(t, k, st, MARGIN), stance_data(rung, k, st, MARGIN)
     assert cut.foot.time[-1] < first_loud <= clean.foot.time[-1]
     assert cut.in_contact.sum() == clean.in_contact.sum()  # the stance itself is whole
@@ -178,3 +181,6 @@ def test_a_plate_ringing_after_toe_off_is_not_fitted_and_the_fit_says_so(walk):
         warnings.simplefilter("ignore")
         notes = fit_data([(rung, k)])[2]
     assert any(st.label in n and "after toe-off" in n for n in notes)
+    high = dataclasses.replace(rung, contact_threshold=200.0)  # the detector's own definition
+    assert quiet_margins(high, st, MARGIN)[2] == []
+    assert stance_data(high, k, st, MARGIN).foot.time.size == clean.foot.time.size

@@ -169,6 +169,7 @@ def load_trial(
         mass_source=raw.mass_source,
         height_source=raw.height_source,
         load_notes=tuple(raw.notes),
+        contact_threshold=threshold,
     )
     return apply_stance_gaps(trial)
 
