@@ -28,6 +28,11 @@ class UnitsError(InputError):
     """Values look like the wrong unit (e.g. millimetres where metres are expected)."""
 
 
+class MassError(InputError):
+    """The subject's mass disagrees with what the plates carry (a property of the subject, not
+    of one trial: never skipped as one trial's problem)."""
+
+
 class ModelError(GcOcpError):
     """The body model or contact layout is inconsistent."""
 

@@ -143,6 +143,10 @@ def test_masses_estimated_per_trial_become_one_for_the_subject():
     assert [x.mass for x in pooled] == [pytest.approx(84.667, abs=1e-3)] * 3
     assert pooled[0].mass_source.startswith("ESTIMATE 84.7 kg: the mean")
     assert "83.5, 84.5, 86.0" in note
+    # estimates 50 % apart: pooled, but the fit's notes say the plates disagree or two people
+    far = [dataclasses.replace(e, mass=m) for e, m in zip(est[:2], (60.0, 90.0), strict=True)]
+    _, notes = one_subject(far)
+    assert any("mass estimates differ by 50 %" in n and "--mass" in n for n in notes)
     # a trial with a recorded mass gives it to the others (their estimates are not averaged in)
     mixed, _ = one_subject([est[0], t, est[2]])
     assert [x.mass for x in mixed] == [t.mass] * 3

@@ -349,6 +349,15 @@ def test_the_calibrated_belt_is_the_fitted_one(hertz_fit):
     assert CalibratedContact.from_fit(doc).belt_speed == 0.0
     doc["blocks"]["belt"] = {"walk": {"value": 1.17, "se": 0.004, "nominal": 1.056}}
     assert CalibratedContact.from_fit(doc).belt_speed == pytest.approx(1.17)
+    # each treadmill trial its own fitted belt: the exported trial's (default: the fit's first
+    # trial's, wherever the block lists it)
+    name = doc["stance_fits"][0]["trial"]
+    doc["blocks"]["belt"] = {
+        "another": {"value": 2.5, "se": 0.004, "nominal": 2.4},
+        name: {"value": 1.17, "se": 0.004, "nominal": 1.056},
+    }
+    assert CalibratedContact.from_fit(doc).belt_speed == pytest.approx(1.17)
+    assert CalibratedContact.from_fit(doc, trial=name).belt_speed == pytest.approx(1.17)
 
 
 def test_a_fit_whose_exponent_is_not_hertz_s_says_how_to_export_it(hertz_fit):

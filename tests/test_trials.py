@@ -108,3 +108,28 @@ def test_fit_names_the_usual_slips_of_its_first_argument():
         assert "gc_ocp.fit([(trial, kin)])" in str(e.value)
     with pytest.raises(InputError, match="a Trial without its kinematics"):
         gc_ocp.diagnose([trial])
+    from gc_ocp.workflow.fitting import _require_pairs
+
+    assert _require_pairs(zip([trial], [kin], strict=True)) == [(trial, kin)]  # read once
+
+
+def test_a_skipped_trial_given_by_a_relative_path_is_named_once(tmp_path, monkeypatch):
+    from gc_ocp.workflow.trials import SkippedTrial
+
+    monkeypatch.chdir(tmp_path)
+    s = SkippedTrial(
+        (str((tmp_path / "data" / "w1.c3d").resolve()),), "PlateError", "data/w1.c3d: plate 2 ..."
+    )
+    assert s.reason == "plate 2 ..." and s.describe().count("w1.c3d") == 1
+
+
+def test_the_subject_s_mass_against_the_plates_is_not_skipped_as_one_trial_s_problem():
+    """A mass the plates of one trial contradict (a given --mass 25 % off): before the trial
+    rule, the run stopped; skipping that trial would fit the others with the wrong mass."""
+    from gc_ocp.errors import MassError
+
+    def wrong_mass(f):
+        return dataclasses.replace(_load(f), mass=_bundled()[0].mass * 1.3, mass_source="given")
+
+    with pytest.raises(MassError, match="check --mass"):
+        usable_trials(_files("good.c3d", "good2.c3d"), wrong_mass, _pose)

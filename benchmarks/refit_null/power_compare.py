@@ -70,8 +70,7 @@ def compare(one_step: Path, refit: Path) -> str:
         )
     lines.append("")
     lines.append(
-        f"top-1 of {scored} effect cases: one-step {right['one-step']}, refit null "
-        f"{right['refit']}"
+        f"top-1 of {scored} effect cases: one-step {right['one-step']}, refit null {right['refit']}"
     )
     return "\n".join(lines)
 

@@ -23,6 +23,7 @@ worker of the execution layer (:mod:`gc_ocp.batch.run`). What it guarantees:
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -183,6 +184,19 @@ def load_subject(subject: Subject, cache_root: Path, *, strict: bool = False) ->
     return usable_trials(files, load, pose, strict=strict)
 
 
+def _one_thread() -> bool:
+    """Whether this task runs alone in its process: in this process (no Dask worker) or on a
+    worker with one thread (the local cluster's; a ``dask-worker`` may run several)."""
+    try:
+        from distributed import get_worker
+
+        worker = get_worker()
+    except (ImportError, ValueError):
+        return True
+    n = getattr(getattr(worker, "state", None), "nthreads", None)
+    return (n if n is not None else getattr(worker, "nthreads", 1)) == 1
+
+
 def _fix(error: BaseException) -> str:
     """What the user can do about a subject's error, by its kind."""
     if isinstance(error, InputError):
@@ -232,9 +246,12 @@ def _process(subject: Subject, out_root: Path, settings: Settings) -> dict:
         }
     # a subject's warnings are recorded with it (done.json / error.json), not printed by the
     # worker into the run's console between the progress lines; the notes among them are also
-    # in fit.json (its checks and provenance)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
+    # in fit.json (its checks and provenance). Only where this task is the process's one
+    # thread of work: catch_warnings swaps a process-wide hook, which tasks on other threads
+    # would share. The filters stay as they are (an "error" filter still raises).
+    with (
+        warnings.catch_warnings(record=True) if _one_thread() else contextlib.nullcontext([])
+    ) as caught:
         try:
             rows, files = _fit_subject(subject, folder, out_root / KINEMATICS_CACHE, settings)
             error = None

@@ -177,7 +177,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
 
             sens = sensitivity(
                 [t for t, _ in pairs], model=model, compute_kinematics=kin, progress=_progress
-            )
+            ).with_se(report.result)  # spreads in the reported fit's SEs, which the flag judges
             print(
                 "sensitivity of the headline parameters to processing choices:\n" + sens.summary()
             )

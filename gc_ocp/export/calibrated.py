@@ -76,8 +76,9 @@ class CalibratedContact:
         cls, fit, provenance: Mapping | None = None, trial: str | None = None
     ) -> CalibratedContact:
         """From a ``FitReport``, an ``EstimationResult``, a ``fit.json`` dict or its path.
-        ``trial``: the fit's name of the trial whose unit points are taken (each trial has its
-        own kinematics, whose sole calibration places the points; default: the first)."""
+        ``trial``: the fit's name of the trial whose unit points (and, on a treadmill, fitted
+        belt speed) are taken (each trial has its own kinematics, whose sole calibration places
+        the points; default: the first)."""
         doc = fit_document(fit)
         for key in ("components", "blocks", "stance_fits"):
             if key not in doc:
@@ -132,9 +133,15 @@ class CalibratedContact:
         trials = prov.get("trials") or [{}]
         mass = trials[0].get("mass_kg") or first["body_weight"] / 9.81
         # the belt speed the fit used: the BeltSpeed block's fitted value per treadmill trial
-        # ({trial: {"value", "se", ...}}, the first trial's), else the nominal one given
+        # ({trial: {"value", "se", ...}}: ``trial``'s, else the first trial's), else the
+        # nominal one given
         belt = doc["blocks"].get("belt") or {}
-        fitted = [v["value"] for v in belt.values() if isinstance(v, Mapping) and "value" in v]
+        mine = belt.get(trial) if trial is not None else None
+        fitted = [
+            v["value"]
+            for v in ([mine] if isinstance(mine, Mapping) else belt.values())
+            if isinstance(v, Mapping) and "value" in v
+        ]
         if fitted:
             speed = float(fitted[0])
         else:

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.bias import BiasCorrection, bias_corrected, check_replicates
@@ -113,15 +113,18 @@ def auto_holdout(data: Sequence[StanceData]) -> str | None:
     return [d for d in data if d.side == side][-1].label
 
 
-def _require_pairs(trials) -> None:
-    """Raise :class:`InputError` unless ``trials`` is a list of ``(Trial, TrialKinematics)``
-    pairs (``fit([trial])`` or ``fit(trial, kin)`` are the usual slips)."""
+def _require_pairs(trials) -> list:
+    """``trials`` as a list of ``(Trial, TrialKinematics)`` pairs (an iterator of them read
+    once), else :class:`InputError` (``fit([trial])`` or ``fit(trial, kin)`` are the usual
+    slips)."""
     how = (
         "give a list of (trial, kinematics) pairs: kin = gc_ocp.compute_kinematics(trial); "
         "gc_ocp.fit([(trial, kin)]) (several trials of one subject: one pair each)"
     )
     if isinstance(trials, tuple) and len(trials) == 2 and isinstance(trials[0], Trial):
         raise InputError(f"got one (trial, kinematics) pair, not a list of them; {how}.")
+    if isinstance(trials, Iterator):  # a generator or zip(...): its pairs, once
+        trials = list(trials)
     if not isinstance(trials, Sequence) or isinstance(trials, str) or not trials:
         got = "an empty list" if isinstance(trials, Sequence) else type(trials).__name__
         raise InputError(f"got {got}, not a list of (trial, kinematics) pairs; {how}.")
@@ -144,6 +147,7 @@ def _require_pairs(trials) -> None:
                 )
             )
             raise InputError(f"item {i} of the trials is {got}; {how}.")
+    return list(trials)
 
 
 def fit_data(
@@ -158,7 +162,7 @@ def fit_data(
     Stances are labelled ``trial:side@t_on`` with the trials named by
     :func:`gc_ocp.stance.trial_names` (``names``: one per trial instead)."""
     say = progress or (lambda s: None)
-    _require_pairs(trials)
+    trials = _require_pairs(trials)
     trials, notes = check_for_fit([(_with_height(t, k), k) for t, k in trials])
     for note in notes:
         warnings.warn(note, stacklevel=3)

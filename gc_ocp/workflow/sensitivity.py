@@ -55,9 +55,9 @@ class SensitivityReport:
             {
                 "code": "processing_sensitive",
                 "what": p,
-                "message": f"{p} moves {r:.1f} SE across the processing choices tried "
-                f"({len(self.choices)} marker cutoffs and stance margins): its SE understates "
-                "what the processing adds",
+                "message": f"{p} moves {r:.1f} SE across {len(self.choices)} processing "
+                f"settings ({', '.join(self.choices)}): its SE understates what the "
+                "processing adds",
             }
             for p, _, _, r in self.rows()
             if r > SENSITIVE_RATIO
@@ -76,6 +76,12 @@ class SensitivityReport:
                 + f" | {spread:.3g} | {ratio:.1f} |"
             )
         return "\n".join(lines)
+
+    def with_se(self, result) -> SensitivityReport:
+        """The same values measured against ``result``'s SEs (the fit the user reports: its
+        hold-out, widths and options), where it has them."""
+        _, se = _headline(result)
+        return dataclasses.replace(self, se={k: se.get(k, v) for k, v in self.se.items()})
 
     def to_json(self) -> dict:
         return dataclasses.asdict(self)

@@ -13,8 +13,13 @@ skipped:
 * every trial unusable (one error naming each file and its reason);
 * ``strict=True`` (``--strict-trials``): the first unusable trial stops the run, as before
   2026-11-30;
-* errors of the trials together (the same motion given twice), of the solver and of the code:
-  they are not a property of one trial's files.
+* errors of the trials together (the same motion given twice, trials of two people, the
+  subject's mass against the plates: :class:`~gc_ocp.errors.MassError`), of the solver and of
+  the code: they are not a property of one trial's files.
+
+The trials are loaded first and given the subject's one mass
+(:func:`~gc_ocp.io.consistency.one_subject`) before each is posed and checked, so that each
+trial is checked with the mass the fit will use.
 
 Decision (2026-11-30): skipping is the default. A subject's five walking trials with one broken
 plate in one of them is the common case in a lab's archive; stopping the other four would make
@@ -29,7 +34,7 @@ import dataclasses
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from gc_ocp.errors import InputError
+from gc_ocp.errors import InputError, MassError
 
 
 @dataclasses.dataclass(frozen=True)
@@ -42,10 +47,11 @@ class SkippedTrial:
 
     @property
     def reason(self) -> str:
-        """The message without the file name it starts with (the files are listed beside it)."""
-        for f in self.files:
-            if self.message.startswith(f"{f}: "):
-                return self.message[len(f) + 2 :]
+        """The message without the file name it starts with (the files are listed beside it;
+        the message names a file as it was given, relative or absolute)."""
+        head, sep, rest = self.message.partition(": ")
+        if sep and head and Path(head).resolve() in {Path(f) for f in self.files}:
+            return rest
         return self.message
 
     def describe(self) -> str:
@@ -75,22 +81,37 @@ def usable_trials(
     (:func:`~gc_ocp.io.consistency.check_for_fit` on it alone); see the module doc for what is
     skipped and what is raised."""
     from gc_ocp.io.checks import require_stances
-    from gc_ocp.io.consistency import check_for_fit
+    from gc_ocp.io.consistency import check_for_fit, one_subject
 
-    pairs, skipped = [], []
+    skipped: list[SkippedTrial] = []
+
+    def skip(f, e: InputError) -> None:
+        if strict or len(files) == 1:
+            raise e
+        s = SkippedTrial(_names(f), type(e).__name__, str(e))
+        skipped.append(s)
+        if progress is not None:
+            progress(s.describe())
+
+    loaded = []
     for f in files:
         try:
-            trial = load(f)
+            loaded.append((f, load(f)))
+        except InputError as e:
+            skip(f, e)
+    # one person's one mass before each trial's checks, so that a trial is checked with the
+    # mass the fit will use (trials of two people: raised, not skipped)
+    trials, _ = one_subject([t for _, t in loaded])
+    pairs = []
+    for (f, _), trial in zip(loaded, trials, strict=True):
+        try:
             require_stances(trial)
             pair = (trial, pose(f, trial))
             check_for_fit([pair])  # the fit checks them again, together (a duplicate motion)
+        except MassError:
+            raise  # the subject's mass against the plates: not one trial's property
         except InputError as e:
-            if strict or len(files) == 1:
-                raise
-            s = SkippedTrial(_names(f), type(e).__name__, str(e))
-            skipped.append(s)
-            if progress is not None:
-                progress(s.describe())
+            skip(f, e)
             continue
         pairs.append(pair)
     if not pairs:
