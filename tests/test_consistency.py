@@ -143,6 +143,8 @@ def test_masses_estimated_per_trial_become_one_for_the_subject():
     assert [x.mass for x in pooled] == [pytest.approx(84.667, abs=1e-3)] * 3
     assert pooled[0].mass_source.startswith("ESTIMATE 84.7 kg: the mean")
     assert "83.5, 84.5, 86.0" in note
+    again, notes = one_subject(pooled)  # the fit pools what the loader pooled: nothing changes
+    assert all(a is b for a, b in zip(again, pooled, strict=True)) and notes == []
     # estimates 50 % apart: pooled, but the fit's notes say the plates disagree or two people
     far = [dataclasses.replace(e, mass=m) for e, m in zip(est[:2], (60.0, 90.0), strict=True)]
     _, notes = one_subject(far)

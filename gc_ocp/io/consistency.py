@@ -273,6 +273,8 @@ def one_subject(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
             )
     if not any(_estimated(t) for t in trials):
         return list(trials), []
+    if len({(t.mass, t.mass_source) for t in trials}) == 1:
+        return list(trials), []  # pooled already (its source keeps each trial's estimate)
     recorded = [t for t in trials if not _estimated(t)]
     extra: list[str] = []
     if recorded:
