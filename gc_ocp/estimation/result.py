@@ -47,7 +47,8 @@ class EstimationResult:
     (Gauss-Newton, scaled by the residual variance) or None; status, success: Ipopt's on the
     solve that returned ``x``; iterations, seconds: Ipopt's, totals over every solve of a fit
     (:func:`~gc_ocp.estimation.starts.best_of`'s starts and stages, the widths' rounds; not a bias
-    correction's replicates, which its own block reports); objective = data_cost + prior_cost (``1/2`` squared weighted residuals); n_data:
+    correction's replicates, which its own block reports); objective = data_cost + prior_cost
+    (``1/2`` squared weighted residuals); n_data:
     number of data residuals; n_free: number of estimated scalars (``x.size``); n_param: those
     without a prior (physical parameters); blocks: ``{component name: block}``; components:
     ``{component name: class name}``; rms: ``{side: {channel: RMS}}`` in % BW or % BW x H over

@@ -9,6 +9,7 @@ from gc_ocp.gaps import MAX_GAP_FILL
 from gc_ocp.io._common import foot_markers
 from gc_ocp.io.checks import stride_body_weight
 from gc_ocp.model.markerset import detect_markerset
+from gc_ocp.model.recognition import label_key
 from gc_ocp.trial import GRAVITY, Trial
 
 
@@ -52,7 +53,7 @@ def describe_trial(trial: Trial) -> str:
     )
     names = list(trial.marker_names)
     # a label the file uses twice is shown as the fit names it: LANK, LANK#2
-    shown = [n if (k := names[:i].count(n)) == 0 else f"{n}#{k + 1}" for i, n in enumerate(names)]
+    shown = [label_key(names, i) for i in range(len(names))]
     for side in ("left", "right"):
         idx = foot_markers(trial.marker_names, side)
         twice = sorted({names[i] for i in idx if names.count(names[i]) > 1})
@@ -74,10 +75,10 @@ def describe_trial(trial: Trial) -> str:
             f"{in_stance}"
         )
     if other:
-        shown = ", ".join(other[:8]) + (f" and {len(other) - 8} more" if len(other) > 8 else "")
+        first = ", ".join(other[:8]) + (f" and {len(other) - 8} more" if len(other) > 8 else "")
         lines.append(
             f"  {len(other)} other markers missing in some frames (gaps > {MAX_GAP_FILL} s or "
-            f"the file's ends; none a foot marker within a stance): {shown}"
+            f"the file's ends; none a foot marker within a stance): {first}"
         )
     for p in trial.plates:
         off = p.zero_offset

@@ -107,6 +107,13 @@ class Recognition:
         }
 
 
+def label_key(labels, col: int) -> str:
+    """The name of column ``col`` among ``labels``: its label for the label's first column, and
+    ``label#k`` for its k-th (a file that uses one label twice: ``LANK``, ``LANK#2``)."""
+    k = list(labels[:col]).count(labels[col])
+    return labels[col] if k == 0 else f"{labels[col]}#{k + 1}"
+
+
 def format_mapping(mapping: dict) -> str:
     """A readable table of a :meth:`Recognition.to_json` mapping (for the CLI)."""
     lines = [f"markers of {mapping['source']} (marker set: {mapping['markerset']}):"]
@@ -255,10 +262,8 @@ def recognise_landmarks(
         for c in rest:
             ignored.append((labels[c], c, f"conflict: another label was kept for {key}"))
 
-    # keys: the label for its first column, label#k for the k-th
     def key_of(col: int) -> str:
-        k = labels[:col].count(labels[col])
-        return labels[col] if k == 0 else f"{labels[col]}#{k + 1}"
+        return label_key(labels, col)
 
     matches = []
     for (key, side), col in chosen.items():

@@ -135,18 +135,15 @@ def _require_pairs(trials) -> list:
             and isinstance(item[0], Trial)
             and isinstance(item[1], TrialKinematics)
         )
-        if not ok:
-            got = (
-                "a Trial without its kinematics"
-                if isinstance(item, Trial)
-                else f"{type(item).__name__}"
-                + (
-                    f" of ({', '.join(type(x).__name__ for x in item)})"
-                    if isinstance(item, tuple | list)
-                    else ""
-                )
-            )
-            raise InputError(f"item {i} of the trials is {got}; {how}.")
+        if ok:
+            continue
+        if isinstance(item, Trial):
+            got = "a Trial without its kinematics"
+        elif isinstance(item, tuple | list):
+            got = f"{type(item).__name__} of ({', '.join(type(x).__name__ for x in item)})"
+        else:
+            got = type(item).__name__
+        raise InputError(f"item {i} of the trials is {got}; {how}.")
     return list(trials)
 
 

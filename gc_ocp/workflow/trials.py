@@ -117,7 +117,7 @@ def usable_trials(
     if not pairs:
         raise InputError(
             f"none of the {len(files)} trials can be used: "
-            + "; ".join(f"{' + '.join(s.files)}: {s.message}" for s in skipped)
+            + "; ".join(f"{' + '.join(s.files)}: {s.reason}" for s in skipped)
         )
     return pairs, skipped
 
