@@ -25,6 +25,18 @@ GRAVITY = 9.81
 
 SIDES = ("left", "right")
 
+ESTIMATED = "ESTIMATE"
+"""How ``Trial.mass_source`` / ``height_source`` begin when the package estimated the value
+(from the plates or the markers) rather than read it from a file or an argument: the one test
+of "estimated" (:attr:`Trial.mass_estimated`, :attr:`Trial.height_estimated`)."""
+
+
+def belt_velocity(speed: float) -> np.ndarray:
+    """The velocity in ``lab`` [m/s] of a treadmill belt running at ``speed`` [m/s] (>= 0) under a
+    subject walking along +X: ``(-speed, 0, 0)`` (zeros overground). The inverse is
+    :attr:`Trial.belt_speed`."""
+    return np.array([-float(speed), 0.0, 0.0])
+
 
 def _readonly(a: np.ndarray) -> np.ndarray:
     a = np.array(a, dtype=float, copy=True)
@@ -183,6 +195,21 @@ class Trial:
     def body_weight(self) -> float:
         """Body weight [N] = mass * g."""
         return self.mass * GRAVITY
+
+    @property
+    def belt_speed(self) -> float:
+        """Treadmill belt speed [m/s] (0 overground): see :func:`belt_velocity`."""
+        return float(-self.belt_velocity[0])
+
+    @property
+    def mass_estimated(self) -> bool:
+        """The mass is the package's estimate (:data:`ESTIMATED`), not a file's or the user's."""
+        return self.mass_source.startswith(ESTIMATED)
+
+    @property
+    def height_estimated(self) -> bool:
+        """The height is the package's estimate (:data:`ESTIMATED`), not a file's or the user's."""
+        return self.height_source.startswith(ESTIMATED)
 
     @property
     def name(self) -> str:

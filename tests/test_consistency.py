@@ -155,6 +155,33 @@ def test_masses_estimated_per_trial_become_one_for_the_subject():
     assert str(t.source) in mixed[0].mass_source
 
 
+def test_heights_the_package_estimated_are_not_two_people():
+    """Heights estimated from each trial's markers (a few cm apart between trials of one
+    person) are not compared as recorded ones; the same rule (``Trial.height_estimated``)
+    tells the fit's own estimate and the loader's from a file's."""
+    from gc_ocp.io.consistency import one_subject
+    from gc_ocp.trial import ESTIMATED
+
+    t = c3d_trial()
+    assert not t.mass_estimated and not t.height_estimated  # both in the C3D's parameters
+    est = [
+        _as(t, f"w{i}.c3d", height=h, height_source=f"{ESTIMATED} from the markers")
+        for i, h in enumerate((1.70, 1.80))
+    ]
+    assert all(e.height_estimated for e in est)
+    same, notes = one_subject(est)
+    assert [x.height for x in same] == [1.70, 1.80] and notes == []
+    with pytest.raises(InputError, match="recorded heights differ"):
+        one_subject([dataclasses.replace(e, height_source="given (height=)") for e in est])
+
+
+def test_belt_velocity_and_speed_are_inverse():
+    from gc_ocp.trial import belt_velocity
+
+    t = dataclasses.replace(c3d_trial(), belt_velocity=belt_velocity(1.2))
+    assert t.belt_speed == 1.2 and t.belt_velocity.tolist() == [-1.2, 0.0, 0.0]
+
+
 def test_a_plate_ringing_after_toe_off_is_not_fitted_and_the_fit_says_so(walk):
     """Camargo's plate rings from -151 to +97 N in the 30 ms after a toe-off; its frames were
     fitted as the foot's force (92 % of that fit's data cost). The same ringing put after the

@@ -24,6 +24,7 @@ import numpy as np
 from gc_ocp.errors import InputError, require_file
 from gc_ocp.estimation.components.contact import ContactLaw, Param
 from gc_ocp.foot import SEED_LAYOUT, TrialKinematics
+from gc_ocp.trial import belt_velocity
 
 EXPORTABLE = {
     "contact": "ContactLaw",
@@ -51,6 +52,11 @@ class CalibratedContact:
     height: float
     mass: float
     provenance: Mapping = dataclasses.field(default_factory=dict)
+
+    @property
+    def belt_velocity(self) -> np.ndarray:
+        """The belt's velocity in ``lab`` [m/s] (:func:`gc_ocp.trial.belt_velocity`)."""
+        return belt_velocity(self.belt_speed)
 
     @property
     def units(self) -> tuple[str, ...]:

@@ -74,7 +74,7 @@ def _one_frame(side: str, cal: CalibratedContact) -> StanceData:
         measured=np.zeros((1, 6)),
         reference_point=np.zeros(3),
         ground_height=cal.ground_height,
-        belt_velocity=np.array([-cal.belt_speed, 0.0, 0.0]),
+        belt_velocity=cal.belt_velocity,
         body_weight=cal.body_weight,
         height=cal.height,
     )

@@ -143,7 +143,7 @@ def map_law(
     for side in sorted(kin.feet):
         foot = kin.feet[side]
         pos, vel = foot.unit_trajectories(np.asarray(cal.points[side]))
-        belt = np.array([-cal.belt_speed, 0.0, 0.0])
+        belt = cal.belt_velocity
         n, c, mu = (cal.value(p, side) for p in ("n", "c", "mu"))
         stance = np.zeros(foot.time.size, bool)
         for st_side, idx, _ in _stance_frames(trial, foot.time):
@@ -471,7 +471,7 @@ def model_wrenches(cal: CalibratedContact, trial, kin) -> dict[str, np.ndarray]:
     origin), on the fit's belt: a treadmill trial loaded again has no belt speed until a fit's
     checks find it, and friction against the foot's speed over the ground instead of over the
     belt would be a different model (tens of % BW of anterior force)."""
-    on_belt = dataclasses.replace(trial, belt_velocity=np.array([-cal.belt_speed, 0.0, 0.0]))
+    on_belt = dataclasses.replace(trial, belt_velocity=cal.belt_velocity)
     return foot_wrenches(cal.model(), on_belt, kin, cal.ground_height).wrench
 
 

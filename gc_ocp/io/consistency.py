@@ -43,7 +43,7 @@ from scipy.spatial import ConvexHull
 from gc_ocp.errors import InputError, MarkerError, MassError, PlateError
 from gc_ocp.io.checks import stride_body_weight
 from gc_ocp.io.estimates import estimate_belt_speed
-from gc_ocp.trial import ExcludedStance, Trial
+from gc_ocp.trial import ESTIMATED, ExcludedStance, Trial, belt_velocity
 from gc_ocp.wrench import cop_from_wrench
 
 MASS_TOLERANCE = 0.20
@@ -110,7 +110,7 @@ def duplicates(trials: list[Trial]) -> None:
 def body_weight(trial: Trial) -> list[str]:
     """The mass against the plates over a stride-long window (module doc); none for a mass
     estimated from these plates (the check would compare the plates with themselves)."""
-    if _estimated(trial):
+    if trial.mass_estimated:
         return []
     check = stride_body_weight(trial)
     if check is None:
@@ -136,13 +136,13 @@ def belt(trial: Trial) -> tuple[Trial, list[str]]:
         speed, _ = estimate_belt_speed(trial)
     except MarkerError:
         return trial, []
-    given = float(-trial.belt_velocity[0])
+    given = trial.belt_speed
     if given == 0.0 and speed >= TREADMILL_SPEED:
         msg = (
             f"{trial.source}: the stance feet move backward at {speed:.3f} m/s (a treadmill) but no belt speed "
             f"was given: using {speed:.3f} m/s (refined by the fit; pass --belt-speed to set it)"
         )
-        return dataclasses.replace(trial, belt_velocity=np.array([-speed, 0.0, 0.0])), [msg]
+        return dataclasses.replace(trial, belt_velocity=belt_velocity(speed)), [msg]
     if given != 0.0 and abs(speed) < OVERGROUND_SPEED:
         raise InputError(
             f"{trial.source}: a belt speed of {given:.3f} m/s was given but the stance feet stand still "
@@ -239,23 +239,19 @@ def _stance_problem(trial: Trial, foot, s) -> str | None:
     return None
 
 
-def _estimated(trial: Trial) -> bool:
-    return trial.mass_source.startswith("ESTIMATE")
-
-
 def one_subject(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
     """The trials as one subject's (module doc): different recorded masses or heights raise;
     estimated masses become one. Returns ``(trials, notes)``."""
     if len(trials) < 2:
         return list(trials), []
     for what, values, spread in (
-        ("mass", [(t, t.mass, t.mass_source) for t in trials if not _estimated(t)], None),
+        ("mass", [(t, t.mass, t.mass_source) for t in trials if not t.mass_estimated], None),
         (
             "height",
             [
                 (t, t.height, t.height_source)
                 for t in trials
-                if t.height is not None and not t.height_source.startswith("estimated")
+                if t.height is not None and not t.height_estimated
             ],
             SUBJECT_HEIGHT_SPREAD,
         ),
@@ -271,11 +267,11 @@ def one_subject(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
                 f"each subject's trials on their own (gc-ocp batch fits many subjects), or, if "
                 f"one file's value is wrong, pass --{what} to set it for all."
             )
-    if not any(_estimated(t) for t in trials):
+    if not any(t.mass_estimated for t in trials):
         return list(trials), []
     if len({(t.mass, t.mass_source) for t in trials}) == 1:
         return list(trials), []  # pooled already (its source keeps each trial's estimate)
-    recorded = [t for t in trials if not _estimated(t)]
+    recorded = [t for t in trials if not t.mass_estimated]
     extra: list[str] = []
     if recorded:
         mass = recorded[0].mass
@@ -283,7 +279,9 @@ def one_subject(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
     else:
         mass = float(np.mean([t.mass for t in trials]))
         each = ", ".join(f"{t.mass:.1f}" for t in trials)
-        source = f"ESTIMATE {mass:.1f} kg: the mean of the subject's trials' estimates ({each} kg)"
+        source = (
+            f"{ESTIMATED} {mass:.1f} kg: the mean of the subject's trials' estimates ({each} kg)"
+        )
         spread = max(t.mass for t in trials) / min(t.mass for t in trials) - 1
         if spread > SUBJECT_ESTIMATE_SPREAD:
             extra = [
@@ -292,7 +290,7 @@ def one_subject(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
                 "--mass KG (mass=...)"
             ]
     out = [
-        dataclasses.replace(t, mass=mass, mass_source=source) if _estimated(t) else t
+        dataclasses.replace(t, mass=mass, mass_source=source) if t.mass_estimated else t
         for t in trials
     ]
     note = f"one mass for the subject's {len(trials)} trials: {mass:.1f} kg ({source})"

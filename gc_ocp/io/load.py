@@ -25,7 +25,7 @@ from gc_ocp.io.orientation import (
 from gc_ocp.io.pairing import TRIAL_FIX
 from gc_ocp.io.stances import DEFAULT_THRESHOLD, check_peaks, detect_stances
 from gc_ocp.io.subject import estimate_body_weight, read_subject_metadata
-from gc_ocp.trial import GRAVITY, ExcludedStance, Plate, Trial
+from gc_ocp.trial import ESTIMATED, GRAVITY, ExcludedStance, Plate, Trial, belt_velocity
 
 
 def bundled_example_path() -> Path:
@@ -152,7 +152,7 @@ def load_trial(
         raise InputError(
             f"belt_speed={belt_speed}: give the belt speed as a positive number in m/s."
         )
-    belt = np.array([-(belt_speed or 0.0), 0.0, 0.0])
+    belt = belt_velocity(belt_speed or 0.0)
     trial = Trial(
         source=path,
         marker_names=tuple(raw.marker_names),
@@ -205,7 +205,7 @@ def _estimate_mass(raw, plates, markers, threshold: float, path: Path) -> tuple[
         f"No subject mass in {files}: ESTIMATED {mass:.1f} kg from the force data ({basis}). "
         f"Pass --mass KG (mass=...) to set it."
     )
-    return mass, f"ESTIMATE {mass:.1f} kg from the force data ({basis})"
+    return mass, f"{ESTIMATED} {mass:.1f} kg from the force data ({basis})"
 
 
 def apply_stance_gaps(trial: Trial) -> Trial:

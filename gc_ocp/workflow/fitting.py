@@ -31,7 +31,7 @@ from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
 from gc_ocp.marker_noise import noise_modelled, unit_noise_sd
 from gc_ocp.stance import StanceData, fit_stances, quiet_margins
-from gc_ocp.trial import Trial
+from gc_ocp.trial import ESTIMATED, Trial
 
 MARGIN = 0.03
 """Unloaded frames kept each side of a stance [s]: the model must predict no force there."""
@@ -87,7 +87,7 @@ def _with_height(trial: Trial, kin: TrialKinematics) -> Trial:
         "by the kinematics (pass height=... / --height M to override).",
         stacklevel=3,
     )
-    return dataclasses.replace(trial, height=h, height_source="estimated from markers")
+    return dataclasses.replace(trial, height=h, height_source=f"{ESTIMATED} from the markers")
 
 
 def with_detected_censoring(stances: Sequence[StanceData]) -> list[StanceData]:

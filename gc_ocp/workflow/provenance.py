@@ -41,6 +41,7 @@ def provenance(args, pairs, skipped=()) -> dict:
     from gc_ocp.io.consistency import check_for_fit
     from gc_ocp.io.processing import detect_processing
     from gc_ocp.stance import trial_names
+    from gc_ocp.trial import ESTIMATED
 
     # the stances as the fit uses them: the checks before it exclude a stance whose force is
     # not under its foot (before, such a stance was listed as used)
@@ -56,7 +57,7 @@ def provenance(args, pairs, skipped=()) -> dict:
                 "mass_source": t.mass_source,
                 "height_m": t.height if t.height is not None else kin.info.get("height"),
                 "height_source": t.height_source
-                or ("estimated from markers" if t.height is None else ""),
+                or (f"{ESTIMATED} from the markers" if t.height is None else ""),
                 "belt_velocity_m_s": list(map(float, t.belt_velocity)),
                 "stances_used": [s.label for s in t.stances],
                 "stances_excluded": [
