@@ -174,6 +174,29 @@ def quiet_margins(trial: Trial, stance: Stance, margin: float) -> tuple[float, f
     return t_lo, t_hi, reasons
 
 
+def without_other_loads(
+    trial: Trial, stance: Stance, times: np.ndarray, wrench: np.ndarray
+) -> np.ndarray:
+    """The stance's plate wrench ``(len(times), 6)`` on plate samples ``times`` around it, zero
+    where it is not the foot's: from the first sample after ``t_off`` that reads more than the
+    trial's contact threshold on (up to the last such sample before ``t_on``), the plate rings
+    or carries another load, and the foot, off by the stance detector's definition, exerts
+    nothing (the rule of :func:`quiet_margins`, over the whole plate signal). The clock offset
+    (:class:`~gc_ocp.estimation.components.TimeOffset`) shifts this signal by up to 50 ms
+    beyond the fitted frames: without the rule a cut margin's ringing came back through it."""
+    plate = trial.plates[stance.plate]
+    fz = np.interp(times, plate.time, plate.force[:, 2])  # ``times`` are the plate's samples
+    loud = np.isfinite(fz) & (np.abs(fz) > trial.contact_threshold)
+    out = np.array(wrench, float, copy=True)
+    after = np.flatnonzero(loud & (times > stance.t_off))
+    if after.size:
+        out[after[0] :] = 0.0
+    before = np.flatnonzero(loud & (times < stance.t_on))
+    if before.size:
+        out[: before[-1] + 1] = 0.0
+    return out
+
+
 def _peak(fz: np.ndarray, t: np.ndarray, a: float, b: float) -> float:
     sel = (t >= a - 1e-9) & (t <= b + 1e-9) & np.isfinite(fz)
     seg = fz[sel]
@@ -227,8 +250,9 @@ def stance_data(
     height = float("nan") if trial.height is None else float(trial.height)
     plate = trial.plates[stance.plate]
     t0, t1 = foot.time[0] - PLATE_SIGNAL_MARGIN, foot.time[-1] + PLATE_SIGNAL_MARGIN
-    pt = plate.time[(plate.time >= t0) & (plate.time <= t1)]
-    pw = trial.stance_wrench(stance, pt)
+    around = (plate.time >= t0) & (plate.time <= t1)
+    pt = plate.time[around]
+    pw = without_other_loads(trial, stance, pt, trial.stance_wrench(stance, pt))
     finite = np.isfinite(pw).all(axis=1)
     return StanceData(
         side=stance.side,

@@ -210,6 +210,12 @@ def test_a_plate_ringing_after_toe_off_is_not_fitted_and_the_fit_says_so(walk):
     clean, cut = stance_data(t, k, st, MARGIN), stance_data(rung, k, st, MARGIN)
     assert cut.foot.time[-1] < first_loud <= clean.foot.time[-1]
     assert cut.in_contact.sum() == clean.in_contact.sum()  # the stance itself is whole
+    # the plate signal a clock offset shifts holds the foot's zero from the ringing on, and
+    # the plate's samples, untouched, up to it
+    ringing = cut.plate_time >= first_loud - 1e-9
+    assert ringing.any() and not cut.plate_wrench[ringing].any()
+    same = np.isin(clean.plate_time, cut.plate_time[~ringing])
+    assert np.array_equal(cut.plate_wrench[~ringing], clean.plate_wrench[same])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         notes = fit_data([(rung, k)])[2]

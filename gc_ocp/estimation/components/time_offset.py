@@ -65,7 +65,8 @@ class TimeOffset(Component):
     trial (scope ``"trial"``): the two systems are synchronised once per recording.
 
     How it enters. The plate signal (``StanceData.plate_time``, ``plate_wrench``: the plate's own
-    samples over the stance +- 0.1 s) is low-passed (zero-phase Butterworth, ``lowpass`` Hz) to
+    samples over the stance +- 0.1 s, zero where the plate rings or carries another load:
+    :func:`gc_ocp.stance.without_other_loads`) is low-passed (zero-phase Butterworth, ``lowpass`` Hz) to
     ``F``; :meth:`data` samples ``F`` on the grid ``t + j h``, ``j = -K..K``, of every frame
     (``h`` = ``step``, ``K = ceil(bound / h) + a`` so that the kernel stays on the grid for any
     admissible ``delta``); :meth:`edit_measured` compares the model with::
