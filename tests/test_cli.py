@@ -68,6 +68,28 @@ def test_info_describes_every_readable_trial_and_names_the_unreadable_one(tmp_pa
     assert "Traceback" not in printed.err
 
 
+def test_info_goes_on_past_a_trc_it_cannot_pair(tmp_path, capsys):
+    """A missing TRC and one without ground reactions are named; the C3D is still described
+    (the pairing used to stop the whole run at the first of them)."""
+    from pathlib import Path
+
+    import gc_ocp
+
+    example = Path(gc_ocp.__file__).parent / "data" / "test_small.c3d"
+    (tmp_path / "alone").mkdir()
+    lonely = tmp_path / "alone" / "walk.trc"
+    lonely.write_text("PathFileType\t4\t(X/Y/Z)\twalk.trc\n")
+    args = ["info", str(tmp_path / "missing.trc"), str(lonely), str(example)]
+    assert main(args) == 2
+    printed = capsys.readouterr()
+    assert "missing.trc does not exist" in printed.err
+    assert "walk.trc is a TRC marker file without ground reactions" in printed.err
+    assert "2 of 3 trials could not be read" in printed.err
+    assert "test_small" in printed.out and "Traceback" not in printed.err
+    assert main(["info", str(tmp_path / "missing.trc")]) == 2  # alone: its error, as before
+    assert "missing.trc does not exist" in capsys.readouterr().err
+
+
 def test_kinematics_cli_writes_trajectories_summary_and_figure(tmp_path):
     import numpy as np
 

@@ -96,6 +96,7 @@ def _load_one(args: argparse.Namespace, f):
     values of the command line."""
     from gc_ocp.io import load_trial
 
+    f = f.require()
     return load_trial(
         f.trial, grf=f.grf, mass=args.mass, height=args.height, belt_speed=args.belt_speed
     )
@@ -105,9 +106,9 @@ def _trial_files(args: argparse.Namespace) -> list:
     """The command line's trials paired with their ground reactions, the pairing printed."""
     from gc_ocp.io.pairing import pair_trials
 
-    files = pair_trials(args.trial, args.grf)
+    files = pair_trials(args.trial, args.grf, keep_going=True)
     for f in files:  # what was found, and every trial of a multi-trial command
-        if (f.grf is not None and not args.grf) or len(files) > 1:
+        if f.error is None and ((f.grf is not None and not args.grf) or len(files) > 1):
             _progress(f.describe())
     return files
 

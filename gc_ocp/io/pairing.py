@@ -37,13 +37,24 @@ GRF_SUFFIXES = (".mot", ".sto")
 @dataclasses.dataclass(frozen=True)
 class TrialFiles:
     """One trial's files: ``trial`` (``None``: the bundled example), ``grf`` (TRC only) and how
-    the ground reactions were found (``how``, printed for the user)."""
+    the ground reactions were found (``how``, printed for the user). ``error``: why this
+    trial's files cannot be found (``pair_trials(keep_going=True)``), raised by
+    :meth:`require` when it is loaded, so that the other trials go on."""
 
     trial: Path | None
     grf: Path | None
     how: str
+    error: InputError | None = None
+
+    def require(self) -> TrialFiles:
+        """These files, or the :class:`InputError` that stopped their pairing."""
+        if self.error is not None:
+            raise self.error
+        return self
 
     def describe(self) -> str:
+        if self.error is not None:
+            return f"trial {self.trial}: its files cannot be used (below)"
         if self.trial is None:
             return "trial: the bundled example (gc_ocp/data/test_small.c3d)"
         if self.grf is None:
@@ -83,13 +94,19 @@ def find_grf(trc: Path) -> tuple[Path, str]:
 
 
 def pair_trials(
-    trials: Sequence[str | Path], grfs: Sequence[str | Path] | None = None
+    trials: Sequence[str | Path],
+    grfs: Sequence[str | Path] | None = None,
+    *,
+    keep_going: bool = False,
 ) -> list[TrialFiles]:
     """The files of each trial of ``trials`` (empty: the bundled example).
 
     grfs: ground-reaction files for the TRC trials, in their order (one per TRC trial), or
     empty/None to find each beside its TRC (module doc). Raises :class:`InputError` naming the
-    files and the fix when a TRC cannot be paired."""
+    files and the fix when a TRC cannot be paired; with ``keep_going``, a TRC that is missing
+    or has no ground reactions of its own is returned with its error instead
+    (:meth:`TrialFiles.require`), so that a command describes or fits the others (errors of
+    the trials together, a trial given twice or one file claimed by two, still raise)."""
     paths = [Path(t) for t in trials]
     grfs = [Path(g) for g in (grfs or [])]
     if not paths:
@@ -126,8 +143,14 @@ def pair_trials(
         elif grfs:
             out.append(TrialFiles(p, next(given), "given with --grf"))
         else:
-            require_file(p, "Trial file", TRIAL_FIX)
-            grf, why = find_grf(p)
+            try:
+                require_file(p, "Trial file", TRIAL_FIX)
+                grf, why = find_grf(p)
+            except InputError as e:
+                if not keep_going:
+                    raise
+                out.append(TrialFiles(p, None, "", error=e))
+                continue
             out.append(TrialFiles(p, grf, why))
     if not grfs:
         claimed: dict[Path, Path] = {}
