@@ -121,6 +121,40 @@ def test_bad_input_exits_2_with_one_clear_message(argv, needle, capsys, tmp_path
     assert needle in err and "Traceback" not in err
 
 
+def test_a_holdout_that_names_no_stance_stops_before_the_kinematics(monkeypatch, capsys, tmp_path):
+    """The typo is found on the loaded trials' stances, before inverse kinematics (seconds to
+    minutes a trial): posing a trial here would fail the test with another message."""
+    import gc_ocp.cli.common as common
+
+    def no_kinematics(*_):
+        raise AssertionError("the kinematics were computed before the --holdout check")
+
+    monkeypatch.setattr(common, "_kinematics", no_kinematics)
+    assert main(["fit", "--holdout", "right@9.99", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "matches 0 stances" in err and "test_small:right@0.407s" in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_check_holdout_lets_every_label_the_fit_could_use_through():
+    """A part of the label the fit will make passes (the fit decides which one stance it
+    names); with two trials the names are the stems, with a path's end or the full path."""
+    import dataclasses
+
+    from conftest import c3d_trial
+
+    from gc_ocp.errors import InputError
+    from gc_ocp.workflow.fitting import check_holdout
+
+    t = c3d_trial()
+    other = dataclasses.replace(t, source=t.source.with_name("walk2.c3d"))
+    folder = f"{t.source.parent.name}/walk2:left"  # a name the fit gives when stems collide
+    for ok in ("right@0.407", "test_small:right@0.407s", "walk2:left", folder, "auto", None):
+        check_holdout(ok, [t, other])
+    with pytest.raises(InputError, match="matches 0 stances"):
+        check_holdout("walk3:left", [t, other])
+
+
 def test_trc_without_grf_names_the_option(tmp_path, capsys):
     trc = tmp_path / "walk.trc"
     trc.write_text("PathFileType\t4\n")

@@ -121,11 +121,11 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from gc_ocp.estimation.components import full_model
     from gc_ocp.outputs import OutputSet, check_writable
     from gc_ocp.workflow.fit_files import FIT_OUTPUTS, write_fit
-    from gc_ocp.workflow.fitting import fit
+    from gc_ocp.workflow.fitting import check_holdout, fit
 
     check_writable(args.out)  # before any computation
     model = fit_model(None if args.effects is None else _effect_list(args.effects))
-    pairs, skipped = _load_subject(args)
+    pairs, skipped = _load_subject(args, lambda trials: check_holdout(args.holdout, trials))
     prov = provenance(args, pairs, skipped)
     out = OutputSet(args.out, FIT_OUTPUTS)
     landmarks = {"trials": [kin.info.get("landmarks") for _, kin in pairs]}

@@ -113,7 +113,7 @@ def _trial_files(args: argparse.Namespace) -> list:
     return files
 
 
-def _load_subject(args: argparse.Namespace):
+def _load_subject(args: argparse.Namespace, check_loaded=None):
     """``(pairs, skipped)``: the trials of a fit or diagnosis with their kinematics, a trial
     that cannot be used skipped with its reason when others remain (``--strict-trials``: stop
     instead; :mod:`gc_ocp.workflow.trials`)."""
@@ -125,6 +125,7 @@ def _load_subject(args: argparse.Namespace):
         lambda f, trial: _kinematics(trial, args),
         strict=args.strict_trials,
         progress=_progress,
+        check_loaded=check_loaded,
     )
     for _, kin in pairs:
         _print_landmarks(kin)

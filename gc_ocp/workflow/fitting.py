@@ -15,6 +15,7 @@ stance are reported as ``heldout_rms``.
 from __future__ import annotations
 
 import dataclasses
+import os
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 
@@ -30,7 +31,7 @@ from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
 from gc_ocp.marker_noise import noise_modelled, unit_noise_sd
-from gc_ocp.stance import StanceData, fit_stances, quiet_margins
+from gc_ocp.stance import StanceData, fit_stances, quiet_margins, trial_names
 from gc_ocp.trial import ESTIMATED, Trial
 
 MARGIN = 0.03
@@ -100,6 +101,37 @@ def with_detected_censoring(stances: Sequence[StanceData]) -> list[StanceData]:
         else dataclasses.replace(st, censor_below=stance_censor_threshold(st.plate_wrench))
         for st in stances
     ]
+
+
+def _holdout_index(holdout: str, labels: Sequence[str]) -> int:
+    """The one stance of ``labels`` that ``holdout`` names (its label, or a part of it)."""
+    matches = [i for i, label in enumerate(labels) if label == holdout or holdout in label]
+    if len(matches) != 1:
+        raise InputError(
+            f'--holdout "{holdout}" matches {len(matches)} stances; choose one of {list(labels)}.'
+        )
+    return matches[0]
+
+
+def check_holdout(holdout: str | None, trials: Sequence[Trial]) -> None:
+    """Before the kinematics: raise the error :func:`fit` would raise when ``holdout`` names
+    none of the stances of ``trials``, so that a typo is not found minutes later. Only the
+    case that cannot change is caught here: the fit's labels (``name:side@t_on``) name a trial
+    by an end of its path (:func:`~gc_ocp.stance.trial_names`, over the trials the fit keeps),
+    so a part of one is a part of the label with the whole path; which one stance it names
+    is checked by the fit itself."""
+    if holdout is None or holdout == "auto":
+        return
+    shown, every = [], []
+    for i, (t, name) in enumerate(
+        zip(trials, trial_names([t.source for t in trials]), strict=True)
+    ):
+        path = os.path.splitext(os.path.abspath(t.source))[0].replace(os.sep, "/")
+        for st in t.stances:
+            shown.append(f"{name}:{st.label}")
+            every += [f"{path}:{st.label}", f"{t.name}#{i + 1}:{st.label}"]
+    if not any(holdout in label for label in every):
+        _holdout_index(holdout, shown)
 
 
 def auto_holdout(data: Sequence[StanceData]) -> str | None:
@@ -275,12 +307,7 @@ def fit(
     if holdout == "auto":
         holdout = auto_holdout(data)
     if holdout is not None:
-        matches = [d for d in data if d.label == holdout or holdout in d.label]
-        if len(matches) != 1:
-            raise InputError(
-                f'--holdout "{holdout}" matches {len(matches)} stances; choose one of {[d.label for d in data]}.'
-            )
-        held = matches[0]
+        held = data[_holdout_index(holdout, [d.label for d in data])]
         data = [d for d in data if d is not held]
         if not any(d.side == held.side for d in data):
             raise InputError(
@@ -347,4 +374,4 @@ def fit(
     return report
 
 
-__all__ = ["MARGIN", "FitReport", "auto_holdout", "fit", "fit_data"]
+__all__ = ["MARGIN", "FitReport", "auto_holdout", "check_holdout", "fit", "fit_data"]

@@ -73,11 +73,14 @@ def usable_trials(
     *,
     strict: bool = False,
     progress: Callable[[str], None] | None = None,
+    check_loaded: Callable[[list], None] | None = None,
 ) -> tuple[list, list[SkippedTrial]]:
     """``([(trial, kinematics), ...], [SkippedTrial, ...])`` of ``files`` (each a
     :class:`~gc_ocp.io.pairing.TrialFiles`); ``load(files) -> Trial`` reads one trial and
     ``pose(files, trial) -> TrialKinematics`` computes its kinematics (after the trial is known to have
-    a stance to fit). Each pair passes the checks of one trial before a fit
+    a stance to fit); ``check_loaded(trials)``, if given, checks the command's own arguments
+    against the loaded trials before the kinematics (a ``--holdout`` that names no stance).
+    Each pair passes the checks of one trial before a fit
     (:func:`~gc_ocp.io.consistency.check_for_fit` on it alone); see the module doc for what is
     skipped and what is raised."""
     from gc_ocp.io.checks import require_stances
@@ -102,6 +105,8 @@ def usable_trials(
     # one person's one mass before each trial's checks, so that a trial is checked with the
     # mass the fit will use (trials of two people: raised, not skipped)
     trials, _ = one_subject([t for _, t in loaded])
+    if check_loaded is not None:
+        check_loaded(trials)
     pairs = []
     for (f, _), trial in zip(loaded, trials, strict=True):
         try:
