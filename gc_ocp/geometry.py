@@ -67,3 +67,41 @@ def off_line(points: np.ndarray) -> float:
     axis = (points[j] - points[i]) / max(d[i, j], 1e-12)
     rel = points - points[i]
     return float(np.linalg.norm(rel - np.outer(rel @ axis, axis), axis=1).max())
+
+
+def _sq(v):
+    return v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+
+
+def correction_offset(theta, r, cross=np.cross):
+    """``(R(theta) - I) r``: how a rigid pose correction with rotation parameter ``theta``
+    ``(3,)`` [rad] moves a point at ``r`` ``(3,)`` [m] from the correction's centre.
+
+    ``R(theta) = I + (A + A^2 / 2) / (1 + |theta|^2 / 4)``, ``A = [theta]_x``: the Cayley map of
+    ``theta / 2``, a proper rotation for every ``theta`` (by ``2 atan(|theta| / 2)`` about
+    ``theta``: ``|theta| - |theta|^3 / 12``, 0.06 deg short at 13 deg), and ``I + A`` to first
+    order. The first-order form alone, ``r + theta x r``, is no rotation: at the 13 deg
+    corrections real fits reach it moves a sole point 4 mm off its rigid place, and a simulator
+    given the rigid pose felt tens of % BW less force than the fit. Rational, so smooth with
+    exact derivatives and no branch at 0. Generic in the array type: NumPy (``np.cross``) or
+    CasADi (``cross=ca.cross``, the fit's per-frame function); the one definition of the
+    correction's rotation (:func:`correction_rotation`, :func:`correction_offset_rate`)."""
+    u = cross(theta, r)
+    return (u + 0.5 * cross(theta, u)) / (1.0 + 0.25 * _sq(theta))
+
+
+def correction_offset_rate(theta, theta_dot, r, r_dot, cross=np.cross):
+    """The time derivative of :func:`correction_offset` ``(theta(t), r(t))`` [m/s]."""
+    u = cross(theta, r)
+    u_dot = cross(theta_dot, r) + cross(theta, r_dot)
+    n = u + 0.5 * cross(theta, u)
+    n_dot = u_dot + 0.5 * (cross(theta_dot, u) + cross(theta, u_dot))
+    d = 1.0 + 0.25 * _sq(theta)
+    d_dot = 0.5 * (theta[0] * theta_dot[0] + theta[1] * theta_dot[1] + theta[2] * theta_dot[2])
+    return n_dot / d - n * (d_dot / (d * d))
+
+
+def correction_rotation(theta) -> np.ndarray:
+    """``R(theta)`` ``(3, 3)`` of :func:`correction_offset` (NumPy)."""
+    theta = np.asarray(theta, float)
+    return np.eye(3) + np.column_stack([correction_offset(theta, e) for e in np.eye(3)])

@@ -4,10 +4,10 @@ there.
 
 A fit moves each foot in stance by a small rigid correction about the hindfoot origin (the
 marker-registration and soft-tissue error it estimates, :class:`~gc_ocp.estimation.components.
-pose.PoseCorrection`): ``p' = p + dp + dth x (p - o)``. A simulator has no such correction; it
+pose.PoseCorrection`): ``p' = p + dp + (R(dth) - I)(p - o)``. A simulator has no such correction; it
 has coordinates. For every frame of a fitted stance, the target is the hindfoot placed with the
-correction (rotation ``exp(dth)``; the fit's first-order form differs from it by
-``|dth|^2 / 2`` of the lever arm, 0.2 mm for 3 deg at 15 cm), and the six leg joints (hip 3,
+correction (the rotation the fit applies, :func:`gc_ocp.geometry.correction_rotation`: the
+foot's points land where the fit had them), and the six leg joints (hip 3,
 knee, ankle, subtalar) are solved by Gauss-Newton on the hindfoot's placement (Pinocchio's
 frame Jacobian), each frame anchored to its inverse-kinematics angles (:data:`ANCHOR`: well
 posed near full extension and where the leg cannot reach; as continuous as the inverse
@@ -26,6 +26,7 @@ import numpy as np
 import pinocchio as pin
 
 from gc_ocp.foot import TrialKinematics
+from gc_ocp.geometry import correction_rotation
 
 LEG_JOINTS = ("hip_flexion", "hip_adduction", "hip_rotation", "knee", "ankle", "subtalar")
 """The joints solved per side (``_l`` / ``_r``)."""
@@ -80,26 +81,33 @@ def _solve(body, data, q: np.ndarray, frame: int, cols: list[int], R_t, o_t) -> 
     return q
 
 
+def _corrections(fit_doc: Mapping):
+    """``(stance fit, its pose correction)`` of every stance the fit placed: the fitted ones and
+    the held-out one (``fit_doc["heldout"]``, its own fit under the frozen contact model)."""
+    for doc in (fit_doc, fit_doc.get("heldout") or {}):
+        per_stance = ((doc.get("blocks") or {}).get("pose") or {}).get("stances") or {}
+        for sf in doc.get("stance_fits", []):
+            if sf["label"] in per_stance:
+                yield sf, per_stance[sf["label"]]
+
+
 def fitted_kinematics(
     fit_doc: Mapping, kin: TrialKinematics, points: Mapping, trial: str | None = None
 ) -> FittedKinematics:
-    """The coordinates of ``kin`` with each fitted stance's foot at the fit's corrected pose
-    (module doc); ``fit_doc``: the fit's JSON (``fit.json`` / ``result.to_json()``); ``points``:
+    """The coordinates of ``kin`` with each fitted stance's foot (and the held-out stance's) at
+    the fit's corrected pose (module doc); ``fit_doc``: the fit's JSON (``fit.json`` / ``result.to_json()``); ``points``:
     each foot's unit points (``{side: (5, 3)}``) for the new feet; ``trial``: the name the fit
     gave ``kin``'s trial (its stances' ``trial``), when the fit has several trials: only that
     trial's stances are matched to ``kin``'s frames (None: every stance, a one-trial fit)."""
     from gc_ocp.kinematics.pipeline import foot_kinematics
 
     body = kin.info["body"]
-    pose = (fit_doc.get("blocks") or {}).get("pose") or {}
-    per_stance = pose.get("stances") or {}
     q = np.array(kin.q, float, copy=True)
     data = body.create_data()
     frames: dict[str, int] = {}
     worst_mm = worst_deg = 0.0
-    for sf in fit_doc.get("stance_fits", []):
-        corr = per_stance.get(sf["label"])
-        if corr is None or (trial is not None and sf.get("trial") != trial):
+    for sf, corr in _corrections(fit_doc):
+        if trial is not None and sf.get("trial") != trial:
             continue
         side = sf["side"]
         suffix = side[0]
@@ -120,7 +128,7 @@ def fitted_kinematics(
         foot = kin.feet[side]
         for k, t_corr, r_corr in plan:
             H = foot.hindfoot_pose[k]
-            R_t = pin.exp3(r_corr) @ H[:3, :3]
+            R_t = correction_rotation(r_corr) @ H[:3, :3]
             o_t = H[:3, 3] + t_corr
             q[k] = _solve(body, data, q[k], fid, cols, R_t, o_t)
             pin.framesForwardKinematics(body.model, data, q[k])

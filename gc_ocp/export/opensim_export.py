@@ -30,7 +30,7 @@ import json
 import subprocess
 import sys
 import tempfile
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -589,17 +589,23 @@ def export_opensim(
                 "ground reactions are in the trial's lab frame, which is the model's ground "
                 "when the trial's files are the ones the model was fitted to",
             },
-            "notes": _notes(cal),
+            "notes": _notes(cal, doc),
         }
         outset.text("export.json", json.dumps(doc, indent=2))
         files = outset.commit()
     finally:
         outset.discard()
-    return OpenSimExport(files, mapping, rms, tuple(_notes(cal)))
+    return OpenSimExport(files, mapping, rms, tuple(_notes(cal, doc)))
 
 
-def _notes(cal: CalibratedContact) -> list[str]:
+def _notes(cal: CalibratedContact, doc: Mapping | None = None) -> list[str]:
     notes = []
+    if doc is not None and doc.get("heldout_stance") and not doc.get("heldout"):
+        notes.append(
+            f"the held-out stance {doc['heldout_stance']} keeps its inverse-kinematics pose: "
+            "this fit.json (from gc_ocp before 2026-11-30) has no pose correction of it, and "
+            "the model's forces there are not the held-out fit's; refit to export it corrected"
+        )
     if cal.belt_speed > 0:
         notes.append(
             f"treadmill ({cal.belt_speed:.2f} m/s): OpenSim's half space does not move, so its "

@@ -61,6 +61,9 @@ class FitReport:
             d["heldout_stance"] = self.heldout_label
             d["heldout_pose_correction_rms"] = self.heldout.pose_correction_rms
             d["heldout_flags"] = self.heldout.flags
+            # the held-out stance's own fit (frozen contact, its pose re-estimated): what an
+            # export places that stance's foot with
+            d["heldout"] = self.heldout.to_json()
         d["checks"] = list(self.checks)
         return d
 

@@ -11,6 +11,7 @@ from scipy.interpolate import BSpline
 
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.components.base import Component, DecodeContext, unique_labels
+from gc_ocp.geometry import correction_offset, correction_offset_rate
 from gc_ocp.marker_noise import filter_gain, noise_knot_spacing, noise_modelled
 from gc_ocp.trial import SIDES
 
@@ -45,8 +46,9 @@ def _bspline_basis(time_bytes: bytes, knot_spacing: float) -> tuple[np.ndarray, 
 class PoseCorrection(Component):
     """Smooth small 6-DOF correction of the foot placement over each stance.
 
-    The correction (translation d [m], small rotation theta [rad], both in ``lab`` about the
-    hindfoot origin, applied to first order in theta) is a cubic B-spline in time with
+    The correction (translation d [m], rotation parameter theta [rad], both in ``lab`` about the
+    hindfoot origin; a rigid motion, first order ``theta x r``:
+    :func:`gc_ocp.geometry.correction_offset`) is a cubic B-spline in time with
     ``knot_spacing`` [s] between knots. Its coefficients have a Gaussian prior (``sigma_mm`` [mm],
     ``sigma_deg`` [deg]; a scalar, or one value per ``lab`` axis x, y, z) that ties the corrected
     foot to the placement IK found from the markers. Per-axis values let the prior follow the
@@ -187,15 +189,17 @@ class PoseCorrection(Component):
         return dict(zip(POSE_SLOTS, self.trajectories(variables, index, stance), strict=True))
 
     def edit_points(self, frame) -> None:
-        """Small pose correction about the hindfoot origin (first order in the rotation)."""
+        """Rigid pose correction about the hindfoot origin: ``p' = p + dp + (R(dth) - I)(p -
+        o)``, ``R`` the rotation of :func:`gc_ocp.geometry.correction_offset` (the same one the
+        export places the foot with: ``I + [dth]_x`` to first order, a rotation at any size)."""
         dp, dth, ddp, ddth = (frame.slot(s) for s in POSE_SLOTS)
         h = frame.segments["hindfoot"]
         for i in range(frame.layout.n):
             p, vel = frame.points[i], frame.velocities[i]
             r = p - h.o
             rdot = vel - h.v
-            frame.points[i] = p + dp + ca.cross(dth, r)
-            frame.velocities[i] = vel + ddp + ca.cross(ddth, r) + ca.cross(dth, rdot)
+            frame.points[i] = p + dp + correction_offset(dth, r, ca.cross)
+            frame.velocities[i] = vel + ddp + correction_offset_rate(dth, ddth, r, rdot, ca.cross)
 
     def prior_covariance(self, specs: list, stances: list, x: np.ndarray) -> list[tuple]:
         """Per foot with two or more stances and per axis of the smooth part, ``(cols, C)``
