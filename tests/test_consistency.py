@@ -145,20 +145,30 @@ def test_masses_estimated_per_trial_become_one_for_the_subject():
     assert "83.5, 84.5, 86.0" in note
     again, notes = one_subject(pooled)  # the fit pools what the loader pooled: nothing changes
     assert all(a is b for a, b in zip(again, pooled, strict=True)) and notes == []
-    # estimates 50 % apart: pooled, but the fit's notes say the plates disagree or two people
+    # estimates 20 % apart: pooled, but the fit's notes say the plates disagree or two people
+    apart = [dataclasses.replace(e, mass=m) for e, m in zip(est[:2], (75.0, 90.0), strict=True)]
+    _, notes = one_subject(apart)
+    assert any("mass estimates differ by 20 %" in n and "--mass" in n for n in notes)
+    # 50 % apart (beyond two estimates each within 15 % of one mass): two people or a plate
     far = [dataclasses.replace(e, mass=m) for e, m in zip(est[:2], (60.0, 90.0), strict=True)]
-    _, notes = one_subject(far)
-    assert any("mass estimates differ by 50 %" in n and "--mass" in n for n in notes)
+    with pytest.raises(InputError, match="masses 50 % apart.*w0.c3d: 60.0 kg"):
+        one_subject(far)
+    # an estimate 24 % off another trial's recorded mass (the bundled 63.6 kg against the BTS
+    # subject's plates, 83.5 kg) is not that subject's trial either
+    with pytest.raises(InputError, match=r"plates of .*w0.c3d give 83.5 kg \(\+31%"):
+        one_subject([t, est[0]])
     # a trial with a recorded mass gives it to the others (their estimates are not averaged in)
-    mixed, _ = one_subject([est[0], t, est[2]])
+    near = [dataclasses.replace(e, mass=t.mass * f) for e, f in ((est[0], 1.05), (est[2], 0.9))]
+    mixed, _ = one_subject([near[0], t, near[1]])
     assert [x.mass for x in mixed] == [t.mass] * 3
     assert str(t.source) in mixed[0].mass_source
 
 
 def test_heights_the_package_estimated_are_not_two_people():
     """Heights estimated from each trial's markers (a few cm apart between trials of one
-    person) are not compared as recorded ones; the same rule (``Trial.height_estimated``)
-    tells the fit's own estimate and the loader's from a file's."""
+    person) are not compared as recorded ones but become one height for the subject, so that
+    every stance is in the same % BW x height; the same rule (``Trial.height_estimated``) tells
+    the fit's own estimate and the loader's from a file's."""
     from gc_ocp.io.consistency import one_subject
     from gc_ocp.trial import ESTIMATED
 
@@ -169,8 +179,11 @@ def test_heights_the_package_estimated_are_not_two_people():
         for i, h in enumerate((1.70, 1.80))
     ]
     assert all(e.height_estimated for e in est)
-    same, notes = one_subject(est)
-    assert [x.height for x in same] == [1.70, 1.80] and notes == []
+    same, [note] = one_subject(est)  # one height for the subject, as one mass
+    assert [x.height for x in same] == [pytest.approx(1.75)] * 2 and "1.700, 1.800" in note
+    assert one_subject(same) == (same, [])  # pooled already: nothing changes
+    with_recorded, _ = one_subject([t, *est])  # a trial's recorded height is the subject's
+    assert [x.height for x in with_recorded] == [t.height] * 3
     with pytest.raises(InputError, match="recorded heights differ"):
         one_subject([dataclasses.replace(e, height_source="given (height=)") for e in est])
 
@@ -223,3 +236,17 @@ def test_a_plate_ringing_after_toe_off_is_not_fitted_and_the_fit_says_so(walk):
     high = dataclasses.replace(rung, contact_threshold=200.0)  # the detector's own definition
     assert quiet_margins(high, st, MARGIN)[2] == []
     assert stance_data(high, k, st, MARGIN).foot.time.size == clean.foot.time.size
+
+
+def test_a_contact_threshold_that_finds_no_stance_is_a_clear_error(walk):
+    """A non-positive threshold is refused on load; one above every plate's force leaves a
+    trial without stances, which the fit names (it raised an IndexError in the LLS start)."""
+    import gc_ocp
+    from gc_ocp.errors import InputError
+
+    with pytest.raises(InputError, match="stance_threshold=-5: .*positive number"):
+        gc_ocp.load_trial(stance_threshold=-5)
+    t, k = walk
+    empty = dataclasses.replace(t, stances=(), excluded_stances=(), contact_threshold=5000.0)
+    with pytest.raises(PlateError, match="no usable stance .*5000 N"):
+        gc_ocp.fit([(empty, k)])

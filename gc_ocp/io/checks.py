@@ -94,7 +94,7 @@ def require_stances(trial: Trial) -> None:
     )
     raise PlateError(
         f"{trial.source}: no usable stance ("
-        + (why or "no plate is loaded above the contact threshold")
+        + (why or f"no plate is loaded above the contact threshold, {trial.contact_threshold:g} N")
         + "). A stance needs one foot, fully and alone on one plate, in a walking step: give a "
         "trial where each foot lands cleanly on its own plate, or fix the plate set-up."
         + static_hint(trial.marker_names, trial.markers)

@@ -29,7 +29,9 @@ or excludes a stance / corrects a setting with a warning that is recorded in the
   more than :data:`SUBJECT_HEIGHT_SPREAD`, are trials of different people: error. A mass
   ESTIMATED per trial from its plates is replaced by one value for the subject (the recorded
   mass when another trial has one, else the mean of the trials' estimates), so that every
-  trial's forces are in the same % body weight.
+  trial's forces are in the same % body weight; an estimate more than :data:`MASS_TOLERANCE`
+  off a recorded mass, or estimates more than :data:`SUBJECT_ESTIMATE_LIMIT` apart, are two
+  people or a broken plate: error. Heights estimated per trial become one the same way.
 """
 
 from __future__ import annotations
@@ -64,6 +66,11 @@ SUBJECT_ESTIMATE_SPREAD = 0.10
 so: the estimates from walking strides agree within 5 % on the five BTS trials (81.9-86.0 kg);
 beyond 10 % the trials' plates disagree, or the trials are of two people (a note asking for
 --mass, not an error: a trial starting from standing can estimate 15 % low, docs/data_formats.md)."""
+SUBJECT_ESTIMATE_LIMIT = 0.35
+"""Largest relative difference of one subject's masses ESTIMATED per trial: beyond it, an
+error. A stride's estimate is within a few per cent, one from a trial starting from standing
+up to 15 % low; two estimates within 15 % of one mass are at most 1.15 / 0.85 - 1 = 35 %
+apart, so more is two people or a broken plate (44.7 against 83.5 kg: 87 %)."""
 SUBJECT_HEIGHT_SPREAD = 0.03
 """[m] Largest difference of the heights recorded for one subject's trials (a stadiometer
 reads to a centimetre; 1.76 against 1.58 m are two people)."""
@@ -267,6 +274,12 @@ def one_subject(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
                 f"each subject's trials on their own (gc-ocp batch fits many subjects), or, if "
                 f"one file's value is wrong, pass --{what} to set it for all."
             )
+    trials, notes = _one_mass(trials)
+    trials, more = _one_height(trials)
+    return trials, notes + more
+
+
+def _one_mass(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
     if not any(t.mass_estimated for t in trials):
         return list(trials), []
     if len({(t.mass, t.mass_source) for t in trials}) == 1:
@@ -276,6 +289,16 @@ def one_subject(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
     if recorded:
         mass = recorded[0].mass
         source = f"{recorded[0].mass_source}, in {recorded[0].source} (the subject's trial)"
+        for t in trials:
+            rel = t.mass / mass - 1.0
+            if t.mass_estimated and abs(rel) > MASS_TOLERANCE:
+                raise InputError(
+                    f"The trials are not of one subject, or a plate is wrong: "
+                    f"{recorded[0].source} records {mass:.1f} kg ({recorded[0].mass_source}) but "
+                    f"the plates of {t.source} give {t.mass:.1f} kg ({rel:+.0%}; the body-weight "
+                    f"check's limit is {MASS_TOLERANCE:.0%}). Fit each subject's trials on their "
+                    "own, or pass --mass KG (mass=...) if the recorded value is wrong."
+                )
     else:
         mass = float(np.mean([t.mass for t in trials]))
         each = ", ".join(f"{t.mass:.1f}" for t in trials)
@@ -283,6 +306,12 @@ def one_subject(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
             f"{ESTIMATED} {mass:.1f} kg: the mean of the subject's trials' estimates ({each} kg)"
         )
         spread = max(t.mass for t in trials) / min(t.mass for t in trials) - 1
+        if spread > SUBJECT_ESTIMATE_LIMIT:
+            raise InputError(
+                f"The trials are not of one subject, or a plate is wrong: their plates give "
+                f"masses {100 * spread:.0f} % apart ({'; '.join(f'{t.source}: {t.mass:.1f} kg' for t in trials)}). "
+                "Fit each subject's trials on their own, or pass --mass KG (mass=...)."
+            )
         if spread > SUBJECT_ESTIMATE_SPREAD:
             extra = [
                 f"the trials' mass estimates differ by {100 * spread:.0f} % ({each} kg): if these are "
@@ -295,6 +324,32 @@ def one_subject(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
     ]
     note = f"one mass for the subject's {len(trials)} trials: {mass:.1f} kg ({source})"
     return out, [note, *extra]
+
+
+def _one_height(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
+    """Heights ESTIMATED per trial (from its markers) become one, as masses do: every stance
+    of the subject is then in the same % BW x height (the recorded height where a trial has
+    one, else the mean of the estimates; the kinematics keep the body each was scaled to)."""
+    estimated = [t for t in trials if t.height is not None and t.height_estimated]
+    if not estimated or len({(t.height, t.height_source) for t in estimated}) == 1:
+        return list(trials), []
+    recorded = [t for t in trials if t.height is not None and not t.height_estimated]
+    if recorded:
+        height = float(recorded[0].height)
+        source = f"{recorded[0].height_source}, in {recorded[0].source} (the subject's trial)"
+    else:
+        height = float(np.mean([t.height for t in estimated]))
+        each = ", ".join(f"{t.height:.3f}" for t in estimated)
+        source = (
+            f"{ESTIMATED} {height:.3f} m: the mean of the subject's trials' estimates ({each} m)"
+        )
+    out = [
+        dataclasses.replace(t, height=height, height_source=source)
+        if t.height is not None and t.height_estimated
+        else t
+        for t in trials
+    ]
+    return out, [f"one height for the subject's {len(trials)} trials: {height:.3f} m ({source})"]
 
 
 def check_for_fit(pairs: list) -> tuple[list, list[str]]:

@@ -61,6 +61,12 @@ def load_trial(
     require_file(path, "Trial file", TRIAL_FIX)
     suffix = path.suffix.lower()
     threshold = DEFAULT_THRESHOLD if stance_threshold is None else float(stance_threshold)
+    if not np.isfinite(threshold) or threshold <= 0:
+        raise InputError(
+            f"stance_threshold={stance_threshold!r}: give the vertical force [N] above which a "
+            f"plate counts as loaded, a positive number (default {DEFAULT_THRESHOLD:g} N: above "
+            "a zeroed plate's noise, far below body weight)."
+        )
     if suffix == ".c3d":
         if grf is not None:
             warn(f"{path} is a C3D file: its own plates are used and --grf {grf} is ignored.")

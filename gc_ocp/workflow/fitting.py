@@ -28,6 +28,7 @@ from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, solve
 from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
 from gc_ocp.foot import TrialKinematics
+from gc_ocp.io.checks import require_stances
 from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
 from gc_ocp.marker_noise import noise_modelled, unit_noise_sd
@@ -195,6 +196,8 @@ def fit_data(
     :func:`gc_ocp.stance.trial_names` (``names``: one per trial instead)."""
     say = progress or (lambda s: None)
     trials = _require_pairs(trials)
+    for t, _ in trials:
+        require_stances(t)
     trials, notes = check_for_fit([(_with_height(t, k), k) for t, k in trials])
     for note in notes:
         warnings.warn(note, stacklevel=3)
