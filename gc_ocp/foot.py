@@ -215,7 +215,7 @@ class FootKinematics:
         return self.frames((self.time >= t0 - 1e-9) & (self.time <= t1 + 1e-9))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class TrialKinematics:
     """Result of the kinematics pipeline for one trial.
 
@@ -232,3 +232,11 @@ class TrialKinematics:
     cutoff_hz: float
     marker_names: tuple[str, ...] = ()
     info: dict = field(default_factory=dict)
+
+    def __repr__(self) -> str:  # a notebook's view: what it is, not every array
+        span = f"{self.time[0]:.3f}-{self.time[-1]:.3f} s" if len(self.time) else "no frames"
+        return (
+            f"TrialKinematics({self.trial_name!r}, {len(self.time)} frames {span}, "
+            f"{self.q.shape[-1]} coordinates, feet {sorted(self.feet)}, marker low-pass "
+            f"{self.cutoff_hz:g} Hz)"
+        )

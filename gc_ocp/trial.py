@@ -135,7 +135,7 @@ class ExcludedStance:
     reason: str
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Trial:
     """A walking trial: markers, force plates, subject, stances.
 
@@ -179,6 +179,13 @@ class Trial:
         for attr in ("markers", "marker_time", "belt_velocity", "lab_rotation"):
             object.__setattr__(self, attr, _readonly(getattr(self, attr)))
         object.__setattr__(self, "marker_names", tuple(self.marker_names))
+
+    def __repr__(self) -> str:  # a notebook's view: what it is, not every array
+        return (
+            f"Trial({str(self.source)!r}, {len(self.marker_names)} markers at "
+            f"{self.marker_rate:.0f} Hz, {len(self.plates)} plates, {len(self.stances)} stances "
+            f"({', '.join(s.label for s in self.stances)}), mass {self.mass:.1f} kg)"
+        )
 
     @property
     def marker_rate(self) -> float:

@@ -250,3 +250,24 @@ def test_a_contact_threshold_that_finds_no_stance_is_a_clear_error(walk):
     empty = dataclasses.replace(t, stances=(), excluded_stances=(), contact_threshold=5000.0)
     with pytest.raises(PlateError, match="no usable stance .*5000 N"):
         gc_ocp.fit([(empty, k)])
+
+
+def test_load_trial_finds_a_trcs_ground_reactions_beside_it(tmp_path):
+    """Python's load_trial pairs a TRC as the command line does (its folder's one .mot), with a
+    warning naming the file; a TRC with none beside it names the fix."""
+    import shutil
+
+    from conftest import RAJ
+
+    import gc_ocp
+    from gc_ocp.errors import InputError
+
+    if not RAJ.is_dir():
+        pytest.skip(f"real datasets not found at {RAJ}")
+    shutil.copy(RAJ / "motion_capture_walk.trc", tmp_path / "walk.trc")
+    with pytest.raises(InputError, match="without ground reactions.*--grf"):
+        gc_ocp.load_trial(tmp_path / "walk.trc", mass=85.07)
+    shutil.copy(RAJ / "grf_walk.mot", tmp_path / "grf_walk.mot")
+    with pytest.warns(UserWarning, match="ground reactions from .*grf_walk.mot"):
+        trial = gc_ocp.load_trial(tmp_path / "walk.trc", mass=85.07)
+    assert trial.grf_source == tmp_path / "grf_walk.mot" and len(trial.stances) == 3

@@ -3,7 +3,7 @@ nothing is shown or saved here."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -71,17 +71,24 @@ def plot_wrench_fit(
     return fig
 
 
+def _kilo_newton_per_metre(k: float) -> str:
+    return f"{k / 1000:.1f} kN/m"
+
+
 def plot_sole(
     points_local_by_side: Mapping[str, np.ndarray],
     k: Mapping[str, Mapping[str, float]] | None = None,
     toes_offset: Mapping[str, np.ndarray] | None = None,
     title: str = "",
     layout: SoleLayout = SEED_LAYOUT,
+    label: Callable[[float], str] | None = None,
 ) -> Figure:
     """Top view of each sole with its units, labelled with their stiffness.
 
     points_local_by_side: ``{side: (m, 3)}`` unit positions in their parent frame [m] (x
-    anterior, y left), one row per unit of ``layout``; k: ``{side: {unit: k [N/m]}}``;
+    anterior, y left), one row per unit of ``layout``; k: ``{side: {unit: value}}``, each
+    unit's stiffness (the seed's linear k [N/m] by default) or, with ``label`` (how a value is
+    printed, with its unit), another measure of it such as the force at a reference depth;
     toes_offset: ``{side: (3,)}`` toes-frame origin in the hindfoot frame [m], added to the units
     on the toes (default: drawn as given). Negative k is drawn hollow. The outline joins the
     units in angular order about their centroid.
@@ -116,7 +123,7 @@ def plot_sole(
                 edgecolors="C0",
                 zorder=3,
             )
-            text = u if val is None else f"{u}\n{val / 1000:.1f} kN/m"
+            text = u if val is None else f"{u}\n{(label or _kilo_newton_per_metre)(val)}"
             ax.annotate(
                 text,
                 (pts[i, 1] * 100, pts[i, 0] * 100),

@@ -6,15 +6,17 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from gc_ocp.contact.plots import plot_sole, plot_wrench_fit
-from gc_ocp.estimation.result import EstimationResult
+from gc_ocp.estimation.components.contact import ContactLaw
+from gc_ocp.estimation.result import as_result
 from gc_ocp.foot import SoleLayout
 
+REFERENCE_DEPTH = ContactLaw.reference_depth
 
-def plot_fit(
-    result: EstimationResult, title: str = "measured (solid) vs fitted (dashed)"
-) -> Figure:
-    """Measured vs fitted six channels per foot, every stance."""
-    f = result.stance_fits
+
+def plot_fit(result, title: str = "measured (solid) vs fitted (dashed)") -> Figure:
+    """Measured vs fitted six channels per foot, every stance; ``result``: a fit (what
+    :func:`gc_ocp.fit` returns), its result or its ``fit.json`` (:func:`as_result`)."""
+    f = as_result(result).stance_fits
     return plot_wrench_fit(
         [s["time"] for s in f],
         [s["measured"] for s in f],
@@ -25,8 +27,11 @@ def plot_fit(
     )
 
 
-def plot_sole_fit(result: EstimationResult) -> Figure:
-    """Each sole from above: corrected units (filled, labelled with k) and nominal ones (x)."""
+def plot_sole_fit(result) -> Figure:
+    """Each sole from above: corrected units (filled, sized and labelled by their force at the
+    law's reference depth, the quantity the fit identifies: k [N/m^n] alone means nothing
+    across exponents) and nominal ones (x); ``result`` as for :func:`plot_fit`."""
+    result = as_result(result)
     pts, nominal, toes, units = {}, {}, {}, {}
     for fit in result.stance_fits:
         if fit["side"] in pts:
@@ -35,25 +40,32 @@ def plot_sole_fit(result: EstimationResult) -> Figure:
         nominal[fit["side"]] = np.asarray(fit["nominal_points"])
         toes[fit["side"]] = np.asarray(fit["toes_offset"])
         units[fit["side"]] = fit["units"]
-    k = {s: {u: result.params[s][u]["k"] for u in units[s]} for s in pts if s in result.params}
+    f_ref = {
+        s: {u: result.params[s][u]["f_ref"] for u in units[s]} for s in pts if s in result.params
+    }
     layout = SoleLayout(
         tuple(result.stance_fits[0]["units"]), tuple(result.stance_fits[0]["parents"])
     )
     fig = plot_sole(
-        pts, k=k, toes_offset=toes, title="sole units: nominal (x) and corrected (o)", layout=layout
+        pts,
+        k=f_ref,
+        toes_offset=toes,
+        title=f"sole units: nominal (x) and corrected (o); force at {1e3 * REFERENCE_DEPTH:g} mm",
+        layout=layout,
+        label=lambda f: f"{f:.0f} N",
     )
     for ax, side in zip(fig.axes, pts, strict=False):
         nom = nominal[side].copy()
         nom[list(layout.on("toes"))] += toes[side]
-        ax.scatter(
-            nom[:, 1] * 100, nom[:, 0] * 100, marker="x", color="C3", zorder=4, label="nominal"
-        )
-        ax.legend(fontsize=7, loc="lower right")
+        ax.scatter(nom[:, 1] * 100, nom[:, 0] * 100, marker="x", color="C3", zorder=4)
+        ax.margins(0.15)  # room for the labels (the title names the markers: no legend over them)
     return fig
 
 
-def plot_pose_corrections(result: EstimationResult) -> Figure:
-    """Foot-pose corrections over time: translation [mm] and rotation [deg] per stance."""
+def plot_pose_corrections(result) -> Figure:
+    """Foot-pose corrections over time: translation [mm] and rotation [deg] per stance;
+    ``result`` as for :func:`plot_fit`."""
+    result = as_result(result)
     fig = Figure(figsize=(9, 5), layout="constrained")
     ax_t, ax_r = fig.subplots(2, 1, sharex=True)
     pose = result.blocks.get("pose", {}).get("stances", {})

@@ -17,7 +17,9 @@ import numpy as np
 
 from gc_ocp._version import __version__
 from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
+from gc_ocp.errors import InputError, require_file
 from gc_ocp.estimation.components import describe_block
+from gc_ocp.estimation.components.contact import ContactLaw
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
 from gc_ocp.trial import SIDES
@@ -136,12 +138,12 @@ class EstimationResult:
                     f"{side:>5} k [N/m^n]: " + ", ".join(_shown(p, u, "k", ".3g") for u in units)
                 )
                 lines.append(
-                    f"{side:>5} force at the reference depth [N]: "
+                    f"{side:>5} force at the {1e3 * ContactLaw.reference_depth:g} mm reference depth [N]: "
                     + ", ".join(_shown(p, u, "f_ref", ".0f") for u in units)
                 )
             r = self.rms[side]
             lines.append(
-                f"{side:>5} RMS: "
+                f"{side:>5} RMS [% BW; torques % BW x height]: "
                 + ", ".join(f"{c.split('_')[0]} {r[c]:.2f}" for c in r)
                 + f"; COP {self.cop_rms_mm.get(side, float('nan')):.1f} mm"
             )
@@ -217,11 +219,11 @@ class EstimationResult:
     @classmethod
     def from_json(cls, d: dict | str) -> EstimationResult:
         """The result written by :meth:`to_json` (a dict, or a path / text of ``fit.json``)."""
-        if isinstance(d, str) or hasattr(d, "read_text"):
-            text = (
-                str(d) if isinstance(d, str) and d.lstrip().startswith("{") else Path(d).read_text()
-            )
-            d = json.loads(text)
+        if isinstance(d, str) and d.lstrip().startswith("{"):
+            d = json.loads(d)
+        elif isinstance(d, str) or hasattr(d, "read_text"):
+            require_file(Path(d), "Fit file", "give the fit.json gc-ocp fit wrote.")
+            d = json.loads(Path(d).read_text())
         fits = []
         for f in d["stance_fits"]:
             f = dict(f)
@@ -251,6 +253,21 @@ class EstimationResult:
             covariance=None if d.get("covariance") is None else np.asarray(d["covariance"], float),
             flags=list(d.get("flags", [])),
         )
+
+
+def as_result(fit) -> EstimationResult:
+    """The :class:`EstimationResult` of ``fit``: itself, a ``FitReport``'s (what
+    :func:`gc_ocp.fit` returns), or read from a ``fit.json`` (a dict, its text or its path)."""
+    if isinstance(fit, EstimationResult):
+        return fit
+    if isinstance(getattr(fit, "result", None), EstimationResult):  # a FitReport
+        return fit.result
+    if isinstance(fit, dict | str | Path):
+        return EstimationResult.from_json(fit)
+    raise InputError(
+        f"expected a fit (what gc_ocp.fit returns), its .result or its fit.json, but got "
+        f"{type(fit).__name__}"
+    )
 
 
 def _shown(p: dict, unit: str, key: str, fmt: str) -> str:
@@ -302,4 +319,4 @@ def _per_bw(fit: dict, wrench: np.ndarray) -> np.ndarray:
     )
 
 
-__all__ = ["EstimationResult", "fit_quality"]
+__all__ = ["EstimationResult", "as_result", "fit_quality"]

@@ -118,7 +118,7 @@ def casadi_function(
     the feet (default both the fit has); ``trial``: the fit's trial whose unit points are baked
     in (a fit of several trials: each trial's kinematics place the points; default the first)."""
     cal = CalibratedContact.from_fit(fit, trial=trial)
-    sides = tuple(sides or sorted(cal.points))
+    sides = (sides,) if isinstance(sides, str) else tuple(sides or sorted(cal.points))
     unknown = [s for s in sides if s not in cal.points]
     if unknown:
         raise InputError(f"the fit has no {unknown} foot; it has {sorted(cal.points)}")

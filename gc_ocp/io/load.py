@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import dataclasses
+import os
 import warnings
 from importlib import resources
 from pathlib import Path
@@ -22,7 +23,7 @@ from gc_ocp.io.orientation import (
     mirrored_pairs,
     walking_rotation,
 )
-from gc_ocp.io.pairing import TRIAL_FIX
+from gc_ocp.io.pairing import TRIAL_FIX, find_grf
 from gc_ocp.io.stances import DEFAULT_THRESHOLD, check_peaks, detect_stances
 from gc_ocp.io.subject import estimate_body_weight, read_subject_metadata
 from gc_ocp.trial import ESTIMATED, GRAVITY, ExcludedStance, Plate, Trial, belt_velocity
@@ -45,8 +46,9 @@ def load_trial(
 ) -> Trial:
     """Load a walking trial into a :class:`~gc_ocp.trial.Trial`.
 
-    path: ``.c3d`` file, or ``.trc`` marker file (then ``grf`` is required); ``None`` = bundled
-        example. grf: OpenSim ``.mot``/``.sto`` ground reactions for a TRC.
+    path: ``.c3d`` file, or ``.trc`` marker file; ``None`` = bundled example. grf: OpenSim
+        ``.mot``/``.sto`` ground reactions for a TRC (``None``: the file beside it, found as the
+        command line finds it, :func:`gc_ocp.io.pairing.find_grf`, with a warning naming it).
     mass: subject mass in [kg]; overrides the file. Otherwise: the file (C3D PROCESSING:Bodymass
         ...), subject metadata beside the trial (:func:`gc_ocp.io.subject.read_subject_metadata`),
         else an ESTIMATE from the force data with a warning (``Trial.mass_source`` says which).
@@ -57,6 +59,11 @@ def load_trial(
         :func:`estimate_belt_speed`.
     stance_threshold: vertical-force contact threshold in [N] (default 20 N).
     """
+    if path is not None and not isinstance(path, str | os.PathLike):
+        raise InputError(
+            f"load_trial takes one trial's file, but got {type(path).__name__}: load each "
+            "trial of a subject on its own, [gc_ocp.load_trial(p) for p in paths]."
+        )
     path = bundled_example_path() if path is None else Path(path)
     require_file(path, "Trial file", TRIAL_FIX)
     suffix = path.suffix.lower()
@@ -72,11 +79,9 @@ def load_trial(
             warn(f"{path} is a C3D file: its own plates are used and --grf {grf} is ignored.")
         raw = read_c3d(path)
     elif suffix == ".trc":
-        if grf is None:
-            raise InputError(
-                f"{path} is a TRC marker file without ground reactions: give --grf FILE "
-                f"(grf=FILE.mot/.sto with the OpenSim ground_force_* columns)."
-            )
+        if grf is None:  # beside it, as the command line finds it (gc_ocp.io.pairing)
+            grf, why = find_grf(path)
+            warn(f"{path}: ground reactions from {grf} ({why}); pass grf=FILE to choose another.")
         grf = Path(grf)
         require_file(grf, "Ground-reaction file", "give the trial's .mot or .sto file (--grf).")
         if grf.suffix.lower() not in (".mot", ".sto"):

@@ -390,6 +390,12 @@ def compute_kinematics(
     """
     if foot_roll not in FOOT_ROLLS:
         raise InputError(f'foot_roll must be one of {FOOT_ROLLS}, but got "{foot_roll}"')
+    if not isinstance(trial, Trial):
+        raise InputError(
+            f"compute_kinematics takes one loaded trial, but got {type(trial).__name__}: "
+            "trial = gc_ocp.load_trial(path); kin = gc_ocp.compute_kinematics(trial) (one "
+            "call per trial of a subject)."
+        )
     say = progress or (lambda s: None)
     if markerset is None:
         markerset = detect_markerset(trial.marker_names, trial.markers, trial.source)

@@ -149,6 +149,21 @@ def auto_holdout(data: Sequence[StanceData]) -> str | None:
     return [d for d in data if d.side == side][-1].label
 
 
+def _require_model(model, name: str) -> None:
+    """``model`` is None or a tuple of components, else :class:`InputError` with the fix."""
+    from gc_ocp.estimation.components.base import Component
+
+    if model is None or (
+        isinstance(model, tuple | list) and model and all(isinstance(c, Component) for c in model)
+    ):
+        return
+    raise InputError(
+        f"{name}={model!r}: give a tuple of components, e.g. gc_ocp.full_model(); to add "
+        "effects by name: gc_ocp.model_from_names(['friction'], "
+        "base=gc_ocp.full_model())."
+    )
+
+
 def _require_pairs(trials) -> list:
     """``trials`` as a list of ``(Trial, TrialKinematics)`` pairs (an iterator of them read
     once), else :class:`InputError` (``fit([trial])`` or ``fit(trial, kin)`` are the usual
@@ -294,6 +309,13 @@ def fit(
     lead: a pose prior whose variance sits in the low frequencies*).
     """
     say = progress or (lambda s: None)
+    _require_model(model, "model")
+    _require_model(extends, "extends")
+    if holdout is not None and not isinstance(holdout, str):
+        raise InputError(
+            f"holdout={holdout!r}: give a stance's label or a part of it, e.g. "
+            '"right@0.407" (gc-ocp info lists them), or "auto".'
+        )
     if pose_correlation and not pose_scale:
         raise InputError(
             "The pose correction's knot correlation is estimated in the pose width's rounds: "

@@ -1,0 +1,63 @@
+"""The Python API's usual slips end in one clear InputError naming the fix (a first-time
+user's session, 2026-11-30: each of these raised a TypeError, AttributeError or IndexError
+from deep inside), and a notebook shows a trial and its kinematics in one line."""
+
+from __future__ import annotations
+
+import warnings
+
+import pytest
+
+import gc_ocp
+from gc_ocp.errors import InputError
+
+
+@pytest.fixture(scope="module")
+def pair():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        trial = gc_ocp.load_trial()
+        return trial, gc_ocp.compute_kinematics(trial)
+
+
+@pytest.mark.parametrize(
+    "call, needle",
+    [
+        (lambda t, k: gc_ocp.load_trial(["a.c3d", "b.c3d"]), "one trial's file, but got list"),
+        (lambda t, k: gc_ocp.compute_kinematics([t]), "one loaded trial, but got list"),
+        (lambda t, k: gc_ocp.compute_kinematics("walk.c3d"), "one loaded trial, but got str"),
+        (lambda t, k: gc_ocp.fit([(t, k)], holdout=0), "holdout=0: give a stance"),
+        (lambda t, k: gc_ocp.fit([(t, k)], model=["friction"]), "model_from_names"),
+        (lambda t, k: gc_ocp.fit([(t, k)], model="full"), "give a tuple of components"),
+        (lambda t, k: gc_ocp.plot_fit(3), "expected a fit"),
+        (lambda t, k: gc_ocp.plot_fit("no_such_fit.json"), "does not exist"),
+    ],
+)
+def test_a_slip_is_one_clear_error(pair, call, needle):
+    with pytest.raises(InputError, match=needle):
+        call(*pair)
+
+
+def test_figures_take_the_fit_itself_and_a_side_by_name(pair, tmp_path):
+    """``plot_fit(report)`` (what fit returns), its result and its fit.json give one figure;
+    the exported law takes ``sides="left"`` as one side (it read "l", "e", "f", "t")."""
+    import json
+
+    from gc_ocp.export import casadi_function
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        report = gc_ocp.fit([pair])
+    path = tmp_path / "fit.json"
+    path.write_text(json.dumps(report.to_json()))
+    lines = [len(gc_ocp.plot_fit(x).axes[0].lines) for x in (report, report.result, path)]
+    assert lines[0] > 0 and len(set(lines)) == 1
+    assert casadi_function(report, sides="left").name_out() == ["left_wrench", "left_unit_forces"]
+
+
+def test_a_trial_and_its_kinematics_print_in_one_line(pair):
+    trial, kin = pair
+    for text in (repr(trial), repr(kin)):
+        assert "\n" not in text and len(text) < 300
+    assert "3 stances" in repr(trial) and "63.6 kg" in repr(trial)
+    assert "27 coordinates" in repr(kin)
