@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import dataclasses
 import time
-import warnings
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -180,10 +179,7 @@ def fit_model(
     The seed's LLS is rank deficient on many folds (a unit never loaded in the remaining
     stances); it only sets the law's start and prior centre, so its warning is given once, on
     the base's fit of all stances (``start`` None), not once per fold and candidate."""
-    with warnings.catch_warnings():
-        if start is not None:
-            warnings.filterwarnings("ignore", message="LLS initialisation not possible")
-        model = with_lls_start(model, data)
+    model = with_lls_start(model, data, quiet=start is not None)
     if start is not None:
         try:
             return best_of(
@@ -293,7 +289,9 @@ def _score_heldout(
     stance-scope nuisance is re-estimated under its prior, from the prior mean and, when given,
     also from where a parent model's held-out fit left it (the nuisance's optimum is not unique;
     the lower objective is kept)."""
-    hp = build_estimation([held], frozen_model(with_lls_start(model, train), tr), weights)
+    hp = build_estimation(
+        [held], frozen_model(with_lls_start(model, train, quiet=True), tr), weights
+    )
     hr = solve(hp, options, raise_on_failure=False, covariance=False)
     if parent_heldout is not None:
         warm = solve(

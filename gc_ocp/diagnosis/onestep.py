@@ -24,7 +24,6 @@ training step per group and one nuisance step per held-out stance.
 from __future__ import annotations
 
 import dataclasses
-import warnings
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -136,9 +135,7 @@ def fold_prior_means(
     training fit has its own (the one-step fits of :func:`heldout_energy` use it)."""
 
     def means(sts):
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message="LLS initialisation not possible")
-            _, _, v = declare(list(sts), with_lls_start(model, list(sts)))
+        _, _, v = declare(list(sts), with_lls_start(model, list(sts), quiet=True))
         pm, pw = v.vector("prior_mean"), v.vector("prior_weight")
         return {s.key: pm[s.slice] for s in v.specs if (pw[s.slice] > 0).any()}
 

@@ -29,18 +29,21 @@ TYPICAL_DEPTH = 0.005
 stiffness of an exponent-n law: k_n = k_1 * TYPICAL_DEPTH**(1 - n) (equal force at that depth)."""
 
 
-def lls_k0(stances: list, n0: float) -> dict | None:
+def lls_k0(stances: list, n0: float, quiet: bool = False) -> dict | None:
     """Initial per-unit stiffness of an exponent-``n0`` law from the seed's linear least squares
     on ``stances``: negative or tiny LLS stiffnesses are raised to a floor (10 % of the median
     positive one, at least 1e3 N/m), then converted with :data:`TYPICAL_DEPTH`. ``None`` (with a
-    warning) when the LLS is rank deficient. A foot without stances gets the floor (the model
-    declares both feet)."""
+    warning, unless ``quiet``: a fold's or a replicate's fit, where a unit that never touches
+    the fold's stances is expected and the fit of all stances has said it) when the LLS is rank
+    deficient. A foot without stances gets the floor (the model declares both feet)."""
     st0 = stances[0]
     try:
         res = fit_stiffness_lls(
             list(stances), st0.body_weight, st0.body_weight * (st0.height or 1.7)
         )
     except RankError as e:
+        if quiet:
+            return None
         warnings.warn(
             f"LLS initialisation not possible ({e}); starting from a uniform stiffness.",
             stacklevel=2,
@@ -58,13 +61,13 @@ def lls_k0(stances: list, n0: float) -> dict | None:
     return out
 
 
-def with_lls_start(model: tuple, stances: list) -> tuple:
+def with_lls_start(model: tuple, stances: list, quiet: bool = False) -> tuple:
     """``model`` with its contact law (the component with ``with_initial_k``) started at the
     seed's linear least squares on ``stances`` (:func:`lls_k0`)."""
     law = next((c for c in model if hasattr(c, "with_initial_k")), None)
     if law is None:
         return model
-    k0 = lls_k0(stances, float(law.n.value_for(SIDES[0])))
+    k0 = lls_k0(stances, float(law.n.value_for(SIDES[0])), quiet)
     return tuple(c.with_initial_k(k0) if c is law else c for c in model)
 
 
