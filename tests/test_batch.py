@@ -186,6 +186,10 @@ def test_a_broken_trial_is_recorded_and_the_others_complete_then_a_rerun_skips_t
         [skip] = json.loads((out / "S1" / "fit.json").read_text())["provenance"]["trials_skipped"]
         assert skip["files"] == [str(extra.resolve())] and "truncated" in skip["message"]
         assert rows[("S1", "right")]["heldout_stance"]  # "auto": the right foot has two
+        law = json.loads((out / "S1" / "fit.json").read_text())["blocks"]["contact"]
+        for foot in ("left", "right"):  # the units whose force the data do not fix, by name
+            weak = [u for u, e in law[foot].items() if isinstance(e, dict) and not e["identified"]]
+            assert (rows[("S1", foot)]["units_not_identified"] or "") == "; ".join(weak)
         page = (out / "summary.html").read_text(encoding="utf-8")
         # self-contained but for the subjects' own reports beside it
         assert set(re.findall(r'href="([^"]+)"', page)) == {"S1/report.html"}  # one per foot row

@@ -34,6 +34,7 @@ COLUMNS = (
     "height_m",
     *(f"{p}{s}" for p in SHARED for s in ("", "_se")),
     *(f"f_ref_{u}_N{s}" for u in UNITS for s in ("", "_se")),
+    "units_not_identified",
     *(f"rms_{c}" for c in CHANNELS),
     "cop_rms_mm",
     "heldout_stance",
@@ -49,7 +50,9 @@ COLUMNS = (
     "error_message",
     "error_fix",
 )
-"""The summary's columns, in order (``f_ref``: a unit's force at the reference depth [N])."""
+"""The summary's columns, in order (``f_ref``: a unit's force at the reference depth [N];
+``units_not_identified``: the units whose force the data do not fix, ``"PM; AM"``, whose
+``f_ref`` is a value with no meaning beside its SE: leave them out of a group's statistics)."""
 
 NUMERIC = frozenset(
     c
@@ -59,6 +62,7 @@ NUMERIC = frozenset(
         "subject",
         "foot",
         "status",
+        "units_not_identified",
         "heldout_stance",
         "flag_codes",
         "diagnosis_selected",
@@ -123,6 +127,9 @@ def subject_rows(subject, fit_doc: dict, diagnosis: dict | None) -> list[dict]:
         for u in UNITS:
             e = units.get(u, {})
             values[f"f_ref_{u}_N"], values[f"f_ref_{u}_N_se"] = e.get("f_ref"), e.get("f_ref_se")
+        values["units_not_identified"] = "; ".join(
+            u for u in UNITS if units.get(u, {}).get("identified") is False
+        )
         for c in CHANNELS:
             values[f"rms_{c}"] = fit_doc["rms"][foot].get(c)
             values[f"heldout_rms_{c}"] = held.get(foot, {}).get(c)
