@@ -51,7 +51,9 @@ def test_forces_of_another_motion_are_refused(walk):
 @pytest.mark.parametrize("mass", [45.0, 90.0])
 def test_wrong_mass_is_refused(walk, mass):
     t, k = walk
-    with pytest.raises(InputError, match=r"check --mass \(the plates suggest 6\d\.\d kg\)"):
+    with pytest.raises(
+        InputError, match=r"check the mass \(--mass KG, mass=...; the plates suggest 6\d\.\d kg\)"
+    ):
         check_for_fit([(dataclasses.replace(t, mass=mass), k)])
 
 

@@ -131,5 +131,5 @@ def test_the_subject_s_mass_against_the_plates_is_not_skipped_as_one_trial_s_pro
     def wrong_mass(f):
         return dataclasses.replace(_load(f), mass=_bundled()[0].mass * 1.3, mass_source="given")
 
-    with pytest.raises(MassError, match="check --mass"):
+    with pytest.raises(MassError, match="check the mass"):
         usable_trials(_files("good.c3d", "good2.c3d"), wrong_mass, _pose)

@@ -132,7 +132,7 @@ def body_weight(trial: Trial) -> list[str]:
     if abs(rel) > MASS_TOLERANCE:
         raise MassError(
             msg
-            + f"; check --mass (the plates suggest {plates / 9.81:.1f} kg) or the plate calibration."
+            + f"; check the mass (--mass KG, mass=...; the plates suggest {plates / 9.81:.1f} kg) or the plate calibration."
         )
     return [msg + "; check the mass"] if abs(rel) > MASS_WARNING else []
 

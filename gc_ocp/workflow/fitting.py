@@ -112,7 +112,8 @@ def _holdout_index(holdout: str, labels: Sequence[str]) -> int:
     matches = [i for i, label in enumerate(labels) if label == holdout or holdout in label]
     if len(matches) != 1:
         raise InputError(
-            f'--holdout "{holdout}" matches {len(matches)} stances; choose one of {list(labels)}.'
+            f'holdout "{holdout}" (--holdout) matches {len(matches)} stances; choose one of '
+            f"{list(labels)}."
         )
     return matches[0]
 
