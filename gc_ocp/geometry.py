@@ -82,7 +82,8 @@ def correction_offset(theta, r, cross=np.cross):
     ``theta``: ``|theta| - |theta|^3 / 12``, 0.06 deg short at 13 deg), and ``I + A`` to first
     order. The first-order form alone, ``r + theta x r``, is no rotation: at the 13 deg
     corrections real fits reach it moves a sole point 4 mm off its rigid place, and a simulator
-    given the rigid pose felt tens of % BW less force than the fit. Rational, so smooth with
+    given the rigid pose felt another force than the fit's (vertical 2.5-7 % BW RMS, 23.5 at
+    worst, on the bundled trial: ``docs/export.md``). Rational, so smooth with
     exact derivatives and no branch at 0. Generic in the array type: NumPy (``np.cross``) or
     CasADi (``cross=ca.cross``, the fit's per-frame function); the one definition of the
     correction's rotation (:func:`correction_rotation`, :func:`correction_offset_rate`)."""

@@ -155,8 +155,8 @@ def test_masses_estimated_per_trial_become_one_for_the_subject():
     far = [dataclasses.replace(e, mass=m) for e, m in zip(est[:2], (60.0, 90.0), strict=True)]
     with pytest.raises(InputError, match="masses 50 % apart.*w0.c3d: 60.0 kg"):
         one_subject(far)
-    # an estimate 24 % off another trial's recorded mass (the bundled 63.6 kg against the BTS
-    # subject's plates, 83.5 kg) is not that subject's trial either
+    # an estimate 31 % above another trial's recorded mass (the BTS subject's plates, 83.5 kg,
+    # against the bundled trial's 63.6 kg) is not that subject's trial either
     with pytest.raises(InputError, match=r"plates of .*w0.c3d give 83.5 kg \(\+31%"):
         one_subject([t, est[0]])
     # a trial with a recorded mass gives it to the others (their estimates are not averaged in)
@@ -186,6 +186,9 @@ def test_heights_the_package_estimated_are_not_two_people():
     assert one_subject(same) == (same, [])  # pooled already: nothing changes
     with_recorded, _ = one_subject([t, *est])  # a trial's recorded height is the subject's
     assert [x.height for x in with_recorded] == [t.height] * 3
+    alone, [note] = one_subject([t, est[0]])  # one estimated trial beside it too
+    assert [x.height for x in alone] == [t.height] * 2 and "one height" in note
+    assert one_subject(alone)[1] == []  # and then nothing more to do
     with pytest.raises(InputError, match="recorded heights differ"):
         one_subject([dataclasses.replace(e, height_source="given (height=)") for e in est])
 
@@ -238,6 +241,29 @@ def test_a_plate_ringing_after_toe_off_is_not_fitted_and_the_fit_says_so(walk):
     high = dataclasses.replace(rung, contact_threshold=200.0)  # the detector's own definition
     assert quiet_margins(high, st, MARGIN)[2] == []
     assert stance_data(high, k, st, MARGIN).foot.time.size == clean.foot.time.size
+
+
+def test_another_load_before_heel_strike_is_not_the_foots(walk):
+    """The other side of :func:`~gc_ocp.stance.without_other_loads`: a plate loaded 60 ms
+    before the heel strike (the other foot leaving it) holds the foot's zero up to that load's
+    last sample, and the plate's own samples after it."""
+    from gc_ocp.stance import without_other_loads
+
+    t, _ = walk
+    st = t.stances[0]
+    plate = t.plates[st.plate]
+    force = plate.force.copy()
+    load = (plate.time >= st.t_on - 0.08) & (plate.time <= st.t_on - 0.06)
+    force[load, 2] = 300.0
+    plates = list(t.plates)
+    plates[st.plate] = dataclasses.replace(plate, force=force)
+    other = dataclasses.replace(t, plates=tuple(plates))
+    times = plate.time[(plate.time > st.t_on - 0.1) & (plate.time < st.t_off)]
+    wrench = other.stance_wrench(st, times)
+    kept = without_other_loads(other, st, times, wrench)
+    last = times[load[np.isin(plate.time, times)]][-1]
+    assert not kept[times <= last].any()
+    assert np.array_equal(kept[times > last], wrench[times > last])
 
 
 def test_a_contact_threshold_that_finds_no_stance_is_a_clear_error(walk):

@@ -334,7 +334,9 @@ def test_the_exported_kinematics_give_the_fits_forces_on_every_stance(bundled):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         report = fit([bundled], holdout="right@0.407")
-    doc = json.loads(json.dumps(report.to_json()))
+    from gc_ocp.export.calibrated import fit_document
+
+    doc = fit_document(report)  # what export_opensim(report, ...) places the feet with
     cal = CalibratedContact.from_fit(doc)
     moved = fitted_kinematics(doc, kin, cal.points, trial.name)
     law = casadi_function(doc)

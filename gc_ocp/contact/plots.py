@@ -109,7 +109,7 @@ def plot_sole(
         order = list(np.argsort(np.arctan2(pts[:, 1] - c[1], pts[:, 0] - c[0])))
         order.append(order[0])
         ax.plot(pts[order, 1] * 100, pts[order, 0] * 100, color="0.6", lw=1)
-        kk = k.get(side, {}) if k is not None else {}
+        kk = {u: v for u, v in (k.get(side, {}) if k is not None else {}).items() if v is not None}
         kmax = max((abs(v) for v in kk.values()), default=1.0) or 1.0
         for i, u in enumerate(layout.units):
             val = kk.get(u)

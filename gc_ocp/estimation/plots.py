@@ -41,7 +41,9 @@ def plot_sole_fit(result) -> Figure:
         toes[fit["side"]] = np.asarray(fit["toes_offset"])
         units[fit["side"]] = fit["units"]
     f_ref = {
-        s: {u: result.params[s][u]["f_ref"] for u in units[s]} for s in pts if s in result.params
+        s: {u: result.params[s][u].get("f_ref") for u in units[s]}
+        for s in pts
+        if s in result.params
     }
     layout = SoleLayout(
         tuple(result.stance_fits[0]["units"]), tuple(result.stance_fits[0]["parents"])

@@ -180,8 +180,8 @@ def fit_document(fit) -> dict:
             raise InputError(
                 f"{path} is not a fit.json ({e}); give the file gc-ocp fit wrote."
             ) from None
-    if hasattr(fit, "result"):  # FitReport
-        fit = fit.result
+    # a FitReport's own document (its result's, plus the held-out stance's fit and the
+    # checks, as fit.json has them), an EstimationResult's, or a dict as it is
     return dict(fit) if isinstance(fit, Mapping) else fit.to_json()
 
 

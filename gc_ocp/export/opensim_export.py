@@ -562,7 +562,8 @@ def export_opensim(
         if theirs is not None:
             rms = compare(trial, time, ours, theirs, cal)
             outset.figure("opensim_vs_gc_ocp.png", plot_comparison(time, ours, theirs, plates, cal))
-        doc = {
+        notes = _notes(cal, doc)
+        export_doc = {
             "trial": str(trial.source),
             "radius_m": radius,
             "force": "SmoothSphereHalfSpaceForce",
@@ -570,8 +571,8 @@ def export_opensim(
             "belt_speed_m_s": cal.belt_speed,
             "units": [m.to_json() for m in mapping],
             "kinematics": {
-                "source": "fitted (inverse kinematics, each fitted stance's foot moved by the "
-                "fit's pose correction; gc_ocp.export.fitted_kinematics)"
+                "source": "fitted (inverse kinematics, each fitted stance's foot, the held-out "
+                "one's too, moved by the fit's pose correction; gc_ocp.export.fitted_kinematics)"
                 if fitted
                 else "inverse kinematics",
                 "frames_corrected": dict(fk.frames) if fitted else {},
@@ -589,13 +590,13 @@ def export_opensim(
                 "ground reactions are in the trial's lab frame, which is the model's ground "
                 "when the trial's files are the ones the model was fitted to",
             },
-            "notes": _notes(cal, doc),
+            "notes": notes,
         }
-        outset.text("export.json", json.dumps(doc, indent=2))
+        outset.text("export.json", json.dumps(export_doc, indent=2))
         files = outset.commit()
     finally:
         outset.discard()
-    return OpenSimExport(files, mapping, rms, tuple(_notes(cal, doc)))
+    return OpenSimExport(files, mapping, rms, tuple(notes))
 
 
 def _notes(cal: CalibratedContact, doc: Mapping | None = None) -> list[str]:

@@ -331,9 +331,11 @@ def _one_height(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
     of the subject is then in the same % BW x height (the recorded height where a trial has
     one, else the mean of the estimates; the kinematics keep the body each was scaled to)."""
     estimated = [t for t in trials if t.height is not None and t.height_estimated]
-    if not estimated or len({(t.height, t.height_source) for t in estimated}) == 1:
-        return list(trials), []
     recorded = [t for t in trials if t.height is not None and not t.height_estimated]
+    if not estimated or (
+        not recorded and len({(t.height, t.height_source) for t in estimated}) == 1
+    ):
+        return list(trials), []  # nothing to pool, or pooled already
     if recorded:
         height = float(recorded[0].height)
         source = f"{recorded[0].height_source}, in {recorded[0].source} (the subject's trial)"

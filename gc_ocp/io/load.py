@@ -67,7 +67,10 @@ def load_trial(
     path = bundled_example_path() if path is None else Path(path)
     require_file(path, "Trial file", TRIAL_FIX)
     suffix = path.suffix.lower()
-    threshold = DEFAULT_THRESHOLD if stance_threshold is None else float(stance_threshold)
+    try:
+        threshold = DEFAULT_THRESHOLD if stance_threshold is None else float(stance_threshold)
+    except (TypeError, ValueError):
+        threshold = float("nan")
     if not np.isfinite(threshold) or threshold <= 0:
         raise InputError(
             f"stance_threshold={stance_threshold!r}: give the vertical force [N] above which a "

@@ -53,8 +53,6 @@ class TrialFiles:
         return self
 
     def describe(self) -> str:
-        if self.error is not None:
-            return f"trial {self.trial}: its files cannot be used (below)"
         if self.trial is None:
             return "trial: the bundled example (gc_ocp/data/test_small.c3d)"
         if self.grf is None:

@@ -82,16 +82,18 @@ class FitReport:
         return s
 
 
-def _with_height(trial: Trial, kin: TrialKinematics) -> Trial:
-    """The trial with the height the kinematics used, when the files gave none (with a warning)."""
+def with_height(trial: Trial, kin: TrialKinematics, warn: bool = True) -> Trial:
+    """The trial with the height the kinematics used, when the files gave none (with a warning
+    unless ``warn`` is False: the provenance of a fit that has warned already)."""
     if trial.height is not None or kin.info.get("height") is None:
         return trial
     h = float(kin.info["height"])
-    warnings.warn(
-        f"{trial.source}: no subject height given; using {h:.3f} m estimated from the markers "
-        "by the kinematics (pass height=... / --height M to override).",
-        stacklevel=3,
-    )
+    if warn:
+        warnings.warn(
+            f"{trial.source}: no subject height given; using {h:.3f} m estimated from the "
+            "markers by the kinematics (pass height=... / --height M to override).",
+            stacklevel=3,
+        )
     return dataclasses.replace(trial, height=h, height_source=f"{ESTIMATED} from the markers")
 
 
@@ -125,8 +127,8 @@ def check_holdout(holdout: str | None, trials: Sequence[Trial]) -> None:
     by an end of its path (:func:`~gc_ocp.stance.trial_names`, over the trials the fit keeps),
     so a part of one is a part of the label with the whole path; which one stance it names
     is checked by the fit itself."""
-    if holdout is None or holdout == "auto":
-        return
+    if holdout is None or holdout == "auto" or "#" in holdout:
+        return  # "name#k" numbers the trials the fit keeps: only the fit can tell
     shown, every = [], []
     for i, (t, name) in enumerate(
         zip(trials, trial_names([t.source for t in trials]), strict=True)
@@ -214,7 +216,7 @@ def fit_data(
     trials = _require_pairs(trials)
     for t, _ in trials:
         require_stances(t)
-    trials, notes = check_for_fit([(_with_height(t, k), k) for t, k in trials])
+    trials, notes = check_for_fit([(with_height(t, k), k) for t, k in trials])
     for note in notes:
         warnings.warn(note, stacklevel=3)
         say(f"check: {note}")

@@ -42,10 +42,12 @@ def provenance(args, pairs, skipped=()) -> dict:
     from gc_ocp.io.processing import detect_processing
     from gc_ocp.stance import trial_names
     from gc_ocp.trial import ESTIMATED
+    from gc_ocp.workflow.fitting import with_height
 
     # the stances as the fit uses them: the checks before it exclude a stance whose force is
     # not under its foot (before, such a stance was listed as used)
-    pairs, _ = check_for_fit(list(pairs))
+    # and the subject's heights as the fit pools them (a TRC has none: the kinematics')
+    pairs, _ = check_for_fit([(with_height(t, k, warn=False), k) for t, k in pairs])
     trials = []
     for (t, kin), name in zip(pairs, trial_names([t.source for t, _ in pairs]), strict=True):
         files = [p for p in (t.source, t.grf_source) if p is not None]
