@@ -335,12 +335,6 @@ def test_missing_file():
 
 
 @needs_data
-def test_trc_without_grf_says_give_grf():
-    with pytest.raises(InputError, match=r"motion_capture_walk\.trc.*give --grf FILE"):
-        load_trial(RAJ[0], mass=RAJ_MASS)
-
-
-@needs_data
 def test_missing_mass_is_estimated_with_a_warning_naming_file_basis_and_option():
     with pytest.warns(UserWarning, match=r"grf_walk\.mot: ESTIMATED 8\d\.\d kg.*stride.*--mass KG"):
         trial = load_trial(*RAJ)
