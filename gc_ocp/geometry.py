@@ -86,20 +86,26 @@ def correction_offset(theta, r, cross=np.cross):
     worst, on the bundled trial: ``docs/export.md``). Rational, so smooth with
     exact derivatives and no branch at 0. Generic in the array type: NumPy (``np.cross``) or
     CasADi (``cross=ca.cross``, the fit's per-frame function); the one definition of the
-    correction's rotation (:func:`correction_rotation`, :func:`correction_offset_rate`)."""
-    u = cross(theta, r)
-    return (u + 0.5 * cross(theta, u)) / (1.0 + 0.25 * _sq(theta))
+    correction's rotation (:func:`correction_rotation`, :func:`correction_motion`)."""
+    _, n, d = _cayley_terms(theta, r, cross)
+    return n / d
 
 
-def correction_offset_rate(theta, theta_dot, r, r_dot, cross=np.cross):
-    """The time derivative of :func:`correction_offset` ``(theta(t), r(t))`` [m/s]."""
+def _cayley_terms(theta, r, cross):
+    """``(u, n, d)``: ``u = theta x r``, the numerator ``n = u + theta x u / 2`` and the
+    denominator ``d = 1 + |theta|^2 / 4`` of :func:`correction_offset`."""
     u = cross(theta, r)
+    return u, u + 0.5 * cross(theta, u), 1.0 + 0.25 * _sq(theta)
+
+
+def correction_motion(theta, theta_dot, r, r_dot, cross=np.cross):
+    """``(offset, rate)``: :func:`correction_offset` of ``(theta(t), r(t))`` and its time
+    derivative [m/s], sharing their terms (the fit's per-frame function needs both)."""
+    u, n, d = _cayley_terms(theta, r, cross)
     u_dot = cross(theta_dot, r) + cross(theta, r_dot)
-    n = u + 0.5 * cross(theta, u)
     n_dot = u_dot + 0.5 * (cross(theta_dot, u) + cross(theta, u_dot))
-    d = 1.0 + 0.25 * _sq(theta)
     d_dot = 0.5 * (theta[0] * theta_dot[0] + theta[1] * theta_dot[1] + theta[2] * theta_dot[2])
-    return n_dot / d - n * (d_dot / (d * d))
+    return n / d, n_dot / d - n * (d_dot / (d * d))
 
 
 def correction_rotation(theta) -> np.ndarray:

@@ -7,7 +7,7 @@ import casadi as ca
 import numpy as np
 import pinocchio as pin
 
-from gc_ocp.geometry import correction_offset, correction_offset_rate, correction_rotation
+from gc_ocp.geometry import correction_motion, correction_offset, correction_rotation
 
 
 def test_the_correction_is_a_rotation_equal_to_the_first_order_form_when_small():
@@ -37,15 +37,16 @@ def test_casadi_and_numpy_give_the_same_points_and_rates():
     th, r = ca.SX.sym("th", 3), ca.SX.sym("r", 3)
     thd, rd = ca.SX.sym("thd", 3), ca.SX.sym("rd", 3)
     f = ca.Function("f", [th, r], [correction_offset(th, r, ca.cross)])
-    g = ca.Function("g", [th, thd, r, rd], [correction_offset_rate(th, thd, r, rd, ca.cross)])
+    g = ca.Function("g", [th, thd, r, rd], list(correction_motion(th, thd, r, rd, ca.cross)))
     theta0, dtheta = np.array([0.2, -0.1, 0.15]), np.array([0.5, 0.3, -0.4])
     r0, dr = np.array([0.12, 0.04, -0.02]), np.array([0.3, -0.2, 0.1])
     assert np.allclose(np.asarray(f(theta0, r0)).ravel(), correction_offset(theta0, r0))
-    rate = np.asarray(g(theta0, dtheta, r0, dr)).ravel()
+    offset, rate = (np.asarray(v).ravel() for v in g(theta0, dtheta, r0, dr))
+    assert np.allclose(offset, correction_offset(theta0, r0))
     h = 1e-6
     fd = (
         correction_offset(theta0 + h * dtheta, r0 + h * dr)
         - correction_offset(theta0 - h * dtheta, r0 - h * dr)
     ) / (2 * h)
     assert np.allclose(rate, fd, atol=1e-8)
-    assert np.allclose(rate, correction_offset_rate(theta0, dtheta, r0, dr))
+    assert np.allclose(rate, correction_motion(theta0, dtheta, r0, dr)[1])

@@ -11,7 +11,7 @@ from scipy.interpolate import BSpline
 
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.components.base import Component, DecodeContext, unique_labels
-from gc_ocp.geometry import correction_offset, correction_offset_rate
+from gc_ocp.geometry import correction_motion
 from gc_ocp.marker_noise import filter_gain, noise_knot_spacing, noise_modelled
 from gc_ocp.trial import SIDES
 
@@ -198,8 +198,9 @@ class PoseCorrection(Component):
             p, vel = frame.points[i], frame.velocities[i]
             r = p - h.o
             rdot = vel - h.v
-            frame.points[i] = p + dp + correction_offset(dth, r, ca.cross)
-            frame.velocities[i] = vel + ddp + correction_offset_rate(dth, ddth, r, rdot, ca.cross)
+            offset, rate = correction_motion(dth, ddth, r, rdot, ca.cross)
+            frame.points[i] = p + dp + offset
+            frame.velocities[i] = vel + ddp + rate
 
     def prior_covariance(self, specs: list, stances: list, x: np.ndarray) -> list[tuple]:
         """Per foot with two or more stances and per axis of the smooth part, ``(cols, C)``
