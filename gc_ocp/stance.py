@@ -138,38 +138,50 @@ PLATE_SIGNAL_MARGIN = 0.1
 plus an interpolation kernel."""
 
 
+def _other_loads(trial: Trial, stance: Stance) -> tuple[float | None, float | None]:
+    """``(last_before, first_after)``: the times of the last plate sample before ``t_on`` and of
+    the first after ``t_off`` that read more than the trial's contact threshold
+    (``Trial.contact_threshold``, 20 N by default; below it the foot is off by the stance
+    detector's own definition), None where there is none. Beyond them the plate rings or
+    something else loads it: it is not measuring the foot."""
+    plate = trial.plates[stance.plate]
+    t, fz = plate.time, plate.force[:, 2]
+    loud = np.isfinite(fz) & (np.abs(fz) > trial.contact_threshold)
+    before, after = t[loud & (t < stance.t_on)], t[loud & (t > stance.t_off)]
+    return (
+        float(before[-1]) if before.size else None,
+        float(after[0]) if after.size else None,
+    )
+
+
 def quiet_margins(trial: Trial, stance: Stance, margin: float) -> tuple[float, float, list[str]]:
     """``(t_lo, t_hi, reasons)``: the frames of the stance's window ``[t_on - margin, t_off +
     margin]`` to fit are those with ``t_lo < t < t_hi`` (open bounds), the window cut where its
-    plate stops being quiet in a margin: a sample reading more than the trial's contact
-    threshold (``Trial.contact_threshold``, 20 N by default; below it the foot is off by the
-    stance detector's own definition) after ``t_off`` (before ``t_on``) leaves out every frame
-    from that sample on (up to it). A plate that rings after toe-off (Camargo's plate 1: -151 to
-    +97 N within 25 ms) or that something else loads is not measuring the foot. The reasons say
-    where and how loud, for the fit's notes."""
+    plate stops being quiet in a margin (:func:`_other_loads`): a loud sample after ``t_off``
+    (before ``t_on``) leaves out every frame from that sample on (up to it). A plate that rings
+    after toe-off (Camargo's plate 1: -151 to +97 N within 25 ms) or that something else loads
+    is not measuring the foot. The reasons say where and how loud, for the fit's notes."""
     eps = 1e-9
     t_lo, t_hi, reasons = stance.t_on - margin - eps, stance.t_off + margin + eps, []
     if margin <= 0:
         return t_lo, t_hi, reasons
     plate = trial.plates[stance.plate]
     t, fz = plate.time, plate.force[:, 2]
-    loud = np.isfinite(fz) & (np.abs(fz) > trial.contact_threshold)
-    after = np.flatnonzero(loud & (t > stance.t_off) & (t < t_hi))
-    if after.size:
-        t_hi = float(t[after[0]])  # open bound: a frame at the loud sample is left out too
-        peak = _peak(fz, t, t[after[0]], stance.t_off + margin)
+    last_before, first_after = _other_loads(trial, stance)
+    if first_after is not None and first_after < t_hi:
+        t_hi = first_after  # open bound: a frame at the loud sample is left out too
+        peak = _peak(fz, t, first_after, stance.t_off + margin)
         reasons.append(
             f"plate {plate.name} reads {peak:+.0f} N within {margin * 1e3:.0f} ms after toe-off "
-            f"(from {t[after[0]]:.3f} s: ringing, or another load): its frames from there are "
+            f"(from {first_after:.3f} s: ringing, or another load): its frames from there are "
             "not fitted"
         )
-    before = np.flatnonzero(loud & (t < stance.t_on) & (t > t_lo))
-    if before.size:
-        t_lo = float(t[before[-1]])
-        peak = _peak(fz, t, stance.t_on - margin, t[before[-1]])
+    if last_before is not None and last_before > t_lo:
+        t_lo = last_before
+        peak = _peak(fz, t, stance.t_on - margin, last_before)
         reasons.append(
             f"plate {plate.name} reads {peak:+.0f} N within {margin * 1e3:.0f} ms before heel "
-            f"strike (to {t[before[-1]]:.3f} s): its frames up to there are not fitted"
+            f"strike (to {last_before:.3f} s): its frames up to there are not fitted"
         )
     return t_lo, t_hi, reasons
 
@@ -178,22 +190,18 @@ def without_other_loads(
     trial: Trial, stance: Stance, times: np.ndarray, wrench: np.ndarray
 ) -> np.ndarray:
     """The stance's plate wrench ``(len(times), 6)`` on plate samples ``times`` around it, zero
-    where it is not the foot's: from the first sample after ``t_off`` that reads more than the
-    trial's contact threshold on (up to the last such sample before ``t_on``), the plate rings
-    or carries another load, and the foot, off by the stance detector's definition, exerts
-    nothing (the rule of :func:`quiet_margins`, over the whole plate signal). The clock offset
+    where it is not the foot's: from the first loud sample after ``t_off`` on and up to the
+    last before ``t_on`` (:func:`_other_loads`), the plate rings or carries another load, and
+    the foot, off by the stance detector's definition, exerts nothing (the rule of
+    :func:`quiet_margins`, over the whole plate signal). The clock offset
     (:class:`~gc_ocp.estimation.components.TimeOffset`) shifts this signal by up to 50 ms
     beyond the fitted frames: without the rule a cut margin's ringing came back through it."""
-    plate = trial.plates[stance.plate]
-    fz = np.interp(times, plate.time, plate.force[:, 2])  # ``times`` are the plate's samples
-    loud = np.isfinite(fz) & (np.abs(fz) > trial.contact_threshold)
+    last_before, first_after = _other_loads(trial, stance)
     out = np.array(wrench, float, copy=True)
-    after = np.flatnonzero(loud & (times > stance.t_off))
-    if after.size:
-        out[after[0] :] = 0.0
-    before = np.flatnonzero(loud & (times < stance.t_on))
-    if before.size:
-        out[: before[-1] + 1] = 0.0
+    if first_after is not None:
+        out[times >= first_after] = 0.0
+    if last_before is not None:
+        out[times <= last_before] = 0.0
     return out
 
 
