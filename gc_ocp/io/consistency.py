@@ -279,32 +279,67 @@ def one_subject(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
     return trials, notes + more
 
 
-def _one_mass(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
-    if not any(t.mass_estimated for t in trials):
-        return list(trials), []
-    if len({(t.mass, t.mass_source) for t in trials}) == 1:
-        return list(trials), []  # pooled already (its source keeps each trial's estimate)
-    recorded = [t for t in trials if not t.mass_estimated]
-    extra: list[str] = []
+_UNITS = {"mass": ("kg", ".1f"), "height": ("m", ".3f")}
+
+
+def _subject_value(trials: list[Trial], what: str):
+    """``(value, source, estimated, recorded)`` for pooling ``what`` (``"mass"``,
+    ``"height"``) over one subject's trials: the trials whose value the package estimated, those
+    whose value a file or the user gave, and the one value for the estimated ones (a recorded
+    one, else the mean of the estimates) with its source; None when no value is estimated or the
+    estimates are pooled already."""
+    unit, fmt = _UNITS[what]
+    known = [t for t in trials if getattr(t, what) is not None]
+    estimated = [t for t in known if getattr(t, f"{what}_estimated")]
+    recorded = [t for t in known if not getattr(t, f"{what}_estimated")]
+    sources = {(getattr(t, what), getattr(t, f"{what}_source")) for t in estimated}
+    if not estimated or (not recorded and len(sources) == 1):
+        return None  # nothing to pool, or pooled already (its source keeps each estimate)
     if recorded:
-        mass = recorded[0].mass
-        source = f"{recorded[0].mass_source}, in {recorded[0].source} (the subject's trial)"
-        for t in trials:
-            rel = t.mass / mass - 1.0
-            if t.mass_estimated and abs(rel) > MASS_TOLERANCE:
-                raise InputError(
-                    f"The trials are not of one subject, or a plate is wrong: "
-                    f"{recorded[0].source} records {mass:.1f} kg ({recorded[0].mass_source}) but "
-                    f"the plates of {t.source} give {t.mass:.1f} kg ({rel:+.0%}; the body-weight "
-                    f"check's limit is {MASS_TOLERANCE:.0%}). Fit each subject's trials on their "
-                    "own, or pass --mass KG (mass=...) if the recorded value is wrong."
-                )
+        first = recorded[0]
+        value = float(getattr(first, what))
+        source = f"{getattr(first, f'{what}_source')}, in {first.source} (the subject's trial)"
     else:
-        mass = float(np.mean([t.mass for t in trials]))
-        each = ", ".join(f"{t.mass:.1f}" for t in trials)
+        value = float(np.mean([getattr(t, what) for t in estimated]))
+        each = ", ".join(f"{getattr(t, what):{fmt}}" for t in estimated)
         source = (
-            f"{ESTIMATED} {mass:.1f} kg: the mean of the subject's trials' estimates ({each} kg)"
+            f"{ESTIMATED} {value:{fmt}} {unit}: the mean of the subject's trials' estimates "
+            f"({each} {unit})"
         )
+    return value, source, estimated, recorded
+
+
+def _pooled(trials: list[Trial], what: str, value: float, source: str) -> tuple[list, list]:
+    """``trials`` with every estimated ``what`` replaced by ``value``, and the note."""
+    unit, fmt = _UNITS[what]
+    out = [
+        dataclasses.replace(t, **{what: value, f"{what}_source": source})
+        if getattr(t, what) is not None and getattr(t, f"{what}_estimated")
+        else t
+        for t in trials
+    ]
+    return out, [
+        f"one {what} for the subject's {len(trials)} trials: {value:{fmt}} {unit} ({source})"
+    ]
+
+
+def _one_mass(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
+    pooled = _subject_value(trials, "mass")
+    if pooled is None:
+        return list(trials), []
+    mass, source, estimated, recorded = pooled
+    extra: list[str] = []
+    for t in estimated if recorded else []:
+        rel = t.mass / mass - 1.0
+        if abs(rel) > MASS_TOLERANCE:
+            raise InputError(
+                f"The trials are not of one subject, or a plate is wrong: "
+                f"{recorded[0].source} records {mass:.1f} kg ({recorded[0].mass_source}) but "
+                f"the plates of {t.source} give {t.mass:.1f} kg ({rel:+.0%}; the body-weight "
+                f"check's limit is {MASS_TOLERANCE:.0%}). Fit each subject's trials on their "
+                "own, or pass --mass KG (mass=...) if the recorded value is wrong."
+            )
+    if not recorded:
         spread = max(t.mass for t in trials) / min(t.mass for t in trials) - 1
         if spread > SUBJECT_ESTIMATE_LIMIT:
             raise InputError(
@@ -313,45 +348,25 @@ def _one_mass(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
                 "Fit each subject's trials on their own, or pass --mass KG (mass=...)."
             )
         if spread > SUBJECT_ESTIMATE_SPREAD:
+            each = ", ".join(f"{t.mass:.1f}" for t in trials)
             extra = [
                 f"the trials' mass estimates differ by {100 * spread:.0f} % ({each} kg): if these are "
                 "one person's trials their plates disagree, else they are two people's; pass "
                 "--mass KG (mass=...)"
             ]
-    out = [
-        dataclasses.replace(t, mass=mass, mass_source=source) if t.mass_estimated else t
-        for t in trials
-    ]
-    note = f"one mass for the subject's {len(trials)} trials: {mass:.1f} kg ({source})"
-    return out, [note, *extra]
+    out, notes = _pooled(trials, "mass", mass, source)
+    return out, notes + extra
 
 
 def _one_height(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
     """Heights ESTIMATED per trial (from its markers) become one, as masses do: every stance
     of the subject is then in the same % BW x height (the recorded height where a trial has
     one, else the mean of the estimates; the kinematics keep the body each was scaled to)."""
-    estimated = [t for t in trials if t.height is not None and t.height_estimated]
-    recorded = [t for t in trials if t.height is not None and not t.height_estimated]
-    if not estimated or (
-        not recorded and len({(t.height, t.height_source) for t in estimated}) == 1
-    ):
-        return list(trials), []  # nothing to pool, or pooled already
-    if recorded:
-        height = float(recorded[0].height)
-        source = f"{recorded[0].height_source}, in {recorded[0].source} (the subject's trial)"
-    else:
-        height = float(np.mean([t.height for t in estimated]))
-        each = ", ".join(f"{t.height:.3f}" for t in estimated)
-        source = (
-            f"{ESTIMATED} {height:.3f} m: the mean of the subject's trials' estimates ({each} m)"
-        )
-    out = [
-        dataclasses.replace(t, height=height, height_source=source)
-        if t.height is not None and t.height_estimated
-        else t
-        for t in trials
-    ]
-    return out, [f"one height for the subject's {len(trials)} trials: {height:.3f} m ({source})"]
+    pooled = _subject_value(trials, "height")
+    if pooled is None:
+        return list(trials), []
+    height, source, _, _ = pooled
+    return _pooled(trials, "height", height, source)
 
 
 def check_for_fit(pairs: list) -> tuple[list, list[str]]:
