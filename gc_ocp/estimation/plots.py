@@ -10,8 +10,6 @@ from gc_ocp.estimation.components.contact import ContactLaw
 from gc_ocp.estimation.result import as_result
 from gc_ocp.foot import SoleLayout
 
-REFERENCE_DEPTH = ContactLaw.reference_depth
-
 
 def plot_fit(result, title: str = "measured (solid) vs fitted (dashed)") -> Figure:
     """Measured vs fitted six channels per foot, every stance; ``result``: a fit (what
@@ -52,7 +50,7 @@ def plot_sole_fit(result) -> Figure:
         pts,
         k=f_ref,
         toes_offset=toes,
-        title=f"sole units: nominal (x) and corrected (o); force at {1e3 * REFERENCE_DEPTH:g} mm",
+        title=f"sole units: nominal (x) and corrected (o); force at {1e3 * ContactLaw.reference_depth:g} mm",
         layout=layout,
         label=lambda f: f"{f:.0f} N",
     )
