@@ -9,6 +9,7 @@ import pytest
 from gc_ocp.cli import main
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS
 from gc_ocp.foot import UNITS
+from gc_ocp.html.fit_tables import sole_prior_text
 
 TABLE1_CASES = [
     "synthetic_noiseless_uniform_k",
@@ -280,7 +281,7 @@ def _check_fit_report(out):
     held = d["heldout_stance"]
     assert held in page
     # the sole table names the prior width the fit used (5 mm, or estimated with sole_scale)
-    assert f"foot frame; prior {d['blocks']['sole']['prior_mm']:.3g} mm" in page
+    assert f"foot frame; prior {sole_prior_text(d['blocks']['sole'])})" in page
     assert f"{d['heldout_rms']['right']['superior_force_pct_bw']:.2f} % BW" in page
 
 
@@ -293,8 +294,11 @@ def test_the_sole_table_names_an_estimated_prior_width():
     macro = environment().from_string(
         '{% from "_fit_tables.html.j2" import sole_table %}{{ sole_table([], w) }}'
     )
-    assert "foot frame; prior 9.52 mm" in macro.render(w=9.5211)
-    assert "foot frame; prior 5 mm" in macro.render(w=5.0)
+    per_axis = sole_prior_text({"prior_mm": [1.0, 2.5211, 1.13]})
+    assert per_axis == "x 1, y 2.5, z 1.1 mm"
+    assert "foot frame; prior x 1, y 2.5, z 1.1 mm)" in macro.render(w=per_axis)
+    assert sole_prior_text({"prior_mm": 9.5211}) == "9.52 mm"  # one width (before 2026-11-30)
+    assert sole_prior_text({}) == "5 mm"  # no width recorded: the component's default
 
 
 def test_the_pose_prior_text_names_estimated_widths():

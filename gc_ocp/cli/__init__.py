@@ -138,8 +138,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--fixed-sole-width",
         action="store_true",
-        help="Keep the sole correction's 5 mm prior width instead of estimating it from the "
-        "stances between 1 and 10 mm (docs/quality.md, 'The sole correction's width'); "
+        help="Keep the sole correction's 5 mm prior width instead of estimating it per axis "
+        "from the stances between 5 and 10 mm (docs/quality.md, 'The sole correction's "
+        "width'); "
         "--fixed-pose-width keeps it too.",
     )
     p.add_argument(

@@ -36,7 +36,7 @@ from gc_ocp.html.fit_tables import (
     pm,
     pose_prior_text,
     rms_table,
-    sole_prior_mm,
+    sole_prior_text,
     sole_table,
 )
 from gc_ocp.outputs import atomic_write_text
@@ -302,7 +302,7 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         "rms": rms_table(res, wf[-1].heldout_rms if d.folds.get("n") else None),
         "contact": contact_tables(res.params),
         "sole": sole_table(res.blocks.get("sole", {})),
-        "sole_prior_mm": sole_prior_mm(res.blocks.get("sole") or {}),
+        "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
         "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),
         "belt": [
             (trial, pm(v, "value", ".3f"), v.get("nominal")) for trial, v in res.belt_speed.items()

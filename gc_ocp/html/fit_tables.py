@@ -119,29 +119,34 @@ def sole_table(sole: dict) -> list[dict]:
     ]
 
 
-def sole_prior_mm(sole: dict) -> float:
-    """The sole correction's prior width [mm] the fit used (its block's ``prior_mm``; a
-    ``fit.json`` written before the width was recorded had the component's default)."""
+def axes_text(values, default, unit: str) -> str:
+    """A prior's widths as a report prints them: ``"5 mm"``, or per foot-frame or ``lab``
+    axis where they differ (an estimated width, :mod:`gc_ocp.estimation.pose_scale`):
+    ``"x 1, y 2.5, z 1.1 mm"``. ``values``: a scalar or one per axis (None: ``default``)."""
+    v = np.broadcast_to(np.asarray(values if values is not None else default, float), 3)
+    if np.allclose(v, v[0]):
+        return f"{v[0]:.3g} {unit}"
+    return ", ".join(f"{a} {x:.2g}" for a, x in zip("xyz", v, strict=True)) + f" {unit}"
+
+
+def sole_prior_text(sole: dict) -> str:
+    """The sole correction's prior width the fit used, per foot-frame axis where they differ
+    (its block's ``prior_mm``; a ``fit.json`` written before the width was recorded had the
+    component's default, one written before 2026-11-30 one width for every axis)."""
     from gc_ocp.estimation.components.sole import SoleCorrection
 
-    return float(sole.get("prior_mm", SoleCorrection.sigma * 1e3))
+    return axes_text(sole.get("prior_mm"), SoleCorrection.sigma * 1e3, "mm")
 
 
 def pose_prior_text(pose: dict) -> str:
     """The pose correction's prior widths the fit used, as a report prints them: ``"2 mm / 1
-    deg"``, or per ``lab`` axis where they differ (an estimated width,
-    :mod:`gc_ocp.estimation.pose_scale`). From its block's ``prior_mm`` / ``prior_deg``; a
-    ``fit.json`` written before the widths were recorded had the component's defaults."""
+    deg"``, or per ``lab`` axis where they differ (:func:`axes_text`). From its block's
+    ``prior_mm`` / ``prior_deg``; a ``fit.json`` written before the widths were recorded had
+    the component's defaults."""
     from gc_ocp.estimation.components.pose import PoseCorrection
 
-    def axes(values, default, unit: str) -> str:
-        v = np.broadcast_to(np.asarray(values if values is not None else default, float), 3)
-        if np.allclose(v, v[0]):
-            return f"{v[0]:.3g} {unit}"
-        return ", ".join(f"{a} {x:.2g}" for a, x in zip("xyz", v, strict=True)) + f" {unit}"
-
-    mm = axes(pose.get("prior_mm"), PoseCorrection.sigma_mm, "mm")
-    deg = axes(pose.get("prior_deg"), PoseCorrection.sigma_deg, "deg")
+    mm = axes_text(pose.get("prior_mm"), PoseCorrection.sigma_mm, "mm")
+    deg = axes_text(pose.get("prior_deg"), PoseCorrection.sigma_deg, "deg")
     return f"{mm} / {deg}"
 
 

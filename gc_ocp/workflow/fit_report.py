@@ -13,7 +13,7 @@ from gc_ocp.html.fit_tables import (
     pm,
     pose_prior_text,
     rms_table,
-    sole_prior_mm,
+    sole_prior_text,
     sole_table,
 )
 from gc_ocp.workflow.fitting import FitReport
@@ -60,7 +60,7 @@ def fit_report_html(
         "flags": _flags(report),
         "contact": contact_tables(res.params),
         "sole": sole_table(res.blocks.get("sole", {})),
-        "sole_prior_mm": sole_prior_mm(res.blocks.get("sole") or {}),
+        "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
         "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),
         "effects": effect_blocks(res),
         "rms": rms_table(res, None if held is None else held.rms | _cop(held)),

@@ -303,7 +303,8 @@ def fit(
     so that the problem's non-convexity cannot leave the extended model above it.
     pose_scale: estimate the pose correction's smooth width from the fitted stances
     (:mod:`gc_ocp.estimation.pose_scale`; the held-out stance then uses it too); False keeps the
-    component's prior. sole_scale: estimate the sole correction's width in the same rounds
+    component's prior. sole_scale: estimate the sole correction's widths (one per foot-frame
+    axis, widened from the 5 mm prior where the stances ask for more) in the same rounds
     (:func:`~gc_ocp.estimation.pose_scale.sole_update`); None (default): whenever the pose
     width is estimated; False: the component's 5 mm prior (``docs/quality.md``, 'The sole
     correction's width'). pose_correlation: estimate the pose coefficients' knot-to-knot

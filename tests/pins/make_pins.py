@@ -34,7 +34,12 @@ reach, and the export could not reproduce it): both files, the derivative pins b
 489280.88 -> 489276.34) and ``--fits-only`` (bundled 171.12 -> 178.01, held out 166.40 -> 159.75;
 Plug-in Gait 249.70 -> 250.34; Rajagopal 297.48 -> 265.05; Gait2392 189.78 -> 192.97; superior
 RMS moved 0.16 % BW at most on any foot (Rajagopal right 1.17 -> 1.01; the bundled feet
-+0.09), the held-out stance 1.70 -> 1.71 % BW); 2026-11-29, warm solves start Ipopt's barrier at 1e-4 (``IpoptOptions.warm_mu_init``): the
++0.09), the held-out stance 1.70 -> 1.71 % BW); 2026-11-30, the sole correction's width
+estimated per foot-frame axis and never below its 5 mm prior (``docs/quality.md``, *The
+sole's width per axis, and its floor*), ``--fits-only``: bundled 178.01 -> 182.31 (held out
+159.75 -> 178.85), Plug-in Gait 250.34 -> 256.16, Rajagopal 265.05 -> 264.96, Gait2392
+192.97 -> 192.89 (the objectives' prior terms are in units of the new widths); superior RMS
+moved 0.04 % BW at most (the held-out stance 1.71 -> 1.74 % BW); 2026-11-29, warm solves start Ipopt's barrier at 1e-4 (``IpoptOptions.warm_mu_init``): the
 others unchanged within the pins' tolerance, Rajagopal 290.90 -> 297.48: its continuation's
 last stage reached a lower minimum (J 670.03 against 673.27 at the prior's full width), and from
 there the width rounds, which approach their fixed point slowly on this trial (one rotation

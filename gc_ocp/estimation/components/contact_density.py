@@ -113,7 +113,7 @@ class DenseSoleCorrection(Component):
     """
 
     W: tuple = ()
-    sigma: float = 0.005
+    sigma: float | tuple[float, float, float] = 0.005  # one width, or per foot-frame axis
     bound: float = 0.025
     fixed: dict | None = None
     name: str = "sole"
@@ -155,7 +155,10 @@ class DenseSoleCorrection(Component):
                 v, s = ctx.values((self.name, side, u))
                 out[side][u] = (v * 1e3).tolist()
                 se[side][u] = (s * 1e3).tolist()
-        return {"offsets_mm": out, "se_mm": se}
+        block = {"offsets_mm": out, "se_mm": se}
+        if self.fixed is None:  # as SoleCorrection's block
+            block["prior_mm"] = (np.broadcast_to(np.asarray(self.sigma, float), 3) * 1e3).tolist()
+        return block
 
     def frozen(self, block: dict) -> DenseSoleCorrection:
         fixed = {

@@ -17,7 +17,9 @@ class SoleCorrection(Component):
     """Correction of each unit's position in its parent frame, added to ``points_local``.
 
     A Gaussian prior N(0, sigma^2) per component (default 5 mm: the uncertainty of locating the
-    sole from skin markers over heel and metatarsals) and bounds +-bound [m].
+    sole from skin markers over heel and metatarsals; ``sigma`` one width, or one per foot-frame
+    axis x, y, z as :func:`~gc_ocp.estimation.pose_scale.estimate_pose_scale` estimates them)
+    and bounds +-bound [m].
     ``fixed``: ``{side: (m, 3) array [m]}`` to apply known corrections without estimating them.
     Neutral value: zero offsets (no effect).
 
@@ -26,7 +28,7 @@ class SoleCorrection(Component):
     base's fitted offsets (or applies them alone to a base without a sole correction).
     """
 
-    sigma: float = 0.005
+    sigma: float | tuple[float, float, float] = 0.005
     bound: float = 0.025
     fixed: dict | None = None
     name: str = "sole"
@@ -91,7 +93,7 @@ class SoleCorrection(Component):
 
     def decode(self, ctx: DecodeContext) -> dict:
         """``{side: {unit: [dx, dy, dz]}}`` in the foot frame [mm] (``"se"``: their SEs;
-        ``"prior_mm"``: the prior's width, when estimated)."""
+        ``"prior_mm"``: the prior's widths x, y, z)."""
         out: dict = {}
         se: dict = {}
         for side, lay in _layouts(ctx.stances).items():
@@ -107,7 +109,7 @@ class SoleCorrection(Component):
                 se[side][u] = (s * 1e3).tolist()
         block = {"offsets_mm": out, "se_mm": se}
         if self.fixed is None:
-            block["prior_mm"] = self.sigma * 1e3  # its width (estimated with sole_scale)
+            block["prior_mm"] = (np.broadcast_to(np.asarray(self.sigma, float), 3) * 1e3).tolist()
         return block
 
     def frozen(self, block: dict) -> SoleCorrection:
