@@ -129,6 +129,205 @@ def _plausible(truth: tuple, body_weight: float) -> tuple:
     return tuple(law if c.name == "contact" else c for c in truth)
 
 
+def motion_truth(spec, design: str = "refit-seen"):
+    """(trial, kinematics, stances, frozen truth, its fit) of one real motion.
+
+    ``refit-seen`` (default, the committed run of 2026-11-27): the motion a real fit saw (the
+    recorded kinematics with each stance's foot moved by the fit's pose correction, reached by
+    the leg's joints, ``gc_ocp.export.fitted_kinematics``), as the fitter sees it: the marker
+    model's markers on it, through the fitter's own inverse kinematics (returned as the
+    kinematics). The law is refitted there to the real plates with the exponent fixed at
+    :data:`TRUE_N` and without any pose correction (the sole correction stays, comment in the
+    code). Each subject's truth moves exactly as the kinematics the fitter computes from its
+    noisy TRC, with its units on the fitter's own unit points (:func:`make_subject`), so the
+    pose prior (centred on no correction) is right; the sole offsets are the refit's, 13-24 mm
+    (median norm per motion), 3-5 sigma of the 5 mm prior, as a real fit of these files gives.
+
+    ``refit-true`` (8-subject pilot): the same truth, moving by the noise-free kinematics; the
+    fitter sees the noisy markers' (errors in variables, issue 23).
+
+    ``refit-subject`` (not usable): the law refitted per subject on the subject's own
+    kinematics without sole correction (:func:`subject_refit`), both priors at their centres.
+    The kinematics depend on the plates through the stances' timing, so the subject's plates
+    and kinematics must be iterated; without sole offsets the refitted units are so stiff that
+    the timing (and a stance's side) oscillates between two states and never settles, and the
+    plates of 5 of 8 pilot subjects carried 0.6-2800 body weights.
+
+    ``fitted-pose`` (the first committed run) is described last.
+    ``corrected`` (not yet usable: with the implausible units reset, 3 of 4 pilot subjects still
+    fail the batch's mass check, the synthetic plates carrying 34-70 % less or 66 % more than
+    the body weight over the stride the check picks; not understood yet): the default model fitted to the real stances and frozen (the
+    per-stance pose correction left out), and the motion the fit saw: the recorded kinematics
+    with each stance's foot moved by the fit's pose correction, reached by the leg's joints
+    (``gc_ocp.export.fitted_kinematics``); the subject's markers are the marker model's on that
+    motion (:func:`make_subject`), so the fitter's inverse kinematics find it again and its
+    pose prior, centred on no correction, is right. The fit's result is returned as the fourth
+    item's companion (for the corrected coordinates: ``(result, kinematics)``).
+
+    ``no-pose`` (pathological, kept as the record of why): the default model *without* the per-stance pose correction fitted to
+    the real stances and frozen, each implausible unit (:data:`PLAUSIBLE_F_REF`) clipped
+    into the range (at its foot's median until 2026-11-30): the true foot moves as the recorded kinematics say, which is what the fitter's pose
+    prior (centred on no correction) assumes; the fit returned is None. On real kinematics a
+    foot of some stances lies centimetres in the floor without its correction, and the plates
+    this truth makes carry 10^5-10^9 N there: every subject fails the mass check.
+
+    ``fitted-pose``: the default model fitted and frozen but the per-stance pose correction,
+    which the truth's data take at the fit's values (``simulate(at=fit)``): the true foot moves
+    as the recorded kinematics corrected by it, the fitter sees the recorded kinematics and
+    must find the correction again under its prior (the design of the first run; its z-scores
+    show that prior's pull, ``docs/batch.md``)."""
+
+    from gc_ocp.estimation.components import full_model
+    from gc_ocp.estimation.starts import estimate, frozen_model, with_lls_start
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.workflow.fitting import fit_data
+
+    path, grf, mass = spec
+    path = DATA / path
+    trial = load_trial(path, None if grf is None else path.parent / grf, mass=mass)
+    kin = compute_kinematics(trial)
+    _, stances, _ = fit_data([(trial, kin)])
+    model = full_model()
+    if design == "no-pose":
+        model = tuple(c for c in model if c.scope != "stance")
+    model = with_lls_start(model, stances)
+    res = estimate(stances, model)
+    truth = frozen_model(model, res)
+    if design == "fitted-pose":
+        return trial, kin, stances, truth, res
+    if design in ("corrected", "refit-seen", "refit-subject", "refit-true"):
+        from gc_ocp.export.fitted_kinematics import fitted_kinematics
+
+        points = {side: f.points_local for side, f in kin.feet.items()}
+        fk = fitted_kinematics(res.to_json(), kin, points)
+        if design == "corrected":
+            truth = _plausible(tuple(c for c in truth if c.scope != "stance"), trial.body_weight)
+            return trial, fk.kin, stances, truth, None
+        # refit-seen: the corrected motion as the fitter sees it (the marker model's markers on
+        # it, through the fitter's own inverse kinematics), and the law refitted there to the
+        # real plates without any pose correction: the truth's feet move exactly as the
+        # kinematics the fitter computes say, so its pose prior (centred on none) is right
+        from gc_ocp.export import write_grf, write_trc
+        from gc_ocp.export.opensim_export import plate_wrenches
+
+        mm = fk.kin.info["marker_model"]
+        with tempfile.TemporaryDirectory() as tmp:
+            trc, mot = Path(tmp) / "seen.trc", Path(tmp) / "seen_grf.mot"
+            write_trc(trc, list(mm.names), mm.positions(fk.kin.q), trial.marker_time)
+            t = trial.marker_time
+            write_grf(mot, t, plate_wrenches(trial, t), trial.floor_height)
+            seen_trial = load_trial(trc, mot, mass=trial.mass, height=trial.height)
+            seen = compute_kinematics(seen_trial)
+        _, seen_stances, _ = fit_data([(seen_trial, seen)])
+        # n fixed at Hertz's 1.5: refitted free, it went to its lower bound 1.0 on 3 of 4
+        # motions, and a truth on a bound is not a test of the standard errors
+        from gc_ocp.estimation.components.contact import Param
+
+        # (the sole correction stays: refitted without it, the units take stiffnesses that turn
+        # the subject's own landmark estimate, 1.5 mm from this one, into 2-4 body weights on
+        # the plates; with it, its offsets sit 3-5 sigma from its prior's centre, as in a real
+        # fit of these files, which the fitter's prior shrinks)
+        model = tuple(
+            dataclasses.replace(c, n=Param("fixed", TRUE_N)) if c.name == "contact" else c
+            for c in full_model()
+            if c.scope != "stance"
+        )
+        model = with_lls_start(model, seen_stances)
+        res = estimate(seen_stances, model)
+        truth = _plausible(frozen_model(model, res), trial.body_weight)
+        return trial, seen, seen_stances, truth, None
+    truth = _plausible(truth, trial.body_weight)
+    return trial, kin, stances, truth, None
+
+
+def subject_refit(seen, kin) -> tuple:
+    """The ``refit-subject`` truth of one subject: the law (n fixed at :data:`TRUE_N`) refitted
+    on the subject's own kinematics ``kin`` of its trial ``seen`` (loaded with the real
+    plates) to the real plates, with neither pose nor sole correction: the truth's feet move as
+    the fitter's kinematics say and its units sit on the fitter's own unit points, the centres
+    of both priors. Units the real plates hardly load keep the stiffness this fit gives them
+    (the fitter flags them not identified as well)."""
+    from gc_ocp.estimation.components import full_model
+    from gc_ocp.estimation.components.contact import Param
+    from gc_ocp.estimation.starts import estimate, frozen_model, with_lls_start
+    from gc_ocp.workflow.fitting import fit_data
+
+    _, stances, _ = fit_data([(seen, kin)])
+    model = tuple(
+        dataclasses.replace(c, n=Param("fixed", TRUE_N)) if c.name == "contact" else c
+        for c in full_model()
+        if c.scope != "stance" and c.name != "sole"
+    )
+    model = with_lls_start(model, stances)
+    return frozen_model(model, estimate(stances, model))
+
+
+def subject_truth(truth: tuple, rng) -> tuple[tuple, float]:
+    """(the subject's truth, its stiffness factor s): module doc, 2."""
+    from gc_ocp.estimation.components.contact import Param
+
+    s = float(np.exp(rng.normal(0.0, STIFFNESS_SPREAD)))
+    out = []
+    for c in truth:
+        if c.name == "contact":
+            k = {side: {u: v * s for u, v in ks.items()} for side, ks in c.k.value.items()}
+            c = dataclasses.replace(
+                c, k=Param("fixed", k), mu=Param("fixed", float(rng.uniform(*MU_RANGE)))
+            )
+        out.append(c)
+    return tuple(out), s
+
+
+def true_values(truth: tuple) -> dict:
+    """``{side: {unit: f_ref}, "n": .., "c": .., "mu": ..}`` of a frozen truth."""
+    law = next(c for c in truth if c.name == "contact")
+    n = float(law.n.value)
+    out = {
+        side: {u: k * law.reference_depth**n for u, k in ks.items()}
+        for side, ks in law.k.value.items()
+    }
+    out.update(n=n, c=float(law.c.value), mu=float(law.mu.value))
+    return out
+
+
+def _write_plates(path: Path, t: np.ndarray, sim, noise=None) -> Path:
+    """The simulated stances' wrenches (about the ``lab`` origin) as a GRF file at ``path``,
+    zero off the stances, each stance's wrench plus ``noise(n)`` (``(n, 6)``, drawn stance by
+    stance; None: none)."""
+    from gc_ocp.export import write_grf
+    from gc_ocp.wrench import transport_wrench
+
+    wrench = {side: np.zeros((t.size, 6)) for side in ("left", "right")}
+    height = {side: np.zeros(t.size) for side in ("left", "right")}
+    for st in sim:
+        idx = np.searchsorted(t, st.time)
+        w = transport_wrench(st.measured, st.reference_point, np.zeros(3))
+        wrench[st.side][idx] = w if noise is None else w + noise(idx.size)
+        height[st.side][idx] = st.ground_height
+    return write_grf(path, t, wrench, height, min_force=THRESHOLD)
+
+
+def truth_windows(real, kin, stances) -> list:
+    """The frames the truth's wrench is written on: each real stance's window (its margin
+    included; ``real``: the subject's TRC loaded with the real plates) widened by
+    :data:`TRUTH_MARGIN` each side, on the subject's kinematics ``kin`` (its own unit points). A plate cut where the truth still carries load is a step no model
+    fits: the Helen Hayes truth still loads its left foot at the real window's end (the
+    refit's law carried past the real stance), and cut there it moved the fitted n by +3 SE."""
+    from gc_ocp.workflow.fitting import MARGIN, fit_data
+
+    _, wide, _ = fit_data([(real, kin)], margin=MARGIN + TRUTH_MARGIN)
+    for st in stances:  # every truth stance inside one widened window of its foot
+        if not any(
+            w.side == st.side and w.time[0] <= st.time[0] and st.time[-1] <= w.time[-1]
+            for w in wide
+        ):
+            raise RuntimeError(
+                f"{real.source}: no widened window holds the truth's stance {st.label}"
+            )
+    return wide
+
+
 def make_subject(
     j: int, spec, motion, folder: Path, real_grf: Path, design: str = "fitted-pose"
 ) -> dict:
