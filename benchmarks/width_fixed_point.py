@@ -57,10 +57,11 @@ class LocalModel:
         return z, np.sum(Li**2, axis=0)
 
 
-def settle(problem, x, pose, sole, steps: int):
-    """MacKay's fixed point for the pose's six widths and the sole's one, ``steps`` steps at
+def settle(problem, x, pose, sole, steps: int, floor=None):
+    """MacKay's fixed point for the pose's six widths and the sole's three, ``steps`` steps at
     most on the fit's local model (1: the package's plain update at the fit), stopping when no
-    width moves 0.1 %."""
+    width moves 0.1 %; ``floor``: the sole's prior the rounds started from (default
+    ``sole.sigma``; :func:`gc_ocp.estimation.pose_scale.sole_update`)."""
     from gc_ocp.estimation import pose_scale
 
     local = LocalModel(problem, x)
@@ -75,6 +76,7 @@ def settle(problem, x, pose, sole, steps: int):
     )
     w0 = np.r_[np.broadcast_to(pose.sigma_mm, 3), np.broadcast_to(pose.sigma_deg, 3)]
     s0 = sole.sigma
+    floor = sole.sigma if floor is None else floor
     d = np.ones(x.size)
     k = 0
     while k < steps:
@@ -85,13 +87,18 @@ def settle(problem, x, pose, sole, steps: int):
             z, sd = local.at(d)
         mm, deg, _, _ = pose_scale.mackay_update(problem, z, pose, sd)
         old = np.r_[np.broadcast_to(pose.sigma_mm, 3), np.broadcast_to(pose.sigma_deg, 3)]
-        w, _ = pose_scale.sole_update(problem, z, sole, sd)
-        change = max(float(np.max(np.abs(np.r_[mm, deg] / old - 1.0))), abs(w / sole.sigma - 1))
+        w, _ = pose_scale.sole_update(problem, z, sole, sd, floor)
+        w = np.asarray(w)  # one width per foot-frame axis
+        change = max(
+            float(np.max(np.abs(np.r_[mm, deg] / old - 1.0))),
+            float(np.max(np.abs(w / np.asarray(sole.sigma) - 1))),
+        )
         pose = replace(pose, sigma_mm=mm, sigma_deg=deg)
-        sole = replace(sole, sigma=w)
+        sole = replace(sole, sigma=tuple(w))
         for a, cols in enumerate([*trans, *rot]):
             d[cols] = np.r_[mm, deg][a] / w0[a]
-        d[sole_cols] = w / s0
+        for a in range(3):  # a unit's block holds its x, y, z
+            d[sole_cols[a::3]] = w[a] / np.broadcast_to(s0, 3)[a]
         if change < 1e-3:
             break
     return pose, sole, k
@@ -109,14 +116,18 @@ def rounds(data, model, start, steps: int, trace=None):
     pose = next(c for c in model if isinstance(c, PoseCorrection))
     sole = next(c for c in model if isinstance(c, SoleCorrection))
     prob, result = build_estimation(data, model), start
+    floor = sole.sigma  # the sole's widths are widened from the model's prior, never narrowed
     k = 0
     while k < pose_scale.MAX_ROUNDS:
         k += 1
         old = np.r_[np.broadcast_to(pose.sigma_mm, 3), np.broadcast_to(pose.sigma_deg, 3)]
-        old_sole = sole.sigma
-        pose, sole, _ = settle(prob, result.x, pose, sole, steps)
+        old_sole = np.asarray(sole.sigma, float)
+        pose, sole, _ = settle(prob, result.x, pose, sole, steps, floor)
         now = np.r_[pose.sigma_mm, pose.sigma_deg]
-        change = max(float(np.max(np.abs(now / old - 1.0))), abs(sole.sigma / old_sole - 1))
+        change = max(
+            float(np.max(np.abs(now / old - 1.0))),
+            float(np.max(np.abs(np.asarray(sole.sigma) / old_sole - 1))),
+        )
         model = tuple(
             pose if isinstance(c, PoseCorrection) else sole if isinstance(c, SoleCorrection) else c
             for c in model
@@ -124,7 +135,10 @@ def rounds(data, model, start, steps: int, trace=None):
         prob = build_estimation(data, model)
         result = solve(prob, x0=rescaled_start(result, prob), covariance=False)
         if trace is not None:
-            trace(np.r_[pose.sigma_mm, pose.sigma_deg, sole.sigma * 1e3], result.objective)
+            trace(
+                np.r_[pose.sigma_mm, pose.sigma_deg, np.asarray(sole.sigma) * 1e3],
+                result.objective,
+            )
         if change < pose_scale.RTOL:
             break
     return model, result, k
@@ -154,8 +168,8 @@ def _one(data, model, start, steps: int) -> dict:
         )
         same = (
             np.allclose(
-                np.r_[scale.sigma_mm, scale.sigma_deg, scale.sole_mm * 1e-3],
-                np.r_[pose.sigma_mm, pose.sigma_deg, sole.sigma],
+                np.r_[scale.sigma_mm, scale.sigma_deg, np.asarray(scale.sole_mm) * 1e-3],
+                np.r_[pose.sigma_mm, pose.sigma_deg, np.broadcast_to(sole.sigma, 3)],
             )
             and np.isclose(pres.objective, res.objective)
             and len(scale.rounds) == refits

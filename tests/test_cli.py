@@ -294,9 +294,9 @@ def test_the_sole_table_names_an_estimated_prior_width():
     macro = environment().from_string(
         '{% from "_fit_tables.html.j2" import sole_table %}{{ sole_table([], w) }}'
     )
-    per_axis = sole_prior_text({"prior_mm": [1.0, 2.5211, 1.13]})
-    assert per_axis == "x 1, y 2.5, z 1.1 mm"
-    assert "foot frame; prior x 1, y 2.5, z 1.1 mm)" in macro.render(w=per_axis)
+    per_axis = sole_prior_text({"prior_mm": [5.0, 7.2511, 9.96]})
+    assert per_axis == "x 5, y 7.25, z 9.96 mm"  # 9.96 is not the 10 mm limit
+    assert "foot frame; prior x 5, y 7.25, z 9.96 mm)" in macro.render(w=per_axis)
     assert sole_prior_text({"prior_mm": 9.5211}) == "9.52 mm"  # one width (before 2026-11-30)
     assert sole_prior_text({}) == "5 mm"  # no width recorded: the component's default
 
@@ -309,7 +309,7 @@ def test_the_pose_prior_text_names_estimated_widths():
 
     assert pose_prior_text({}) == "2 mm / 1 deg"
     block = {"prior_mm": [0.2, 0.2, 2.744], "prior_deg": [0.1, 0.1, 0.1]}
-    assert pose_prior_text(block) == "x 0.2, y 0.2, z 2.7 mm / 0.1 deg"
+    assert pose_prior_text(block) == "x 0.2, y 0.2, z 2.74 mm / 0.1 deg"
 
 
 def test_fit_with_an_effect_shows_its_block(tmp_path, capsys):

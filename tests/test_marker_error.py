@@ -184,6 +184,46 @@ def test_a_width_at_its_limit_says_what_to_do_where_it_is_read():
     )
 
 
+def test_the_sole_width_never_goes_below_the_models_own_prior():
+    """The rounds widen the sole's prior and never narrow it: the floor is the prior the model
+    came with (here 8 mm, not the default 5), on stances whose units sit where the fitter puts
+    them (the data ask for less)."""
+    import dataclasses
+
+    from gc_ocp.estimation import build_estimation
+    from gc_ocp.estimation.components.sole import SoleCorrection
+    from gc_ocp.estimation.pose_scale import estimate_pose_scale
+    from gc_ocp.estimation.solve import IpoptOptions, solve
+    from gc_ocp.estimation.synthetic import recovery_model
+
+    sts, _ = synthetic_stances(np.random.default_rng(8), 0.0)
+    model = tuple(
+        dataclasses.replace(c, sigma=0.008) if isinstance(c, SoleCorrection) else c
+        for c in recovery_model(marker_noise=False)
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = solve(build_estimation(sts, model), IpoptOptions())
+        _, _, scale = estimate_pose_scale(sts, model, res, sole=True)
+    assert scale.sole_mm == pytest.approx((8.0, 8.0, 8.0))
+    assert scale.sole_floor_mm == pytest.approx((8.0, 8.0, 8.0))
+
+
+def test_a_sole_width_at_the_limit_is_flagged_unless_it_is_the_users_prior():
+    """``PoseScale.plausible``: a sole width the data pushed to the 10 mm limit is flagged; a
+    user's prior at or above the limit (the floor the rounds started from) is not."""
+    from gc_ocp.estimation.pose_scale import SOLE_PLAUSIBLE_MM, PoseScale
+
+    def scale(sole_mm, floor):
+        return PoseScale((1.0,) * 3, (1.0,) * 3, (1.0,), 6, [], 3, sole_mm, (1.0,) * 3, floor)
+
+    lim = SOLE_PLAUSIBLE_MM
+    assert not scale((lim, 5.0, 5.0), (5.0, 5.0, 5.0)).plausible
+    assert scale((9.0, 5.0, 5.0), (5.0, 5.0, 5.0)).plausible
+    assert scale((20.0, 20.0, 20.0), (20.0, 20.0, 20.0)).plausible
+    assert not scale((lim, 5.0, 5.0), None).plausible  # no floor recorded: the limit counts
+
+
 @pytest.mark.parametrize("offset_mm", [0.0, 8.0])
 def test_the_sole_width_follows_the_units_misplacement_in_the_data(offset_mm):
     """Type-II ML of the sole correction's width (``estimate_pose_scale(..., sole=True)``): the

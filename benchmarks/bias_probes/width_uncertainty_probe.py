@@ -49,10 +49,13 @@ def width_covariance(problem, x: np.ndarray, scale: ps.PoseScale) -> np.ndarray:
     gammas = list(scale.gamma[:6])
     if scale.sole_mm is not None:
         specs = [s for s in problem.variables.specs if s.key[0] == "sole"]
-        groups.append(np.concatenate([np.arange(s.start, s.start + s.size) for s in specs]))
-        widths.append(scale.sole_mm)
-        limits.append((ps.SOLE_MIN_MM, ps.SOLE_PLAUSIBLE_MM))
-        gammas.append(scale.sole_gamma)
+        cols = np.concatenate([np.arange(s.start, s.start + s.size) for s in specs])
+        floor = scale.sole_floor_mm or (ps.SOLE_MIN_MM,) * 3
+        for a in range(3):  # one width per foot-frame axis (a unit's block: x, y, z)
+            groups.append(cols[a::3])
+            widths.append(scale.sole_mm[a])
+            limits.append((floor[a], max(ps.SOLE_PLAUSIBLE_MM, floor[a])))
+            gammas.append(scale.sole_gamma[a])
     D, var = [], []
     for cols, w, (lo, hi), g in zip(groups, widths, limits, gammas, strict=True):
         if not (lo * 1.001 < w < hi * 0.999) or g < ps.MIN_GAMMA:

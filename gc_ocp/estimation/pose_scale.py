@@ -73,8 +73,9 @@ centimetres away) are different errors. One width pooled over them shrank the ho
 offsets of a synthetic foot (true 2.4 mm RMS across the foot, 1.3 mm up) to the vertical's
 1.3 mm: 95 % intervals of three of them covered the truth in none of 12 draws.
 
-Each width is *widened* by the data, never narrowed below the component's prior
-(:data:`SOLE_MIN_MM`, 5 mm: locating the sole from skin markers over heel and metatarsals).
+Each width is *widened* by the data, never narrowed below the component's prior (the
+model's ``SoleCorrection.sigma``; by default :data:`SOLE_MIN_MM`, 5 mm: locating the sole
+from skin markers over heel and metatarsals).
 The offsets are fixed properties of a foot, not draws from a population, and shrinking them
 towards the nominal layout moves the law's parameters. On the coverage benchmark (offsets of
 up to 8 mm, 1.3 mm RMS up), widths estimated down to 1.1 mm put the exponent's bias at
@@ -83,7 +84,7 @@ the 5 mm floor the bias is +0.004, and they cover 98 %. Every real file measured
 more than 5 mm, so the floor changes none of them (``docs/quality.md``, *The sole's width per
 axis*). Each width stops at 10 mm and is flagged there (a unit a centimetre from where the
 landmarks put it, per axis, is beyond what locating the sole from skin markers explains, as
-for the pose's widths)."""
+for the pose's widths), unless the model's own prior is wider: that width is the user's."""
 
 MIN_MM = 0.2
 MIN_DEG = 0.1
@@ -113,14 +114,25 @@ class PoseScale:
     n_stances: int
     sole_mm: tuple[float, float, float] | None = None  # the sole's widths x, y, z, when estimated
     sole_gamma: tuple[float, float, float] | None = None
+    sole_floor_mm: tuple[float, float, float] | None = None  # the prior the rounds widened
     knot_correlation: float | None = None  # AR(1) per knot, when estimated too
 
     @property
     def plausible(self) -> bool:
         """No width stopped at the soft tissue's limit (:data:`PLAUSIBLE_MM`, ``_DEG``,
         :data:`SOLE_PLAUSIBLE_MM`)."""
-        return widths_plausible(self.sigma_mm, self.sigma_deg) and (
-            self.sole_mm is None or max(self.sole_mm) < SOLE_PLAUSIBLE_MM * 0.999
+        return widths_plausible(self.sigma_mm, self.sigma_deg) and self.sole_plausible
+
+    @property
+    def sole_plausible(self) -> bool:
+        """No sole width stopped at :data:`SOLE_PLAUSIBLE_MM` (a user's prior at or above the
+        limit is the user's, not the data's)."""
+        if self.sole_mm is None:
+            return True
+        floor = self.sole_floor_mm or (0.0, 0.0, 0.0)
+        return all(
+            w < SOLE_PLAUSIBLE_MM * 0.999 or w <= f * 1.001
+            for w, f in zip(self.sole_mm, floor, strict=True)
         )
 
     def message(
@@ -261,9 +273,12 @@ def mackay_update(
     return tuple(widths[:3]), tuple(widths[3:]), tuple(gammas), n
 
 
-def sole_update(problem, x: np.ndarray, sole: SoleCorrection, Sd: np.ndarray) -> tuple:
+def sole_update(problem, x: np.ndarray, sole: SoleCorrection, Sd: np.ndarray, floor=None) -> tuple:
     """The same step for the sole correction's widths, one per axis of the foot frame (x, y,
-    z; every unit of both feet pooled): ``(widths [m], gamma)``, each a 3-tuple."""
+    z; every unit of both feet pooled): ``(widths [m], gamma)``, each a 3-tuple. ``floor``
+    [m] (a scalar or one per axis): the prior the rounds started from, below which no width
+    goes (:data:`SOLE_MIN_MM`; default ``sole.sigma``); the upper limit is
+    :data:`SOLE_PLAUSIBLE_MM`, or the floor where a user's prior is wider."""
     cols = np.concatenate(
         [
             np.arange(s.start, s.start + s.size)
@@ -272,13 +287,14 @@ def sole_update(problem, x: np.ndarray, sole: SoleCorrection, Sd: np.ndarray) ->
         ]
     )
     old = np.broadcast_to(np.asarray(sole.sigma, float), 3)
+    lo = np.broadcast_to(np.asarray(sole.sigma if floor is None else floor, float), 3)
     widths, gammas = [], []
     for a in range(3):
-        c = cols[a::3]
+        c = cols[a::3]  # a unit's block holds its x, y, z (prior_variable, 3 per unit)
         g = float(np.sum(1.0 - Sd[c]))
         z2 = float(np.sum(x[c] ** 2))
         w = old[a] * np.sqrt(z2 / g) if g >= MIN_GAMMA else old[a]
-        widths.append(float(np.clip(w, SOLE_MIN_MM * 1e-3, SOLE_PLAUSIBLE_MM * 1e-3)))
+        widths.append(float(np.clip(w, lo[a], max(SOLE_PLAUSIBLE_MM * 1e-3, lo[a]))))
         gammas.append(g)
     return tuple(widths), tuple(gammas)
 
@@ -320,6 +336,8 @@ def estimate_pose_scale(
         sole_c = None
     rounds = []
     sole_w = sole_g = None
+    # the sole's widths are widened from the prior the model came with, never narrowed
+    sole_floor = None if sole_c is None else np.broadcast_to(np.asarray(sole_c.sigma, float), 3)
     phi = float(pose.knot_correlation[1]) if correlation and pose.knot_correlation else 0.0
     prob = build_estimation(data, model, weights)
     # the returned fit's seconds and iterations are the totals of the fit, as best_of's are
@@ -339,7 +357,7 @@ def estimate_pose_scale(
             pose = replace(pose, knot_correlation=ar1_knot_correlation(phi, pose, data))
         new = {PoseCorrection: pose}
         if sole_c is not None:
-            sole_w, sole_g = sole_update(prob, result.x, sole_c, Sd)
+            sole_w, sole_g = sole_update(prob, result.x, sole_c, Sd, sole_floor)
             change = max(change, float(np.max(np.abs(np.divide(sole_w, sole_c.sigma) - 1.0))))
             sole_c = replace(sole_c, sigma=sole_w)
             new[SoleCorrection] = sole_c
@@ -379,6 +397,7 @@ def estimate_pose_scale(
         len(data),
         sole_mm=None if sole_w is None else tuple(w * 1e3 for w in sole_w),
         sole_gamma=sole_g,
+        sole_floor_mm=None if sole_floor is None else tuple(float(v) * 1e3 for v in sole_floor),
         knot_correlation=phi if correlation else None,
     )
     return model, result, est

@@ -122,11 +122,11 @@ def sole_table(sole: dict) -> list[dict]:
 def axes_text(values, default, unit: str) -> str:
     """A prior's widths as a report prints them: ``"5 mm"``, or per foot-frame or ``lab``
     axis where they differ (an estimated width, :mod:`gc_ocp.estimation.pose_scale`):
-    ``"x 1, y 2.5, z 1.1 mm"``. ``values``: a scalar or one per axis (None: ``default``)."""
+    ``"x 5, y 7.25, z 10 mm"``. ``values``: a scalar or one per axis (None: ``default``)."""
     v = np.broadcast_to(np.asarray(values if values is not None else default, float), 3)
-    if np.allclose(v, v[0]):
+    if np.allclose(v, v[0], rtol=1e-3):
         return f"{v[0]:.3g} {unit}"
-    return ", ".join(f"{a} {x:.2g}" for a, x in zip("xyz", v, strict=True)) + f" {unit}"
+    return ", ".join(f"{a} {x:.3g}" for a, x in zip("xyz", v, strict=True)) + f" {unit}"
 
 
 def sole_prior_text(sole: dict) -> str:
