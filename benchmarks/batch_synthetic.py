@@ -106,14 +106,18 @@ stances hardly load far outside (flagged not identified; up to 1000 BW seen)."""
 
 
 def _plausible(truth: tuple, body_weight: float) -> tuple:
-    """``truth`` with each unit's force at the reference depth clipped into
-    :data:`PLAUSIBLE_F_REF` (a unit a real fit pushed to hundreds of body weights at 5 mm turns
-    a tenth of a millimetre of kinematic error into thousands of newtons). Clipped, not set to
-    its foot's median as until 2026-11-30: on the bundled motion, since the fit's pose
-    correction is a rotation (41f6977), the refitted truth's right medial forefoot unit sits at
-    0.009 BW; the foot's median, 1.1 BW, made that unit 120 times stiffer, and the subjects'
-    right plates carried 2-5 body weights at push-off (every bundled subject then failed the
-    body-weight check). Clipped, it moves from 0.009 to 0.01 BW."""
+    """``truth`` with each unit outside :data:`PLAUSIBLE_F_REF` made plausible, by the reason a
+    real fit leaves it there. *Too stiff*: the stances hardly reach the unit, so its stiffness
+    is barely seen (up to 1000 BW at 5 mm); it takes its foot's median, a typical unit (a unit
+    at hundreds of body weights turns a tenth of a millimetre of kinematic error into
+    thousands of newtons). *Too soft*: the motion pushes the unit deep while the plates show
+    no such force; it is clipped to the lower bound and stays soft. Until 2026-11-30 it took
+    the median too: on the bundled motion, since the fit's pose correction is a rotation
+    (41f6977), the refitted right medial forefoot unit sits at 0.009 BW, and the median
+    (1.1 BW) made it 120 times stiffer where the motion pushes it deep: every bundled
+    subject's right plate carried 2-5 body weights at push-off and failed the body-weight
+    check. Clipping every unit both ways instead spoilt other motions' truths (a heel unit
+    of Rajagopal's at 423 BW became a 3 BW heel that every heel strike loads)."""
     import dataclasses as dc
 
     from gc_ocp.estimation.components.contact import Param
@@ -121,10 +125,13 @@ def _plausible(truth: tuple, body_weight: float) -> tuple:
     law = next(c for c in truth if c.name == "contact")
     scale = law.reference_depth ** float(law.n.value)  # f_ref = k d_ref^n
     lo, hi = (b * body_weight for b in PLAUSIBLE_F_REF)
-    k = {
-        side: {u: float(np.clip(v * scale, lo, hi)) / scale for u, v in ks.items()}
-        for side, ks in law.k.value.items()
-    }
+    k = {}
+    for side, ks in law.k.value.items():
+        ok = [v * scale for v in ks.values() if lo <= v * scale <= hi]
+        mid = float(np.median(ok)) if ok else 0.2 * body_weight
+        k[side] = {
+            u: (mid if v * scale > hi else max(v * scale, lo)) / scale for u, v in ks.items()
+        }
     law = dc.replace(law, k=Param("fixed", k))
     return tuple(law if c.name == "contact" else c for c in truth)
 
@@ -165,8 +172,8 @@ def motion_truth(spec, design: str = "refit-seen"):
     item's companion (for the corrected coordinates: ``(result, kinematics)``).
 
     ``no-pose`` (pathological, kept as the record of why): the default model *without* the per-stance pose correction fitted to
-    the real stances and frozen, each implausible unit (:data:`PLAUSIBLE_F_REF`) clipped
-    into the range (at its foot's median until 2026-11-30): the true foot moves as the recorded kinematics say, which is what the fitter's pose
+    the real stances and frozen, each implausible unit (:data:`PLAUSIBLE_F_REF`) made
+    plausible (:func:`_plausible`): the true foot moves as the recorded kinematics say, which is what the fitter's pose
     prior (centred on no correction) assumes; the fit returned is None. On real kinematics a
     foot of some stances lies centimetres in the floor without its correction, and the plates
     this truth makes carry 10^5-10^9 N there: every subject fails the mass check.
