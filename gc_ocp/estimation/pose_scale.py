@@ -252,6 +252,16 @@ def knot_correlation_update(problem, x: np.ndarray, pose: PoseCorrection, S: np.
     return float(np.clip(m1 / m0, 0.0, MAX_KNOT_CORRELATION)) if m0 > 0 else 0.0
 
 
+def _width_step(old: float, x: np.ndarray, Sd: np.ndarray, cols, lo: float, hi: float) -> tuple:
+    """``(width, gamma)``: the fixed-point step (module doc) for one width ``old`` shared by the
+    coefficients ``cols`` (stored in units of ``old``), clipped to ``[lo, hi]``; a group the
+    data determine less than :data:`MIN_GAMMA` of keeps ``old``."""
+    g = float(np.sum(1.0 - Sd[cols]))
+    z2 = float(np.sum(x[cols] ** 2))
+    w = float(old * np.sqrt(z2 / g)) if g >= MIN_GAMMA else float(old)
+    return float(np.clip(w, lo, hi)), g
+
+
 def mackay_update(
     problem, x: np.ndarray, pose: PoseCorrection, Sd: np.ndarray | None = None
 ) -> tuple[tuple, tuple, tuple, int]:
@@ -264,11 +274,9 @@ def mackay_update(
         old = np.broadcast_to(np.asarray(old, float), 3)
         for a, cols in enumerate(_axis_columns(problem, pose.name, kind)):
             n = cols.size
-            g = float(np.sum(1.0 - Sd[cols]))
-            z2 = float(np.sum(x[cols] ** 2))
-            w = float(old[a] * np.sqrt(z2 / g)) if g >= MIN_GAMMA else float(old[a])
             lo, hi = (MIN_MM, PLAUSIBLE_MM) if kind == "trans" else (MIN_DEG, PLAUSIBLE_DEG)
-            widths.append(float(np.clip(w, lo, hi)))
+            w, g = _width_step(old[a], x, Sd, cols, lo, hi)
+            widths.append(w)
             gammas.append(g)
     return tuple(widths[:3]), tuple(widths[3:]), tuple(gammas), n
 
@@ -289,12 +297,10 @@ def sole_update(problem, x: np.ndarray, sole: SoleCorrection, Sd: np.ndarray, fl
     old = np.broadcast_to(np.asarray(sole.sigma, float), 3)
     lo = np.broadcast_to(np.asarray(sole.sigma if floor is None else floor, float), 3)
     widths, gammas = [], []
-    for a in range(3):
-        c = cols[a::3]  # a unit's block holds its x, y, z (prior_variable, 3 per unit)
-        g = float(np.sum(1.0 - Sd[c]))
-        z2 = float(np.sum(x[c] ** 2))
-        w = old[a] * np.sqrt(z2 / g) if g >= MIN_GAMMA else old[a]
-        widths.append(float(np.clip(w, lo[a], max(SOLE_PLAUSIBLE_MM * 1e-3, lo[a]))))
+    for a in range(3):  # a unit's block holds its x, y, z (prior_variable, 3 per unit)
+        hi = max(SOLE_PLAUSIBLE_MM * 1e-3, lo[a])
+        w, g = _width_step(old[a], x, Sd, cols[a::3], lo[a], hi)
+        widths.append(w)
         gammas.append(g)
     return tuple(widths), tuple(gammas)
 

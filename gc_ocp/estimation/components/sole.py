@@ -12,6 +12,12 @@ from gc_ocp.estimation.components.contact import _layouts
 from gc_ocp.trial import SIDES
 
 
+def prior_widths_mm(sigma) -> list[float]:
+    """A sole correction's prior widths x, y, z [mm] (``sigma``: one width [m], or one per
+    foot-frame axis), as its result block records them (``"prior_mm"``)."""
+    return (np.broadcast_to(np.asarray(sigma, float), 3) * 1e3).tolist()
+
+
 @dataclass(frozen=True)
 class SoleCorrection(Component):
     """Correction of each unit's position in its parent frame, added to ``points_local``.
@@ -109,7 +115,7 @@ class SoleCorrection(Component):
                 se[side][u] = (s * 1e3).tolist()
         block = {"offsets_mm": out, "se_mm": se}
         if self.fixed is None:
-            block["prior_mm"] = (np.broadcast_to(np.asarray(self.sigma, float), 3) * 1e3).tolist()
+            block["prior_mm"] = prior_widths_mm(self.sigma)
         return block
 
     def frozen(self, block: dict) -> SoleCorrection:
@@ -119,4 +125,4 @@ class SoleCorrection(Component):
         return replace(self, fixed=fixed)
 
 
-__all__ = ["SoleCorrection"]
+__all__ = ["SoleCorrection", "prior_widths_mm"]
