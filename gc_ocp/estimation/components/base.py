@@ -106,6 +106,12 @@ class DecodeContext:
         return block_values(self.specs, self.x, self.cov, key)
 
 
+def per_axis(width) -> np.ndarray:
+    """A prior width given as one value or one per axis (x, y, z), as the three values
+    ``(3,)`` (read-only)."""
+    return np.broadcast_to(np.asarray(width, float), 3)
+
+
 def unique_labels(name: str, stances) -> None:
     """Stance-scope variables are keyed by stance label (so that a result can warm-start a fit
     on a subset of its stances, e.g. a cross-validation fold): the labels must be unique."""

@@ -8,9 +8,8 @@ import casadi as ca
 import numpy as np
 
 from gc_ocp.errors import ModelError
-from gc_ocp.estimation.components.base import Component, DecodeContext, SummaryRow
+from gc_ocp.estimation.components.base import Component, DecodeContext, SummaryRow, per_axis
 from gc_ocp.estimation.components.contact import _layouts
-from gc_ocp.estimation.components.sole import prior_widths_mm
 from gc_ocp.foot import SEED_LAYOUT, SoleLayout
 from gc_ocp.trial import SIDES
 
@@ -158,7 +157,7 @@ class DenseSoleCorrection(Component):
                 se[side][u] = (s * 1e3).tolist()
         block = {"offsets_mm": out, "se_mm": se}
         if self.fixed is None:  # as SoleCorrection's block
-            block["prior_mm"] = prior_widths_mm(self.sigma)
+            block["prior_mm"] = (per_axis(self.sigma) * 1e3).tolist()
         return block
 
     def frozen(self, block: dict) -> DenseSoleCorrection:

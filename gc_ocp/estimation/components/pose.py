@@ -10,7 +10,12 @@ import numpy as np
 from scipy.interpolate import BSpline
 
 from gc_ocp.errors import InputError
-from gc_ocp.estimation.components.base import Component, DecodeContext, unique_labels
+from gc_ocp.estimation.components.base import (
+    Component,
+    DecodeContext,
+    per_axis,
+    unique_labels,
+)
 from gc_ocp.geometry import correction_motion
 from gc_ocp.marker_noise import filter_gain, noise_knot_spacing, noise_modelled
 from gc_ocp.trial import SIDES
@@ -142,8 +147,8 @@ class PoseCorrection(Component):
         for st in stances:
             K = self.basis(st.time)[0].shape[1]
             # coefficients are stored column-major as 3 x K (x, y, z of knot 0, then knot 1, ...)
-            st_ = np.tile(np.broadcast_to(np.asarray(self.sigma_mm, float), 3) * 1e-3, K)
-            sr_ = np.tile(np.deg2rad(np.broadcast_to(np.asarray(self.sigma_deg, float), 3)), K)
+            st_ = np.tile(per_axis(self.sigma_mm) * 1e-3, K)
+            sr_ = np.tile(np.deg2rad(per_axis(self.sigma_deg)), K)
             variables.prior_variable(
                 (self.name, st.label, "trans"), 3 * K, st_, self.bound_sigmas * st_
             )
@@ -239,8 +244,8 @@ class PoseCorrection(Component):
         g``). The error of the markers that the correction stands for, to simulate it
         (:func:`gc_ocp.estimation.bias.replicate_data`)."""
         widths = (
-            np.broadcast_to(np.asarray(self.sigma_mm, float), 3) * 1e-3,
-            np.deg2rad(np.broadcast_to(np.asarray(self.sigma_deg, float), 3)),
+            per_axis(self.sigma_mm) * 1e-3,
+            np.deg2rad(per_axis(self.sigma_deg)),
         )
         out: list = [None] * len(stances)
         for side in SIDES:
@@ -289,8 +294,8 @@ class PoseCorrection(Component):
             "rms": rms,
             "shared_fraction": shared,
             "stances": per,
-            "prior_mm": np.broadcast_to(np.asarray(self.sigma_mm, float), 3).tolist(),
-            "prior_deg": np.broadcast_to(np.asarray(self.sigma_deg, float), 3).tolist(),
+            "prior_mm": per_axis(self.sigma_mm).tolist(),
+            "prior_deg": per_axis(self.sigma_deg).tolist(),
         }
 
 

@@ -7,15 +7,9 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
-from gc_ocp.estimation.components.base import Component, DecodeContext
+from gc_ocp.estimation.components.base import Component, DecodeContext, per_axis
 from gc_ocp.estimation.components.contact import _layouts
 from gc_ocp.trial import SIDES
-
-
-def prior_widths_mm(sigma) -> list[float]:
-    """A sole correction's prior widths x, y, z [mm] (``sigma``: one width [m], or one per
-    foot-frame axis), as its result block records them (``"prior_mm"``)."""
-    return (np.broadcast_to(np.asarray(sigma, float), 3) * 1e3).tolist()
 
 
 @dataclass(frozen=True)
@@ -115,7 +109,7 @@ class SoleCorrection(Component):
                 se[side][u] = (s * 1e3).tolist()
         block = {"offsets_mm": out, "se_mm": se}
         if self.fixed is None:
-            block["prior_mm"] = prior_widths_mm(self.sigma)
+            block["prior_mm"] = (per_axis(self.sigma) * 1e3).tolist()
         return block
 
     def frozen(self, block: dict) -> SoleCorrection:
@@ -125,4 +119,4 @@ class SoleCorrection(Component):
         return replace(self, fixed=fixed)
 
 
-__all__ = ["SoleCorrection", "prior_widths_mm"]
+__all__ = ["SoleCorrection"]
