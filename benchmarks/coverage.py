@@ -34,7 +34,7 @@ from scipy.spatial.transform import Rotation
 
 from gc_ocp.diagnosis.mismatch import drift, drift_pattern
 from gc_ocp.estimation import build_estimation
-from gc_ocp.estimation.bias import bias_corrected
+from gc_ocp.estimation.bias import _stance_columns, bias_corrected, replicate_covariance
 from gc_ocp.estimation.pose_scale import ar1_knot_correlation, estimate_pose_scale
 from gc_ocp.estimation.solve import IpoptOptions, _covariance, decode, solve
 from gc_ocp.estimation.synthetic import (
@@ -280,11 +280,27 @@ def main() -> None:
         bias.append([res.params["shared"][p] - truth[p] for p in ("n", "c", "mu")])
         shared.append(res.pose_shared_fraction)
         indep = build_estimation(data, independent_pose(fitted))
+        lin, lin_indep = _covariance(pb, res.x), _covariance(indep, res.x)
+        replicate_part = None
+        if args.bias_correction:  # the correction's rule applied to each linearised covariance
+            sh = np.setdiff1d(np.arange(res.x.size), _stance_columns(pb))
+            S = np.cov(info.moves, rowvar=False).reshape(sh.size, sh.size)
+            B = info.moves.shape[0]
+
+            def replicate_part(c, S=S, sh=sh, B=B):
+                return replicate_covariance(c, S, sh, B)
+
+            lin_plus = lin.copy()
+            lin_plus[np.ix_(sh, sh)] += S / B
         covs = (
             ("HAC", res.covariance),
-            # the bias correction's replicate part (zero without one) kept as it is
-            ("independent", _covariance(indep, res.x) + (res.covariance - _covariance(pb, res.x))),
+            (
+                "independent",
+                lin_indep if replicate_part is None else replicate_part(lin_indep),
+            ),
             ("white", white_covariance(pb, res.x)),
+            # the rule before 2026-11-30: the linearised covariance plus the bias's MC error
+            ("linearised + MC", lin if replicate_part is None else lin_plus),
         )
         for label, cov in covs:
             blocks, _ = decode(pb, res.x, cov)
@@ -295,20 +311,30 @@ def main() -> None:
                 elif name.startswith("f_ref"):
                     key = "f_ref per unit (10)"
                 hits.setdefault((key, label), []).append(abs(est - tv) <= 1.96 * se)
+        raised = (
+            f" (linearised {info.linearised_se.get('mu', np.nan):.4f}, replicates' spread "
+            f"{info.spread.get('mu', np.nan):.4f})"
+            if args.bias_correction
+            else ""
+        )
         print(
             f"draw {i + 1}/{args.draws} ({time.perf_counter() - t0:.0f} s): mu error "
-            f"{res.params['shared']['mu'] - truth['mu']:+.4f}, SE {res.params['shared']['mu_se']:.4f}",
+            f"{res.params['shared']['mu'] - truth['mu']:+.4f}, SE {res.params['shared']['mu_se']:.4f}"
+            + raised,
             file=sys.stderr,
             flush=True,
         )
     print(
         f"# Coverage of 95 % intervals: {done} draws, AR(1) plate errors rho = {args.rho} per frame\n"
     )
-    print("| parameter | HAC (reported) | HAC, pose errors independent | white (classical) |")
-    print("|---|---|---|---|")
+    cols = ("HAC", "independent", "white") + (("linearised + MC",) if bias_moves else ())
+    print(
+        "| parameter | HAC (reported) | HAC, pose errors independent | white (classical) |"
+        + (" linearised HAC + the bias's MC error (no replicate spread) |" if bias_moves else "")
+    )
+    print("|---" * (len(cols) + 1) + "|")
     for key in dict.fromkeys(k for k, _ in hits):
-        h, i_, w = (np.mean(hits[(key, c)]) for c in ("HAC", "independent", "white"))
-        print(f"| {key} | {h:.0%} | {i_:.0%} | {w:.0%} |")
+        print(f"| {key} | " + " | ".join(f"{np.mean(hits[(key, c)]):.0%}" for c in cols) + " |")
     rho = [v for d in shared for v in d.values()]
     if rho:
         print(

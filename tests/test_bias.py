@@ -18,6 +18,7 @@ from gc_ocp.estimation.bias import (
     block_signs,
     draw_pose_noise,
     draws_drift,
+    replicate_covariance,
     replicate_data,
 )
 from gc_ocp.estimation.pose_scale import PLAUSIBLE_MM
@@ -209,6 +210,36 @@ def test_the_correction_subtracts_the_replicates_mean_change_and_adds_its_error(
     assert np.any(np.diag(out.covariance) > np.diag(hac) * (1 + 1e-6))
     assert "bias correction (3 replicates" in info.message()
     assert info.to_json()["bias"]["mu"] == info.bias["mu"]
+
+
+def test_the_replicates_spread_raises_a_standard_error_never_lowers_it():
+    # two shared variables (0, 2) and a stance variable (1): the replicates' spread is larger
+    # than the linearised SD for variable 0, smaller for variable 2
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(3, 3))
+    C = A @ A.T + np.eye(3)
+    shared = np.array([0, 2])
+    S = np.diag([4.0 * C[0, 0], 0.25 * C[2, 2]])
+    out = replicate_covariance(C, S, shared, B=16)
+    # variable 0: the replicates' variance plus its Monte Carlo part; 2: its own plus that part
+    assert out[0, 0] == pytest.approx(4.0 * C[0, 0] * (1 + 1 / 16))
+    assert out[2, 2] == pytest.approx(C[2, 2] + 0.25 * C[2, 2] / 16)
+    assert out[1, 1] == C[1, 1]  # a stance variable is not the correction's
+    # before the Monte Carlo part, the correlations are the linearised ones (a congruence), so
+    # the result is a covariance
+    core = out.copy()
+    core[np.ix_(shared, shared)] -= S / 16
+    corr = lambda M, i, j: M[i, j] / np.sqrt(M[i, i] * M[j, j])  # noqa: E731
+    assert corr(core, 0, 1) == pytest.approx(corr(C, 0, 1))
+    assert corr(core, 0, 2) == pytest.approx(corr(C, 0, 2))
+    assert np.linalg.eigvalsh(out).min() > 0
+    assert replicate_covariance(None, S, shared, 16) is None
+    info = BiasCorrection(
+        16, 0, {"mu": 0.8}, {"mu": -0.01}, {"mu": 0.001}, 1.0,
+        spread={"mu": 0.006}, linearised_se={"mu": 0.004},
+    )  # fmt: skip
+    assert info.se_raised() == {"mu": pytest.approx(1.5)}
+    assert "mu x1.5" in info.message() and "moves" not in info.to_json()
 
 
 def test_a_fit_refuses_a_bias_correction_of_one_replicate():

@@ -29,8 +29,10 @@ found -0.015 of a bias of -0.022, these -0.023 (``benchmarks/bias_probes/README.
 model is refitted to each replicate, warm from the fit (its widths kept). The mean change of
 every shared parameter is the bias; it is subtracted, and each stance's correction is
 re-estimated at the corrected values (:func:`bias_corrected`). The corrected values'
-covariance is the fit's (HAC) plus the replicates' covariance over ``B`` (the Monte Carlo
-error of the bias). Checked by simulation:
+covariance is the fit's (HAC), each shared variable's standard deviation raised to the
+replicates' spread where that is larger (the variance the nonlinear law's errors in variables
+add, which a covariance made at the fit cannot see; :func:`replicate_covariance`), plus the
+replicates' covariance over ``B`` (the Monte Carlo error of the bias). Checked by simulation:
 the replicates' mean change reproduces the fit's error (mu -0.019 against -0.018 at 1 mm,
 -0.053 against a mean error of -0.051 at 2 mm), and ``benchmarks/coverage.py
 --bias-correction`` scores the intervals.
@@ -210,6 +212,20 @@ class BiasCorrection:
     seconds: float
     at_bound: list = dataclasses.field(default_factory=list)
     drift: bool = True
+    spread: dict = dataclasses.field(default_factory=dict)
+    linearised_se: dict = dataclasses.field(default_factory=dict)
+    moves: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
+    """The replicates' changes of the shared decision variables, ``(B, shared)`` (not in
+    :meth:`to_json`: a benchmark's, to score covariance rules)."""
+
+    def se_raised(self) -> dict:
+        """``{name: factor}``: the shared parameters whose reported SE the replicates' spread
+        raised above the linearised one (:func:`replicate_covariance`), by how much."""
+        return {
+            k: self.spread[k] / s
+            for k, s in self.linearised_se.items()
+            if k in self.spread and s > 0 and self.spread[k] > s
+        }
 
     def message(self) -> str:
         parts = [
@@ -231,6 +247,11 @@ class BiasCorrection:
                 " (the replicates drew the markers' noise only: the pose correction's width "
                 "stopped at its limit measures the contact model's misfit, not a drift)"
             )
+        up = {k: f for k, f in self.se_raised().items() if k in ("n", "c", "mu")}
+        if up:
+            s += "; SE from the replicates' spread, larger than the linearised one: " + ", ".join(
+                f"{k} x{f:.2g}" for k, f in up.items()
+            )
         if self.at_bound:
             s += "; left uncorrected (at a bound, or the correction would cross one): " + ", ".join(
                 f"{k} ({self.bias[k]:+.3g})" for k in self.at_bound
@@ -238,10 +259,9 @@ class BiasCorrection:
         return s
 
     def to_json(self) -> dict:
-        return {
-            **dataclasses.asdict(self),
-            "message": self.message(),
-        }
+        d = dataclasses.asdict(self)
+        d.pop("moves")
+        return {**d, "message": self.message()}
 
 
 def _shared(result: EstimationResult) -> dict:
@@ -250,6 +270,36 @@ def _shared(result: EstimationResult) -> dict:
         for k, v in result.params.get("shared", {}).items()
         if not k.endswith("_se") and np.isscalar(v)
     }
+
+
+def replicate_covariance(
+    cov: np.ndarray | None, S: np.ndarray, shared: np.ndarray, B: int
+) -> np.ndarray | None:
+    """The covariance of the bias-corrected estimate: the linearised (HAC) covariance ``cov``
+    with every shared variable's standard deviation raised, where smaller, to the replicates'
+    spread (``S``: their covariance over ``shared``), plus ``S / B``, the Monte Carlo error of
+    the bias subtracted.
+
+    Why the larger of the two: both estimate the same sampling variance, each missing something.
+    The linearised covariance is exact for a law linear in the data's errors, and the friction
+    law is not: the markers' noise enters the sliding velocity, and the variance it gives mu
+    through that nonlinearity (the errors-in-variables part) is not in a covariance made at the
+    fit (mu's SE about 1.3 times short at 0.5 mm of marker noise, ``docs/quality.md``). The
+    replicates refit the nonlinear law through fresh draws of that noise, so their spread has
+    it; but they draw only the errors the replicate model has (their plate error is the fit's
+    residual in sign-flipped 0.1 s blocks), where the HAC covariance reads the residuals'
+    autocorrelation itself. Each variable keeps the larger; the linearised correlations are
+    kept (a congruence ``F C F`` with ``F`` diagonal, so the result stays positive
+    semi-definite). With few replicates ``S`` is noisy and the rule errs wide, never narrow."""
+    if cov is None:
+        return None
+    c = np.diag(cov)[shared]
+    s = np.diag(S)
+    f = np.ones(cov.shape[0])
+    f[shared] = np.sqrt(np.maximum(1.0, np.divide(s, c, out=np.ones_like(s), where=c > 0)))
+    out = cov * f[:, None] * f[None, :]
+    out[np.ix_(shared, shared)] += S / B
+    return out
 
 
 def bias_corrected(
@@ -311,9 +361,9 @@ def bias_corrected(
             k = keys[s.key]
             x[s.start : s.start + s.size] = rf.x[k.start : k.start + k.size]
     corrected = result_at(problem, x, status=result.status, success=result.success)
-    extra = np.zeros((x.size, x.size))
-    extra[np.ix_(shared, shared)] = np.cov(D, rowvar=False).reshape(shared.size, shared.size) / B
-    cov = corrected.covariance + extra if corrected.covariance is not None else None
+    S = np.cov(D, rowvar=False).reshape(shared.size, shared.size)
+    linearised = corrected.covariance
+    cov = replicate_covariance(linearised, S, shared, B)
     blocks, fits = decode(problem, x, cov)
     corrected = dataclasses.replace(
         corrected,
@@ -331,10 +381,26 @@ def bias_corrected(
         xr[shared] += d
         reps.append(_shared(result_at(problem, xr, covariance=False)))
     bias = {k: float(np.mean([r[k] for r in reps]) - before[k]) for k in before if k in after}
-    se = {k: float(np.std([r[k] for r in reps], ddof=1) / np.sqrt(B)) for k in bias}
+    spread = {k: float(np.std([r[k] for r in reps], ddof=1)) for k in bias}
+    se = {k: v / np.sqrt(B) for k, v in spread.items()}
     at_bound = [k for k in bias if after[k] == before[k] and bias[k] != 0.0]
+    # the SEs the linearised covariance alone gives, to say what the replicates' spread raised
+    lin_se = {}
+    if linearised is not None:
+        lin = decode(problem, x, linearised)[0].get("contact", {}).get("shared", {})
+        lin_se = {k: float(lin[k + "_se"]) for k in bias if k + "_se" in lin}
     info = BiasCorrection(
-        B, failed, before, bias, se, time.perf_counter() - t0, at_bound, draws_drift(model)
+        B,
+        failed,
+        before,
+        bias,
+        se,
+        time.perf_counter() - t0,
+        at_bound,
+        draws_drift(model),
+        spread=spread,
+        linearised_se=lin_se,
+        moves=D,
     )
     say(info.message())
     return corrected, info
@@ -348,6 +414,7 @@ __all__ = [
     "block_signs",
     "check_replicates",
     "recorded_truth",
+    "replicate_covariance",
     "draw_pose_drift",
     "draws_drift",
     "draw_pose_noise",

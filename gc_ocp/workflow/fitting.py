@@ -31,7 +31,7 @@ from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.checks import require_stances
 from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
-from gc_ocp.marker_noise import noise_modelled, unit_noise_sd
+from gc_ocp.marker_noise import ATTENUATING_UNIT_NOISE_M, noise_modelled, unit_noise_sd
 from gc_ocp.stance import StanceData, fit_stances, quiet_margins, trial_names
 from gc_ocp.trial import ESTIMATED, Trial
 
@@ -275,6 +275,26 @@ def marker_notes(source, kin: TrialKinematics) -> list[str]:
     ]
 
 
+def attenuation_notes(data: list[StanceData]) -> list[str]:
+    """Advice to ask for the bias correction, per foot whose markers' noise attenuates the
+    friction coefficient by more than about half its SE
+    (:data:`~gc_ocp.marker_noise.ATTENUATING_UNIT_NOISE_M`)."""
+    worst: dict = {}
+    for st in data:
+        pn = st.foot.pose_noise
+        if pn is not None:
+            sd = unit_noise_sd(pn, st.foot.points_local)
+            if sd >= ATTENUATING_UNIT_NOISE_M and sd > worst.get((st.trial, st.side), 0.0):
+                worst[(st.trial, st.side)] = sd
+    return [
+        f"{trial}: the {side} foot's markers' noise moves its contact units by {sd * 1e3:.2f} mm "
+        "after the low-pass; its sliding velocity's noise makes the fit underestimate the "
+        "friction coefficient (about -0.016 at 0.35 mm on synthetic stances, growing with its "
+        "square): refit with --bias-correction 16 (fit(..., bias_correction=16)) to remove it"
+        for (trial, side), sd in worst.items()
+    ]
+
+
 def fit(
     trials: list[tuple[Trial, TrialKinematics]],
     model: tuple | None = None,
@@ -335,6 +355,10 @@ def fit(
     check_replicates(bias_correction)
     model = model or full_model()
     trials, data, notes = fit_data(trials, margin, say)
+    if not bias_correction:
+        for note in attenuation_notes(data):
+            notes.append(note)
+            say(f"check: {note}")
     held = None
     if holdout == "auto":
         holdout = auto_holdout(data)
