@@ -42,7 +42,7 @@ TRIALS = (
 
 
 def main() -> None:
-    from gc_ocp.contact.channels import CHANNELS
+    from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "export_opensim")
@@ -82,7 +82,7 @@ def main() -> None:
     print(f"| trial | fit | n | curve mismatch [%] | fit's vertical RMS [% BW] | {head} |")
     print("|---" * (5 + len(CHANNELS)) + "|")
     for name, label, n, curve, fit_rms, rms in rows:
-        vals = " | ".join(f"{rms[c]:.2f}" for c in CHANNELS)
+        vals = " | ".join(f"{rms[TABLE_KEYS[c]]:.2f}" for c in CHANNELS)
         print(f"| {name} | {label} | {n:.2f} | {curve:.1f} | {fit_rms:.2f} | {vals} |")
     print(
         "\nForces in % BW, torques in % BW x H. Curve mismatch: per unit, the RMS difference "

@@ -53,6 +53,22 @@ CHANNEL_UNITS: dict[str, str] = {c: ("% BW" if IS_FORCE[c] else "% BW*H") for c 
 TABLE_KEYS: dict[str, str] = {c: c + ("_pct_bw" if IS_FORCE[c] else "_pct_bwh") for c in CHANNELS}
 """Key of each channel in Table 1 rows, e.g. ``superior_force_pct_bw``."""
 
+
+def channel_name(key: str) -> str:
+    """A report key's words: ``superior_force_pct_bw`` -> ``superior force``, ``cop_mm`` ->
+    ``COP``."""
+    if key == "cop_mm":
+        return "COP"
+    return key.replace("_pct_bwh", "").replace("_pct_bw", "").replace("_", " ")
+
+
+def channel_unit(key: str) -> str:
+    """A report key's unit: ``% BW``, ``% BW×H`` (torques) or ``mm`` (the COP)."""
+    if key == "cop_mm":
+        return "mm"
+    return "% BW×H" if key.endswith("_pct_bwh") else "% BW"
+
+
 SEED_K_UNIFORM = 11974.0
 """Uniform stiffness of the seed's synthetic data [N/m]; k RMS errors are normalised by it."""
 SEED_BW = 689.0

@@ -22,14 +22,13 @@ import math
 import os
 from pathlib import Path
 
+from gc_ocp.contact.channels import channel_name, channel_unit
 from gc_ocp.diagnosis import selection
 from gc_ocp.diagnosis.compare import BLOCK_SECONDS, MIN_CLUSTERS, resamples_stances
 from gc_ocp.diagnosis.null import DRAWS_PER_LOOK
 from gc_ocp.html import FIGURE_DPI, data_uri, environment, pngs, provenance_context
 from gc_ocp.html.fit_tables import (
     CHANNEL_KEYS,
-    channel_name,
-    channel_unit,
     contact_tables,
     effect_blocks,
     fmt_num,

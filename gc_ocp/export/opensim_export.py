@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gc_ocp.contact.channels import channel_rms_pct
+from gc_ocp.contact.channels import TABLE_KEYS, channel_name, channel_rms_pct, channel_unit
 from gc_ocp.errors import InputError, ModelError
 from gc_ocp.export import opensim_worker as worker
 from gc_ocp.export.calibrated import CalibratedContact, fit_document
@@ -367,7 +367,8 @@ def _stance_frames(trial, time):
 def compare(trial, time, ours: dict, theirs: dict, cal: CalibratedContact) -> dict:
     """RMS of OpenSim's minus the package's wrench per channel over the trial's stances, each
     stance's moments about its reference point (as every fit reports them): ``{"all": {channel:
-    value}, side: {...}}`` in % BW and % BW x H."""
+    value}, side: {...}}`` in % BW and % BW x H, keyed as ``fit.json``'s ``rms``
+    (``superior_force_pct_bw``)."""
     a, b, sides = [], [], []
     for side, idx, ref in _stance_frames(trial, time):
         for w, acc in ((ours[side][idx], a), (theirs[side][idx], b)):
@@ -378,11 +379,18 @@ def compare(trial, time, ours: dict, theirs: dict, cal: CalibratedContact) -> di
     a, b, sides = np.concatenate(a), np.concatenate(b), np.asarray(sides)
     ok = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
     bwh = cal.body_weight * cal.height
-    out = {"all": channel_rms_pct(a[ok], b[ok], cal.body_weight, bwh)}
+
+    def rms(sel):  # keyed as fit.json's rms ("superior_force_pct_bw")
+        return {
+            TABLE_KEYS[c]: v
+            for c, v in channel_rms_pct(a[sel], b[sel], cal.body_weight, bwh).items()
+        }
+
+    out = {"all": rms(ok)}
     for side in ("left", "right"):
         sel = ok & (sides == side)
         if sel.any():
-            out[side] = channel_rms_pct(a[sel], b[sel], cal.body_weight, bwh)
+            out[side] = rms(sel)
     return out
 
 
@@ -445,8 +453,8 @@ class OpenSimExport:
             lines.append(
                 "OpenSim's contact forces against gc_ocp's on the trial's stances (RMS): "
                 + ", ".join(
-                    f"{c.replace('_', ' ')} {v:.2f} {'% BW' if c.endswith('force') else '% BW x H'}"
-                    for c, v in self.rms["all"].items()
+                    f"{channel_name(k)} {v:.2f} {channel_unit(k).replace('×', ' x ')}"
+                    for k, v in self.rms["all"].items()
                 )
             )
         lines += [f"note: {n}" for n in self.notes]

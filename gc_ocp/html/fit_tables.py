@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS
+from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_name, channel_unit
 
 CORE_BLOCKS = ("contact", "sole", "pose", "belt")
 """Blocks of the registered base shown in their own tables; any other block is an effect's."""
@@ -29,19 +29,6 @@ def fmt_num(v, fmt: str = ".2f") -> str:
     except (TypeError, ValueError):
         return str(v)
     return "–" if not math.isfinite(v) else format(v, fmt)
-
-
-def channel_name(key: str) -> str:
-    """``superior_force_pct_bw`` -> ``superior force``."""
-    if key == "cop_mm":
-        return "COP"
-    return key.replace("_pct_bwh", "").replace("_pct_bw", "").replace("_", " ")
-
-
-def channel_unit(key: str) -> str:
-    if key == "cop_mm":
-        return "mm"
-    return "% BW×H" if key.endswith("_pct_bwh") else "% BW"
 
 
 def rms_table(res, heldout: dict | None) -> dict:
