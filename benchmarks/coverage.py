@@ -44,6 +44,7 @@ from gc_ocp.estimation.synthetic import (
     recovery_model,
     synthetic_stance,
 )
+from gc_ocp.workflow.fitting import bias_replicates
 
 UNITS = ("PL", "PM", "AL", "AM", "TT")
 SIDES = ("left", "right")
@@ -213,10 +214,11 @@ def main() -> None:
     ap.add_argument(
         "--bias-correction",
         type=int,
-        default=0,
+        default=None,
         metavar="B",
         help="remove the markers' noise's bias with B replicates (gc_ocp.estimation.bias; "
-        "default 0: off)",
+        "default: as gc_ocp.fit decides, 16 where the markers' noise moves the units by "
+        "0.15 mm or more, else none; 0: off)",
     )
     args = ap.parse_args()
     truth = default_truth()
@@ -270,8 +272,10 @@ def main() -> None:
                 if sc is not None and sc.knot_correlation is not None:
                     phis.append(sc.knot_correlation)
                 pb = build_estimation(data, fitted)
-            if args.bias_correction:
-                res, info = bias_corrected(data, fitted, res, args.bias_correction, seed=i)
+            B = bias_replicates(args.bias_correction, data)[0]  # as gc_ocp.fit
+            info = None
+            if B:
+                res, info = bias_corrected(data, fitted, res, B, seed=i)
                 bias_moves.append(info.bias)
         except Exception as e:
             print(f"draw {i}: {type(e).__name__}", file=sys.stderr)
@@ -282,7 +286,7 @@ def main() -> None:
         indep = build_estimation(data, independent_pose(fitted))
         lin, lin_indep = _covariance(pb, res.x), _covariance(indep, res.x)
         replicate_part = None
-        if args.bias_correction:  # the correction's rule applied to each linearised covariance
+        if info is not None:  # the correction's rule applied to each linearised covariance
             sh = np.setdiff1d(np.arange(res.x.size), _stance_columns(pb))
             S = np.cov(info.moves, rowvar=False).reshape(sh.size, sh.size)
             B = info.moves.shape[0]
@@ -314,7 +318,7 @@ def main() -> None:
         raised = (
             f" (linearised {info.linearised_se.get('mu', np.nan):.4f}, replicates' spread "
             f"{info.spread.get('mu', np.nan):.4f})"
-            if args.bias_correction
+            if info is not None
             else ""
         )
         print(
@@ -358,8 +362,8 @@ def main() -> None:
     )
     if bias_moves:
         print(
-            f"\nBias removed by the correction ({args.bias_correction} replicates; mean over "
-            "the draws): "
+            f"\nBias removed by the correction ({len(bias_moves)} of {done} draws corrected; "
+            "mean over them): "
             + ", ".join(f"{p} {np.mean([m[p] for m in bias_moves]):+.4f}" for p in ("n", "c", "mu"))
         )
     print(

@@ -107,19 +107,25 @@ def test_modelling_the_measured_noise_removes_the_friction_bias():
     assert abs(err[True]) < abs(err[False])
 
 
-def test_the_fit_advises_the_bias_correction_where_the_markers_noise_attenuates_mu():
-    from gc_ocp.workflow.fitting import attenuation_notes
+def test_the_fit_corrects_the_bias_by_default_only_where_the_markers_noise_attenuates_mu():
+    from gc_ocp.workflow.fitting import bias_replicates
 
     # 1 mm of marker noise moves the units by ~0.35 mm after the 6 Hz low-pass (mu -0.016 on
-    # these stances, about two SEs): one note per foot; 0.2 mm (~0.07 mm at the units): none
+    # these stances, about two SEs): corrected by default, one note per foot
     noisy, _ = synthetic_stances(np.random.default_rng(3), 1e-3)
-    notes = attenuation_notes(noisy)
-    assert len(notes) == 2 and all("--bias-correction 16" in n for n in notes)
-    assert {n.split(" foot's")[0].split("the ")[-1] for n in notes} == {"left", "right"}
+    n, notes = bias_replicates(None, noisy)
+    assert n == 16 and len(notes) == 2 and all("16 simulated replicates" in m for m in notes)
+    assert {m.split(" foot's")[0].split("the ")[-1] for m in notes} == {"left", "right"}
     mm = float(notes[0].split("units by ")[1].split(" mm")[0])
     assert 0.25 < mm < 0.45  # 1 mm through the 4-marker Kabsch fit and the 6 Hz filter
+    # turned off, the notes say how to ask for it; a number given is kept
+    n, notes = bias_replicates(0, noisy)
+    assert n == 0 and all("--bias-correction 16" in m for m in notes)
+    assert bias_replicates(4, noisy)[0] == 4
+    # 0.2 mm of marker noise (~0.07 mm at the units) needs none, and nothing is said
     quiet, _ = synthetic_stances(np.random.default_rng(3), 0.2e-3)
-    assert attenuation_notes(quiet) == []
+    assert bias_replicates(None, quiet) == (0, [])
+    assert bias_replicates(8, quiet) == (8, [])
 
 
 def test_a_noisy_marker_is_named_and_every_trial_reports_its_markers_noise():

@@ -54,14 +54,15 @@ class Settings:
     diagnosis on the subject's trials), ``pose_scale`` (estimate the pose correction's width,
     as ``gc-ocp fit`` does by default), ``sole_scale`` (estimate the sole correction's width
     too; None: as :func:`gc_ocp.workflow.fitting.fit` decides, with ``pose_scale``),
-    ``bias_correction`` (replicates of the markers' noise's bias correction, 0: none;
+    ``bias_correction`` (replicates of the markers' noise's bias correction, 0: none, None: as
+    :func:`gc_ocp.workflow.fitting.fit` decides from the markers' noise;
     :mod:`gc_ocp.estimation.bias`), ``strict_trials`` (a trial that cannot be used fails its
     subject, instead of being skipped with its reason: :mod:`gc_ocp.workflow.trials`)."""
 
     diagnose: bool = False
     pose_scale: bool = True
     sole_scale: bool | None = None
-    bias_correction: int = 0
+    bias_correction: int | None = None
     strict_trials: bool = False
 
     def __post_init__(self) -> None:

@@ -154,13 +154,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--bias-correction",
         type=int,
-        default=0,
+        default=None,
         metavar="B",
         help="Remove the bias the markers' noise and soft-tissue drift give the parameters "
         "(the friction coefficient most: -2 %% at 1 mm of marker noise, -6 %% at 2 mm), "
         "estimated from B "
-        "simulated replicates of the fit, each a warm refit (16 is a good choice; default 0: "
-        "off; docs/quality.md).",
+        "simulated replicates of the fit, each a warm refit; their spread enters the SEs. "
+        "Default: 16 where the markers' noise moves the contact units by 0.15 mm or more "
+        "after the low-pass (the fit's checks say so), none elsewhere; 0: off "
+        "(docs/quality.md).",
     )
     p.add_argument(
         "--effects",
@@ -339,10 +341,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--bias-correction",
         type=int,
-        default=0,
+        default=None,
         metavar="B",
         help="Remove the markers' noise's bias from every fit with B replicates (as gc-ocp "
-        "fit --bias-correction; default 0: off).",
+        "fit --bias-correction; default: where a subject's markers are noisy enough to need "
+        "it; 0: off).",
     )
     _add_strict_trials(p)
     p.set_defaults(func=cmd_batch)

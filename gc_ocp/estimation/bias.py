@@ -41,8 +41,10 @@ What it does not remove: an error the replicates do not have -- a lab's processi
 does not record, a drift whose shape the pose correction's prior does not describe. Nor does
 the covariance take in more of the drift's variance than the prior's linearisation gives
 (``docs/quality.md``, *Coverage under a drift per stance*). It costs ``B`` warm
-refits (~3 s each on the synthetic stances); it is off unless asked for
-(``fit(..., bias_correction=B)``, ``gc-ocp fit --bias-correction B``).
+refits (~3 s each on the synthetic stances). A fit makes it by default where the markers' noise
+moves the contact units by 0.15 mm or more after the low-pass
+(:func:`gc_ocp.workflow.fitting.bias_replicates`; no shared lab's file comes near), and on
+request (``fit(..., bias_correction=B)``, ``gc-ocp fit --bias-correction B``; 0: never).
 """
 
 from __future__ import annotations
@@ -77,9 +79,17 @@ held-out intervals and its null): the residuals' autocorrelation time after the 
 of the kinematics (the HAC bandwidth of ``solve._bandwidth`` is 5-12 frames at 100 Hz)."""
 
 
-def check_replicates(replicates: int) -> None:
-    """Raise :class:`~gc_ocp.errors.InputError` unless ``replicates`` is 0 (no correction) or
-    at least 2 (a mean change and its spread)."""
+def check_replicates(replicates: int | None) -> None:
+    """Raise :class:`~gc_ocp.errors.InputError` unless ``replicates`` is None (the fit
+    decides: :func:`gc_ocp.workflow.fitting.bias_replicates`), 0 (no correction) or at least 2
+    (a mean change and its spread)."""
+    if replicates is None:
+        return
+    if not isinstance(replicates, (int, np.integer)) or isinstance(replicates, bool):
+        raise InputError(
+            f"bias_correction={replicates!r}: give the number of replicates (16 is a good "
+            "choice), 0 for none, or None to let the fit decide from the markers' noise."
+        )
     if replicates < 0 or replicates == 1:
         raise InputError(
             f"bias_correction={replicates}: give the number of replicates, at least 2 (16 is a "

@@ -20,7 +20,7 @@ import warnings
 from collections.abc import Callable, Iterator, Sequence
 
 from gc_ocp.errors import InputError
-from gc_ocp.estimation.bias import BiasCorrection, bias_corrected, check_replicates
+from gc_ocp.estimation.bias import REPLICATES, BiasCorrection, bias_corrected, check_replicates
 from gc_ocp.estimation.components import PoseCorrection, full_model
 from gc_ocp.estimation.pose_scale import PoseScale, estimate_pose_scale
 from gc_ocp.estimation.problem import Weights, build_estimation
@@ -275,10 +275,10 @@ def marker_notes(source, kin: TrialKinematics) -> list[str]:
     ]
 
 
-def attenuation_notes(data: list[StanceData]) -> list[str]:
-    """Advice to ask for the bias correction, per foot whose markers' noise attenuates the
-    friction coefficient by more than about half its SE
-    (:data:`~gc_ocp.marker_noise.ATTENUATING_UNIT_NOISE_M`)."""
+def attenuating_feet(data: list[StanceData]) -> dict:
+    """``{(trial, side): sd}``: the feet whose markers' noise moves a contact unit by at least
+    :data:`~gc_ocp.marker_noise.ATTENUATING_UNIT_NOISE_M` after the low-pass (the largest
+    ``sd`` [m] over the foot's stances)."""
     worst: dict = {}
     for st in data:
         pn = st.foot.pose_noise
@@ -286,13 +286,31 @@ def attenuation_notes(data: list[StanceData]) -> list[str]:
             sd = unit_noise_sd(pn, st.foot.points_local)
             if sd >= ATTENUATING_UNIT_NOISE_M and sd > worst.get((st.trial, st.side), 0.0):
                 worst[(st.trial, st.side)] = sd
-    return [
+    return worst
+
+
+def bias_replicates(bias_correction: int | None, data: list[StanceData]) -> tuple[int, list]:
+    """The bias correction's replicates for a fit of ``data`` and what to say about it:
+    ``bias_correction`` as given when it is a number (0: none); None (the default): 16
+    (:data:`~gc_ocp.estimation.bias.REPLICATES`) where some foot's markers' noise attenuates
+    the friction coefficient (:func:`attenuating_feet`), else 0. The notes name those feet, and
+    say to ask for the correction where it was turned off."""
+    feet = attenuating_feet(data)
+    n = (REPLICATES if feet else 0) if bias_correction is None else int(bias_correction)
+    what = (
+        f"the fit removes that bias with {n} simulated replicates and takes their spread into the "
+        "SEs (--bias-correction 0 skips it)"
+        if n
+        else "refit with --bias-correction 16 (fit(..., bias_correction=16)) to remove it"
+    )
+    notes = [
         f"{trial}: the {side} foot's markers' noise moves its contact units by {sd * 1e3:.2f} mm "
-        "after the low-pass; its sliding velocity's noise makes the fit underestimate the "
-        "friction coefficient (about -0.016 at 0.35 mm on synthetic stances, growing with its "
-        "square): refit with --bias-correction 16 (fit(..., bias_correction=16)) to remove it"
-        for (trial, side), sd in worst.items()
+        "after the low-pass; its sliding velocity's noise makes the friction coefficient "
+        "come out low, with an SE too small (on synthetic stances: -0.016 at 0.35 mm, growing "
+        f"with its square; `docs/quality.md`): {what}"
+        for (trial, side), sd in feet.items()
     ]
+    return n, notes
 
 
 def fit(
@@ -308,7 +326,7 @@ def fit(
     extends: tuple | None = None,
     pose_scale: bool = True,
     sole_scale: bool | None = None,
-    bias_correction: int = 0,
+    bias_correction: int | None = None,
     pose_correlation: bool = False,
 ) -> FitReport:
     """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
@@ -331,6 +349,10 @@ def fit(
     correlation in the same rounds too (an option: better on synthetic drifts, worse on the
     shared labs' files, where it measures the contact model's misfit; ``docs/quality.md``, *The
     lead: a pose prior whose variance sits in the low frequencies*).
+    bias_correction: replicates of the markers' noise's bias correction
+    (:mod:`gc_ocp.estimation.bias`); None (default): 16 where the markers' noise moves a
+    contact unit by 0.15 mm or more after the low-pass, none elsewhere
+    (:func:`bias_replicates`; the shared labs' files are all far below); 0: none.
     """
     say = progress or (lambda s: None)
     _require_model(model, "model")
@@ -355,10 +377,10 @@ def fit(
     check_replicates(bias_correction)
     model = model or full_model()
     trials, data, notes = fit_data(trials, margin, say)
-    if not bias_correction:
-        for note in attenuation_notes(data):
-            notes.append(note)
-            say(f"check: {note}")
+    bias_correction, advice = bias_replicates(bias_correction, data)
+    for note in advice:
+        notes.append(note)
+        say(f"check: {note}")
     held = None
     if holdout == "auto":
         holdout = auto_holdout(data)
