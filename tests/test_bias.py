@@ -203,11 +203,21 @@ def test_the_correction_subtracts_the_replicates_mean_change_and_adds_its_error(
     # same where a parameter is linear in its variable (mu, n, c are: scaled, not logged)
     for p in ("n", "c", "mu"):
         assert corrected[p] == pytest.approx(fitted[p] - info.bias[p], abs=1e-9)
-    # the reported covariance is the fit's at the corrected point plus the bias's Monte
-    # Carlo covariance (positive semi-definite): no variance shrinks
-    hac = result_at(pb, out.x).covariance
+    # the reported covariance is the fit's at the corrected point with the shared variables'
+    # SDs raised to the replicates' spread where larger, plus the bias's Monte Carlo part:
+    # exactly replicate_covariance's rule, and no variance shrinks
+    at = result_at(pb, out.x)
+    hac = at.covariance
+    shared = np.setdiff1d(np.arange(out.x.size), np.concatenate(pb.stance_columns()))
+    S = np.cov(info.moves, rowvar=False)
+    np.testing.assert_allclose(out.covariance, replicate_covariance(hac, S, shared, 3))
     assert np.all(np.diag(out.covariance) >= np.diag(hac) - 1e-15)
     assert np.any(np.diag(out.covariance) > np.diag(hac) * (1 + 1e-6))
+    # the linearised SEs it reports are the fit's own at the corrected point
+    assert info.linearised_se["mu"] == pytest.approx(at.params["shared"]["mu_se"])
+    # the flags and the units' "identified" marks are made from the reported covariance
+    left = out.params["left"]
+    assert all("identified" in e for e in left.values() if isinstance(e, dict))
     assert "bias correction (3 replicates" in info.message()
     assert info.to_json()["bias"]["mu"] == info.bias["mu"]
 

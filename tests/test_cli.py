@@ -254,6 +254,11 @@ def test_fit_outputs_are_one_consistent_set(tmp_path, capsys):
     assert len(trial["files"][0]["sha256"]) == 64 and trial["mass_source"]
     assert d["provenance"]["gc_ocp_version"] and isinstance(d["flags"], list)
     assert len(d["provenance"]["trials"]) == 1
+    # the bias correction is decided from the markers' noise and the decision recorded: this
+    # lab's markers were low-passed before export (0.003 mm at the units), so none was made
+    assert d["provenance"]["options"]["bias_correction"] is None
+    assert d["bias_correction"]["replicates"] == 0
+    assert "moves no contact unit by 0.15 mm" in d["bias_correction"]["message"]
     [skip] = d["provenance"]["trials_skipped"]
     assert skip["files"] == [str(broken)] and skip["error"] == "InputError"
     assert "truncated" in skip["message"]

@@ -344,8 +344,11 @@ def cmd_export(args: argparse.Namespace) -> int:
     fit = args.fit_json
     pairs = None
     if args.hertz:
-        pairs = fit_pairs(CalibratedContact.from_fit(fit), _progress)
-        fit = hertz_refit(pairs, progress=_progress)
+        cal = CalibratedContact.from_fit(fit)
+        pairs = fit_pairs(cal, _progress)
+        # the exported fit's bias correction (its provenance's option; None: the default rule)
+        asked = (cal.provenance.get("options") or {}).get("bias_correction")
+        fit = hertz_refit(pairs, progress=_progress, bias_correction=asked)
         print(fit.summary())
     ex = export_opensim(
         fit,

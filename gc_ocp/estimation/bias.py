@@ -62,7 +62,7 @@ from gc_ocp.estimation.measurement import censored
 from gc_ocp.estimation.pose_scale import widths_plausible
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.estimation.solve import IpoptOptions, decode, result_at, solve
+from gc_ocp.estimation.solve import IpoptOptions, _covariance, decode, result_at, solve
 from gc_ocp.estimation.starts import frozen_model, rescaled_start
 from gc_ocp.estimation.synthetic import plate_signal, simulate, with_pose_error
 from gc_ocp.foot import FootKinematics
@@ -93,7 +93,8 @@ def check_replicates(replicates: int | None) -> None:
     if replicates < 0 or replicates == 1:
         raise InputError(
             f"bias_correction={replicates}: give the number of replicates, at least 2 (16 is a "
-            "good choice; --bias-correction 16), or 0 for none."
+            "good choice; --bias-correction 16), 0 for none, or None (the default) to let the "
+            "fit decide from the markers' noise."
         )
 
 
@@ -229,8 +230,10 @@ class BiasCorrection:
     :meth:`to_json`: a benchmark's, to score covariance rules)."""
 
     def se_raised(self) -> dict:
-        """``{name: factor}``: the shared parameters whose reported SE the replicates' spread
-        raised above the linearised one (:func:`replicate_covariance`), by how much."""
+        """``{name: factor}``: the shared parameters whose SE the replicates' spread raised
+        above the linearised one (:func:`replicate_covariance`), and the factor: the spread
+        over the linearised SE (the reported SE adds the bias's Monte Carlo part on top, a
+        factor ``sqrt(1 + 1/B)``)."""
         return {
             k: self.spread[k] / s
             for k, s in self.linearised_se.items()
@@ -286,8 +289,8 @@ def replicate_covariance(
     cov: np.ndarray | None, S: np.ndarray, shared: np.ndarray, B: int
 ) -> np.ndarray | None:
     """The covariance of the bias-corrected estimate: the linearised (HAC) covariance ``cov``
-    with every shared variable's standard deviation raised, where smaller, to the replicates'
-    spread (``S``: their covariance over ``shared``), plus ``S / B``, the Monte Carlo error of
+    with every shared variable's standard deviation raised, where smaller (and positive: a
+    variable the covariance holds fixed stays so), to the replicates' spread (``S``: their covariance over ``shared``), plus ``S / B``, the Monte Carlo error of
     the bias subtracted.
 
     Why the larger of the two: both estimate the same sampling variance, each missing something.
@@ -370,18 +373,19 @@ def bias_corrected(
         if s.key in keys:
             k = keys[s.key]
             x[s.start : s.start + s.size] = rf.x[k.start : k.start + k.size]
-    corrected = result_at(problem, x, status=result.status, success=result.success)
     S = np.cov(D, rowvar=False).reshape(shared.size, shared.size)
-    linearised = corrected.covariance
+    linearised = _covariance(problem, x) if np.all(np.isfinite(x)) else None
     cov = replicate_covariance(linearised, S, shared, B)
-    blocks, fits = decode(problem, x, cov)
-    corrected = dataclasses.replace(
-        corrected,
-        covariance=cov,
-        blocks=blocks,
-        stance_fits=fits,
+    # the result made from the corrected covariance: its SEs, and the flags that read them
+    # (a unit whose SE now exceeds its value is not identified)
+    corrected = result_at(
+        problem,
+        x,
+        status=result.status,
+        success=result.success,
         iterations=result.iterations,
         seconds=result.seconds,
+        covariance=False if cov is None else cov,
     )
     # the bias of each shared parameter in its own units, from the replicates' parameters
     before, after = _shared(result), _shared(corrected)

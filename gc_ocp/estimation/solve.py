@@ -295,12 +295,17 @@ def result_at(
     success: bool = True,
     iterations: int = 0,
     seconds: float = 0.0,
-    covariance: bool = True,
+    covariance: bool | np.ndarray = True,
 ) -> EstimationResult:
     """The plain-data result of ``problem`` at decision vector ``x`` (covariance included unless
-    ``covariance=False``: then ``covariance`` is None and standard errors are NaN)."""
+    ``covariance=False``: then ``covariance`` is None and standard errors are NaN; an array:
+    that covariance, e.g. the bias correction's, from which the SEs and the flags that read them
+    are made)."""
     x = np.asarray(x, float)
-    cov = _covariance(problem, x) if covariance and np.all(np.isfinite(x)) else None
+    if isinstance(covariance, np.ndarray):
+        cov = covariance
+    else:
+        cov = _covariance(problem, x) if covariance and np.all(np.isfinite(x)) else None
     blocks, fits = decode(problem, x, cov)
     rms, cop = fit_quality(fits)
     data_cost, prior_cost = problem.costs(x)

@@ -632,11 +632,17 @@ def _notes(cal: CalibratedContact, doc: Mapping | None = None) -> list[str]:
     return notes
 
 
-def hertz_refit(pairs: Sequence, progress: Callable[[str], None] | None = None):
+def hertz_refit(
+    pairs: Sequence,
+    progress: Callable[[str], None] | None = None,
+    bias_correction: int | None = None,
+):
     """The default model refitted to ``pairs`` with the penetration exponent fixed at
     OpenSim's Hertzian 1.5 (a ``FitReport``; no held-out stance): exported, OpenSim's law is
     the fitted law and only the sphere's geometry and the smoothings differ. Its in-sample RMS
-    against the free exponent's is the price, in the fit's own terms."""
+    against the free exponent's is the price, in the fit's own terms. ``bias_correction``: as
+    the exported fit's (its provenance's option; None: as :func:`~gc_ocp.workflow.fitting.fit`
+    decides)."""
     from gc_ocp.estimation.components import full_model
     from gc_ocp.estimation.components.contact import Param
     from gc_ocp.workflow.fitting import fit
@@ -646,7 +652,9 @@ def hertz_refit(pairs: Sequence, progress: Callable[[str], None] | None = None):
         dataclasses.replace(c, n=Param("fixed", HERTZ_EXPONENT)) if c.name == "contact" else c
         for c in model
     )
-    return fit(list(pairs), model=model, holdout=None, progress=progress)
+    return fit(
+        list(pairs), model=model, holdout=None, progress=progress, bias_correction=bias_correction
+    )
 
 
 def fit_pairs(cal: CalibratedContact, say=lambda s: None) -> list:

@@ -19,13 +19,13 @@ import os
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 
-from gc_ocp.errors import InputError
+from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.bias import REPLICATES, BiasCorrection, bias_corrected, check_replicates
 from gc_ocp.estimation.components import PoseCorrection, full_model
 from gc_ocp.estimation.pose_scale import PoseScale, estimate_pose_scale
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.estimation.solve import IpoptOptions, solve
+from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
 from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
 from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.checks import require_stances
@@ -49,6 +49,8 @@ class FitReport:
     checks: list = dataclasses.field(default_factory=list)
     pose_scale: PoseScale | None = None
     bias: BiasCorrection | None = None
+    bias_skipped: str | None = None
+    """Why no bias correction was made (:func:`bias_replicates`), when none was."""
 
     def to_json(self) -> dict:
         d = self.result.to_json()
@@ -56,6 +58,8 @@ class FitReport:
             d["pose_scale"] = self.pose_scale.to_json()
         if self.bias is not None:
             d["bias_correction"] = self.bias.to_json()
+        elif self.bias_skipped is not None:
+            d["bias_correction"] = {"replicates": 0, "message": self.bias_skipped}
         if self.heldout is not None:
             d["heldout_rms"] = self.heldout.rms
             d["heldout_cop_rms_mm"] = self.heldout.cop_rms_mm
@@ -299,9 +303,9 @@ def bias_replicates(bias_correction: int | None, data: list[StanceData]) -> tupl
     n = (REPLICATES if feet else 0) if bias_correction is None else int(bias_correction)
     what = (
         f"the fit removes that bias with {n} simulated replicates and takes their spread into the "
-        "SEs (--bias-correction 0 skips it)"
+        "SEs (--bias-correction 0, or bias_correction=0, skips it)"
         if n
-        else "refit with --bias-correction 16 (fit(..., bias_correction=16)) to remove it"
+        else "refit with --bias-correction 16 (or bias_correction=16) to remove it"
     )
     notes = [
         f"{trial}: the {side} foot's markers' noise moves its contact units by {sd * 1e3:.2f} mm "
@@ -377,10 +381,6 @@ def fit(
     check_replicates(bias_correction)
     model = model or full_model()
     trials, data, notes = fit_data(trials, margin, say)
-    bias_correction, advice = bias_replicates(bias_correction, data)
-    for note in advice:
-        notes.append(note)
-        say(f"check: {note}")
     held = None
     if holdout == "auto":
         holdout = auto_holdout(data)
@@ -392,6 +392,12 @@ def fit(
                 f"Held-out stance {held.label} leaves no other stance of the {held.side} foot to fit; "
                 "hold out a foot that has at least two stances."
             )
+    # the bias correction decided on the stances fitted (never the held-out one)
+    asked = bias_correction
+    bias_correction, advice = bias_replicates(bias_correction, data)
+    for note in advice:
+        notes.append(note)
+        say(f"check: {note}")
     # the one start path: the seed's linear least squares on the stances fitted (never the
     # held-out one)
     say("initialising stiffness from the seed's linear least squares")
@@ -431,7 +437,36 @@ def fit(
     bias = None
     if bias_correction:
         say(f"bias correction: {bias_correction} replicates")
-        res, bias = bias_corrected(data, model, res, bias_correction, 0, weights, options, say)
+        try:
+            res, bias = bias_corrected(data, model, res, bias_correction, 0, weights, options, say)
+        except SolveError as e:
+            # the fit converged; only its correction did not: kept uncorrected, with its
+            # linearised covariance, and flagged
+            res = result_at(
+                build_estimation(data, model, weights),
+                res.x,
+                status=res.status,
+                success=res.success,
+                iterations=res.iterations,
+                seconds=res.seconds,
+            )
+            res.flags.append(
+                {
+                    "code": "bias_correction_failed",
+                    "what": "bias correction",
+                    "message": f"{e} (the parameters are as fitted, uncorrected)",
+                }
+            )
+    skipped = None
+    if bias is None:
+        skipped = (
+            "not made: turned off (bias_correction=0)"
+            if asked == 0
+            else "not made: failed (see the flags)"
+            if bias_correction
+            else "not made: the markers' noise moves no contact unit by "
+            f"{ATTENUATING_UNIT_NOISE_M * 1e3:g} mm or more after the low-pass"
+        )
     if scale is not None and not scale.plausible:
         res.flags.append(
             {
@@ -440,7 +475,7 @@ def fit(
                 "message": scale.message(),
             }
         )
-    report = FitReport(res, checks=notes, pose_scale=scale, bias=bias)
+    report = FitReport(res, checks=notes, pose_scale=scale, bias=bias, bias_skipped=skipped)
     if held is not None:
         hp = build_estimation([held], frozen_model(model, res), weights)
         hres = solve(hp, options)
@@ -452,4 +487,13 @@ def fit(
     return report
 
 
-__all__ = ["MARGIN", "FitReport", "auto_holdout", "check_holdout", "fit", "fit_data"]
+__all__ = [
+    "MARGIN",
+    "FitReport",
+    "attenuating_feet",
+    "auto_holdout",
+    "bias_replicates",
+    "check_holdout",
+    "fit",
+    "fit_data",
+]
