@@ -79,8 +79,8 @@ class FitReport:
         if self.pose_scale is not None and self.pose_scale.plausible:
             # an implausible width is one of the flags above, with this same message
             s += "\n" + self.pose_scale.message() + "\n"
-        if self.bias is not None:
-            s += self.bias.message() + "\n"
+        if self.bias is not None:  # on its own line, whatever the text above ended with
+            s = s.rstrip("\n") + "\n" + self.bias.message() + "\n"
         if self.heldout is not None:
             s += f"\nheld-out stance {self.heldout_label}:\n" + self.heldout.summary()
         return s
@@ -311,7 +311,7 @@ def bias_replicates(bias_correction: int | None, data: list[StanceData]) -> tupl
         f"{trial}: the {side} foot's markers' noise moves its contact units by {sd * 1e3:.2f} mm "
         "after the low-pass; its sliding velocity's noise makes the friction coefficient "
         "come out low, with an SE too small (on synthetic stances: -0.016 at 0.35 mm, growing "
-        f"with its square; `docs/quality.md`): {what}"
+        f"with its square; docs/quality.md): {what}"
         for (trial, side), sd in feet.items()
     ]
     return n, notes
