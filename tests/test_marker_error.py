@@ -128,13 +128,12 @@ def test_the_fit_corrects_the_bias_by_default_only_where_the_markers_noise_atten
     assert bias_replicates(8, quiet) == (8, [])
 
 
-def test_a_fit_of_noisy_markers_is_corrected_by_default_and_says_so():
+@pytest.fixture(scope="module")
+def noisy_bundled():
     """The bundled trial with 1 mm of white noise on every marker (0.57-0.62 mm at the contact
-    units through its three-marker feet): ``fit`` with its defaults makes the 16 replicates,
-    names the feet in its checks and records the correction in ``fit.json``."""
+    units through its three-marker feet) and its kinematics."""
     from gc_ocp.io import load_trial
     from gc_ocp.kinematics import compute_kinematics
-    from gc_ocp.workflow.fitting import fit
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -142,13 +141,48 @@ def test_a_fit_of_noisy_markers_is_corrected_by_default_and_says_so():
         m = np.array(t.markers, float)
         m += np.random.default_rng(0).normal(0, 1e-3, m.shape)
         t = dataclasses.replace(t, markers=m)
-        rep = fit([(t, compute_kinematics(t))])
+        return t, compute_kinematics(t)
+
+
+def test_a_fit_of_noisy_markers_is_corrected_by_default_and_says_so(noisy_bundled):
+    """``fit`` with its defaults makes the 16 replicates, names the feet in its checks and
+    records the correction in ``fit.json``."""
+    from gc_ocp.workflow.fitting import fit
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rep = fit([noisy_bundled])
     assert rep.bias is not None and rep.bias.replicates + rep.bias.failed == 16
     advice = [c for c in rep.checks if "16 simulated replicates" in c]
     assert len(advice) == 2  # one per foot
     d = rep.to_json()
     assert d["bias_correction"]["replicates"] == rep.bias.replicates
     assert set(d["bias_correction"]["linearised_se"]) >= {"n", "c", "mu"}
+
+
+def test_a_failed_correction_keeps_the_converged_fit_and_flags_it(noisy_bundled, monkeypatch):
+    """The replicates' refits failing (simulated: ``bias_corrected`` raising as it does when
+    fewer than two converge) must not lose the fit: it is kept uncorrected, with its linearised
+    SEs, flagged, and ``fit.json`` says why no correction was made."""
+    import gc_ocp.workflow.fitting as fitting
+    from gc_ocp.errors import SolveError
+
+    def failing(*args, **kwargs):
+        raise SolveError("bias correction: 15 of 16 replicate refits failed")
+
+    monkeypatch.setattr(fitting, "bias_corrected", failing)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rep = fitting.fit([noisy_bundled], bias_correction=4)
+    assert rep.bias is None and rep.result.success
+    [flag] = [f for f in rep.result.flags if f["code"] == "bias_correction_failed"]
+    assert "15 of 16" in flag["message"] and "uncorrected" in flag["message"]
+    shared = rep.result.params["shared"]
+    assert all(np.isfinite(shared[p + "_se"]) and shared[p + "_se"] > 0 for p in ("n", "mu"))
+    assert rep.to_json()["bias_correction"] == {
+        "replicates": 0,
+        "message": "not made: failed (see the flags)",
+    }
 
 
 def test_a_noisy_marker_is_named_and_every_trial_reports_its_markers_noise():
