@@ -180,6 +180,7 @@ def test_a_broken_trial_is_recorded_and_the_others_complete_then_a_rerun_skips_t
             assert r["status"] == "done" and np.isfinite(r["n"]) and r["n_se"] > 0
             assert 0 < r["rms_superior_force_pct_bw"] < 10  # % BW: a fit, not a failure
             assert r["trials"] == 1 and r["trials_skipped"] == 1
+            assert r["bias_replicates"] == 0  # the bundled trial's markers are quiet
         # the worker's warnings are kept with the subject, not printed between progress lines
         said = json.loads((out / "S1" / "done.json").read_text())["warnings"]
         assert any("LLS initialisation" in w for w in said), said  # this subject's one warning

@@ -42,6 +42,7 @@ COLUMNS = (
     "heldout_cop_rms_mm",
     "flags",
     "flag_codes",
+    "bias_replicates",
     "diagnosis_selected",
     "solver_status",
     "iterations",
@@ -52,7 +53,9 @@ COLUMNS = (
 )
 """The summary's columns, in order (``f_ref``: a unit's force at the reference depth [N];
 ``units_not_identified``: the units whose force the data do not fix, ``"PM; AM"``, whose
-``f_ref`` is a value with no meaning beside its SE: leave them out of a group's statistics)."""
+``f_ref`` is a value with no meaning beside its SE: leave them out of a group's statistics;
+``bias_replicates``: the markers' noise's bias correction, 0 where none was made, e.g. a
+subject whose markers are quiet enough: :func:`gc_ocp.workflow.fitting.bias_replicates`)."""
 
 NUMERIC = frozenset(
     c
@@ -116,6 +119,8 @@ def subject_rows(subject, fit_doc: dict, diagnosis: dict | None) -> list[dict]:
             "heldout_cop_rms_mm": held_cop.get(foot),
             "flags": len(flags),
             "flag_codes": "; ".join(sorted({f["code"] for f in flags})),
+            # None: a fit.json written before the correction's decision was recorded
+            "bias_replicates": (fit_doc.get("bias_correction") or {}).get("replicates"),
             "diagnosis_selected": None
             if diagnosis is None
             else (", ".join(diagnosis["selected"]) or "none"),
