@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 
 import pytest
@@ -259,6 +260,9 @@ def test_fit_outputs_are_one_consistent_set(tmp_path, capsys):
     assert d["provenance"]["options"]["bias_correction"] is None
     assert d["bias_correction"]["replicates"] == 0
     assert "moves no contact unit by 0.15 mm" in d["bias_correction"]["message"]
+    assert "Bias correction for the markers' error: not made: the markers' noise moves" in (
+        html.unescape((out / "report.html").read_text(encoding="utf-8"))
+    )
     [skip] = d["provenance"]["trials_skipped"]
     assert skip["files"] == [str(broken)] and skip["error"] == "InputError"
     assert "truncated" in skip["message"]

@@ -57,6 +57,7 @@ def fit_report_html(
         "checks": list(report.checks),
         "pose_scale": None if report.pose_scale is None else report.pose_scale.message(),
         "bias": None if report.bias is None else report.bias.message(),
+        "bias_skipped": report.bias_skipped,
         "flags": _flags(report),
         "contact": contact_tables(res.params),
         "sole": sole_table(res.blocks.get("sole", {})),
