@@ -31,6 +31,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from gc_ocp.estimation.components.base import per_axis
 from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.components.sole import SoleCorrection
 from gc_ocp.estimation.problem import Weights, build_estimation
@@ -271,7 +272,7 @@ def mackay_update(
     Sd = _posterior_variances(problem, x) if Sd is None else Sd
     widths, gammas, n = [], [], 0
     for kind, old in (("trans", pose.sigma_mm), ("rot", pose.sigma_deg)):
-        old = np.broadcast_to(np.asarray(old, float), 3)
+        old = per_axis(old)
         for a, cols in enumerate(_axis_columns(problem, pose.name, kind)):
             n = cols.size
             lo, hi = (MIN_MM, PLAUSIBLE_MM) if kind == "trans" else (MIN_DEG, PLAUSIBLE_DEG)
@@ -294,8 +295,8 @@ def sole_update(problem, x: np.ndarray, sole: SoleCorrection, Sd: np.ndarray, fl
             if s.key[0] == sole.name
         ]
     )
-    old = np.broadcast_to(np.asarray(sole.sigma, float), 3)
-    lo = np.broadcast_to(np.asarray(sole.sigma if floor is None else floor, float), 3)
+    old = per_axis(sole.sigma)
+    lo = per_axis(sole.sigma if floor is None else floor)
     widths, gammas = [], []
     for a in range(3):  # a unit's block holds its x, y, z (prior_variable, 3 per unit)
         hi = max(SOLE_PLAUSIBLE_MM * 1e-3, lo[a])
@@ -343,7 +344,7 @@ def estimate_pose_scale(
     rounds = []
     sole_w = sole_g = None
     # the sole's widths are widened from the prior the model came with, never narrowed
-    sole_floor = None if sole_c is None else np.broadcast_to(np.asarray(sole_c.sigma, float), 3)
+    sole_floor = None if sole_c is None else per_axis(sole_c.sigma)
     phi = float(pose.knot_correlation[1]) if correlation and pose.knot_correlation else 0.0
     prob = build_estimation(data, model, weights)
     # the returned fit's seconds and iterations are the totals of the fit, as best_of's are

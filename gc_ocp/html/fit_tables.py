@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_name, channel_unit
+from gc_ocp.estimation.components.base import per_axis
 
 CORE_BLOCKS = ("contact", "sole", "pose", "belt")
 """Blocks of the registered base shown in their own tables; any other block is an effect's."""
@@ -110,7 +111,7 @@ def axes_text(values, default, unit: str) -> str:
     """A prior's widths as a report prints them: ``"5 mm"``, or per foot-frame or ``lab``
     axis where they differ (an estimated width, :mod:`gc_ocp.estimation.pose_scale`):
     ``"x 5, y 7.25, z 10 mm"``. ``values``: a scalar or one per axis (None: ``default``)."""
-    v = np.broadcast_to(np.asarray(values if values is not None else default, float), 3)
+    v = per_axis(values if values is not None else default)
     if np.allclose(v, v[0], rtol=1e-3):
         return f"{v[0]:.3g} {unit}"
     return ", ".join(f"{a} {x:.3g}" for a, x in zip("xyz", v, strict=True)) + f" {unit}"

@@ -305,7 +305,8 @@ def bias_replicates(bias_correction: int | None, data: list[StanceData]) -> tupl
         f"the fit removes that bias with {n} simulated replicates and takes their spread into the "
         "SEs (--bias-correction 0, or bias_correction=0, skips it)"
         if n
-        else "refit with --bias-correction 16 (or bias_correction=16) to remove it"
+        else f"refit with --bias-correction {REPLICATES} (or bias_correction={REPLICATES}) to "
+        "remove it"
     )
     notes = [
         f"{trial}: the {side} foot's markers' noise moves its contact units by {sd * 1e3:.2f} mm "
