@@ -174,6 +174,15 @@ class FootKinematics:
     def parent_twist(self, unit: str) -> np.ndarray:
         return self.hindfoot_twist if self.layout.parent(unit) == "hindfoot" else self.toes_twist
 
+    def points_in_hindfoot(self) -> np.ndarray:
+        """``(m, 3)`` the units' positions in the hindfoot frame [m] at the middle frame (a unit
+        on the toes carried there through the toes' placement): the lever arms through which an
+        error of the hindfoot's pose moves each unit (``points_local`` holds a toe unit in the
+        toes' frame, where its lever arm is shorter)."""
+        k = self.time.shape[0] // 2
+        H = self.hindfoot_pose[k]
+        return (self.positions[k] - H[:3, 3]) @ H[:3, :3]
+
     def unit_trajectories(self, points_local: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``lab`` positions/velocities ``(n, m, 3)`` of the units placed at ``points_local`` (m, 3)."""
         n = self.time.shape[0]

@@ -48,7 +48,7 @@ low-passed before export measure ~0.005-0.03 mm of marker noise and stay below (
 
 
 @functools.lru_cache(maxsize=64)
-def _kernel(rate: float, cutoff_hz: float, order: int) -> np.ndarray:
+def filter_kernel(rate: float, cutoff_hz: float, order: int) -> np.ndarray:
     """``h``: the zero-lag low-pass (``filtfilt`` of an ``order/2`` Butterworth, as
     :func:`gc_ocp.kinematics.filtering.lowpass`) applied to a unit impulse in the middle of
     ``8 / cutoff_hz`` seconds of samples (far enough from the ends that they do not reach it)."""
@@ -64,7 +64,7 @@ def _kernel(rate: float, cutoff_hz: float, order: int) -> np.ndarray:
 def _noise_gain(rate: float, cutoff_hz: float, order: int = 4) -> float:
     """``g``: the variance that ``x - lowpass(x)`` keeps of unit white noise (module doc), away
     from the ends."""
-    e = -_kernel(rate, cutoff_hz, order)
+    e = -filter_kernel(rate, cutoff_hz, order)
     e[e.size // 2] += 1.0
     return float(e @ e)
 
@@ -130,16 +130,17 @@ def noise_knot_spacing(noise: PoseNoise) -> float:
 
 def filter_gain(noise: PoseNoise) -> float:
     """The variance the pipeline's low-pass keeps of unit white noise (``sum_j h_j^2``)."""
-    h = _kernel(float(noise.rate), float(noise.cutoff_hz), int(noise.order))
+    h = filter_kernel(float(noise.rate), float(noise.cutoff_hz), int(noise.order))
     return float(h @ h)
 
 
-def unit_noise_sd(noise: PoseNoise, points_local: np.ndarray) -> float:
+def unit_noise_sd(noise: PoseNoise, points: np.ndarray) -> float:
     """The largest per-frame standard deviation [m] (RMS over the axes) that the low-passed pose
-    noise gives a contact unit at ``points_local`` ``(m, 3)`` (hindfoot frame)."""
+    noise gives a contact unit at ``points`` ``(m, 3)``, in the hindfoot frame (a toe unit
+    too: :meth:`~gc_ocp.foot.FootKinematics.points_in_hindfoot`)."""
     g = filter_gain(noise)
     sds = []
-    for p in np.asarray(points_local, float):
+    for p in np.asarray(points, float):
         G = np.hstack([np.eye(3), -_skew(p)])
         sds.append(np.sqrt(g * np.trace(G @ noise.cov @ G.T) / 3.0))
     return float(max(sds))
@@ -160,10 +161,11 @@ whose markers were low-passed before export measure 0.001-0.05 mm at the units a
 (no cost)."""
 
 
-def noise_modelled(noise: PoseNoise, points_local: np.ndarray) -> bool:
-    """Whether the estimator models ``noise`` for a foot whose units sit at ``points_local``:
-    it moves some unit by at least :data:`MIN_UNIT_NOISE_M` (:func:`unit_noise_sd`)."""
-    return unit_noise_sd(noise, points_local) >= MIN_UNIT_NOISE_M
+def noise_modelled(noise: PoseNoise, points: np.ndarray) -> bool:
+    """Whether the estimator models ``noise`` for a foot whose units sit at ``points`` (the
+    hindfoot frame, :func:`unit_noise_sd`): it moves some unit by at least
+    :data:`MIN_UNIT_NOISE_M`."""
+    return unit_noise_sd(noise, points) >= MIN_UNIT_NOISE_M
 
 
 def foot_pose_noise(
@@ -183,6 +185,7 @@ def foot_pose_noise(
 __all__ = [
     "foot_pose_noise",
     "filter_gain",
+    "filter_kernel",
     "noise_knot_spacing",
     "noise_modelled",
     "unit_noise_sd",

@@ -18,6 +18,7 @@ from gc_ocp.estimation.bias import (
     block_signs,
     draw_pose_noise,
     draws_drift,
+    no_drift_reason,
     replicate_covariance,
     replicate_data,
 )
@@ -63,6 +64,26 @@ def test_a_fresh_draw_of_the_pose_noise_has_the_measured_size_after_the_low_pass
     v = np.gradient(seen.hindfoot_pose[:, :3, 3], seen.time, axis=0)
     np.testing.assert_allclose(seen.hindfoot_twist[:, :3], v, atol=1e-3)
     assert np.abs(seen.hindfoot_twist[:, :3] - foot.hindfoot_twist[:, :3]).max() > 5e-3
+
+
+def test_the_drawn_noise_is_as_large_at_a_stance_s_ends_as_in_its_middle():
+    """The pipeline low-passed the whole trial, so a stance's first frame is an interior one of
+    the filter: the drawn noise must not be larger there (``filtfilt`` over the stance's window
+    alone gives ten times the variance at its ends)."""
+    from gc_ocp.synthetic_foot import rolling_foot
+
+    foot = rolling_foot("left", duration=0.75)  # one stance, 75 frames
+    noise = PoseNoise(np.diag(np.r_[np.full(3, 1e-6), np.full(3, 1e-4)]), 100.0, 6.0, 4, 1e-3)
+    foot = dataclasses.replace(foot, pose_noise=noise)
+    rng = np.random.default_rng(2)
+    d = np.array(
+        [draw_pose_noise(foot, rng).hindfoot_pose[:, 0, 3] - foot.hindfoot_pose[:, 0, 3]
+         for _ in range(400)]
+    )  # fmt: skip
+    var = d.var(axis=0) / (filter_gain(noise) * 1e-6)  # 1 where the low-passed noise is right
+    # 400 draws: a variance's relative SE sqrt(2 / 400) = 7 %; 30 % is over four of them (the
+    # window's own filtfilt is 10x at frame 0)
+    np.testing.assert_allclose(var[[0, 37, -1]], 1.0, rtol=0.3)
 
 
 def test_a_replicate_walks_the_recorded_motion_seen_through_new_noise():
@@ -172,8 +193,16 @@ def test_a_replicate_also_draws_the_smooth_pose_error_of_the_fitted_widths():
     b = replicate_data(sts, limit, res, np.random.default_rng(0), drift=False)
     for x, y in zip(a, b, strict=True):
         np.testing.assert_array_equal(x.foot.hindfoot_pose, y.foot.hindfoot_pose)
-    info = BiasCorrection(2, 0, {"mu": 0.8}, {"mu": -0.01}, {"mu": 0.002}, 1.0, drift=False)
-    assert "drew the markers' noise only" in info.message()
+    info = BiasCorrection(
+        2, 0, {"mu": 0.8}, {"mu": -0.01}, {"mu": 0.002}, 1.0, drift=False,
+        no_drift_reason=no_drift_reason(limit),
+    )  # fmt: skip
+    assert "drew the markers' noise only: the pose correction's width is at or above" in (
+        info.message()
+    )
+    no_pose = tuple(c for c in model if c.name != "pose")
+    assert no_drift_reason(no_pose) == "the model has no pose correction"
+    assert no_drift_reason(model) == ""
     assert all(
         r.foot.pose_noise is st.foot.pose_noise
         for r, st in zip(
@@ -244,6 +273,13 @@ def test_the_replicates_spread_raises_a_standard_error_never_lowers_it():
     assert corr(core, 0, 2) == pytest.approx(corr(C, 0, 2))
     assert np.linalg.eigvalsh(out).min() > 0
     assert replicate_covariance(None, S, shared, 16) is None
+    # the Monte Carlo part only on the variables the bias was subtracted from, and never on one
+    # the covariance holds fixed (its variance stays 0)
+    part = replicate_covariance(C, S, shared, B=16, corrected=np.array([True, False]))
+    assert part[0, 0] == pytest.approx(out[0, 0]) and part[2, 2] == pytest.approx(C[2, 2])
+    fixed = C.copy()
+    fixed[2, :] = fixed[:, 2] = 0.0
+    assert replicate_covariance(fixed, S, shared, B=16)[2, 2] == 0.0
     info = BiasCorrection(
         16, 0, {"mu": 0.8}, {"mu": -0.01}, {"mu": 0.001}, 1.0,
         spread={"mu": 0.006}, linearised_se={"mu": 0.004},

@@ -253,6 +253,39 @@ def test_holdout_errors(bundled):
         fit([bundled], holdout="left@")
 
 
+def test_a_held_out_solve_that_fails_keeps_the_fit_and_flags_the_score(bundled, monkeypatch):
+    """Ipopt failing on the held-out stance (simulated: its result marked failed) must not lose
+    the fit of the other stances: the fit is returned, the held-out score carries a flag."""
+    import dataclasses
+
+    import gc_ocp.workflow.fitting as fitting
+
+    real = fitting.solve
+
+    def held_out_fails(problem, *args, **kwargs):
+        res = real(problem, *args, **kwargs)
+        if len(problem.stances) == 1:  # the held-out stance's problem
+            assert kwargs.get("raise_on_failure") is False  # else it would raise here
+            return dataclasses.replace(res, success=False, status="Maximum_Iterations_Exceeded")
+        return res
+
+    monkeypatch.setattr(fitting, "solve", held_out_fails)
+    rep = fitting.fit([bundled], holdout="auto")
+    assert rep.result.success and rep.heldout is not None
+    [flag] = [f for f in rep.heldout.flags if f["code"] == "heldout_not_converged"]
+    assert rep.heldout_label in flag["what"] and "Maximum_Iterations_Exceeded" in flag["message"]
+
+
+def test_an_exact_holdout_label_wins_over_the_labels_that_contain_it():
+    from gc_ocp.workflow.fitting import _holdout_index
+
+    labels = ["fastwalk:right@0.410s", "walk:right@0.410s", "walk:left@0.950s"]
+    assert _holdout_index("walk:right@0.410s", labels) == 1
+    assert _holdout_index("fastwalk", labels) == 0  # a part of one label still names it
+    with pytest.raises(InputError, match="matches 2 stances"):
+        _holdout_index("right@0.410s", labels)  # a part of two: which one is not said
+
+
 def test_cli_fit(tmp_path):
     from gc_ocp.cli import main
 

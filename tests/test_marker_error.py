@@ -74,7 +74,7 @@ def test_the_pipeline_measures_each_foot_and_models_the_noise_only_where_it_matt
     # measured from the raw virtual markers, not handed over: within 15 % of the 0.5 mm
     # (4 markers x 65 frames: a few % of MAD error per stance)
     assert foot.pose_noise.sigma_marker == pytest.approx(0.5e-3, rel=0.15)
-    assert unit_noise_sd(foot.pose_noise, foot.points_local) > MIN_UNIT_NOISE_M
+    assert unit_noise_sd(foot.pose_noise, foot.points_in_hindfoot()) > MIN_UNIT_NOISE_M
     from gc_ocp.estimation import PoseCorrection
     from gc_ocp.estimation.problem import declare
 
@@ -337,3 +337,21 @@ def test_the_sole_width_follows_the_units_misplacement_in_the_data(offset_mm):
     else:  # the data ask for less: each width stays at the prior, its floor (SOLE_MIN_MM)
         assert scale.sole_mm == pytest.approx((SOLE_MIN_MM,) * 3)
     assert res2.blocks["sole"]["prior_mm"] == pytest.approx(scale.sole_mm)
+
+
+def test_the_units_lever_arms_are_in_the_hindfoot_frame_a_toe_unit_too(bundled_stances):
+    """The hindfoot pose's error moves a toe unit through its distance from the hindfoot's
+    origin, not from the toes' (where ``points_local`` holds it): the toe unit's row is its
+    toes-frame position carried through the toes' placement at the middle frame."""
+    foot = bundled_stances[0].foot
+    P = foot.points_in_hindfoot()
+    k = foot.time.shape[0] // 2
+    for i, parent in enumerate(foot.layout.parents):
+        if parent == "hindfoot":  # its own frame: unchanged (round-off of one rigid transform)
+            np.testing.assert_allclose(P[i], foot.points_local[i], atol=1e-12)
+        else:
+            rel = np.linalg.inv(foot.hindfoot_pose[k]) @ foot.toes_pose[k]
+            want = rel[:3, :3] @ foot.points_local[i] + rel[:3, 3]
+            np.testing.assert_allclose(P[i], want, atol=1e-12)
+            # farther from the hindfoot's origin than from the toes': the longer lever arm
+            assert np.linalg.norm(P[i]) > np.linalg.norm(foot.points_local[i])

@@ -54,7 +54,6 @@ import time
 from collections.abc import Callable, Sequence
 
 import numpy as np
-from scipy.signal import butter, filtfilt
 
 from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.components.pose import PoseCorrection
@@ -66,6 +65,7 @@ from gc_ocp.estimation.solve import IpoptOptions, _covariance, decode, result_at
 from gc_ocp.estimation.starts import frozen_model, rescaled_start
 from gc_ocp.estimation.synthetic import plate_signal, simulate, with_pose_error
 from gc_ocp.foot import FootKinematics
+from gc_ocp.marker_noise import filter_kernel
 from gc_ocp.stance import StanceData
 
 REPLICATES = 16
@@ -87,13 +87,14 @@ def check_replicates(replicates: int | None) -> None:
         return
     if not isinstance(replicates, (int, np.integer)) or isinstance(replicates, bool):
         raise InputError(
-            f"bias_correction={replicates!r}: give the number of replicates (16 is a good "
-            "choice), 0 for none, or None to let the fit decide from the markers' noise."
+            f"bias_correction={replicates!r}: give the number of replicates ({REPLICATES} is a "
+            "good choice), 0 for none, or None to let the fit decide from the markers' noise."
         )
     if replicates < 0 or replicates == 1:
         raise InputError(
-            f"bias_correction={replicates}: give the number of replicates, at least 2 (16 is a "
-            "good choice; --bias-correction 16), 0 for none, or None (the default) to let the "
+            f"bias_correction={replicates}: give the number of replicates, at least 2 "
+            f"({REPLICATES} is a good choice; --bias-correction {REPLICATES}), 0 for none, or "
+            "None (the default) to let the "
             "fit decide from the markers' noise."
         )
 
@@ -111,16 +112,26 @@ def block_signs(T: int, L: int, n: int, rng: np.random.Generator) -> np.ndarray:
 def draw_pose_noise(foot: FootKinematics, rng: np.random.Generator) -> FootKinematics:
     """``foot`` seen through a fresh draw of its markers' noise (its
     :attr:`~gc_ocp.foot.FootKinematics.pose_noise`: the per-frame pose covariance before the
-    low-pass, in hindfoot axes), low-passed as the pipeline did (zero-lag Butterworth of the
-    recorded order and cutoff); ``foot`` itself when no noise was measured."""
+    low-pass, in hindfoot axes), low-passed as the pipeline did (its zero-lag Butterworth's
+    impulse response, :func:`gc_ocp.marker_noise.filter_kernel`); ``foot`` itself when no
+    noise was measured.
+
+    The pipeline filtered the whole trial, so the noise a stance keeps is as large at its ends
+    as in its middle. Filtering the stance's window alone would not be: ``filtfilt`` leaves
+    10 times the position variance and 17 times the velocity variance at its first frame (6 Hz
+    at 100 Hz), on the frames of heel strike, where the sliding velocity's noise is what biases
+    mu. So the draw is longer by the response's length and convolved with it (``"valid"``):
+    every frame of the stance is an interior one."""
     pn = foot.pose_noise
     if pn is None:
         return foot
     T = foot.time.size
-    w = rng.multivariate_normal(np.zeros(6), pn.cov, T)
-    if pn.cutoff_hz < pn.rate / 2 and T > 3 * (pn.order + 1):
-        b, a = butter(max(1, pn.order // 2), pn.cutoff_hz / (pn.rate / 2))
-        w = filtfilt(b, a, w, axis=0)
+    if pn.cutoff_hz < pn.rate / 2:
+        h = filter_kernel(float(pn.rate), float(pn.cutoff_hz), int(pn.order))
+        e = rng.multivariate_normal(np.zeros(6), pn.cov, T + h.size - 1)
+        w = np.stack([np.convolve(e[:, j], h, mode="valid") for j in range(6)], axis=1)
+    else:  # no low-pass below Nyquist: the noise as drawn
+        w = rng.multivariate_normal(np.zeros(6), pn.cov, T)
     R = foot.hindfoot_pose[:, :3, :3]
     seen = with_pose_error(foot, w[:, 3:], np.einsum("nij,nj->ni", R, w[:, :3]))
     return dataclasses.replace(seen, pose_noise=pn)
@@ -139,6 +150,18 @@ def draws_drift(model: tuple) -> bool:
     only, and the correction says so."""
     pose = _pose(model)
     return pose is not None and widths_plausible(pose.sigma_mm, pose.sigma_deg)
+
+
+def no_drift_reason(model: tuple) -> str:
+    """Why :func:`draws_drift` is False for ``model`` ("" when it is True)."""
+    if draws_drift(model):
+        return ""
+    if _pose(model) is None:
+        return "the model has no pose correction"
+    return (
+        "the pose correction's width is at or above what soft tissue moves a foot (where the "
+        "width rounds stop it, it measures the contact model's misfit more than a drift)"
+    )
 
 
 def draw_pose_drift(
@@ -166,13 +189,21 @@ def _stance_columns(problem) -> np.ndarray:
     return np.concatenate([np.zeros(0, int), *problem.stance_columns()])
 
 
-def recorded_truth(data: Sequence[StanceData], model: tuple, result: EstimationResult) -> tuple:
-    """The replicates' truth: ``model`` frozen at ``result`` with every per-stance variable at
-    zero (the pose correction: the motion as recorded)."""
+def recorded_truth(
+    data: Sequence[StanceData], model: tuple, result: EstimationResult
+) -> tuple[tuple, EstimationResult]:
+    """The replicates' truth: ``model`` frozen at ``result``, and the point its per-stance
+    variables take there: every one as fitted (a stance's ground offset, its toe hinge's
+    course) except the pose correction's, at zero (the motion as recorded)."""
     problem = build_estimation(list(data), model, compile=False)
     x = np.asarray(result.x, float).copy()
-    x[_stance_columns(problem)] = 0.0
-    return frozen_model(model, result_at(problem, x, covariance=False))
+    pose = _pose(model)
+    if pose is not None:
+        for s in problem.variables.specs:
+            if s.key[0] == pose.name:
+                x[s.start : s.start + s.size] = 0.0
+    at = result_at(problem, x, covariance=False)
+    return frozen_model(model, at), at
 
 
 def replicate_data(
@@ -180,15 +211,15 @@ def replicate_data(
     model: tuple,
     result: EstimationResult,
     rng: np.random.Generator,
-    truth: tuple | None = None,
+    truth: tuple[tuple, EstimationResult] | None = None,
     drift: bool = True,
 ) -> list[StanceData]:
     """One replicate (module doc): the fitted model frozen, on the recorded motion, its plate
     data plus the fit's residual in sign-flipped blocks, censored as recorded, seen through a
     fresh draw of the markers' noise and (``drift``) of the smooth pose error
     (:func:`draw_pose_drift`; ``truth``: :func:`recorded_truth`, when already made)."""
-    truth = recorded_truth(data, model, result) if truth is None else truth
-    sim = simulate(list(data), truth, rng, plate_noise_pct_bw=0.0)
+    truth, at = recorded_truth(data, model, result) if truth is None else truth
+    sim = simulate(list(data), truth, rng, plate_noise_pct_bw=0.0, at=at)
     seen = draw_pose_drift(data, model, result, rng) if drift else list(data)
     out = []
     for st, s, f, v in zip(data, sim, result.stance_fits, seen, strict=True):
@@ -225,6 +256,8 @@ class BiasCorrection:
     drift: bool = True
     spread: dict = dataclasses.field(default_factory=dict)
     linearised_se: dict = dataclasses.field(default_factory=dict)
+    no_drift_reason: str = ""
+    """Why the replicates drew no smooth pose error (``drift`` False): :func:`no_drift_reason`."""
     moves: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
     """The replicates' changes of the shared decision variables, ``(B, shared)`` (not in
     :meth:`to_json`: a benchmark's, to score covariance rules)."""
@@ -256,10 +289,7 @@ class BiasCorrection:
             + "; removed"
         )
         if not self.drift:
-            s += (
-                " (the replicates drew the markers' noise only: the pose correction's width "
-                "stopped at its limit measures the contact model's misfit, not a drift)"
-            )
+            s += " (the replicates drew the markers' noise only: " + self.no_drift_reason + ")"
         up = {k: f for k, f in self.se_raised().items() if k in ("n", "c", "mu")}
         if up:
             s += "; SE from the replicates' spread, larger than the linearised one: " + ", ".join(
@@ -286,12 +316,18 @@ def _shared(result: EstimationResult) -> dict:
 
 
 def replicate_covariance(
-    cov: np.ndarray | None, S: np.ndarray, shared: np.ndarray, B: int
+    cov: np.ndarray | None,
+    S: np.ndarray,
+    shared: np.ndarray,
+    B: int,
+    corrected: np.ndarray | None = None,
 ) -> np.ndarray | None:
     """The covariance of the bias-corrected estimate: the linearised (HAC) covariance ``cov``
     with every shared variable's standard deviation raised, where smaller (and positive: a
-    variable the covariance holds fixed stays so), to the replicates' spread (``S``: their covariance over ``shared``), plus ``S / B``, the Monte Carlo error of
-    the bias subtracted.
+    variable the covariance holds fixed stays so), to the replicates' spread (``S``: their
+    covariance over ``shared``), plus ``S / B``, the Monte Carlo error of the bias subtracted,
+    on the variables it was subtracted from (``corrected``: a mask over ``shared``, default
+    all) whose covariance is not held at zero.
 
     Why the larger of the two: both estimate the same sampling variance, each missing something.
     The linearised covariance is exact for a law linear in the data's errors, and the friction
@@ -311,7 +347,8 @@ def replicate_covariance(
     f = np.ones(cov.shape[0])
     f[shared] = np.sqrt(np.maximum(1.0, np.divide(s, c, out=np.ones_like(s), where=c > 0)))
     out = cov * f[:, None] * f[None, :]
-    out[np.ix_(shared, shared)] += S / B
+    m = c > 0 if corrected is None else (c > 0) & np.asarray(corrected, bool)
+    out[np.ix_(shared[m], shared[m])] += S[np.ix_(m, m)] / B
     return out
 
 
@@ -375,7 +412,7 @@ def bias_corrected(
             x[s.start : s.start + s.size] = rf.x[k.start : k.start + k.size]
     S = np.cov(D, rowvar=False).reshape(shared.size, shared.size)
     linearised = _covariance(problem, x) if np.all(np.isfinite(x)) else None
-    cov = replicate_covariance(linearised, S, shared, B)
+    cov = replicate_covariance(linearised, S, shared, B, corrected=free)
     # the result made from the corrected covariance: its SEs, and the flags that read them
     # (a unit whose SE now exceeds its value is not identified)
     corrected = result_at(
@@ -414,6 +451,7 @@ def bias_corrected(
         draws_drift(model),
         spread=spread,
         linearised_se=lin_se,
+        no_drift_reason=no_drift_reason(model),
         moves=D,
     )
     say(info.message())
@@ -427,6 +465,7 @@ __all__ = [
     "bias_corrected",
     "block_signs",
     "check_replicates",
+    "no_drift_reason",
     "recorded_truth",
     "replicate_covariance",
     "draw_pose_drift",

@@ -117,6 +117,8 @@ class PoseScale:
     sole_gamma: tuple[float, float, float] | None = None
     sole_floor_mm: tuple[float, float, float] | None = None  # the prior the rounds widened
     knot_correlation: float | None = None  # AR(1) per knot, when estimated too
+    converged: bool = True  # the last round moved no width by RTOL or more (else MAX_ROUNDS)
+    last_change: float = 0.0  # the last round's largest relative move of a width
 
     @property
     def plausible(self) -> bool:
@@ -154,6 +156,11 @@ class PoseScale:
             s += " mm"
         if self.knot_correlation is not None:
             s += f"; its coefficients correlated {self.knot_correlation:.2f} one knot apart"
+        if not self.converged:
+            s += (
+                f"; not converged in {len(self.rounds)} rounds (the last moved a width by "
+                f"{self.last_change:.0%}): the widths and SEs are the last round's"
+            )
         if not self.plausible:
             s += (
                 f"; the forces ask for more than soft tissue moves a foot (stopped at "
@@ -171,6 +178,7 @@ class PoseScale:
             "n_coefficients": self.n_coefficients,
             "n_stances": self.n_stances,
             "plausible": self.plausible,
+            "converged": self.converged,
             "rounds": self.rounds,
             "message": self.message(),
             **(
@@ -353,7 +361,7 @@ def estimate_pose_scale(
         S = _posterior_covariance(prob, result.x)
         Sd = np.diag(S)
         mm, deg, gamma, n = mackay_update(prob, result.x, pose, Sd)
-        old = np.r_[np.broadcast_to(pose.sigma_mm, 3), np.broadcast_to(pose.sigma_deg, 3)]
+        old = np.r_[per_axis(pose.sigma_mm), per_axis(pose.sigma_deg)]
         change = float(np.max(np.abs(np.r_[mm, deg] / old - 1.0)))
         pose = replace(pose, sigma_mm=mm, sigma_deg=deg)
         if correlation:
@@ -406,6 +414,8 @@ def estimate_pose_scale(
         sole_gamma=sole_g,
         sole_floor_mm=None if sole_floor is None else tuple(float(v) * 1e3 for v in sole_floor),
         knot_correlation=phi if correlation else None,
+        converged=change < RTOL,
+        last_change=change,
     )
     return model, result, est
 

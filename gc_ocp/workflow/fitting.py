@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterator, Sequence
 from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.bias import REPLICATES, BiasCorrection, bias_corrected, check_replicates
 from gc_ocp.estimation.components import PoseCorrection, full_model
-from gc_ocp.estimation.pose_scale import PoseScale, estimate_pose_scale
+from gc_ocp.estimation.pose_scale import PoseScale, estimate_pose_scale, widths_plausible
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
@@ -114,8 +114,13 @@ def with_detected_censoring(stances: Sequence[StanceData]) -> list[StanceData]:
 
 
 def _holdout_index(holdout: str, labels: Sequence[str]) -> int:
-    """The one stance of ``labels`` that ``holdout`` names (its label, or a part of it)."""
-    matches = [i for i, label in enumerate(labels) if label == holdout or holdout in label]
+    """The one stance of ``labels`` that ``holdout`` names: its label exactly, else the one
+    label of which it is a part (an exact label wins over the labels that contain it:
+    ``walk:right@0.410s`` names that stance beside ``fastwalk:right@0.410s``)."""
+    exact = [i for i, label in enumerate(labels) if label == holdout]
+    if len(exact) == 1:
+        return exact[0]
+    matches = [i for i, label in enumerate(labels) if holdout in label]
     if len(matches) != 1:
         raise InputError(
             f'holdout "{holdout}" (--holdout) matches {len(matches)} stances; choose one of '
@@ -265,12 +270,9 @@ def marker_notes(source, kin: TrialKinematics) -> list[str]:
         if foot.pose_noise is None:
             modelled.append(f"{side}: not (fewer than 3 foot markers, or none measured)")
             continue
-        sd = unit_noise_sd(foot.pose_noise, foot.points_local) * 1e3
-        verdict = (
-            "modelled"
-            if noise_modelled(foot.pose_noise, foot.points_local)
-            else "too small to model"
-        )
+        points = foot.points_in_hindfoot()
+        sd = unit_noise_sd(foot.pose_noise, points) * 1e3
+        verdict = "modelled" if noise_modelled(foot.pose_noise, points) else "too small to model"
         modelled.append(f"{side}: {sd:.3f} mm at the contact units, {verdict}")
     return [
         f"{source}: markers' white noise [mm] per segment: {per}; the foot pose noise it leaves "
@@ -287,7 +289,7 @@ def attenuating_feet(data: list[StanceData]) -> dict:
     for st in data:
         pn = st.foot.pose_noise
         if pn is not None:
-            sd = unit_noise_sd(pn, st.foot.points_local)
+            sd = unit_noise_sd(pn, st.foot.points_in_hindfoot())
             if sd >= ATTENUATING_UNIT_NOISE_M and sd > worst.get((st.trial, st.side), 0.0):
                 worst[(st.trial, st.side)] = sd
     return worst
@@ -472,6 +474,16 @@ def fit(
         res.flags.append(
             {
                 "code": "pose_width_at_limit",
+                "what": "sole correction"  # the pose's widths plausible: the sole's stopped
+                if widths_plausible(scale.sigma_mm, scale.sigma_deg)
+                else "pose correction",
+                "message": scale.message(),
+            }
+        )
+    if scale is not None and not scale.converged:
+        res.flags.append(
+            {
+                "code": "pose_width_not_converged",
                 "what": "pose correction",
                 "message": scale.message(),
             }
@@ -479,7 +491,19 @@ def fit(
     report = FitReport(res, checks=notes, pose_scale=scale, bias=bias, bias_skipped=skipped)
     if held is not None:
         hp = build_estimation([held], frozen_model(model, res), weights)
-        hres = solve(hp, options)
+        # a held-out solve that does not converge keeps the fit (it is the fitted stances'):
+        # its score is reported with a flag, never in place of the fit
+        hres = solve(hp, options, raise_on_failure=False)
+        if not hres.success:
+            hres.flags.append(
+                {
+                    "code": "heldout_not_converged",
+                    "what": held.label,
+                    "message": f"the held-out stance's solve (the contact model frozen) did not "
+                    f"converge ({hres.status}): its score is not a prediction to rely on; hold "
+                    "out another stance (--holdout)",
+                }
+            )
         report.heldout = hres
         report.heldout_label = held.label
         say(

@@ -166,7 +166,7 @@ class PoseCorrection(Component):
         noise = stance.foot.pose_noise
         if not self.marker_noise or noise is None:
             return None
-        if not noise_modelled(noise, stance.foot.points_local):
+        if not noise_modelled(noise, stance.foot.points_in_hindfoot()):
             return None  # too small to move anything (MIN_UNIT_NOISE_M)
         return _noise_part(stance.foot, noise)
 
