@@ -395,7 +395,7 @@ def bias_corrected(
     # range) is not corrected, nor one the correction would push through a bound: its
     # replicates can move one way only, so their mean change is no estimate of a bias
     lo, hi = problem.lbx[shared], problem.ubx[shared]
-    margin = 1e-6 * np.maximum(hi - lo, 1.0)
+    margin = 1e-6 * np.maximum(np.where(np.isfinite(hi - lo), hi - lo, 1.0), 1.0)
     xs, step = x[shared], D.mean(axis=0)
     free = (xs - lo > margin) & (hi - xs > margin) & (xs - step > lo) & (xs - step < hi)
     x[shared] = np.where(free, xs - step, xs)

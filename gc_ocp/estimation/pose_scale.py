@@ -36,7 +36,7 @@ from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.components.sole import SoleCorrection
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.estimation.solve import IpoptOptions, solve
+from gc_ocp.estimation.solve import IpoptOptions, gauss_newton_inverse, solve
 from gc_ocp.estimation.starts import best_of, rescaled_start, with_lls_start
 from gc_ocp.stance import StanceData
 
@@ -207,8 +207,7 @@ def _posterior_covariance(problem, x: np.ndarray) -> np.ndarray:
     """The Gauss-Newton posterior covariance at ``x`` (stored units: a prior variable's prior
     variance is 1)."""
     _, J = problem.data_jacobian(x)
-    H = (J.T @ J).toarray() + np.diag(problem.prior_weights**2)
-    return np.linalg.inv(H)
+    return gauss_newton_inverse((J.T @ J).toarray() + np.diag(problem.prior_weights**2))
 
 
 def _posterior_variances(problem, x: np.ndarray) -> np.ndarray:

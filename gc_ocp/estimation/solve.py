@@ -111,6 +111,7 @@ def _covariance(problem: EstimationProblem, x: np.ndarray) -> np.ndarray:
     pw = np.asarray(problem.prior_weights, float)
     P = np.diag(pw**2)
     H = (J.T @ J).toarray() + P
+    Hi = gauss_newton_inverse(H)
     S = P.copy()
     for comp in problem.model:
         for cols, C in comp.prior_covariance(problem.variables.specs, problem.stances, x):
@@ -129,12 +130,18 @@ def _covariance(problem: EstimationProblem, x: np.ndarray) -> np.ndarray:
             C = g[lag:].T @ g[:-lag]
             S += w * (C + C.T)
         row += n
-    try:
-        Hi = np.linalg.inv(H)
-    except np.linalg.LinAlgError:
-        Hi = np.linalg.pinv(H)
     cov = Hi @ S @ Hi
     return 0.5 * (cov + cov.T)
+
+
+def gauss_newton_inverse(H: np.ndarray) -> np.ndarray:
+    """``H^-1`` of a Gauss-Newton Hessian ``J^T J + W^2``; its pseudo-inverse where it is
+    singular (a variable neither the data nor a prior fixes: its variance then reads 0, and the
+    flags say it is not identified), so that a covariance is never a traceback."""
+    try:
+        return np.linalg.inv(H)
+    except np.linalg.LinAlgError:
+        return np.linalg.pinv(H)
 
 
 def _bandwidth(res: np.ndarray) -> int:
@@ -345,4 +352,5 @@ __all__ = [
     "result_at",
     "decode",
     "fit_quality",
+    "gauss_newton_inverse",
 ]
