@@ -314,10 +314,11 @@ def test_parallel_rounds_give_the_serial_answer(bundled):
 
     stances, truth = bundled
     data = simulate(stances, (*truth, Damping(fixed=1.0)), np.random.default_rng(1))
-    # alpha 0.2: damping (p ~0.07 on three stances under the mismatch null) is selected, so
-    # that a second round (screening) is compared too
+    # alpha 0.35: damping (p ~0.25 on three stances under a null of 4 mismatch draws, whose
+    # p-value counts draws: at least 1/5) is selected, so that a second round (screening) is
+    # compared too
     kw = {"candidates": ["damping", "stiffness_exponent"], "n_boot": 100, "mismatch_draws": 4}
-    kw["alpha"] = 0.2
+    kw["alpha"] = 0.35
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         serial = diagnose_stances(data, workers=1, **kw)
@@ -519,7 +520,10 @@ def test_a_diagnosis_in_grouped_folds_holds_out_every_stance_once(bundled):
             max_folds=2,
             n_replicates=200,
             mismatch_draws=8,
+            alpha=0.15,  # 8 draws: the p-value counts draws, so it is at least 1 / 9
         )
+    # 8 draws cannot reach alpha 0.05, and a diagnosis with them says so
+    assert not any("no candidate can be named" in n for n in d.notes)  # alpha 0.15: it can
     assert d.folds["n"] == 4 and len(d.folds["groups"]) == 2
     assert sorted(lab for g in d.folds["groups"] for lab in g) == sorted(st.label for st in four)
     for g in d.folds["groups"]:
@@ -784,6 +788,8 @@ def test_the_calibrated_test_without_folds_scores_the_in_sample_fit(bundled_stan
     # the same one step on the same fits: round-off
     assert row.calibrated.observed_pct == pytest.approx(direct, rel=1e-9, abs=1e-9)
     assert row.calibrated.observed_pct < 100.0 and row.calibrated.null_mean_pct < 100.0
+    # two draws cannot give a p-value under 0.05 (it counts draws: at least 1/3): said
+    assert any("no candidate can be named; give at least 20 draws" in n for n in d.notes)
 
 
 @pytest.mark.parametrize("pct, lo, n0", [(2.02, -0.31, 8), (0.7, -0.01, 8), (5.0, -20.0, 4)])

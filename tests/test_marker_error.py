@@ -157,6 +157,7 @@ def test_a_fit_of_noisy_markers_is_corrected_by_default_and_says_so(noisy_bundle
     assert len(advice) == 2  # one per foot
     d = rep.to_json()
     assert d["bias_correction"]["replicates"] == rep.bias.replicates
+    assert d["bias_correction"]["seed"] == 0  # recorded: the same data give the same replicates
     assert set(d["bias_correction"]["linearised_se"]) >= {"n", "c", "mu"}
 
 

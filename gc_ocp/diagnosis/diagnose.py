@@ -16,6 +16,7 @@ Confirmation on new stances is :mod:`.confirm`; the HTML page, :mod:`.report`.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
@@ -193,6 +194,13 @@ def diagnose_stances(
     plan = fold_plan(stances, max_folds)
     rate = 1.0 / float(np.median(np.diff(stances[0].time)))
     notes = []
+    if 0 < mismatch_draws and (mismatch_draws + 1) * alpha <= 1.0:
+        notes.append(
+            f"{mismatch_draws} mismatch draws per round: the adjusted p-value counts draws, so "
+            f"its smallest value is 1/{mismatch_draws + 1}, not under alpha {alpha:g}: no "
+            f"candidate can be named; give at least {math.floor(1.0 / alpha)} draws "
+            f"({MISMATCH_DRAWS} is the default)"
+        )
     base_model_, width_note = sized_base(stances, base_model_, pose_width, weights, options, say)
     if width_note:
         notes.append(width_note)
@@ -407,11 +415,27 @@ def _calibrated(
         null, draw, skipped, shares = mismatch_null(
             source, family, n_draws, seed, executor, stop, alpha, among, task, told
         )
-        looks = null_looks(observed[0], null, draw, source.n_wild * n_draws, among)
+        looks = null_looks(observed[0], null, draw, n_draws, among)
     if refit:  # the statistic is the refit's: no one-step null stands in for it
         n_held = max(len(held_out(plan)), 1)
         obs, sd = observed
-        tests = decide(obs, null, sd, n_held, alpha, draw, shares) if null else {}
+        # a noise-only family (scale 0) has no spread between draws: each replicate is its own
+        # draw, and none of the spread is a mismatch's that more stances would not shrink
+        noise_only = family.scale == 0
+        tests = (
+            decide(
+                obs,
+                null,
+                sd,
+                n_held,
+                alpha,
+                None if noise_only else draw,
+                None if noise_only else shares,
+                n_draws,
+            )
+            if null
+            else {}
+        )
     else:
         tests = calibrate(
             parent_lin,
@@ -428,6 +452,7 @@ def _calibrated(
             draw,
             observed,
             shares,
+            n_draws or None,
         )
     crit = next(iter(tests.values())).z_critical if tests else None
     miss = None

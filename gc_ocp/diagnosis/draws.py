@@ -220,11 +220,13 @@ def mismatch_null(
     ]
     stop = None
     if observed is not None:
-        n_final = inputs.n_wild * n_draws
 
         def stop(outs: list) -> bool:
             kept = [o for o in outs if not isinstance(o, str)]
-            return bool(kept) and cannot_name(observed, _pooled(kept)[0], n_final, alpha, among)
+            if not kept:
+                return False
+            null, draw = _pooled(kept)  # the p-value counts draws (null.decide)
+            return cannot_name(observed, null, n_draws, alpha, among, draw)
 
     outs = run_tasks(task, calls, executor, stop, DRAWS_PER_LOOK, progress)
     kept = [o for o in outs if not isinstance(o, str)]

@@ -308,6 +308,7 @@ def calibrate(
     draws: np.ndarray | None = None,
     observed: tuple[dict[str, float], dict[str, float | None]] | None = None,
     shares: StanceShares | None = None,
+    n_final: int | None = None,
 ) -> dict[str, NullTest]:
     """The calibrated decision of a round (module doc): ``{candidate: NullTest}``.
     ``parent_fits``: the parent's stance fits (censored samples); ``null``: the candidates'
@@ -315,7 +316,8 @@ def calibrate(
     of each replicate), else the noise-only one-step null (:func:`onestep_null`);
     ``fold_means``: :func:`~.onestep.fold_prior_means`; ``observed``:
     :func:`observed_reductions` when already made (the draws' early stop needs them first);
-    ``shares``: the draws' stance shares (:func:`systematic_sd`)."""
+    ``shares``: the draws' stance shares (:func:`systematic_sd`); ``n_final``: the draws the
+    full null makes (:func:`decide`)."""
     if not children:
         return {}
     observed, sd = observed or observed_reductions(parent, children, plan, occam, fold_means)
@@ -325,7 +327,7 @@ def calibrate(
         )
         draws = None
     n_held = max(len(held_out(plan)), 1)
-    return decide(observed, null, sd, n_held, alpha, draws, shares)
+    return decide(observed, null, sd, n_held, alpha, draws, shares, n_final)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -399,6 +401,7 @@ def decide(
     alpha: float = ALPHA,
     draws: np.ndarray | None = None,
     shares: StanceShares | None = None,
+    n_final: int | None = None,
 ) -> dict[str, NullTest]:
     """The max-statistic decision over the round's candidates (module doc). ``observed``:
     ``{candidate: held-out reduction [%]}``; ``null``: their null reductions (same replicates
@@ -406,16 +409,29 @@ def decide(
     sampling error of the observed one is ``sd / sqrt(n_heldout)``; None: the null's spread is
     used); ``draws``: the mismatch draw of each replicate (None: a noise-only null);
     ``shares``: the draws' stance shares, which split the spread between draws into the part
-    every stance shares and the stances' own (:func:`systematic_sd`; None: all of it shared)."""
-    names = [n for n in observed if n in null]
+    every stance shares and the stances' own (:func:`systematic_sd`; None: all of it shared);
+    ``n_final``: the draws the full null makes, when these are the first of them (a null
+    stopped early): the critical value, and so the steps, are those of the full null.
+
+    The adjusted p-value counts *draws*, not replicates (:func:`_draw_weights`): a mismatch
+    draw's replicates share its shift, so the observed statistic is exchangeable with a draw,
+    not with each of its replicates; counted per replicate, a null that the mismatch dominates
+    names a candidate above the second largest of 32 draws, 2 / 33 = 6.1 % of the time under
+    the null. Each draw counts the share of its replicates that reach the observed statistic:
+    ``p = (1 + sum_k q_k) / (K + 1)``. Replicates with a value that is not finite (a fit that
+    failed inside a draw) are left out of every candidate (:func:`finite_replicates`); a
+    candidate whose observed value is not finite is not tested."""
+    names = [n for n in observed if n in null and np.isfinite(observed[n])]
     if not names:
         return {}
+    null, draws = finite_replicates(null, names, draws)
     inert = [n for n in names if _inert(observed[n], null[n])]
     names = [n for n in names if n not in inert]
     out = {}
     if names:
         m, s, zmax = _studentised(null, names)
-        crit = float(np.quantile(zmax, 1.0 - alpha))
+        w, K = _draw_weights(draws, zmax.size)
+        crit = _critical(zmax, w, max(K, n_final or 0), alpha)
     else:  # nothing to test: every candidate inert (no critical value exists)
         crit = None
     s_b = {n: between_draw_sd(null[n], draws) for n in names}
@@ -433,7 +449,7 @@ def decide(
     }
     for n in names:
         z = (observed[n] - m[n]) / s[n]
-        p = float((1 + np.sum(zmax >= z)) / (zmax.size + 1))
+        p = (1.0 + float(np.sum(w * (zmax >= z)))) / (K + 1.0)
         out[n] = NullTest(
             observed_pct=float(observed[n]),
             null_mean_pct=m[n],
@@ -441,7 +457,9 @@ def decide(
             z=float(z),
             p_adjusted=p,
             z_critical=crit,
-            more_stances=more_stances(
+            more_stances=None
+            if crit is None
+            else more_stances(
                 observed[n],
                 m[n],
                 s[n],
@@ -472,17 +490,59 @@ def decide(
 
 def _inert(observed: float, null: np.ndarray) -> bool:
     """Whether a candidate's observed and null reductions are all below
-    :data:`RESOLUTION_PCT` (the data do not move it)."""
-    return max(abs(observed), float(np.max(np.abs(null)))) < RESOLUTION_PCT
+    :data:`RESOLUTION_PCT` (the data do not move it; a value that is not finite moves it)."""
+    v = np.abs(np.r_[observed, np.asarray(null, float)])
+    return bool(np.all(v < RESOLUTION_PCT))
+
+
+def finite_replicates(
+    null: Mapping[str, np.ndarray], names: Sequence[str], draws: np.ndarray | None
+) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
+    """``null`` (and ``draws``) without the replicates whose value is not finite for some
+    candidate of ``names``: one such value would make every candidate's largest studentised
+    reduction NaN, and every comparison with it false (every candidate named)."""
+    ok = np.all([np.isfinite(np.asarray(null[n], float)) for n in names], axis=0)
+    if np.all(ok):
+        return dict(null), draws
+    return {n: np.asarray(v)[ok] for n, v in null.items()}, None if draws is None else draws[ok]
+
+
+def _draw_weights(draws: np.ndarray | None, n: int) -> tuple[np.ndarray, int]:
+    """``(w, K)``: each replicate's weight, one over its draw's replicates, and the number of
+    draws ``K`` (:func:`decide`: the p-value counts draws); every replicate its own draw when
+    ``draws`` is None (a noise-only null)."""
+    if draws is None:
+        return np.ones(n), n
+    _, inv = np.unique(draws, return_inverse=True)
+    return 1.0 / np.bincount(inv)[inv], int(inv.max()) + 1 if inv.size else 0
+
+
+def _critical(zmax: np.ndarray, w: np.ndarray, K: int, alpha: float) -> float | None:
+    """The critical studentised value of the p-value rule with ``K`` draws: a statistic above
+    it has ``p = (1 + e) / (K + 1) < alpha``, ``e`` the draw-weighted count of the replicates
+    whose largest studentised reduction reaches it, scaled from the draws at hand to ``K``
+    (the full null, when these are its first). None when ``K`` draws cannot give a p-value
+    under ``alpha`` (fewer than ``1 / alpha - 1``)."""
+    e_max = alpha * (K + 1) - 1.0  # the rule: e < e_max
+    if e_max <= 0 or zmax.size == 0:
+        return None
+    order = np.argsort(-zmax, kind="stable")
+    frac = np.cumsum(w[order]) / float(np.sum(w))  # share of the draws at or above each value
+    below = int(np.sum(frac * K < e_max - 1e-9))  # the top values the rule may exceed
+    if below >= zmax.size:
+        return float(zmax[order[-1]])
+    return float(zmax[order[below]])
 
 
 def _studentised(
     null: Mapping[str, np.ndarray], names: Sequence[str]
 ) -> tuple[dict[str, float], dict[str, float], np.ndarray]:
     """Each candidate's null mean and spread, and every replicate's largest studentised
-    reduction over the candidates ``names`` (the max statistic, module doc)."""
+    reduction over the candidates ``names`` (the max statistic, module doc). The spread is at
+    least :data:`RESOLUTION_PCT`: a null of round-off (spread 1e-7 %) would studentise a gain
+    of 2e-4 % to thousands."""
     m = {n: float(np.mean(null[n])) for n in names}
-    s = {n: max(float(np.std(null[n], ddof=1)), 1e-12) for n in names}
+    s = {n: max(float(np.std(null[n], ddof=1)), RESOLUTION_PCT) for n in names}
     zmax = np.max(np.vstack([(null[n] - m[n]) / s[n] for n in names]), axis=0)
     return m, s, zmax
 
@@ -492,20 +552,25 @@ def final_p_bound(
     null: Mapping[str, np.ndarray],
     n_final: int,
     among: Collection[str] | None = None,
+    draws: np.ndarray | None = None,
 ) -> float:
     """The smallest adjusted p-value a candidate of ``among`` (None: every candidate) could
-    still reach when the null, of which ``null`` holds the first replicates, is completed to
-    ``n_final`` replicates that all fall below every observed statistic (module doc, "Stopping
-    early"): ``(1 + e) / (n_final + 1)`` with ``e`` the replicates so far whose largest
-    studentised reduction (over every candidate) reaches the candidate's, minimised over
-    ``among``; 1 when there is none."""
-    names = [n for n in observed if n in null and not _inert(observed[n], null[n])]
+    still reach when the null, of which ``null`` holds the first draws (``draws``: the draw of
+    each replicate; None: every replicate its own), is completed to ``n_final`` draws that all
+    fall below every observed statistic (module doc, "Stopping early"): ``(1 + e) / (n_final +
+    1)`` with ``e`` the draws so far whose largest studentised reduction (over every candidate)
+    reaches the candidate's, each draw counting the share of its replicates that do
+    (:func:`decide`), minimised over ``among``; 1 when there is none."""
+    names = [n for n in observed if n in null and np.isfinite(observed[n])]
+    null, draws = finite_replicates(null, names, draws) if names else (null, draws)
+    names = [n for n in names if not _inert(observed[n], null[n])]
     among = [n for n in names if among is None or n in among]
     if not among:
         return 1.0
     m, s, zmax = _studentised(null, names)
-    e = min(int(np.sum(zmax >= (observed[n] - m[n]) / s[n])) for n in among)
-    return (1 + e) / (max(n_final, zmax.size) + 1)
+    w, K = _draw_weights(draws, zmax.size)
+    e = min(float(np.sum(w * (zmax >= (observed[n] - m[n]) / s[n]))) for n in among)
+    return (1.0 + e) / (max(n_final, K) + 1.0)
 
 
 FUTILITY_FACTOR = 2.0
@@ -521,6 +586,7 @@ def cannot_name(
     n_final: int,
     alpha: float = ALPHA,
     among: Collection[str] | None = None,
+    draws: np.ndarray | None = None,
 ) -> bool:
     """Whether the null so far already rules out naming any candidate of ``among`` (None:
     every candidate; the others the rule's effect-size floor rules out,
@@ -528,7 +594,7 @@ def cannot_name(
     (:func:`final_p_bound` at least :data:`FUTILITY_FACTOR` ``alpha``): the sequential test's
     stop for futility, which can only turn a claim into no claim, never the reverse, so the
     family-wise rate of a false claim holds whatever the rule (module doc)."""
-    return final_p_bound(observed, null, n_final, among) >= FUTILITY_FACTOR * alpha
+    return final_p_bound(observed, null, n_final, among, draws) >= FUTILITY_FACTOR * alpha
 
 
 def null_looks(
@@ -547,7 +613,7 @@ def null_looks(
     for k in range(DRAWS_PER_LOOK, ks.size + 1, DRAWS_PER_LOOK):
         keep = np.isin(draws, ks[:k])
         first = {n: v[keep] for n, v in null.items()}
-        out.append([k, final_p_bound(observed, first, n_final, among)])
+        out.append([k, final_p_bound(observed, first, n_final, among, draws[keep])])
     return out
 
 
@@ -687,11 +753,11 @@ def more_stances(
         f = n0 / n
         return crit * math.sqrt(s_between**2 + s_within2 * f) + POWER_Z * sigma * math.sqrt(f)
 
+    if needed(MAX_STANCES) > gap:
+        return None
     hi = n0 + 1
     while needed(hi) > gap:  # decreasing in n, to crit * s_between < gap
-        hi *= 2
-        if hi > MAX_STANCES:
-            return None
+        hi = min(2 * hi, MAX_STANCES)
     lo = n0  # needed(lo) > gap: not decided with the stances it has
     while hi - lo > 1:
         mid = (lo + hi) // 2

@@ -60,7 +60,7 @@ from gc_ocp.diagnosis.compare import (
     weighted_residuals,
 )
 from gc_ocp.diagnosis.execution import NotEvaluable
-from gc_ocp.diagnosis.null import ALPHA, NullTest
+from gc_ocp.diagnosis.null import ALPHA, PRACTICAL_FACTOR, NullTest
 from gc_ocp.diagnosis.result import RankRow
 from gc_ocp.estimation.components import REGISTRY
 
@@ -170,7 +170,11 @@ def rank(
                 passes=passes,
                 screened=False,
                 inconclusive=bool(
-                    red["pct"] > 0.0 and (_inconclusive(passes, test) or (named and not big))
+                    red["pct"] > 0.0
+                    and (
+                        _inconclusive(passes, test, floor_stances(red, len(red["per_stance"])))
+                        or (named and not big)
+                    )
                 ),
                 gain_from_nuisance=None if from_nuisance is None else float(from_nuisance),
                 confounded_with=tuple(relieves),
@@ -275,10 +279,15 @@ def contenders(
     return out, known
 
 
-def _inconclusive(passes: bool, test: NullTest | None) -> bool:
-    """Not named, but its one-step reduction is above what the null gives on average and a
-    practical number of further stances would decide it (``NullTest.practical``)."""
-    return bool(not passes and test is not None and test.practical)
+def _inconclusive(passes: bool, test: NullTest | None, floor: int | None = 0) -> bool:
+    """Not named, but a practical number of further stances would decide it: the rule's
+    (:meth:`~gc_ocp.diagnosis.result.RankRow.rule_stances`, the larger of the test's and the
+    effect-size floor's ``floor``, as its row reports them) within
+    :data:`~gc_ocp.diagnosis.null.PRACTICAL_FACTOR` times the held-out stances it had."""
+    if passes or test is None:
+        return False
+    rule = RankRow.rule_stances(test.more_stances, floor)
+    return bool(rule) and rule <= PRACTICAL_FACTOR * max(test.n_heldout, 1)
 
 
 def _screened_row(

@@ -256,6 +256,8 @@ class BiasCorrection:
     drift: bool = True
     spread: dict = dataclasses.field(default_factory=dict)
     linearised_se: dict = dataclasses.field(default_factory=dict)
+    seed: int = 0
+    """The replicates' random seed (the same seed and data: the same replicates)."""
     no_drift_reason: str = ""
     """Why the replicates drew no smooth pose error (``drift`` False): :func:`no_drift_reason`."""
     moves: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
@@ -451,6 +453,7 @@ def bias_corrected(
         draws_drift(model),
         spread=spread,
         linearised_se=lin_se,
+        seed=seed,
         no_drift_reason=no_drift_reason(model),
         moves=D,
     )

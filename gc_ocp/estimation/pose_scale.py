@@ -57,6 +57,7 @@ MIN_GAMMA = 1.0
 information to estimate it from)."""
 
 PLAUSIBLE_MM = 5.0
+"""The pose correction's translation width stops here [mm]: :data:`PLAUSIBLE_DEG`."""
 PLAUSIBLE_DEG = 5.0
 """Soft tissue moves skin-mounted foot marker clusters by up to ~5 mm and ~5 deg in walking
 (calcaneus and forefoot markers against bone pins: Nester et al. 2007; Leardini et al. 2005;
@@ -66,6 +67,7 @@ a misfit of the contact model or of the sole's height as kinematics; the contact
 then describe a foot displaced by that much."""
 
 SOLE_MIN_MM = SoleCorrection.sigma * 1e3
+"""The sole correction's widths are never narrowed below its prior [mm]: :data:`SOLE_PLAUSIBLE_MM`."""
 SOLE_PLAUSIBLE_MM = 10.0
 """The sole correction's widths (``sole=True``), one per axis of the foot frame (forward, left,
 up), every unit of both feet pooled: the sole's height (calibrated from the markers' height
@@ -88,6 +90,7 @@ landmarks put it, per axis, is beyond what locating the sole from skin markers e
 for the pose's widths), unless the model's own prior is wider: that width is the user's."""
 
 MIN_MM = 0.2
+"""The pose correction's translation width never goes below this [mm]: :data:`MIN_DEG`."""
 MIN_DEG = 0.1
 """Nor below these: markers are reconstructed to ~0.1-0.5 mm, so no lab's smooth pose error is
 smaller, and a width near 0 would stop the estimate (a coefficient at 0 stays there)."""
@@ -96,7 +99,8 @@ smaller, and a width near 0 would stop the estimate (a coefficient at 0 stays th
 def widths_plausible(sigma_mm, sigma_deg) -> bool:
     """No pose width stopped at the soft tissue's limit (:data:`PLAUSIBLE_MM`,
     :data:`PLAUSIBLE_DEG`; a scalar or one per axis): the width measures a pose error, not a
-    misfit of the contact model (module doc)."""
+    misfit of the contact model (module doc). The 0.1 % margin: a width the rounds clipped to
+    the limit, read back from ``fit.json`` or a decimal print, counts as at the limit."""
     return bool(
         np.max(sigma_mm) < PLAUSIBLE_MM * 0.999 and np.max(sigma_deg) < PLAUSIBLE_DEG * 0.999
     )

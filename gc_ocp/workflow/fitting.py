@@ -441,7 +441,16 @@ def fit(
     if bias_correction:
         say(f"bias correction: {bias_correction} replicates")
         try:
-            res, bias = bias_corrected(data, model, res, bias_correction, 0, weights, options, say)
+            res, bias = bias_corrected(
+                data,
+                model,
+                res,
+                bias_correction,
+                seed=0,
+                weights=weights,
+                options=options,
+                progress=say,
+            )  # seed 0: a fit of the same data is the same fit (fit.json records the seed)
         except SolveError as e:
             # the fit converged; only its correction did not: kept uncorrected, with its
             # linearised covariance, and flagged
