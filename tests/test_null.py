@@ -485,8 +485,10 @@ def test_stopping_the_draws_early_loses_no_claim_the_full_null_makes():
         obs["a"] += (t % 6) * sd["a"]  # 0, 1, ..., 5 null SDs
         full = null.decide(obs, nulls, {}, 6, draws=draws)
         named = any(x.p_adjusted < null.ALPHA for x in full.values())
-        stop = any(
-            null.cannot_name(obs, {n: v[draws < k] for n, v in nulls.items()}, K * W)
+        stop = any(  # as the package looks: the p-value counts draws
+            null.cannot_name(
+                obs, {n: v[draws < k] for n, v in nulls.items()}, K, draws=draws[draws < k]
+            )
             for k in range(L, K, L)
         )
         claims += named
