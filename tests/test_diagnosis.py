@@ -795,16 +795,18 @@ def test_the_calibrated_test_without_folds_scores_the_in_sample_fit(bundled_stan
 @pytest.mark.parametrize("pct, lo, n0", [(2.02, -0.31, 8), (0.7, -0.01, 8), (5.0, -20.0, 4)])
 def test_the_floor_s_number_of_steps_is_where_the_interval_would_clear_zero(pct, lo, n0):
     """``floor_stances``: with the interval's half-width ``h = pct - lo`` narrowing as
-    ``1/sqrt(n)``, ``n0 + more`` held-out stances are the fewest whose lower end is above 0;
-    a reduction already clear needs 0, one under the floor (held out or in-sample) has none."""
-    from gc_ocp.diagnosis.selection import MIN_REDUCTION_PCT, floor_stances
+    ``1/sqrt(n)``, ``n0 + more`` held-out stances are the fewest whose lower end clears 0 by
+    0.84 of its own SD (``h / 1.96``: 80 % power, as the test's steps); a reduction already
+    clear needs 0, one under the floor (held out or in-sample) has none."""
+    from gc_ocp.diagnosis.null import POWER_Z
+    from gc_ocp.diagnosis.selection import MIN_REDUCTION_PCT, Z_95, floor_stances
 
     red = {"pct": pct, "ci": (lo, 2 * pct - lo), "insample_pct": 2 * pct}
     more = floor_stances(red, n0)
     h = pct - lo
 
-    def lower(n):
-        return pct - h * np.sqrt(n0 / n)
+    def lower(n):  # the expected lower end less 0.84 of its SD
+        return pct - h * np.sqrt(n0 / n) * (Z_95 + POWER_Z) / Z_95
 
     assert more >= 1 and lower(n0 + more) > 0
     assert more == 1 or lower(n0 + more - 1) <= 0

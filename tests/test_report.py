@@ -434,6 +434,11 @@ def test_the_summary_says_which_round_s_null_stopped_early():
     cal[-1].update(mismatch_draws=8, mismatch_draws_planned=32, null_stopped_early=True)
     text = dataclasses.replace(d, calibration=cal).summary()
     assert f"round {len(cal)}'s null stopped after 8 of 32 mismatch draws" in text
+    # draws whose refit failed are left out: said, since they may be the null's largest
+    assert "left out" not in d.summary()
+    cal[-1].update(mismatch_draws_left_out=2)
+    text = dataclasses.replace(d, calibration=cal).summary()
+    assert f"round {len(cal)}'s null left out 2 mismatch draw(s)" in text
 
 
 def test_the_one_step_s_miss_of_the_parent_is_measured_and_noted(diagnosis, bundled_stances):

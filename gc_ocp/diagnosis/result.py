@@ -409,6 +409,12 @@ class Diagnosis:
                     f"{c.get('mismatch_draws_planned', '?')} mismatch draws (no candidate the "
                     "effect-size floor leaves could be named): its p-values are from those"
                 )
+            if c.get("mismatch_draws_left_out"):
+                lines.append(
+                    f"round {k}'s null left out {c['mismatch_draws_left_out']} mismatch draw(s) "
+                    "whose refit did not converge: the draws that move the parent furthest may "
+                    "be among them, so its p-values may be a little low"
+                )
         lines.append(f"waterfall ({self.scored} superior-force RMS, % BW):")
         for w in self.waterfall:
             lines.append(f"  {w.model:<28} {w.heldout_superior_force_pct_bw:.2f}")

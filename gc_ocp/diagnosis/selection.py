@@ -60,7 +60,7 @@ from gc_ocp.diagnosis.compare import (
     weighted_residuals,
 )
 from gc_ocp.diagnosis.execution import NotEvaluable
-from gc_ocp.diagnosis.null import ALPHA, PRACTICAL_FACTOR, NullTest
+from gc_ocp.diagnosis.null import ALPHA, POWER_Z, PRACTICAL_FACTOR, NullTest
 from gc_ocp.diagnosis.result import RankRow
 from gc_ocp.estimation.components import REGISTRY
 
@@ -221,6 +221,11 @@ def floor_holds(red: Mapping) -> bool:
     )
 
 
+Z_95 = 1.959964
+"""The standard normal quantile of the held-out reduction's two-sided 95 % interval: its
+half-width is that many standard errors (:func:`floor_stances`)."""
+
+
 def floor_stances(red: Mapping, n_heldout: int) -> int | None:
     """Further held-out stances after which a held-out reduction ``red``
     (:func:`~gc_ocp.diagnosis.compare.reduction`, on ``n_heldout`` stances) would clear the
@@ -228,15 +233,20 @@ def floor_stances(red: Mapping, n_heldout: int) -> int | None:
     its held-out or its in-sample reduction is under :data:`MIN_REDUCTION_PCT` (more stances
     estimate a gain better, they do not raise it). Otherwise the lower end of its interval,
     ``pct - h`` on ``n0`` stances, reaches 0, and with ``n`` stances the half-width is ``h
-    sqrt(n0 / n)`` (the bootstrap's interval narrows as a mean's): the smallest ``n`` with
-    ``h sqrt(n0 / n) < pct``, less ``n0``."""
+    sqrt(n0 / n)`` (the bootstrap's interval narrows as a mean's). The lower end of the
+    interval those stances will give is itself random, with SD ``h' / 1.96``; for the same 80 %
+    power as the test's steps (:data:`~gc_ocp.diagnosis.null.POWER_Z`), its expected value must
+    clear 0 by ``0.84`` of that SD: the smallest ``n`` with ``h sqrt(n0 / n) (1.96 + 0.84) /
+    1.96 < pct``, less ``n0`` (where the expected lower end merely reaches 0, half the reruns
+    would miss it)."""
     pct, lo = red["pct"], red["ci"][0]
     if pct < MIN_REDUCTION_PCT or red["insample_pct"] < MIN_REDUCTION_PCT:
         return None
     if floor_holds(red):
         return 0
     n0 = max(int(n_heldout), 1)
-    n = math.floor(n0 * ((pct - lo) / pct) ** 2) + 1  # strictly above: the interval clears 0
+    power = (Z_95 + POWER_Z) / Z_95
+    n = math.floor(n0 * ((pct - lo) / pct * power) ** 2) + 1  # strictly above
     return max(n - n0, 1)
 
 
