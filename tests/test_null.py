@@ -620,11 +620,12 @@ def test_the_critical_value_is_the_p_value_rule_s_threshold():
     for dz in (-1e-6, 1e-6):
         t = null.decide({"a": m + (crit + dz) * s}, nulls, {}, 6, draws=draws)["a"]
         assert (t.p_adjusted < null.ALPHA) == (dz > 0)
+    # a null of 8 draws names nothing (p >= 1/9), but its critical value, and so its steps,
+    # are the default null's (32 draws): what a rerun with more stances would face
     few = np.repeat(np.arange(8), 16)
-    assert (
-        null.decide({"a": 0.0}, {"a": rng.normal(size=128)}, {}, 6, draws=few)["a"].z_critical
-        is None
-    )
+    t = null.decide({"a": 100.0}, {"a": rng.normal(size=128)}, {}, 6, draws=few)["a"]
+    assert t.p_adjusted == pytest.approx(1 / 9) and t.z_critical is not None
+    assert t.more_stances is not None
 
 
 def test_a_replicate_that_is_not_finite_names_no_candidate():

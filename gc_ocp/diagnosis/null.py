@@ -414,7 +414,10 @@ def decide(
     ``shares``: the draws' stance shares, which split the spread between draws into the part
     every stance shares and the stances' own (:func:`systematic_sd`; None: all of it shared);
     ``n_final``: the draws the full null makes, when these are the first of them (a null
-    stopped early): the critical value, and so the steps, are those of the full null.
+    stopped early): the critical value (``z_critical``), and so the steps, are those of the
+    full null, and of at least :data:`MISMATCH_DRAWS` draws (a null of fewer draws, a user's
+    choice to save time, cannot reach ``alpha`` below 20; its steps say what the default null
+    would need).
 
     The adjusted p-value counts *draws*, not replicates (:func:`_draw_weights`): a mismatch
     draw's replicates share its shift, so the observed statistic is exchangeable with a draw,
@@ -434,7 +437,10 @@ def decide(
     if names:
         m, s, zmax = _studentised(null, names)
         w, K = _draw_weights(draws, zmax.size)
-        crit = _critical(zmax, w, max(K, n_final or 0), alpha)
+        # the rule's threshold with the draws the full null makes, and at least the default's
+        # (what the steps assume a rerun makes: fewer than 1 / alpha - 1 draws name nothing)
+        full = max(K, n_final or 0, MISMATCH_DRAWS if draws is not None else 0)
+        crit = _critical(zmax, w, full, alpha)
     else:  # nothing to test: every candidate inert (no critical value exists)
         crit = None
     s_b = {n: between_draw_sd(null[n], draws) for n in names}
