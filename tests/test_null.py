@@ -649,3 +649,21 @@ def test_steps_are_found_however_many_are_needed_below_the_cap():
     assert n == want
     big = null.more_stances(0.0034, 0.0, 1.0, None, 1, 2.0, False, 0.0)
     assert big is not None and 5e5 < big < null.MAX_STANCES
+
+
+def test_the_held_out_bootstrap_draws_every_frame_equally_often():
+    """Blocks that stop at a stance's ends drew its first and last frames (heel strike and
+    toe-off, where damping and the clock offset act) half as often as mid-stance, shifting the
+    interval of an effect of the edges down; circular blocks draw each frame equally often."""
+    from gc_ocp.diagnosis.compare import circular_blocks
+
+    rng = np.random.default_rng(0)
+    n, L, B = 72, 10, 4000
+    counts = np.zeros(n)
+    for _ in range(B):
+        np.add.at(counts, circular_blocks(n, L, rng), 1.0)
+    # each frame is drawn once per draw on average (the blocks covering it: binomial, 8 blocks
+    # of 10 / 72 each, variance ~0.96), so its mean count over 4000 draws has an SD of 1.5 %:
+    # 10 % is over six of them (the ends' former 0.47 fails it)
+    np.testing.assert_allclose(counts / B, 1.0, rtol=0.1)
+    assert circular_blocks(5, 10, rng).size == 5  # a block longer than the stance: one block

@@ -155,8 +155,8 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
 
     r = diagnosis.ranking[0]
     test = NullTest(1.2, 0.1, 0.6, 1.8, 0.12, 2.4, 14, 6)
-    floor = floor_stances({"pct": 1.5, "ci": (-0.5, 3.5), "insample_pct": 6.0}, 6)
-    weak = _unnamed_row(r, test, 1.5, (-0.5, 3.5), 6.0, floor)
+    floor = floor_stances({"pct": 1.5, "ci": (-0.1, 3.1), "insample_pct": 6.0}, 6)
+    weak = _unnamed_row(r, test, 1.5, (-0.1, 3.1), 6.0, floor)
     assert 0 < weak.floor_stances < 14  # the test's number is the rule's here
     d = dataclasses.replace(
         diagnosis, ranking=[weak], rounds=[[weak]], selected=[], waterfall=diagnosis.waterfall[:1]

@@ -45,7 +45,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from gc_ocp.errors import SolveError
+from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.bias import BLOCK_SECONDS
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.problem import Weights, build_estimation
@@ -89,6 +89,11 @@ def fold_plan(stances: list[StanceData], max_folds: int = MAX_FOLDS) -> list[tup
     (leave-one-stance-out). More: ``max_folds`` groups, dealt in turn from the stances ordered
     by foot, so that a foot's stances fall in different groups and every training set keeps
     each foot (:data:`MAX_FOLDS`)."""
+    if max_folds < 2:
+        raise InputError(
+            f"max_folds={max_folds}: give 2 or more (one group would hold out every stance, and "
+            "its training would keep none of the feet it scores)"
+        )
     sides = [st.side for st in stances]
     held = [i for i, s in enumerate(sides) if sides.count(s) >= 2]
     if len(held) <= max_folds:
@@ -368,6 +373,26 @@ def score(ev: Evaluation) -> float:
     return float(np.sqrt(2.0 * e / ev.n_residuals))
 
 
+def circular_blocks(n: int, L: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` frame indices of one circular block bootstrap draw (Politis and Romano 1992):
+    blocks of ``L`` frames (at least 1, at most ``n``) from random starts, wrapping past the
+    last frame to the first, so that every frame is drawn equally often on average."""
+    L = min(max(1, L), n)
+    starts = rng.integers(0, n, int(np.ceil(n / L)))
+    return ((starts[:, None] + np.arange(L)) % n).ravel()[:n]
+
+
+def _stance_rates(ev: Evaluation, default: float) -> list[float]:
+    """Per scored stance (as :func:`_stance_costs`), its frame rate [Hz] from its own time
+    stamps; ``default`` where a stance has fewer than two frames."""
+    fits = [f.heldout.stance_fits[0] for f in ev.folds] if ev.folds else ev.full.stance_fits
+    out = []
+    for fit in fits:
+        t = np.asarray(fit["time"], float)
+        out.append(1.0 / float(np.median(np.diff(t))) if t.size > 1 else default)
+    return out
+
+
 def _stance_costs(ev: Evaluation) -> list[np.ndarray]:
     """Per held-out stance, the per-frame cost with its prior and Occam terms spread evenly (in
     the no-fold fallback: the in-sample fit's stances, prior and BIC penalty spread over all)."""
@@ -393,19 +418,31 @@ def reduction(
     a, b = _stance_costs(parent), _stance_costs(child)
     pct = 100.0 * (1.0 - score(child) / score(parent))
     rng = np.random.default_rng(seed)
-    L = max(1, int(round(BLOCK_SECONDS * frame_rate)))
     draws = np.empty(n_boot)
     S = len(a)
-    for k in range(n_boot):
-        ea = eb = 0.0
-        for s in rng.integers(0, S, S) if resamples_stances(S) else range(S):
-            n = a[s].size
-            Ls = min(L, n)
-            starts = rng.integers(0, n - Ls + 1, int(np.ceil(n / Ls)))
-            idx = (starts[:, None] + np.arange(Ls)).ravel()[:n]
-            ea += a[s][idx].sum()
-            eb += b[s][idx].sum()
-        draws[k] = 100.0 * (1.0 - np.sqrt(eb / ea)) if ea > 0 else 0.0
+    if resamples_stances(S):
+        # the stances themselves, whole: each stance's total already carries its own frames'
+        # noise, so resampling blocks inside them too would count that noise twice (intervals
+        # about 40 % too wide on independent frames, in simulation)
+        ta = np.array([x.sum() for x in a])
+        tb = np.array([x.sum() for x in b])
+        pick = rng.integers(0, S, (n_boot, S))
+        ea, eb = ta[pick].sum(axis=1), tb[pick].sum(axis=1)
+        draws = np.where(ea > 0, 100.0 * (1.0 - np.sqrt(eb / np.where(ea > 0, ea, 1.0))), 0.0)
+    else:
+        # circular blocks of BLOCK_SECONDS at each stance's own frame rate: every frame is
+        # drawn as often as any other (blocks that stop at the ends draw the first and last
+        # frames, heel strike and toe-off, half as often as mid-stance, where an effect of the
+        # stance's edges shows)
+        rates = _stance_rates(parent, frame_rate)
+        for k in range(n_boot):
+            ea = eb = 0.0
+            for s in range(S):
+                n = a[s].size
+                idx = circular_blocks(n, int(round(BLOCK_SECONDS * rates[s])), rng)
+                ea += a[s][idx].sum()
+                eb += b[s][idx].sum()
+            draws[k] = 100.0 * (1.0 - np.sqrt(eb / ea)) if ea > 0 else 0.0
     lo, hi = np.percentile(draws, [2.5, 97.5])
     labels = [f.label for f in parent.folds] or [f["label"] for f in parent.full.stance_fits]
     per = {

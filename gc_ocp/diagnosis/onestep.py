@@ -105,7 +105,8 @@ def linearize(problem, x: np.ndarray, nested: bool = True) -> Linear:
         start += 6 * b.T
     nuisance = problem.stance_columns()
     trial_cols = tuple(c[has_prior[c]] for c in problem.trial_columns())
-    span = np.maximum(problem.ubx - problem.lbx, 1.0)
+    width = problem.ubx - problem.lbx  # a one-sided bound: the value's own scale instead
+    span = np.where(np.isfinite(width), np.maximum(width, 1.0), np.maximum(np.abs(x), 1.0))
     tol = 1e-9 * span
     return Linear(
         r=np.asarray(r, float),
@@ -342,7 +343,7 @@ def _heldout_stance(
 ) -> np.ndarray:
     """``(B,)``: the held-out energy of stance ``i`` at the training step ``d_train``, its
     nuisance (and the columns ``extra``) re-estimated from the point; plus the Occam part of the
-    ``extra`` columns in ``charge`` (:func:`heldout_energy`)."""
+    re-estimated columns in ``charge`` (:func:`heldout_energy`)."""
     rows = lin.rows[i]
     Jh = J[rows]
     d = d_train.copy()
@@ -358,7 +359,9 @@ def _heldout_stance(
     res = a + Jz @ dz
     pz = p0z[:, None] + pwz[:, None] * dz
     energy = 0.5 * (np.sum(res**2, axis=0) + np.sum(pz**2, axis=0))
-    charged = np.isin(z, extra) & np.isin(z, charge if charge is not None else [])
+    # every charged column the stance re-estimates: a nested child's own trial-scope columns
+    # (``extra``) and its own per-stance ones (a ground offset's, among the nuisance)
+    charged = np.isin(z, charge if charge is not None else [])
     if charged.any():  # 1/2 log det H_z (prior-sigma units) gained by the charged columns
         Hs = Hz / np.outer(pwz, pwz)
         keep = ~charged
