@@ -190,6 +190,7 @@ def _fake_evaluation(frame_costs: list[np.ndarray]):
     folds = []
     for i, c in enumerate(frame_costs):
         fit = {
+            "time": np.arange(c.size) / 100.0,  # 100 Hz: the blocks' length in frames
             "model": np.zeros((c.size, 6)),
             "measured": np.zeros((c.size, 6)),
             "in_contact": np.ones(c.size, bool),
