@@ -211,10 +211,10 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         metavar="N",
         help="Draws of the mismatch family in the calibrated null, each a refit of the base "
-        "(default 32; fewer: faster, with a coarser p-value and a rougher split of the null's "
-        "spread into noise and mismatch; 0: noise only, not calibrated for model mismatch; "
-        "with --null-fits refit each draw is one replicate, every fold refitted: 32 can name "
-        "an effect at 5 %% only above every replicate).",
+        "(default 32; the p-value counts draws, so it is at least 1/(N+1): fewer than 20 "
+        "cannot name an effect at 5 %%, and fewer give a rougher split of the null's spread "
+        "into noise and mismatch; 0: noise only, not calibrated for model mismatch; with "
+        "--null-fits refit each draw is one replicate, every fold refitted).",
     )
     p.add_argument(
         "--workers",
