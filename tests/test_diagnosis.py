@@ -813,3 +813,22 @@ def test_the_floor_s_number_of_steps_is_where_the_interval_would_clear_zero(pct,
     assert floor_stances({**red, "ci": (0.1, 2 * pct)}, n0) == 0
     assert floor_stances({**red, "pct": 0.9 * MIN_REDUCTION_PCT}, n0) is None
     assert floor_stances({**red, "insample_pct": 0.9 * MIN_REDUCTION_PCT}, n0) is None
+
+
+def test_held_out_solves_that_did_not_converge_are_noted():
+    """A model whose frozen held-out fit of some stance stopped short is scored with it as it
+    stopped, and the diagnosis says which model and stances (it was silent)."""
+    from types import SimpleNamespace
+
+    from gc_ocp.diagnosis.diagnose import unconverged_notes
+
+    def fold(label, ok):
+        return SimpleNamespace(label=label, heldout=SimpleNamespace(success=ok))
+
+    evs = {
+        "base": SimpleNamespace(folds=[fold("a", True), fold("b", True)]),
+        "base+damping": SimpleNamespace(folds=[fold("a", True), fold("b", False)]),
+        "base+friction": SimpleNamespace(folds=[]),  # screened: no folds
+    }
+    (note,) = unconverged_notes(evs)
+    assert note.startswith("base+damping: the held-out solve of 1 of 2 stance(s)") and "(b)" in note

@@ -18,13 +18,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor
 from types import MappingProxyType
 
 import numpy as np
 
-from gc_ocp.diagnosis.compare import MAX_FOLDS, evaluate, fold_plan, held_out
+from gc_ocp.diagnosis.compare import MAX_FOLDS, Evaluation, evaluate, fold_plan, held_out
 from gc_ocp.diagnosis.draws import NullInputs, debiased, mismatch_null
 from gc_ocp.diagnosis.execution import (
     Job,
@@ -318,6 +318,7 @@ def diagnose_stances(
         "base": where(evaluations["base"].heldout_fits or evaluations["base"].full.stance_fits),
         "final": where(current.heldout_fits or current.full.stance_fits),
     }
+    notes += unconverged_notes(evaluations)
     return Diagnosis(
         base=base_label,
         base_components=[c.name for c in base_model_],
@@ -337,6 +338,20 @@ def diagnose_stances(
         max_effects=max_effects,
         floor_pct=MIN_REDUCTION_PCT,
     )
+
+
+def unconverged_notes(evaluations: Mapping[str, Evaluation]) -> list[str]:
+    """A note per model some of whose held-out solves (the frozen model's fit of a held-out
+    stance's nuisance) did not converge: its held-out score counts them as they stopped."""
+    out = []
+    for label, ev in evaluations.items():
+        bad = [f.label for f in ev.folds if not f.heldout.success]
+        if bad:
+            out.append(
+                f"{label}: the held-out solve of {len(bad)} of {len(ev.folds)} stance(s) did not "
+                f"converge ({', '.join(bad)}); its held-out score counts them where they stopped"
+            )
+    return out
 
 
 def _calibrated(
