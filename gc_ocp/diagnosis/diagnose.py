@@ -16,7 +16,6 @@ Confirmation on new stances is :mod:`.confirm`; the HTML page, :mod:`.report`.
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor
@@ -41,6 +40,7 @@ from gc_ocp.diagnosis.null import (
     N_REPLICATES,
     calibrate,
     decide,
+    fewest_draws,
     null_looks,
     observed_reductions,
     prior_step,
@@ -194,11 +194,11 @@ def diagnose_stances(
     plan = fold_plan(stances, max_folds)
     rate = 1.0 / float(np.median(np.diff(stances[0].time)))
     notes = []
-    if 0 < mismatch_draws and (mismatch_draws + 1) * alpha <= 1.0:
+    if 0 < mismatch_draws < fewest_draws(alpha):
         notes.append(
             f"{mismatch_draws} mismatch draws per round: the adjusted p-value counts draws, so "
             f"its smallest value is 1/{mismatch_draws + 1}, not under alpha {alpha:g}: no "
-            f"candidate can be named; give at least {math.floor(1.0 / alpha)} draws "
+            f"candidate can be named; give at least {fewest_draws(alpha)} draws "
             f"({MISMATCH_DRAWS} is the default)"
         )
     base_model_, width_note = sized_base(stances, base_model_, pose_width, weights, options, say)

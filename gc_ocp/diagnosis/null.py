@@ -28,7 +28,8 @@ max statistic), so that the family-wise rate of a false claim among all candidat
 the observed one, each mismatch draw counting the share of its wild replicates that do
 (:func:`decide`: a draw's replicates share its shift, so the observed statistic is exchangeable
 with a draw, not with each replicate; counted per replicate, the rate was 5.6-6.3 % in
-simulation where the mismatch dominates, per draw 2.5-2.9 %). A candidate the stances do not move (every reduction under
+simulation where the mismatch dominates, per draw 2.5-2.9 %). A candidate the stances do not
+move (every reduction under
 :data:`RESOLUTION_PCT`: round-off) is not in that family (``NullTest.inert``).
 
 **Steps that would decide.** The null's variance has two parts: the spread *between* the
@@ -526,15 +527,22 @@ def _draw_weights(draws: np.ndarray | None, n: int) -> tuple[np.ndarray, int]:
     return 1.0 / np.bincount(inv)[inv], int(inv.max()) + 1 if inv.size else 0
 
 
+def fewest_draws(alpha: float = ALPHA) -> int:
+    """The fewest draws ``K`` whose null can name a candidate at ``alpha``: the smallest
+    p-value, ``1 / (K + 1)`` (:func:`decide`), must be under it (20 at 5 %)."""
+    k = max(math.ceil(1.0 / alpha) - 1, 0)
+    return k if alpha * (k + 1) > 1.0 else k + 1
+
+
 def _critical(zmax: np.ndarray, w: np.ndarray, K: int, alpha: float) -> float | None:
     """The critical studentised value of the p-value rule with ``K`` draws: a statistic above
     it has ``p = (1 + e) / (K + 1) < alpha``, ``e`` the draw-weighted count of the replicates
     whose largest studentised reduction reaches it, scaled from the draws at hand to ``K``
     (the full null, when these are its first). None when ``K`` draws cannot give a p-value
     under ``alpha`` (fewer than ``1 / alpha - 1``)."""
-    e_max = alpha * (K + 1) - 1.0  # the rule: e < e_max
-    if e_max <= 0 or zmax.size == 0:
+    if K < fewest_draws(alpha) or zmax.size == 0:
         return None
+    e_max = alpha * (K + 1) - 1.0  # the rule: e < e_max
     order = np.argsort(-zmax, kind="stable")
     frac = np.cumsum(w[order]) / float(np.sum(w))  # share of the draws at or above each value
     below = int(np.sum(frac * K < e_max - 1e-9))  # the top values the rule may exceed
@@ -790,6 +798,7 @@ __all__ = (
     "calibrate",
     "cannot_name",
     "decide",
+    "fewest_draws",
     "final_p_bound",
     "more_stances",
     "null_draw",
