@@ -237,6 +237,30 @@ def test_fold_fits_nest_and_a_screened_candidate_is_not_held_out(base_eval):
     assert "not held out" in row.line() and "p = 0.4" in row.line()
 
 
+def test_a_fold_fit_sees_nothing_of_its_held_out_stance(base_eval):
+    """No frame of a held-out stance reaches its fold's training fit, the start included (a
+    start from the fit on all stances would carry it: the objective is not convex, and the
+    minimum reached would depend on the stance scored). The first held-out stance's measured
+    wrench is scaled by 1.25: every fold fit that trains without it, the base's and a
+    candidate's (started from the base's fold fit), stays identical to the bit; the held-out
+    fit, which sees the stance, changes."""
+    data, parent = base_eval
+    plan = fold_plan(data)
+    i = plan[0][0]
+    spoiled = list(data)
+    spoiled[i] = dataclasses.replace(data[i], measured=1.25 * data[i].measured)
+    if data[i].plate_wrench is not None:
+        spoiled[i] = dataclasses.replace(spoiled[i], plate_wrench=1.25 * data[i].plate_wrench)
+    other = evaluate(spoiled, base_model(), "base", (), plan)
+    np.testing.assert_array_equal(other.folds[0].train.x, parent.folds[0].train.x)
+    assert other.folds[0].heldout.objective != parent.folds[0].heldout.objective
+    assert other.full.objective != parent.full.objective  # the fit on all stances sees it
+    model = model_from_names(["damping"], base=base_model())
+    child = evaluate(data, model, "base+damping", ("damping",), plan, parent=parent)
+    child2 = evaluate(spoiled, model, "base+damping", ("damping",), plan, parent=other)
+    np.testing.assert_array_equal(child2.folds[0].train.x, child.folds[0].train.x)
+
+
 def test_an_injected_damping_is_found_and_nothing_on_the_base_truth(bundled):
     """Blind on synthetic data from the bundled trial's motion (0.5 % BW plate noise): with a
     true Hunt-Crossley damping of 1 s/m the diagnosis selects damping; with the base model as

@@ -222,6 +222,68 @@ def test_a_variable_fixed_by_equal_bounds_stays_fixed_in_the_bounded_step():
         np.testing.assert_allclose(d[keep, b], ref.x, atol=1e-7)
 
 
+def test_the_bounded_step_with_many_variables_at_bounds_is_the_constrained_optimum():
+    """Beyond ``MAX_ACTIVE_SET`` bounded variables the step is the primal active-set method: on
+    nine variables at bounds (six lower, three upper), each replicate's step is the bounded
+    least-squares optimum (scipy's bounded solver), faces of many active bounds included."""
+    rng = np.random.default_rng(7)
+    n, nx = 90, 12
+    J = rng.normal(size=(n, nx))
+    R = rng.normal(size=(n, 40))
+    lower, upper = [0, 1, 2, 4, 6, 8], [3, 9, 10]
+    assert len(lower) + len(upper) > onestep.MAX_ACTIVE_SET
+    lin = _single_stance(J, at_lower=lower, at_upper=upper)
+    d = onestep.step(J.T @ J, J.T @ R, lin)
+    lo, hi = np.full(nx, -np.inf), np.full(nx, np.inf)
+    lo[lower], hi[upper] = 0.0, 0.0
+    active = []
+    for b in range(R.shape[1]):
+        ref = so.lsq_linear(J, -R[:, b], bounds=(lo, hi))
+        # the constrained optimum, to the solver's tolerance (lsq_linear's default 1e-10)
+        np.testing.assert_allclose(d[:, b], ref.x, atol=1e-7)
+        active.append(np.count_nonzero(ref.active_mask))
+    assert max(active) >= 4 and min(active) < max(active)  # many faces occur in the draw
+
+
+def test_a_held_out_nuisance_at_its_bound_stays_on_its_side():
+    """The held-out stance's re-estimated nuisance keeps a column at a bound at the point on its
+    side of it, as the training step does: the held-out energy is the bounded least-squares
+    optimum (scipy's bounded solver on the data and prior rows), never below it."""
+    rng = np.random.default_rng(8)
+    n_st, T6, n_shared, n_z = 3, 30, 3, 2
+    nx = n_shared + n_st * n_z
+    rows = tuple(slice(k * T6, (k + 1) * T6) for k in range(n_st))
+    nuis = tuple(np.arange(n_shared + k * n_z, n_shared + (k + 1) * n_z) for k in range(n_st))
+    J = np.zeros((n_st * T6, nx))
+    for k in range(n_st):
+        J[rows[k], :n_shared] = rng.normal(size=(T6, n_shared))
+        J[rows[k], nuis[k]] = rng.normal(size=(T6, n_z))
+    bound_col = int(nuis[0][0])  # stance 0's first nuisance column at its lower bound
+    lin, P, pos = _linear_with_priors(rng, J, rows, nuis, at_lower=np.array([bound_col]))
+    R0 = rng.normal(size=(n_st * T6, 30))
+    E = onestep.heldout_energy(lin, R0, [(0,)])
+    keep = np.arange(rows[1].start, rows[2].stop)
+    kz = [pos[c] for c in nuis[0]]
+    crossed = 0
+    for b in range(R0.shape[1]):
+        r = R0[:, b]
+        Jd = J.copy()
+        train_lo = np.full(nx, -np.inf)
+        train_lo[bound_col] = 0.0
+        A = np.vstack([Jd[keep], P])
+        d = so.lsq_linear(A, -np.concatenate([r[keep], lin.p0]), bounds=(train_lo, np.inf)).x
+        d[nuis[0]] = 0.0
+        Ji = J[rows[0]]
+        a = r[rows[0]] + Ji @ d
+        Az = np.vstack([Ji[:, nuis[0]], np.diag(lin.pw[kz])])
+        ref = so.lsq_linear(Az, -np.concatenate([a, lin.p0[kz]]), bounds=([0.0, -np.inf], np.inf))
+        want = 0.5 * np.sum((Az @ ref.x + np.concatenate([a, lin.p0[kz]])) ** 2)
+        # the bounded optimum, to the solver's tolerance (lsq_linear's default 1e-10)
+        assert E[0, b] == pytest.approx(want, rel=1e-8)
+        crossed += ref.active_mask[0] != 0
+    assert 3 < crossed < 27  # the bound is active on some replicates, not on all
+
+
 def test_a_null_test_round_trips_through_json():
     t = null.NullTest(1.2, 0.1, 0.4, 2.75, 0.01, 2.4, 0, 6)
     assert null.NullTest(**t.to_json()) == t
@@ -264,12 +326,10 @@ def _linear_with_priors(rng, J, rows, nuis, **kw) -> tuple[onestep.Linear, np.nd
         p0=p0,
         rows=rows,
         nuisance=nuis,
-        at_lower=np.zeros(0, int),
-        at_upper=np.zeros(0, int),
         nested=True,
         x0=np.zeros(nx),
         keys={},
-        **kw,
+        **{"at_lower": np.zeros(0, int), "at_upper": np.zeros(0, int), **kw},
     )
     P = np.zeros((prior_idx.size, nx))
     P[np.arange(prior_idx.size), prior_idx] = pw

@@ -176,15 +176,18 @@ def fit_model(
     weights: Weights | None,
     options: IpoptOptions | None,
     covariance: bool = True,
+    quiet: bool = False,
 ) -> EstimationResult:
     """``model`` (law started at the LLS of ``data``) fitted on ``data``: from ``start`` alone
-    when given (a fit of the model this one extends, or of the same model on more stances), with
-    the usual starts as a fallback if that solve fails; from the usual starts otherwise.
+    when given (a fit of the model this one extends on the same stances, or of the same model on
+    the same stances of other data), with the usual starts as a fallback if that solve fails;
+    from the usual starts otherwise.
 
     The seed's LLS is rank deficient on many folds (a unit never loaded in the remaining
     stances); it only sets the law's start and prior centre, so its warning is given once, on
-    the base's fit of all stances (``start`` None), not once per fold and candidate."""
-    model = with_lls_start(model, data, quiet=start is not None)
+    the base's fit of all stances (``start`` None, ``quiet`` False), not once per fold and
+    candidate."""
+    model = with_lls_start(model, data, quiet=quiet or start is not None)
     if start is not None:
         try:
             return best_of(
@@ -202,29 +205,38 @@ def fit_fold(
     model: tuple,
     plan: Sequence[Sequence[int]],
     j: int,
-    full: EstimationResult,
+    start: EstimationResult | None = None,
     parent: Evaluation | None = None,
     weights: Weights | None = None,
     options: IpoptOptions | None = None,
 ) -> list[Fold]:
     """Fold ``j`` of ``plan``: ``model`` trained on every stance but those of group ``plan[j]``
     and scored on each of those (one :class:`Fold` per held-out stance, sharing the training
-    fit). The training fit starts from ``full``: the model's own fit on all stances (the nearest
-    problem), or, for a replicate of the refit null, the same fold's fit on the observed data
-    (:mod:`.refits`). The objective is not convex, and a model nests its parent (its effect at the
-    neutral value is the parent exactly), so its training fit must end at or below the parent's
-    on the same stances: when it does not, it also starts from the parent's fold fit and keeps
-    the lower. No covariance for the fold fits: only their values and costs are used."""
+    fit).
+
+    The training fit starts as a fit on all stances does (:func:`fit_model`), from nothing that
+    saw the held-out stances: from ``start`` when given (for a replicate of the refit null, the
+    same fold's fit on the observed data, :mod:`.refits`); else from ``parent``'s fit of the same
+    fold (the model this one extends, its effect at the neutral value); else, for the base, from
+    the usual starts. (A start from the model's own fit on all stances would be cheaper and is
+    a leak: the objective is not convex, and which minimum a fold fit reaches would then depend
+    on the stance it is scored on.)
+
+    A model nests its parent (its effect at the neutral value is the parent exactly), so its
+    training fit must end at or below the parent's on the same stances: when it does not, it
+    also starts from the parent's fold fit (or, when it already did, from the usual starts) and
+    keeps the lowest. No covariance for the fold fits: only their values and costs are used."""
     weights = weights or Weights()
     group = set(plan[j])
     train = [d for k, d in enumerate(data) if k not in group]
     first = first_fold(plan, j)
-    tr = fit_model(train, model, full, weights, options, covariance=False)
-    if parent is not None:
-        ptr = parent.folds[first].train
-        if tr.objective > ptr.objective * (1.0 + NESTING_RTOL):
-            alt = fit_model(train, model, ptr, weights, options, covariance=False)
-            tr = alt if alt.objective < tr.objective else tr
+    ptr = parent.folds[first].train if parent is not None else None
+    s0 = start if start is not None else ptr
+    tr = fit_model(train, model, s0, weights, options, covariance=False, quiet=True)
+    if ptr is not None and tr.objective > ptr.objective * (1.0 + NESTING_RTOL):
+        again = ptr if s0 is not ptr else None
+        alt = fit_model(train, model, again, weights, options, covariance=False, quiet=True)
+        tr = alt if alt.objective < tr.objective else tr
     return [
         _score_heldout(
             data[i],
@@ -254,7 +266,8 @@ def evaluate(
 ) -> Evaluation:
     """Fit ``model`` on all of ``data`` and on each fold of ``plan``
     (:func:`fit_fold`), and score every held-out stance. Warm starts: from ``parent``'s fits (the
-    model this one extends) when given; the folds from the model's own fit on all stances.
+    model this one extends) when given, the folds from ``parent``'s fold fits; the base's folds
+    from the usual starts (:func:`fit_fold`: never from a fit that saw the held-out stance).
 
     full: the model's fit on all of ``data`` when already made (not refitted); ``folds=False``:
     the fit on all stances only (the evaluation is ``screened``; the calibrated decision of the
@@ -271,7 +284,7 @@ def evaluate(
         else [
             fold
             for j in range(len(plan))
-            for fold in fit_fold(data, model, plan, j, full, parent, weights, options)
+            for fold in fit_fold(data, model, plan, j, None, parent, weights, options)
         ]
     )
     ev = Evaluation(
@@ -414,7 +427,17 @@ def reduction(
     frame_rate: float = 100.0,
 ) -> dict:
     """Held-out reduction of ``child`` over ``parent``: ``{"pct", "ci": [lo, hi] (95 %),
-    "per_stance": {label: pct}, "insample_pct", "superior_pct"}`` (module doc)."""
+    "per_stance": {label: pct}, "insample_pct", "superior_pct"}`` (module doc); ``superior_pct``
+    is None where the parent's superior-force RMS is 0 or undefined (no frame in contact).
+
+    A paired comparison: both evaluations must score the same stances in the same order (the
+    same fold plan on the same data), else the pairs would mix stances; a ValueError says so."""
+    la, lb = _scored_labels(parent), _scored_labels(child)
+    if la != lb:
+        raise ValueError(
+            f"reduction of {child.label!r} over {parent.label!r}: they score different stances "
+            f"({la} against {lb}); evaluate both on the same data and fold plan"
+        )
     a, b = _stance_costs(parent), _stance_costs(child)
     pct = 100.0 * (1.0 - score(child) / score(parent))
     rng = np.random.default_rng(seed)
@@ -444,23 +467,25 @@ def reduction(
                 eb += b[s][idx].sum()
             draws[k] = 100.0 * (1.0 - np.sqrt(eb / ea)) if ea > 0 else 0.0
     lo, hi = np.percentile(draws, [2.5, 97.5])
-    labels = [f.label for f in parent.folds] or [f["label"] for f in parent.full.stance_fits]
     per = {
         lab: float(100.0 * (1.0 - np.sqrt(cb.sum() / ca.sum())))
-        for lab, ca, cb in zip(labels, a, b, strict=True)
+        for lab, ca, cb in zip(la, a, b, strict=True)
     }
     ins = insample_reduction(parent.full, child.full)
+    sp_, sc = superior_rms(parent), superior_rms(child)
     return {
         "pct": float(pct),
         "ci": [float(lo), float(hi)],
         "per_stance": per,
         "insample_pct": float(ins),
-        "superior_pct": float(
-            100.0 * (1.0 - superior_rms(child) / superior_rms(parent))
-            if superior_rms(parent) > 0
-            else 0.0
-        ),
+        "superior_pct": float(100.0 * (1.0 - sc / sp_)) if sp_ > 0 and np.isfinite(sc) else None,
     }
+
+
+def _scored_labels(ev: Evaluation) -> list[str]:
+    """The labels of the stances ``ev`` scores, in order: its held-out stances, or, without
+    folds, the stances of its fit on all of them."""
+    return [f.label for f in ev.folds] or [f["label"] for f in ev.full.stance_fits]
 
 
 def weighted_residuals(ev: Evaluation, insample: bool = False) -> np.ndarray:

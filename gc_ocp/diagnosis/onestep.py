@@ -222,15 +222,22 @@ def _solve(G: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 
 
 MAX_ACTIVE_SET = 6
-"""Variables at a bound up to which :func:`step` solves the bounded step exactly (every face,
-``2^k`` of them); beyond, those whose step crosses their bound are fixed in one pass."""
+"""Variables at a bound up to which :func:`step` solves the bounded step by visiting every face
+(``2^k`` of them, all replicates at once); beyond, by a primal active-set method per replicate."""
 
 
 def step(G: np.ndarray, rhs: np.ndarray, lin: Linear) -> np.ndarray:
-    """``argmin_d 1/2 d^T G d + rhs^T d`` for every column of ``rhs``, with the variables at a
-    bound at the point kept on their side of it (a convex QP: its optimum is the lowest of the
-    feasible stationary points of the faces, each face fixing a subset of those variables at
-    their bound).
+    """:func:`bounded_step` with the bounds of ``lin`` (the variables at a bound at the point)."""
+    return bounded_step(G, rhs, lin.at_lower, lin.at_upper)
+
+
+def bounded_step(
+    G: np.ndarray, rhs: np.ndarray, at_lower: np.ndarray, at_upper: np.ndarray
+) -> np.ndarray:
+    """``argmin_d 1/2 d^T G d + rhs^T d`` for every column of ``rhs``, with the variables
+    ``at_lower`` (``at_upper``), at their lower (upper) bound at the point, kept on their side
+    of it (a convex QP: its optimum is the lowest of the feasible stationary points of the faces,
+    each face fixing a subset of those variables at their bound).
 
     One factorisation serves every face: with ``d0 = -G^-1 rhs`` and ``W = G^-1 E`` (``E`` the
     unit columns of the ``k`` bounded variables), fixing a subset ``F`` at 0 gives
@@ -238,8 +245,9 @@ def step(G: np.ndarray, rhs: np.ndarray, lin: Linear) -> np.ndarray:
     and raises the objective by ``1/2 d0_F^T mu``: a ``|F|``-sized solve per face instead of an
     ``n``-sized one (the same optimum to round-off). A variable at both bounds (``lb == ub``) is
     fixed on every face."""
-    pinned = np.intersect1d(lin.at_lower, lin.at_upper)  # lb == ub: fixed on every face
-    lo, hi = np.setdiff1d(lin.at_lower, pinned), np.setdiff1d(lin.at_upper, pinned)
+    at_lower, at_upper = np.asarray(at_lower, int), np.asarray(at_upper, int)
+    pinned = np.intersect1d(at_lower, at_upper)  # lb == ub: fixed on every face
+    lo, hi = np.setdiff1d(at_lower, pinned), np.setdiff1d(at_upper, pinned)
     bounded = np.concatenate([lo, hi, pinned]).astype(int)
     if not bounded.size:
         return -_solve(G, rhs)
@@ -265,16 +273,13 @@ def step(G: np.ndarray, rhs: np.ndarray, lin: Linear) -> np.ndarray:
         d[bounded[fixed]] = 0.0
         return d, 0.5 * np.sum(a[bounded[fixed]] * mu, axis=0)
 
+    bounded_k = bounded[:k]
     if k > MAX_ACTIVE_SET:
-        d0f = face(np.zeros(k, bool))[0]
-        d = d0f.copy()
-        bad = (sign[:, None] * d0f[bounded[:k]]) < 0
-        for j in np.flatnonzero(bad.any(axis=0)):
-            d[:, j : j + 1] = face(bad[:, j], slice(j, j + 1))[0]
-        return d
+        return np.column_stack(
+            [_active_set(G, rhs[:, j], face, bounded_k, sign, j) for j in range(B)]
+        )
     best = np.full(B, np.inf)
     out = np.zeros_like(d0)
-    bounded_k = bounded[:k]
     for mask in range(2**k):
         fixed = np.array([(mask >> b) & 1 for b in range(k)], bool)
         dd, raise_ = face(fixed)
@@ -283,6 +288,44 @@ def step(G: np.ndarray, rhs: np.ndarray, lin: Linear) -> np.ndarray:
         out[:, take] = dd[:, take]
         best[take] = raise_[take]
     return out
+
+
+def _active_set(G, g0, face, bounded_k, sign, j) -> np.ndarray:
+    """Column ``j`` of :func:`bounded_step` by the primal active-set method for a convex QP
+    (Nocedal and Wright 2006, algorithm 16.3): from ``d = 0`` (feasible: every bounded variable
+    at its bound), with all of them fixed; step towards the stationary point of the current face,
+    stopping at the first bound crossed (which is then fixed); at a face's stationary point,
+    free the fixed variable whose multiplier has the wrong sign (the objective falls when it
+    leaves its bound), or stop: every multiplier has its sign, the optimum. Finite: the
+    objective falls at every change of the face, and no face is visited twice."""
+    k = bounded_k.size
+    fixed = np.ones(k, bool)
+    d = np.zeros(G.shape[0])
+    for _ in range(10 * k + 10):  # each face at most once; a safeguard against round-off
+        target = face(fixed, slice(j, j + 1))[0][:, 0]
+        p = target - d
+        if np.max(np.abs(p), initial=0.0) <= 1e-12 * (1.0 + np.max(np.abs(d), initial=0.0)):
+            grad = G @ d + g0  # at a bound, sign * grad >= 0: leaving it raises the objective
+            m = sign * grad[bounded_k]
+            m[~fixed] = np.inf
+            i = int(np.argmin(m))
+            if m[i] >= -1e-12 * (1.0 + np.max(np.abs(grad))):
+                return d
+            fixed[i] = False
+            continue
+        sp = sign * p[bounded_k]
+        blocking = (~fixed) & (sp < 0)
+        alpha, hit = 1.0, -1
+        if blocking.any():
+            ratios = np.full(k, np.inf)
+            ratios[blocking] = (sign * d[bounded_k])[blocking] / -sp[blocking]
+            hit = int(np.argmin(ratios))
+            alpha = min(1.0, float(ratios[hit]))
+        d = d + alpha * p
+        if alpha < 1.0:
+            fixed[hit] = True
+            d[bounded_k[hit]] = 0.0
+    return d
 
 
 def heldout_energy(
@@ -355,7 +398,14 @@ def _heldout_stance(
     kz = np.array([prior_pos[c] for c in z], int)
     pwz, p0z = lin.pw[kz], lin.p0[kz]
     Hz = Jz.T @ Jz + np.diag(pwz**2)
-    dz = -_solve(Hz, Jz.T @ a + (pwz * p0z)[:, None])
+    # a nuisance column at a bound at the point (a ground offset, a clock offset at its
+    # limit) stays on its side of it, as in the training step
+    dz = bounded_step(
+        Hz,
+        Jz.T @ a + (pwz * p0z)[:, None],
+        np.flatnonzero(np.isin(z, lin.at_lower)),
+        np.flatnonzero(np.isin(z, lin.at_upper)),
+    )
     res = a + Jz @ dz
     pz = p0z[:, None] + pwz[:, None] * dz
     energy = 0.5 * (np.sum(res**2, axis=0) + np.sum(pz**2, axis=0))
@@ -468,5 +518,6 @@ __all__ = (
     "per_stance_sd",
     "reductions",
     "stance_shares",
+    "bounded_step",
     "step",
 )
