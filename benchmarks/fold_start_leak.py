@@ -38,8 +38,10 @@ def folds() -> None:
     w = Weights()
     full = fit_model(stances, base, None, w, None)
     print(f"bundled trial, base on all stances: J = {full.objective:.2f}")
-    print("| fold | training J, usual starts | training J, from the fit on all stances "
-          "| held-out E, usual starts | held-out E, from the fit on all stances |")
+    print(
+        "| fold | training J, usual starts | training J, from the fit on all stances "
+        "| held-out E, usual starts | held-out E, from the fit on all stances |"
+    )
     print("|---|---|---|---|---|")
     for g in plan:
         train = [d for k, d in enumerate(stances) if k not in set(g)]
@@ -47,8 +49,10 @@ def folds() -> None:
         warm = fit_model(train, base, full, w, None, covariance=False, quiet=True)
         hc = _score_heldout(stances[g[0]], train, base, cold, w, None)
         hw = _score_heldout(stances[g[0]], train, base, warm, w, None)
-        print(f"| {g} | {cold.objective:.2f} | {warm.objective:.2f} | {hc.energy:.2f} "
-              f"| {hw.energy:.2f} |")
+        print(
+            f"| {g} | {cold.objective:.2f} | {warm.objective:.2f} | {hc.energy:.2f} "
+            f"| {hw.energy:.2f} |"
+        )
 
 
 def whole(which: str, out: str) -> None:
@@ -56,9 +60,7 @@ def whole(which: str, out: str) -> None:
     trials = [gc_ocp.load_trial(p) if p else gc_ocp.load_trial() for p in paths]
     pairs = [(t, gc_ocp.compute_kinematics(t)) for t in trials]
     t0 = time.perf_counter()
-    d = diagnose(
-        pairs, workers=2, progress=lambda s: print(f"{time.perf_counter() - t0:7.1f} {s}")
-    )
+    d = diagnose(pairs, workers=2, progress=lambda s: print(f"{time.perf_counter() - t0:7.1f} {s}"))
     print(f"time {time.perf_counter() - t0:.1f} s")
     print(d.summary())
     with open(out, "w") as f:

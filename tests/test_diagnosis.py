@@ -261,6 +261,17 @@ def test_a_fold_fit_sees_nothing_of_its_held_out_stance(base_eval):
     np.testing.assert_array_equal(child2.folds[0].train.x, child.folds[0].train.x)
 
 
+def test_a_reduction_pairs_only_evaluations_of_the_same_stances(base_eval):
+    """The held-out reduction is a paired comparison, stance by stance: two evaluations that
+    score their stances in a different order (or different stances) are refused, not paired
+    wrongly."""
+    _, ev = base_eval
+    swapped = dataclasses.replace(ev, folds=list(reversed(ev.folds)))
+    assert reduction(swapped, swapped, n_boot=20)["pct"] == 0.0
+    with pytest.raises(ValueError, match="score different stances"):
+        reduction(ev, swapped, n_boot=20)
+
+
 def test_an_injected_damping_is_found_and_nothing_on_the_base_truth(bundled):
     """Blind on synthetic data from the bundled trial's motion (0.5 % BW plate noise): with a
     true Hunt-Crossley damping of 1 s/m the diagnosis selects damping; with the base model as
