@@ -459,7 +459,7 @@ def decide(
     }
     for n in names:
         z = (observed[n] - m[n]) / s[n]
-        p = (1.0 + float(np.sum(w * (zmax >= z)))) / (K + 1.0)
+        p = (1.0 + _exceeding(zmax, w, z)) / (K + 1.0)
         out[n] = NullTest(
             observed_pct=float(observed[n]),
             null_mean_pct=m[n],
@@ -527,6 +527,12 @@ def _draw_weights(draws: np.ndarray | None, n: int) -> tuple[np.ndarray, int]:
     return 1.0 / np.bincount(inv)[inv], int(inv.max()) + 1 if inv.size else 0
 
 
+def _exceeding(zmax: np.ndarray, w: np.ndarray, z: float) -> float:
+    """The draws (each counting the share of its replicates, ``w``) whose largest studentised
+    reduction reaches ``z``: the ``e`` of the p-value ``(1 + e) / (K + 1)``."""
+    return float(np.sum(w * (zmax >= z)))
+
+
 def fewest_draws(alpha: float = ALPHA) -> int:
     """The fewest draws ``K`` whose null can name a candidate at ``alpha``: the smallest
     p-value, ``1 / (K + 1)`` (:func:`decide`), must be under it (20 at 5 %)."""
@@ -586,7 +592,7 @@ def final_p_bound(
         return 1.0
     m, s, zmax = _studentised(null, names)
     w, K = _draw_weights(draws, zmax.size)
-    e = min(float(np.sum(w * (zmax >= (observed[n] - m[n]) / s[n]))) for n in among)
+    e = min(_exceeding(zmax, w, (observed[n] - m[n]) / s[n]) for n in among)
     return (1.0 + e) / (max(n_final, K) + 1.0)
 
 
