@@ -21,6 +21,7 @@ from gc_ocp.diagnosis.compare import (
     fold_plan,
     insample_reduction,
     occam_term,
+    parent_point,
     reduction,
     score,
 )
@@ -31,7 +32,7 @@ from gc_ocp.diagnosis.selection import CONFOUND_COSINE, flag_alike, rank
 from gc_ocp.estimation.components import base_model, model_from_names
 from gc_ocp.estimation.components.damping import Damping
 from gc_ocp.estimation.components.pose import PoseCorrection
-from gc_ocp.estimation.problem import build_estimation
+from gc_ocp.estimation.problem import Weights, build_estimation
 
 
 def _double_hump(t: np.ndarray) -> np.ndarray:
@@ -259,6 +260,22 @@ def test_a_fold_fit_sees_nothing_of_its_held_out_stance(base_eval):
     child = evaluate(data, model, "base+damping", ("damping",), plan, parent=parent)
     child2 = evaluate(spoiled, model, "base+damping", ("damping",), plan, parent=other)
     np.testing.assert_array_equal(child2.folds[0].train.x, child.folds[0].train.x)
+
+
+def test_the_nesting_fallback_is_for_models_that_reproduce_their_parent(base_eval):
+    """A fold fit that ends above its parent's gets a second start, from the parent exactly,
+    only when the model nests its parent: damping at 0 s/m has the parent's objective; the
+    contact density, whose field replaces the five stiffnesses, has no such point and may end
+    above its parent without a second start."""
+    data, parent = base_eval
+    plan = fold_plan(data)
+    train = [d for k, d in enumerate(data) if k not in set(plan[0])]
+    ptr = parent.folds[0].train
+    damping = model_from_names(["damping"], base=base_model())
+    density = model_from_names(["contact_density"], base=base_model())
+    prob, x = parent_point(train, damping, ptr, Weights())
+    assert prob.evaluate(x) == pytest.approx(ptr.objective, rel=1e-9)
+    assert parent_point(train, density, ptr, Weights()) is None
 
 
 def test_a_reduction_pairs_only_evaluations_of_the_same_stances(base_eval):

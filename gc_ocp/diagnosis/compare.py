@@ -55,6 +55,7 @@ from gc_ocp.estimation.starts import (
     STRATEGIES,
     best_of,
     frozen_model,
+    neutral_points,
     rescaled_start,
     with_lls_start,
 )
@@ -222,10 +223,10 @@ def fit_fold(
     a leak: the objective is not convex, and which minimum a fold fit reaches would then depend
     on the stance it is scored on.)
 
-    A model nests its parent (its effect at the neutral value is the parent exactly), so its
-    training fit must end at or below the parent's on the same stances: when it does not, it
-    also starts from the parent's fold fit (or, when it already did, from the usual starts) and
-    keeps the lowest. No covariance for the fold fits: only their values and costs are used."""
+    A model that nests its parent (its effect at the neutral value is the parent exactly) must
+    end its training fit at or below the parent's on the same stances: when it does not, it is
+    solved once more from that point (:func:`parent_point`) and the lower is kept. No
+    covariance for the fold fits: only their values and costs are used."""
     weights = weights or Weights()
     group = set(plan[j])
     train = [d for k, d in enumerate(data) if k not in group]
@@ -234,9 +235,10 @@ def fit_fold(
     s0 = start if start is not None else ptr
     tr = fit_model(train, model, s0, weights, options, covariance=False, quiet=True)
     if ptr is not None and tr.objective > ptr.objective * (1.0 + NESTING_RTOL):
-        again = ptr if s0 is not ptr else None
-        alt = fit_model(train, model, again, weights, options, covariance=False, quiet=True)
-        tr = alt if alt.objective < tr.objective else tr
+        at = parent_point(train, model, ptr, weights)
+        if at is not None:  # a model that nests its parent: once more from the parent exactly
+            alt = solve(at[0], options, x0=at[1], raise_on_failure=False, covariance=False)
+            tr = alt if alt.success and alt.objective < tr.objective else tr
     return [
         _score_heldout(
             data[i],
@@ -249,6 +251,22 @@ def fit_fold(
         )
         for k, i in enumerate(plan[j])
     ]
+
+
+def parent_point(
+    data: list[StanceData], model: tuple, parent: EstimationResult, weights: Weights
+) -> tuple | None:
+    """``(problem, x)``: ``model``'s problem on ``data`` and its point that has ``parent``'s
+    objective (``parent``'s variables, the model's own at a neutral value,
+    :func:`~gc_ocp.estimation.starts.neutral_points`): a model that nests its parent, to which
+    the nesting guarantee of :func:`fit_fold` applies. None for a model that replaces a part of
+    its parent (the contact density's field replaces the five stiffnesses): it may end above
+    the parent, and a second start would only cost time."""
+    prob = build_estimation(data, with_lls_start(model, data, quiet=True), weights)
+    bound = parent.objective * (1.0 + NESTING_RTOL)
+    return next(
+        ((prob, x) for x in neutral_points(parent, prob) if prob.evaluate(x) <= bound), None
+    )
 
 
 def evaluate(
@@ -532,6 +550,7 @@ __all__ = (
     "insample_reduction",
     "occam_term",
     "reduction",
+    "parent_point",
     "resamples_stances",
     "score",
     "superior_rms",

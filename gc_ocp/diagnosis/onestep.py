@@ -34,7 +34,7 @@ from gc_ocp.diagnosis.compare import held_out
 from gc_ocp.estimation.components import REGISTRY
 from gc_ocp.estimation.problem import Weights, build_estimation, declare
 from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.estimation.starts import rescaled_start, with_lls_start
+from gc_ocp.estimation.starts import neutral_points, rescaled_start, with_lls_start
 from gc_ocp.stance import StanceData
 
 NESTED_RTOL = 1e-8
@@ -168,14 +168,8 @@ def nested_point(problem, parent: EstimationResult, parent_r: np.ndarray) -> np.
     """The point of a candidate's ``problem`` that reproduces the parent's residual
     ``parent_r`` at the parent's solution ``parent`` (the candidate's own variables neutral:
     stored 0, else their initial values), None when neither does (module doc)."""
-    x = rescaled_start(parent, problem)
-    old = {s.key for s in parent.variables}
-    zero = x.copy()
-    for s in problem.variables.specs:
-        if s.key not in old:
-            zero[s.slice] = np.clip(0.0, s.lb, s.ub)
     scale = max(float(np.linalg.norm(parent_r)), 1e-300)
-    for x0 in (zero, x):
+    for x0 in neutral_points(parent, problem):
         r = problem.data_residuals(x0)
         if r.shape == parent_r.shape and np.linalg.norm(r - parent_r) <= NESTED_RTOL * scale:
             return x0

@@ -104,6 +104,21 @@ def rescaled_start(
     return x0
 
 
+def neutral_points(prev: EstimationResult, prob) -> tuple[np.ndarray, np.ndarray]:
+    """The two points of ``prob`` where a model that extends ``prev``'s may reproduce it exactly:
+    ``prev``'s variables as in :func:`rescaled_start` and the new ones at their stored 0, then
+    at their initial values (an effect is neutral at one of the two: a damping at 0, a clock
+    offset at 0; :func:`~gc_ocp.diagnosis.onestep.nested_point` and
+    :func:`~gc_ocp.diagnosis.compare.fit_fold` test which, if either, does)."""
+    x = rescaled_start(prev, prob)
+    old = {s.key for s in prev.variables}
+    zero = x.copy()
+    for s in prob.variables.specs:
+        if s.key not in old:
+            zero[s.slice] = np.clip(0.0, s.lb, s.ub)
+    return zero, x
+
+
 def estimate(
     data: list[StanceData],
     model: tuple,
@@ -251,6 +266,7 @@ __all__ = [
     "best_of",
     "estimate",
     "frozen_model",
+    "neutral_points",
     "lls_k0",
     "rescaled_start",
     "with_lls_start",
