@@ -245,12 +245,9 @@ def test_the_bounded_step_with_many_variables_at_bounds_is_the_constrained_optim
     assert max(active) >= 4 and min(active) < max(active)  # many faces occur in the draw
 
 
-def test_a_held_out_nuisance_at_its_bound_stays_on_its_side():
-    """The held-out stance's re-estimated nuisance keeps a column at a bound at the point on its
-    side of it, as the training step does: the held-out energy is the bounded least-squares
-    optimum (scipy's bounded solver on the data and prior rows), never below it."""
-    rng = np.random.default_rng(8)
-    n_st, T6, n_shared, n_z = 3, 30, 3, 2
+def _stance_blocks(rng, n_st: int, T6: int, n_shared: int, n_z: int):
+    """A random Jacobian of ``n_st`` stances of ``T6`` rows: ``n_shared`` columns every stance
+    sees and ``n_z`` nuisance columns per stance; with each stance's rows and nuisance."""
     nx = n_shared + n_st * n_z
     rows = tuple(slice(k * T6, (k + 1) * T6) for k in range(n_st))
     nuis = tuple(np.arange(n_shared + k * n_z, n_shared + (k + 1) * n_z) for k in range(n_st))
@@ -258,6 +255,17 @@ def test_a_held_out_nuisance_at_its_bound_stays_on_its_side():
     for k in range(n_st):
         J[rows[k], :n_shared] = rng.normal(size=(T6, n_shared))
         J[rows[k], nuis[k]] = rng.normal(size=(T6, n_z))
+    return J, rows, nuis
+
+
+def test_a_held_out_nuisance_at_its_bound_stays_on_its_side():
+    """The held-out stance's re-estimated nuisance keeps a column at a bound at the point on its
+    side of it, as the training step does: the held-out energy is the bounded least-squares
+    optimum (scipy's bounded solver on the data and prior rows), never below it."""
+    rng = np.random.default_rng(8)
+    n_st, T6, n_shared, n_z = 3, 30, 3, 2
+    J, rows, nuis = _stance_blocks(rng, n_st, T6, n_shared, n_z)
+    nx = J.shape[1]
     bound_col = int(nuis[0][0])  # stance 0's first nuisance column at its lower bound
     lin, P, pos = _linear_with_priors(rng, J, rows, nuis, at_lower=np.array([bound_col]))
     R0 = rng.normal(size=(n_st * T6, 30))
@@ -359,13 +367,7 @@ def test_grouped_folds_train_without_the_whole_group_and_score_each_stance():
     are the leave-one-stance-out case."""
     rng = np.random.default_rng(4)
     n_st, T6, n_shared, n_z = 5, 30, 4, 2
-    nx = n_shared + n_st * n_z
-    rows = tuple(slice(k * T6, (k + 1) * T6) for k in range(n_st))
-    nuis = tuple(np.arange(n_shared + k * n_z, n_shared + (k + 1) * n_z) for k in range(n_st))
-    J = np.zeros((n_st * T6, nx))
-    for k in range(n_st):
-        J[rows[k], :n_shared] = rng.normal(size=(T6, n_shared))
-        J[rows[k], nuis[k]] = rng.normal(size=(T6, n_z))
+    J, rows, nuis = _stance_blocks(rng, n_st, T6, n_shared, n_z)
     lin, P, pos = _linear_with_priors(rng, J, rows, nuis)
     R0 = rng.normal(size=(n_st * T6, 3))
     plan = [(0, 3), (1,), (2, 4)]
