@@ -11,7 +11,9 @@ diagnosis's default, is global and frozen). A foot with a single stance is never
 comparison falls back to in-sample scores with a BIC penalty and says so. With more than
 :data:`MAX_FOLDS` stances to hold out, they are held out in that many groups (each group's
 training fit scores each of its stances as above): the cost of the folds then grows linearly
-with the stances instead of quadratically.
+with the stances instead of quadratically. A fold's training fit starts from nothing that saw
+its held-out stances (:func:`fit_fold`): the base's from the usual starts, a candidate's from
+its parent's fit of the same fold.
 
 **Held-out score.** Per fold, the negative log evidence of the held-out stance given the trained
 parameters, with the nuisance integrated out under its prior (Laplace approximation):
