@@ -150,6 +150,12 @@ class Evaluation:
         return [f.heldout.stance_fits[0] for f in self.folds]
 
     @property
+    def scored_fits(self) -> list:
+        """The stance fits that score this model: its held-out stances' fits, or, without folds
+        (the in-sample fallback, a screened evaluation), its fit on all stances."""
+        return self.heldout_fits if self.folds else self.full.stance_fits
+
+    @property
     def n_residuals(self) -> int:
         return sum(f.heldout.n_data for f in self.folds) if self.folds else self.full.n_data
 
@@ -418,9 +424,8 @@ def circular_blocks(n: int, L: int, rng: np.random.Generator) -> np.ndarray:
 def _stance_rates(ev: Evaluation, default: float) -> list[float]:
     """Per scored stance (as :func:`_stance_costs`), its frame rate [Hz] from its own time
     stamps; ``default`` where a stance has fewer than two frames."""
-    fits = [f.heldout.stance_fits[0] for f in ev.folds] if ev.folds else ev.full.stance_fits
     out = []
-    for fit in fits:
+    for fit in ev.scored_fits:
         t = np.asarray(fit["time"], float)
         out.append(1.0 / float(np.median(np.diff(t))) if t.size > 1 else default)
     return out
@@ -512,24 +517,25 @@ def weighted_residuals(ev: Evaluation, insample: bool = False) -> np.ndarray:
     """All held-out (or, without folds or with ``insample``, the fit on all stances') weighted
     residuals, flattened: the vector whose changes between models tell whether two effects
     explain the same part of the gap."""
-    fits = ev.heldout_fits if ev.folds and not insample else ev.full.stance_fits
+    fits = ev.full.stance_fits if insample else ev.scored_fits
     return np.concatenate([ev.weights.residuals(f).ravel() for f in fits])
 
 
 def heldout_quality(ev: Evaluation) -> dict:
     """``{side: {six fit.json channel keys, "cop_mm"}}`` of the held-out stances (pooled per
     foot; in-sample without folds)."""
-    fits = ev.heldout_fits if ev.folds else ev.full.stance_fits
-    rms, cop = fit_quality(fits)
+    rms, cop = fit_quality(ev.scored_fits)
     return {side: {**ch, "cop_mm": cop.get(side, float("nan"))} for side, ch in rms.items()}
 
 
 def superior_rms(ev: Evaluation) -> float:
     """Held-out superior-force RMS [% BW] pooled over both feet (each stance normalised by its
     own body weight)."""
-    fits = ev.heldout_fits if ev.folds else ev.full.stance_fits
     e = np.concatenate(
-        [100 * fit_error(f)[:, 2][np.asarray(f["in_contact"])] / f["body_weight"] for f in fits]
+        [
+            100 * fit_error(f)[:, 2][np.asarray(f["in_contact"])] / f["body_weight"]
+            for f in ev.scored_fits
+        ]
     )
     return float(np.sqrt(np.mean(e**2))) if e.size else float("nan")
 

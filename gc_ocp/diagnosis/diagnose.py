@@ -315,8 +315,8 @@ def diagnose_stances(
     if rounds:  # round 1 is the ranking; it names the non-additive pairs too
         rounds[0] = flag_non_additive(rounds[0], rounds, selected)
     wh = {
-        "base": where(evaluations["base"].heldout_fits or evaluations["base"].full.stance_fits),
-        "final": where(current.heldout_fits or current.full.stance_fits),
+        "base": where(evaluations["base"].scored_fits),
+        "final": where(current.scored_fits),
     }
     notes += unconverged_notes(evaluations)
     return Diagnosis(

@@ -428,12 +428,9 @@ def decide(
     ``p = (1 + sum_k q_k) / (K + 1)``. Replicates with a value that is not finite (a fit that
     failed inside a draw) are left out of every candidate (:func:`finite_replicates`); a
     candidate whose observed value is not finite is not tested."""
-    names = [n for n in observed if n in null and np.isfinite(observed[n])]
-    if not names:
+    names, inert, null, draws = _family(observed, null, draws)
+    if not names and not inert:
         return {}
-    null, draws = finite_replicates(null, names, draws)
-    inert = [n for n in names if _inert(observed[n], null[n])]
-    names = [n for n in names if n not in inert]
     out = {}
     if names:
         m, s, zmax = _studentised(null, names)
@@ -503,6 +500,21 @@ def _inert(observed: float, null: np.ndarray) -> bool:
     :data:`RESOLUTION_PCT` (the data do not move it; a value that is not finite moves it)."""
     v = np.abs(np.r_[observed, np.asarray(null, float)])
     return bool(np.all(v < RESOLUTION_PCT))
+
+
+def _family(
+    observed: Mapping[str, float], null: Mapping[str, np.ndarray], draws: np.ndarray | None
+) -> tuple[list[str], list[str], dict[str, np.ndarray], np.ndarray | None]:
+    """``(tested, inert, null, draws)``: the candidates of the max statistic's family (an
+    observed value that is finite, a null; not :func:`_inert`), those the data do not move, and
+    the null's replicates without those that are not finite (:func:`finite_replicates`). One
+    definition for the decision (:func:`decide`) and its early stop (:func:`final_p_bound`),
+    which must test the same family on the same replicates."""
+    names = [n for n in observed if n in null and np.isfinite(observed[n])]
+    if names:
+        null, draws = finite_replicates(null, names, draws)
+    inert = [n for n in names if _inert(observed[n], null[n])]
+    return [n for n in names if n not in inert], inert, dict(null), draws
 
 
 def finite_replicates(
@@ -584,9 +596,7 @@ def final_p_bound(
     1)`` with ``e`` the draws so far whose largest studentised reduction (over every candidate)
     reaches the candidate's, each draw counting the share of its replicates that do
     (:func:`decide`), minimised over ``among``; 1 when there is none."""
-    names = [n for n in observed if n in null and np.isfinite(observed[n])]
-    null, draws = finite_replicates(null, names, draws) if names else (null, draws)
-    names = [n for n in names if not _inert(observed[n], null[n])]
+    names, _, null, draws = _family(observed, null, draws)
     among = [n for n in names if among is None or n in among]
     if not among:
         return 1.0
