@@ -867,6 +867,34 @@ def test_the_floor_s_number_of_steps_is_where_the_interval_would_clear_zero(pct,
     assert floor_stances({**red, "insample_pct": 0.9 * MIN_REDUCTION_PCT}, n0) is None
 
 
+def test_a_held_out_solve_that_stops_short_is_solved_again_from_where_it_stopped(base_eval):
+    """A held-out stance's frozen fit that hits Ipopt's iteration limit one iteration before it
+    would have converged is solved once more from where it stopped, and then scores the optimum
+    the unhurried solve reaches (it was scored where Ipopt gave up, a point that depends on the
+    limit)."""
+    from gc_ocp.diagnosis.compare import _score_heldout
+    from gc_ocp.estimation.solve import IpoptOptions, solve
+    from gc_ocp.estimation.starts import frozen_model, with_lls_start
+
+    data, parent = base_eval
+    plan = fold_plan(data)
+    held = data[plan[0][0]]
+    train = [d for k, d in enumerate(data) if k not in set(plan[0])]
+    fold = parent.folds[0]
+    assert fold.heldout.success and fold.heldout.iterations >= 2
+    short = IpoptOptions(max_iter=fold.heldout.iterations - 1)
+    hp = build_estimation(
+        [held], frozen_model(with_lls_start(base_model(), train, quiet=True), fold.train), Weights()
+    )
+    stopped = solve(hp, short, raise_on_failure=False, covariance=False)
+    assert not stopped.success
+    scored = _score_heldout(held, train, base_model(), fold.train, Weights(), short).heldout
+    assert scored.success and scored.objective < stopped.objective
+    # both are Ipopt optima of the same problem to its tolerance (tol 1e-8 on the scaled KKT
+    # error): their objectives agree far inside 1e-6 relative
+    assert scored.objective == pytest.approx(fold.heldout.objective, rel=1e-6)
+
+
 def test_held_out_solves_that_did_not_converge_are_noted():
     """A model whose frozen held-out fit of some stance stopped short is scored with it as it
     stopped, and the diagnosis says which model and stances (it was silent)."""

@@ -342,14 +342,17 @@ def diagnose_stances(
 
 def unconverged_notes(evaluations: Mapping[str, Evaluation]) -> list[str]:
     """A note per model some of whose held-out solves (the frozen model's fit of a held-out
-    stance's nuisance) did not converge: its held-out score counts them as they stopped."""
+    stance's nuisance) did not converge, even solved again from where they stopped
+    (:func:`~gc_ocp.diagnosis.compare.fit_fold`): its held-out score counts them as they
+    stopped."""
     out = []
     for label, ev in evaluations.items():
         bad = [f.label for f in ev.folds if not f.heldout.success]
         if bad:
             out.append(
                 f"{label}: the held-out solve of {len(bad)} of {len(ev.folds)} stance(s) did not "
-                f"converge ({', '.join(bad)}); its held-out score counts them where they stopped"
+                f"converge, also solved again from where it stopped ({', '.join(bad)}); its held-out "
+                f"score counts them where they stopped"
             )
     return out
 
