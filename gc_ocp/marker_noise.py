@@ -69,12 +69,19 @@ def _noise_gain(rate: float, cutoff_hz: float, order: int = 4) -> float:
     return float(e @ e)
 
 
+def noise_band_hz(rate: float) -> float:
+    """[Hz] The lower edge of the band whose residual :func:`white_noise` reads at a sample
+    ``rate``: :data:`NOISE_BAND_HZ`, or 0.3 of the rate where that is lower (a 50 Hz camera:
+    15 Hz), so the band keeps some width below the Nyquist frequency."""
+    return min(NOISE_BAND_HZ, 0.3 * rate)
+
+
 def white_noise(markers: np.ndarray, rate: float) -> np.ndarray:
     """``(m,)`` the white noise [m] of each of ``markers`` ``(n, m, 3)`` [m] at ``rate`` [Hz]
     (module doc); NaN for a marker with fewer than 20 visible frames. Gaps are skipped: every
     visible run of at least 20 frames is filtered separately."""
     x = np.asarray(markers, float)
-    fh = min(NOISE_BAND_HZ, 0.3 * rate)
+    fh = noise_band_hz(rate)
     b, a = butter(2, fh / (rate / 2))
     g = _noise_gain(rate, fh)
     out = np.full(x.shape[1], np.nan)

@@ -206,6 +206,27 @@ def test_a_noisy_marker_is_named_and_every_trial_reports_its_markers_noise():
     assert mm == pytest.approx(3.0, rel=0.15)
 
 
+def test_the_report_names_the_band_the_noise_was_read_in():
+    """At a 50 Hz camera the noise is read above 15 Hz (0.3 of the rate, so the band keeps some
+    width below Nyquist), and the kinematics' info (fit.json) says 15 Hz, not the 20 Hz of a
+    faster camera (it always said 20)."""
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.marker_noise import NOISE_BAND_HZ, noise_band_hz
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = load_trial()
+        slow = dataclasses.replace(
+            t, markers=np.asarray(t.markers)[::2], marker_time=np.asarray(t.marker_time)[::2]
+        )
+        info = {r: compute_kinematics(x).info["marker_error"] for r, x in (("t", t), ("s", slow))}
+    assert slow.marker_rate == pytest.approx(t.marker_rate / 2)
+    assert noise_band_hz(slow.marker_rate) == pytest.approx(15.0)
+    assert "above 15 Hz" in info["s"]["method"]
+    assert f"above {NOISE_BAND_HZ:g} Hz" in info["t"]["method"]  # the bundled trial: 100 Hz
+
+
 @pytest.mark.parametrize("drift_mm", [0.0, 4.0])
 def test_the_pose_width_follows_the_kinematic_error_in_the_data(drift_mm):
     """Type-II ML of the pose correction's smooth width (gc_ocp/estimation/pose_scale.py): with

@@ -52,7 +52,7 @@ from gc_ocp.estimation.bias import BLOCK_SECONDS
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult, fit_quality
-from gc_ocp.estimation.solve import IpoptOptions, solve
+from gc_ocp.estimation.solve import IpoptOptions, retry_from_stop, solve
 from gc_ocp.estimation.starts import (
     STRATEGIES,
     best_of,
@@ -347,8 +347,7 @@ def _score_heldout(
         )
         if warm.success and (not hr.success or warm.objective < hr.objective):
             hr = warm
-    if not hr.success:
-        hr = _retried(hp, hr, options)
+    hr = retry_from_stop(hp, hr, options, covariance=False)
     return Fold(
         label=held.label,
         train=tr,
@@ -356,18 +355,6 @@ def _score_heldout(
         occam=occam_term(hp, hr.x) if hr.x.size else 0.0,
         frame_cost=_frame_cost(hr.stance_fits[0], weights),
     )
-
-
-def _retried(hp, hr: EstimationResult, options: IpoptOptions | None) -> EstimationResult:
-    """A held-out solve that stopped unconverged (Ipopt's iteration limit, a failed restoration)
-    solved once more from where it stopped: the stance's score is then its nuisance's optimum,
-    not a point that depends on where Ipopt gave up. The lower objective is kept; if the second
-    solve does not converge either, the stance is scored where it stopped and the diagnosis
-    notes it (:func:`~gc_ocp.diagnosis.diagnose.unconverged_notes`)."""
-    again = solve(hp, options, x0=hr.x, raise_on_failure=False, covariance=False)
-    if again.success or again.objective < hr.objective:
-        return again
-    return hr
 
 
 def evaluate_on(

@@ -343,7 +343,7 @@ def diagnose_stances(
 def unconverged_notes(evaluations: Mapping[str, Evaluation]) -> list[str]:
     """A note per model some of whose held-out solves (the frozen model's fit of a held-out
     stance's nuisance) did not converge, even solved again from where they stopped
-    (:func:`~gc_ocp.diagnosis.compare.fit_fold`): its held-out score counts them as they
+    (:func:`~gc_ocp.estimation.solve.retry_from_stop`): its held-out score counts them as they
     stopped."""
     out = []
     for label, ev in evaluations.items():

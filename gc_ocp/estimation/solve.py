@@ -295,6 +295,25 @@ def solve(
     return result
 
 
+def retry_from_stop(
+    problem: EstimationProblem,
+    stopped: EstimationResult,
+    options: IpoptOptions | None = None,
+    covariance: bool = True,
+) -> EstimationResult:
+    """``stopped``, a solve of ``problem`` that did not converge (Ipopt's iteration limit, a
+    failed restoration), solved once more from where it stopped: a frozen model's held-out fit
+    is then scored at its nuisance's optimum, not at a point that depends on where Ipopt gave
+    up. The second solve is kept when it converges or ends lower; otherwise ``stopped`` is, and
+    its caller says so (a note or a flag). A converged ``stopped`` is returned as it is."""
+    if stopped.success:
+        return stopped
+    again = solve(problem, options, x0=stopped.x, raise_on_failure=False, covariance=covariance)
+    if again.success or again.objective < stopped.objective:
+        return again
+    return stopped
+
+
 def result_at(
     problem: EstimationProblem,
     x: np.ndarray,

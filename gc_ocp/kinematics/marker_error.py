@@ -6,8 +6,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from gc_ocp.marker_noise import NOISE_BAND_HZ
-
 OUTLIER_FACTOR = 3.0
 """A marker whose white noise exceeds this many times its class's median, and
 :data:`OUTLIER_MM`, is named (a loose marker, a reconstruction that swaps two markers, a wrong
@@ -22,10 +20,13 @@ camera systems reconstruct markers to 0.05-0.5 mm; a lab that low-passed its mar
 @dataclass(frozen=True)
 class MarkerError:
     """The markers' error of one trial (module doc): ``white_mm`` per marker, ``classes`` its
-    class (the model segment it sits on), and the markers far above their class's median."""
+    class (the model segment it sits on), ``band_hz`` the lower edge of the band the noise was
+    read in (:func:`~gc_ocp.marker_noise.noise_band_hz` of the trial's marker rate), and the
+    markers far above their class's median."""
 
     white_mm: dict[str, float]
     classes: dict[str, str]
+    band_hz: float
 
     def per_class(self) -> dict[str, float]:
         """The median white noise [mm] of each class."""
@@ -54,7 +55,7 @@ class MarkerError:
             "white_mm_per_class": self.per_class(),
             "white_mm": {n: (None if not np.isfinite(v) else v) for n, v in self.white_mm.items()},
             "outliers": self.outliers(),
-            "method": f"MAD of the residual above {NOISE_BAND_HZ:g} Hz (gc_ocp.marker_noise)",
+            "method": f"MAD of the residual above {self.band_hz:g} Hz (gc_ocp.marker_noise)",
         }
 
 

@@ -41,7 +41,7 @@ from gc_ocp.kinematics.filtering import DEFAULT_CUTOFF_HZ, lowpass
 from gc_ocp.kinematics.ik import MarkerModel, solve_ik
 from gc_ocp.kinematics.marker_error import MarkerError
 from gc_ocp.kinematics.scaling import build_marker_model, estimate_height, register_markers
-from gc_ocp.marker_noise import foot_pose_noise, white_noise
+from gc_ocp.marker_noise import foot_pose_noise, noise_band_hz, white_noise
 from gc_ocp.model.anthropometry import FOOT_LENGTH_RATIO, FOOT_WIDTH_RATIO
 from gc_ocp.model.body import BodyModel
 from gc_ocp.model.markerset import MarkerSet, detect_markerset, load_markerset
@@ -532,6 +532,7 @@ def compute_kinematics(
     merr = MarkerError(
         {n: float(v) * 1e3 for n, v in zip(names, white, strict=True)},
         {n: markerset.markers[n].segment for n in names},
+        noise_band_hz(trial.marker_rate),
     )
     for f in merr.outliers():
         say(f)

@@ -25,7 +25,7 @@ from gc_ocp.estimation.components import PoseCorrection, full_model
 from gc_ocp.estimation.pose_scale import PoseScale, estimate_pose_scale, widths_plausible
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
+from gc_ocp.estimation.solve import IpoptOptions, result_at, retry_from_stop, solve
 from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
 from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.checks import require_stances
@@ -502,14 +502,14 @@ def fit(
         hp = build_estimation([held], frozen_model(model, res), weights)
         # a held-out solve that does not converge keeps the fit (it is the fitted stances'):
         # its score is reported with a flag, never in place of the fit
-        hres = solve(hp, options, raise_on_failure=False)
+        hres = retry_from_stop(hp, solve(hp, options, raise_on_failure=False), options)
         if not hres.success:
             hres.flags.append(
                 {
                     "code": "heldout_not_converged",
                     "what": held.label,
                     "message": f"the held-out stance's solve (the contact model frozen) did not "
-                    f"converge ({hres.status}): its score is not a prediction to rely on; hold "
+                    f"converge ({hres.status}), also solved again from where it stopped: its score is not a prediction to rely on; hold "
                     "out another stance (--holdout)",
                 }
             )
