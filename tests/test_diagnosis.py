@@ -356,6 +356,23 @@ def test_confirmation_on_an_unseen_stance_shrinks_the_gap_of_a_true_effect(bundl
     assert any("smooth width, estimated over 2 stances" in n for n in c["notes"]), c["notes"]
 
 
+def test_confirming_on_a_foot_no_training_stance_has_is_refused(bundled_stances):
+    """Trained on right stances only, a left stance cannot be scored (its contact parameters are
+    the left foot's own): an InputError that names it and says what to do (it was a KeyError
+    deep in the contact component)."""
+    from gc_ocp.diagnosis import confirm_stances
+    from gc_ocp.diagnosis.compare import evaluate_on
+    from gc_ocp.errors import InputError
+
+    right = [s for s in bundled_stances if s.side == "right"]
+    left = [s for s in bundled_stances if s.side == "left"]
+    with pytest.raises(InputError, match="no stance of that foot") as e:
+        confirm_stances(right, left, ["damping"], n_boot=100)
+    assert left[0].label in str(e.value) and "a stance of each foot" in str(e.value)
+    with pytest.raises(InputError, match="no stance of that foot"):
+        evaluate_on(right, left, base_model(), "base")
+
+
 def test_parallel_rounds_give_the_serial_answer(bundled):
     """The parallel rounds on the Dask layer (one task per candidate, on the worker processes
     of a real ``distributed.LocalCluster``, which inherit nothing: every input travels as an
@@ -842,6 +859,32 @@ def test_the_calibrated_test_without_folds_scores_the_in_sample_fit(bundled_stan
     assert row.calibrated.observed_pct < 100.0 and row.calibrated.null_mean_pct < 100.0
     # two draws cannot give a p-value under 0.05 (it counts draws: at least 1/3): said
     assert any("no candidate can be named; give at least 20 draws" in n for n in d.notes)
+    # without a mismatch family the null makes no draws (its p-value counts the noise-only
+    # replicates), so the same count of draws limits nothing and is not said (it was)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        quiet = diagnose_stances(
+            two, candidates=["damping"], n_boot=100, mismatch=None, mismatch_draws=2, workers=1
+        )
+    assert quiet.calibration[0]["mismatch_draws"] == 0
+    assert not any("no candidate can be named" in n for n in quiet.notes)
+
+
+def test_the_residual_map_is_in_the_units_of_the_diagnosis_s_weights(bundled_stances):
+    """With a force scale of 4 % BW (twice the default), the map's normalised residual, the
+    quantity the fits minimised, is read on that scale: half the default's. It was read on the
+    default scale whatever the diagnosis's weights."""
+    from gc_ocp.diagnosis.where import where as residual_map
+
+    data = bundled_stances
+    w = Weights(force_sigma=0.04)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = diagnose_stances([data[0], data[1]], candidates=[], weights=w, workers=1)
+    fits = d.evaluations["base"].scored_fits
+    assert d.evaluations["base"].weights == w
+    assert d.where["base"]["normalised"] == residual_map(fits, w)["normalised"]
+    assert d.where["base"]["normalised"] != residual_map(fits)["normalised"]
 
 
 @pytest.mark.parametrize("pct, lo, n0", [(2.02, -0.31, 8), (0.7, -0.01, 8), (5.0, -20.0, 4)])

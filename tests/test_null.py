@@ -306,7 +306,7 @@ def test_the_wild_bootstrap_keeps_the_residual_size_and_skips_censored_samples(T
     lin = _single_stance(np.zeros((6 * T, 1)), r=e)
     measured = np.full((T, 6), 100.0)
     measured[: T // 3, 2] = 0.0  # zeroed below a 20 N threshold
-    fit = {"measured": measured, "censor_below": 20.0}
+    fit = {"measured": measured, "censor_below": 20.0, "time": np.arange(T) / 100.0}
     U = null.wild_residuals(lin, [fit], 300, rng, 100.0)
     Ur = U.reshape(T, 6, -1)
     np.testing.assert_array_equal(Ur[: T // 3], 0.0)
@@ -316,6 +316,40 @@ def test_the_wild_bootstrap_keeps_the_residual_size_and_skips_censored_samples(T
     )
     signs = np.sign(Ur[T // 3 :, 0, :] * e.reshape(T, 6)[T // 3 :, :1])
     assert 0.4 < (signs > 0).mean() < 0.6
+
+
+def test_the_wild_bootstrap_blocks_last_the_same_time_at_each_stances_own_rate():
+    """Two trials of one subject recorded at 100 and 200 Hz: a sign block is 0.1 s of each
+    stance, 10 and 20 frames (it was 10 frames on both, the first stance's rate: 0.05 s at
+    200 Hz, which understates the residuals' autocorrelation there). Every sign change in a
+    stance lies a whole number of blocks after the one before it."""
+    rng = np.random.default_rng(4)
+    T1, T2 = 80, 160  # 0.8 s each
+    n1, n2 = 6 * T1, 6 * T2
+    lin = onestep.Linear(
+        r=np.ones(n1 + n2),
+        J=sp.csr_matrix((n1 + n2, 1)),
+        prior_idx=np.zeros(0, int),
+        pw=np.zeros(0),
+        p0=np.zeros(0),
+        rows=(slice(0, n1), slice(n1, n1 + n2)),
+        nuisance=(np.zeros(0, int), np.zeros(0, int)),
+        at_lower=np.zeros(0, int),
+        at_upper=np.zeros(0, int),
+        nested=True,
+        x0=np.zeros(1),
+        keys={},
+    )
+    fits = [
+        {"measured": np.full((T, 6), 100.0), "time": 0.3 + np.arange(T) / rate}
+        for T, rate in ((T1, 100.0), (T2, 200.0))
+    ]
+    U = null.wild_residuals(lin, fits, 200, rng, 100.0)
+    for rows, T, block in ((slice(0, n1), T1, 10), (slice(n1, n1 + n2), T2, 20)):
+        s = U[rows].reshape(T, 6, -1)[:, 0, :]  # channel 0: the sign of each frame
+        gaps = np.concatenate([np.diff(np.flatnonzero(np.diff(c) != 0)) for c in s.T])
+        assert gaps.size > 100 and np.all(gaps % block == 0)
+        assert np.any(gaps == block)  # the blocks are not longer either
 
 
 def _linear_with_priors(rng, J, rows, nuis, **kw) -> tuple[onestep.Linear, np.ndarray, dict]:

@@ -357,6 +357,19 @@ def _score_heldout(
     )
 
 
+def check_trained_feet(train: Sequence[StanceData], test: Sequence[StanceData]) -> None:
+    """Refuse test stances of a foot that no training stance has: a foot's contact parameters
+    are its own, so a model trained without that foot cannot score it."""
+    trained = {st.side for st in train}
+    unseen = [st.label for st in test if st.side not in trained]
+    if unseen:
+        raise InputError(
+            f"Cannot score {', '.join(unseen)}: no stance of that foot is among the training "
+            f"stances ({', '.join(st.label for st in train)}), and its contact parameters are "
+            "the foot's own; train on trials with a stance of each foot"
+        )
+
+
 def evaluate_on(
     train: list[StanceData],
     test: list[StanceData],
@@ -376,6 +389,7 @@ def evaluate_on(
     apply."""
     say = progress or (lambda s: None)
     weights = weights or Weights()
+    check_trained_feet(train, test)
     t0 = time.perf_counter()
     full = fit_model(train, model, parent.full if parent else None, weights, options)
     folds = [
@@ -422,14 +436,16 @@ def circular_blocks(n: int, L: int, rng: np.random.Generator) -> np.ndarray:
     return ((starts[:, None] + np.arange(L)) % n).ravel()[:n]
 
 
+def stance_rate(fit: dict, default: float) -> float:
+    """A stance fit's frame rate [Hz] from its own time stamps (trials of one subject may come
+    from systems at different rates); ``default`` where it has fewer than two frames."""
+    t = np.asarray(fit["time"], float)
+    return 1.0 / float(np.median(np.diff(t))) if t.size > 1 else default
+
+
 def _stance_rates(ev: Evaluation, default: float) -> list[float]:
-    """Per scored stance (as :func:`_stance_costs`), its frame rate [Hz] from its own time
-    stamps; ``default`` where a stance has fewer than two frames."""
-    out = []
-    for fit in ev.scored_fits:
-        t = np.asarray(fit["time"], float)
-        out.append(1.0 / float(np.median(np.diff(t))) if t.size > 1 else default)
-    return out
+    """Per scored stance (as :func:`_stance_costs`), its frame rate [Hz] (:func:`stance_rate`)."""
+    return [stance_rate(fit, default) for fit in ev.scored_fits]
 
 
 def _stance_costs(ev: Evaluation) -> list[np.ndarray]:

@@ -13,7 +13,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from gc_ocp.diagnosis.compare import evaluate_on, reduction
+from gc_ocp.diagnosis.compare import check_trained_feet, evaluate_on, reduction
 from gc_ocp.diagnosis.diagnose import POSE_WIDTH, resolve_base, sized_base
 from gc_ocp.diagnosis.result import WaterfallStep
 from gc_ocp.errors import ModelError
@@ -59,6 +59,7 @@ def confirm_stances(
         raise ModelError(
             "No stance to confirm on: give stances or trials the diagnosis did not use"
         )
+    check_trained_feet(train, test)
     base_model_, note = sized_base(train, base_model_, pose_width, weights, options, say)
     rate = 1.0 / float(np.median(np.diff(test[0].time)))
     kw = {"weights": weights, "options": options, "progress": say}

@@ -194,7 +194,7 @@ def diagnose_stances(
     plan = fold_plan(stances, max_folds)
     rate = 1.0 / float(np.median(np.diff(stances[0].time)))
     notes = []
-    if 0 < mismatch_draws < fewest_draws(alpha):
+    if draws_made(mismatch, null_fits) and 0 < mismatch_draws < fewest_draws(alpha):
         notes.append(
             f"{mismatch_draws} mismatch draws per round: the adjusted p-value counts draws, so "
             f"its smallest value is 1/{mismatch_draws + 1}, not under alpha {alpha:g}: no "
@@ -315,8 +315,9 @@ def diagnose_stances(
     if rounds:  # round 1 is the ranking; it names the non-additive pairs too
         rounds[0] = flag_non_additive(rounds[0], rounds, selected)
     wh = {
-        "base": where(evaluations["base"].scored_fits),
-        "final": where(current.scored_fits),
+        # in the units of the error scale the fits minimised (the caller's weights)
+        "base": where(evaluations["base"].scored_fits, evaluations["base"].weights),
+        "final": where(current.scored_fits, current.weights),
     }
     notes += unconverged_notes(evaluations)
     return Diagnosis(
@@ -338,6 +339,14 @@ def diagnose_stances(
         max_effects=max_effects,
         floor_pct=MIN_REDUCTION_PCT,
     )
+
+
+def draws_made(family: MismatchFamily | None, null_fits: str) -> bool:
+    """Whether a round's null is made of mismatch draws (its p-value then counts draws): with a
+    family of non-zero scale, or with the refit null (one replicate per draw, noise only when no
+    family). Otherwise the null is the noise-only one-step null, whose p-value counts its
+    wild-bootstrap replicates."""
+    return null_fits == "refit" or (family is not None and family.scale > 0)
 
 
 def unconverged_notes(evaluations: Mapping[str, Evaluation]) -> list[str]:
@@ -396,10 +405,7 @@ def _calibrated(
         family = family if family is not None else MismatchFamily(scale=0.0)  # noise only
     else:
         observed = observed_reductions(parent_lin, lins, plan, occam, means) if lins else None
-    if (
-        not ((lins or refit) and evs and family is not None and (family.scale > 0 or refit))
-        or n_draws <= 0
-    ):
+    if not ((lins or refit) and evs and draws_made(family, null_fits)) or n_draws <= 0:
         n_draws = 0
     else:
         law = with_lls_start(parent.model, stances)  # the law prior of every fit

@@ -72,7 +72,7 @@ from collections.abc import Collection, Mapping, Sequence
 
 import numpy as np
 
-from gc_ocp.diagnosis.compare import BLOCK_SECONDS, held_out
+from gc_ocp.diagnosis.compare import BLOCK_SECONDS, held_out, stance_rate
 from gc_ocp.diagnosis.mismatch import (
     MismatchDraw,
     MismatchFamily,
@@ -122,12 +122,14 @@ def wild_residuals(
 ) -> np.ndarray:
     """``(rows, n)`` perturbations: the parent's residual with the sign of each block of
     :data:`BLOCK_SECONDS` flipped at random (module doc); zero on censored samples (``fits``:
-    the parent's stance fits, for their measured wrench and threshold)."""
-    L = max(1, int(round(BLOCK_SECONDS * frame_rate)))
+    the parent's stance fits, for their measured wrench, threshold and time stamps: a block is
+    :data:`BLOCK_SECONDS` at each stance's own rate, ``frame_rate`` only for a stance of one
+    frame)."""
     out = np.zeros((parent.r.size, n))
     for rows, f in zip(parent.rows, fits, strict=True):
         e = parent.r[rows].reshape(-1, 6)  # (T, 6) frame-major
         T = e.shape[0]
+        L = max(1, int(round(BLOCK_SECONDS * stance_rate(f, frame_rate))))
         keep = ~censored(f["measured"], f.get("censor_below", 0.0))
         s = block_signs(T, L, n, rng)  # (T, n)
         pert = e[:, :, None] * (s * keep[:, None])[:, None, :]  # (T, 6, n)

@@ -429,7 +429,7 @@ class Diagnosis:
     def residual_figure(self, which: str = "base", **kw):
         """Residual over time of the held-out stances, phases shaded (needs the evaluations)."""
         ev = self.base_evaluation if which == "base" else self.final_evaluation
-        return residual_figure(ev.scored_fits, **kw)
+        return residual_figure(ev.scored_fits, **{"weights": ev.weights, **kw})
 
     def ranking_figure(self):
         """Held-out reduction per candidate with its 95 % interval (named ones in green)."""
