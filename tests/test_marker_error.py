@@ -322,6 +322,11 @@ def test_a_sole_width_at_the_limit_is_flagged_unless_it_is_the_users_prior():
     assert scale((9.0, 5.0, 5.0), (5.0, 5.0, 5.0)).plausible
     assert scale((20.0, 20.0, 20.0), (20.0, 20.0, 20.0)).plausible
     assert not scale((lim, 5.0, 5.0), None).plausible  # no floor recorded: the limit counts
+    # fit.json carries what the verdicts read: the floor and the last round's move
+    doc = scale((20.0, 20.0, 20.0), (20.0, 20.0, 20.0)).to_json()
+    assert doc["sole_floor_mm"] == [20.0, 20.0, 20.0] and doc["plausible"]
+    assert doc["last_change"] == 0.0 and doc["converged"]
+    assert "sole_floor_mm" not in scale((9.0, 5.0, 5.0), None).to_json()
 
 
 @pytest.mark.parametrize("offset_mm", [0.0, 8.0])

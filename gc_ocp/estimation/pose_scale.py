@@ -183,12 +183,23 @@ class PoseScale:
             "n_stances": self.n_stances,
             "plausible": self.plausible,
             "converged": self.converged,
+            "last_change": self.last_change,  # what "converged" read (RTOL)
             "rounds": self.rounds,
             "message": self.message(),
             **(
                 {}
                 if self.sole_mm is None
-                else {"sole_mm": list(self.sole_mm), "sole_gamma": list(self.sole_gamma)}
+                else {
+                    "sole_mm": list(self.sole_mm),
+                    "sole_gamma": list(self.sole_gamma),
+                    # the prior the rounds widened: a width at the limit that is the user's
+                    # prior is not flagged ("plausible" reads it)
+                    **(
+                        {}
+                        if self.sole_floor_mm is None
+                        else {"sole_floor_mm": list(self.sole_floor_mm)}
+                    ),
+                }
             ),
             **(
                 {} if self.knot_correlation is None else {"knot_correlation": self.knot_correlation}
