@@ -734,14 +734,25 @@ def _wrenches(path):
     return [(p.name, p.force, p.moment, p.reference_point) for p in raw.plates]
 
 
-@pytest.mark.parametrize("variant", ["markers_in_metres", "moments_in_Nm"])
+# (force unit, N per unit), (moment unit, N mm per unit): how labs label their channels
+CHANNEL_UNITS = {
+    "moments_in_Nm": (None, ("Nm", 1000.0)),
+    "moments_in_Ncm": (None, ("N.cm", 10.0)),
+    "forces_in_kN": (("kN", 1000.0), ("kN*mm", 1000.0)),
+    "forces_in_lbf": (("lbf", 4.4482216152605), ("lbf in", 112.98482902761668)),
+    "forces_in_daN": (("daN", 10.0), None),
+}
+
+
+@pytest.mark.parametrize("variant", ["markers_in_metres", *CHANNEL_UNITS])
 def test_plate_wrench_follows_each_channels_own_unit(tmp_path, variant):
-    """Two valid ways a lab stores the same trial: POINT:UNITS m (markers, CORNERS and ORIGIN
-    in metres) with the moment channels still in N mm, or markers in mm with the moments in
-    N m. Both must give the clean file's plates (the values are divided by 1000 in
-    float32 storage, so agreement is to float32's ~1e-7 of each channel's scale, checked at
-    1e-5 of the peak). ezc3d's
-    platform wrench takes the moments' unit from POINT:UNITS and came out 1000x off here."""
+    """Valid ways a lab stores the same trial: POINT:UNITS m (markers, CORNERS and ORIGIN
+    in metres) with the moment channels still in N mm, or the force and moment channels in
+    another unit their ANALOG:UNITS names (N m, N cm, kN, lbf with lbf in, daN). Each must give
+    the clean file's plates (the values are divided by up to 1000 in float32 storage, so
+    agreement is to float32's ~1e-7 of each channel's scale, checked at 1e-5 of the peak).
+    ezc3d's platform wrench takes the moments' unit from POINT:UNITS and came out 1000x off
+    here; the forces' unit was not read at all (a file in kN or lbf was taken as newtons)."""
     import ezc3d
 
     src = _bundled_c3d()
@@ -754,9 +765,11 @@ def test_plate_wrench_follows_each_channels_own_unit(tmp_path, variant):
         fp["ORIGIN"]["value"] = np.asarray(fp["ORIGIN"]["value"]) / 1000.0
     else:
         units = list(c["parameters"]["ANALOG"]["UNITS"]["value"])
-        for j in _moment_channels(c):
-            units[j] = "Nm"
-            c["data"]["analogs"][0, j, :] /= 1000.0
+        ch = np.asarray(c["parameters"]["FORCE_PLATFORM"]["CHANNEL"]["value"], int) - 1
+        for rows, unit in zip((ch[:3], ch[3:6]), CHANNEL_UNITS[variant], strict=True):
+            for j in [] if unit is None else rows.ravel():
+                units[j] = unit[0]
+                c["data"]["analogs"][0, j, :] /= unit[1]
         c["parameters"]["ANALOG"]["UNITS"]["value"] = units
     out = tmp_path / "variant.c3d"
     c.write(str(out))
@@ -767,6 +780,24 @@ def test_plate_wrench_follows_each_channels_own_unit(tmp_path, variant):
         np.testing.assert_allclose(f1, f0, atol=1e-5 * np.abs(f0).max() + 1e-6)
         np.testing.assert_allclose(m1, m0, atol=1e-5 * np.abs(m0).max() + 1e-6)
         np.testing.assert_allclose(r1, r0, atol=1e-6)
+
+
+@pytest.mark.parametrize("which, unit", [("force", "psi"), ("moment", "kgf")])
+def test_a_plate_channel_in_a_unit_that_is_not_a_force_or_moment_is_refused(tmp_path, which, unit):
+    """A force channel labelled with a unit that is no force (or a moment channel with one that
+    is no moment) names the file, the plate, the channel and the unit: read as newtons it would
+    make every force wrong by an unknown factor."""
+    from gc_ocp.errors import UnitsError
+    from gc_ocp.io.c3d import read_c3d
+
+    def change(c):
+        units = list(c["parameters"]["ANALOG"]["UNITS"]["value"])
+        units[_plate_channel(c, 0, 0 if which == "force" else 3)] = unit
+        c["parameters"]["ANALOG"]["UNITS"]["value"] = units
+
+    out = _variant(tmp_path, change)
+    with pytest.raises(UnitsError, match=f"plate 1's {which} channel has ANALOG:UNITS '{unit}'"):
+        read_c3d(out)
 
 
 def _variant(tmp_path, change):

@@ -21,6 +21,44 @@ Y_UP_TO_LAB = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 _TO_METRE = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "meters": 1.0, "metres": 1.0, "millimeters": 1e-3}
 
 
+_TO_NEWTON = {
+    "n": 1.0,
+    "newton": 1.0,
+    "newtons": 1.0,
+    "kn": 1e3,
+    "dan": 10.0,
+    "kgf": 9.80665,
+    "lbf": 4.4482216152605,
+    "lb": 4.4482216152605,  # on a force channel, a pound is the pound-force
+}
+_MOMENT_ARM_TO_METRE = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "in": 0.0254}
+
+
+def _unit_key(unit: str) -> str:
+    """A unit string without case, spaces and the product signs writers use (``N.mm``,
+    ``N*m``, ``N·m``, ``N-m``)."""
+    return re.sub(r"[\s.\-*·]", "", str(unit).strip().lower())
+
+
+def force_unit_scale(unit: str) -> float | None:
+    """[N] per unit of a force channel's ANALOG:UNITS (``N``, ``kN``, ``daN``, ``kgf``,
+    ``lbf``), or None when the string is no force unit (``V``: a writer that stores volts with a
+    scale to newtons, or an empty or unknown unit)."""
+    return _TO_NEWTON.get(_unit_key(unit))
+
+
+def moment_unit_scale(unit: str) -> float | None:
+    """[N m] per unit of a moment channel's ANALOG:UNITS: a force unit of
+    :func:`force_unit_scale` times a length (``Nmm``, ``N.m``, ``Ncm``, ``kNm``, ``lbf*in``), or
+    None when the string is no such product."""
+    key = _unit_key(unit)
+    for f in sorted(_TO_NEWTON, key=len, reverse=True):
+        arm = _MOMENT_ARM_TO_METRE.get(key[len(f) :]) if key.startswith(f) else None
+        if arm is not None:
+            return _TO_NEWTON[f] * arm
+    return None
+
+
 @dataclass
 class RawTrial:
     """What a reader returns: everything already in SI and in a Z-up frame (``lab`` up to a

@@ -31,12 +31,14 @@ from pathlib import Path
 import ezc3d
 import numpy as np
 
-from gc_ocp.errors import InputError, PlateError
+from gc_ocp.errors import InputError, PlateError, UnitsError
 from gc_ocp.io._common import (
     AXIS_NAMES,
     RawTrial,
     check_body_span,
     check_metres,
+    force_unit_scale,
+    moment_unit_scale,
     unit_scale,
     up_to_lab,
     warn,
@@ -203,11 +205,41 @@ def _screen_up(params: dict) -> str:
     return text if re.fullmatch(r"[+-][XYZ]", text) else ""
 
 
-def _moment_scale(unit: str, pos: float) -> float:
-    """[N·m] per unit of a moment channel: ``Nmm`` / ``Nm``; anything else (``V`` with a
-    scale of 1, as some writers store) is taken as N x the point unit."""
-    key = re.sub(r"[\s.\-*·]", "", unit.strip().lower())
-    return {"nmm": 1e-3, "nm": 1.0}.get(key, pos)
+_UNSTATED = ("", "v", "volt", "volts")
+"""ANALOG:UNITS that state no physical unit: volts (writers that store ANALOG:SCALE to
+newtons and leave the unit ``V``) or nothing. A force channel so labelled is in N, a moment
+channel in N x the point unit (the C3D convention)."""
+
+
+def _channel_unit_error(path: Path, plate: int, what: str, unit: str, known: str) -> UnitsError:
+    return UnitsError(
+        f"{path}: plate {plate}'s {what} channel has ANALOG:UNITS {unit!r}, which is not a unit "
+        f"gc_ocp can convert ({known}); fix ANALOG:UNITS for that channel in the file (or export "
+        "it again with the plates in newtons)"
+    )
+
+
+def _force_scale(unit: str, path: Path, plate: int) -> float:
+    """[N] per unit of a force channel (:func:`~gc_ocp.io._common.force_unit_scale`; an unstated
+    unit, :data:`_UNSTATED`, is N)."""
+    f = force_unit_scale(unit)
+    if f is not None:
+        return f
+    if unit.strip().lower() in _UNSTATED:
+        return 1.0
+    raise _channel_unit_error(path, plate, "force", unit, "N, kN, daN, kgf, lbf")
+
+
+def _moment_scale(unit: str, pos: float, path: Path, plate: int) -> float:
+    """[N·m] per unit of a moment channel: a force unit times a length (``Nmm``, ``Nm``,
+    ``Ncm``, ``kNm``, ``lbf*in``); an unstated unit (:data:`_UNSTATED`) is N x the point
+    unit."""
+    m = moment_unit_scale(unit)
+    if m is not None:
+        return m
+    if unit.strip().lower() in _UNSTATED:
+        return pos
+    raise _channel_unit_error(path, plate, "moment", unit, "Nmm, Ncm, Nm, kNm, lbf*in")
 
 
 def _length_scale(unit: str, pos: float) -> float:
@@ -284,7 +316,7 @@ def _analog_reading(
         return units[channel[j]] if channel[j] < len(units) else ""
 
     def mom_scale(j: int) -> float:
-        return _moment_scale(unit_of(j), pos)
+        return _moment_scale(unit_of(j), pos, path, i + 1)
 
     cal = None
     if kind == 4:
@@ -298,6 +330,9 @@ def _analog_reading(
         kind_eff = 2
     else:
         kind_eff = kind
+    if kind in (1, 2):  # the forces as recorded (type 4: the calibration matrix makes them)
+        for j in (0, 1, 2):
+            ch[:, j] *= _force_scale(unit_of(j), path, i + 1)
     if kind_eff == 1:
         for j in (3, 4):  # COP [m], each in its own unit
             ch[:, j] *= _length_scale(unit_of(j), pos)
