@@ -57,6 +57,22 @@ def test_wrong_mass_is_refused(walk, mass):
         check_for_fit([(dataclasses.replace(t, mass=mass), k)])
 
 
+def test_a_mass_estimated_from_plates_in_the_wrong_unit_is_refused(walk):
+    """No mass recorded and plates in lbf read as newtons: the mass estimated from them is the
+    subject's divided by 4.45 (14.3 kg here for a subject of 1.62 m), which no person has
+    (body-mass index 5.4); refused, naming the forces' unit. The right estimate passes."""
+    from gc_ocp.errors import MassError
+    from gc_ocp.trial import ESTIMATED
+
+    t, k = walk
+    est = f"{ESTIMATED} from the force data"
+    ok = dataclasses.replace(t, mass_source=est, height=1.62)
+    check_for_fit([(ok, k)])
+    low = dataclasses.replace(ok, mass=t.mass / 4.4482216152605)
+    with pytest.raises(MassError, match=r"body-mass index of 5\.\d.*not in newtons"):
+        check_for_fit([(low, k)])
+
+
 def test_belt_speed_on_overground_is_refused(walk):
     t, k = walk
     with pytest.raises(InputError, match="overground walking; drop --belt-speed"):

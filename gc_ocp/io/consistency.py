@@ -50,6 +50,11 @@ from gc_ocp.wrench import cop_from_wrench
 
 MASS_TOLERANCE = 0.20
 MASS_WARNING = 0.10
+BMI_RANGE = (10.0, 70.0)
+"""[kg/m^2] A body-mass index outside this is no person's (adults 15-60, children down to about
+12): a mass *estimated* from the plates (no mass recorded) that gives one, with the trial's
+height, says the plates' forces are not in newtons (a force unit not read, a wrong
+ANALOG:SCALE): 18.7 kg for a 1.80 m subject whose plates were in lbf."""
 TREADMILL_SPEED = 0.3  # [m/s]
 OVERGROUND_SPEED = 0.15  # [m/s]
 COP_MARGIN = 0.04  # [m]
@@ -118,6 +123,7 @@ def body_weight(trial: Trial) -> list[str]:
     """The mass against the plates over a stride-long window (module doc); none for a mass
     estimated from these plates (the check would compare the plates with themselves)."""
     if trial.mass_estimated:
+        _check_estimated_mass(trial)
         return []
     check = stride_body_weight(trial)
     if check is None:
@@ -135,6 +141,22 @@ def body_weight(trial: Trial) -> list[str]:
             + f"; check the mass (--mass KG, mass=...; the plates suggest {plates / 9.81:.1f} kg) or the plate calibration."
         )
     return [msg + "; check the mass"] if abs(rel) > MASS_WARNING else []
+
+
+def _check_estimated_mass(trial: Trial) -> None:
+    """A mass estimated from the plates against the trial's height (:data:`BMI_RANGE`)."""
+    if not trial.height:
+        return
+    bmi = trial.mass / trial.height**2
+    lo, hi = BMI_RANGE
+    if not lo <= bmi <= hi:
+        raise MassError(
+            f"{trial.source}: the mass estimated from the force data, {trial.mass:.1f} kg, is "
+            f"not a person's at the height of {trial.height:.2f} m ({trial.height_source or 'given'}; "
+            f"a body-mass index of {bmi:.1f}, people have {lo:g}-{hi:g}): the plates' forces are "
+            "probably not in newtons (check the force channels' ANALOG:UNITS and ANALOG:SCALE, or "
+            "the MOT's force columns); if they are, pass the mass with --mass KG (mass=...)."
+        )
 
 
 def belt(trial: Trial) -> tuple[Trial, list[str]]:
