@@ -279,6 +279,34 @@ def test_rotated_trc_mot_pair_is_turned_back(tmp_path):
         np.testing.assert_allclose(a.reference_point, b.reference_point, atol=1e-6)
 
 
+def test_a_trc_gap_written_as_zeros_is_a_gap(tmp_path):
+    """OpenSim's TRC writers fill a lost marker with 0.000 in all three coordinates: the heel
+    so written for 0.3 s of a stance loads as the same gap as the cells left blank (before,
+    the heel sat on the lab origin there and the fit used it: the exponent 2.1 against 1.7)."""
+    lines = RAJ[0].read_text().splitlines()
+    names = [c.strip() for c in lines[3].split("\t")[2:] if c.strip()]
+    m = names.index("R.Heel")
+    copies = {}
+    for fill in ("0.000", ""):
+        out = lines[:5]
+        for line in lines[5:]:
+            cells = line.split("\t")
+            if len(cells) > 5 and 0.45 <= float(cells[1]) <= 0.75:
+                cells[2 + 3 * m : 5 + 3 * m] = [fill] * 3
+            out.append("\t".join(cells))
+        path = tmp_path / f"gap{len(copies)}.trc"
+        path.write_text("\n".join(out) + "\n")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            copies[fill] = load_trial(path, RAJ[1], mass=RAJ_MASS)
+    zeros, blank = copies["0.000"], copies[""]
+    j = zeros.marker_names.index("R.Heel")
+    t = zeros.marker_time
+    assert np.isnan(blank.markers[(t > 0.5) & (t < 0.7), j]).all()  # the gap is long: not filled
+    np.testing.assert_array_equal(zeros.markers, blank.markers)
+    assert zeros.load_notes == blank.load_notes and any("R.Heel" in n for n in zeros.load_notes)
+
+
 def test_bundled_example_loads_without_arguments():
     assert bundled_example_path().is_file()
     assert (bundled_example_path().parent / "LICENSE_test_small.txt").is_file()

@@ -89,6 +89,17 @@ def unit_scale(unit: str, path: Path, what: str) -> float:
     return _TO_METRE[key]
 
 
+def missing_as_nan(xyz: np.ndarray) -> np.ndarray:
+    """``xyz`` ``(n_frames, n_markers, 3)`` with the writers' ways of saying "not seen" made
+    NaN: all three coordinates exactly 0 (C3D writers without residuals, and OpenSim's TRC
+    writers, fill gaps with zeros: a real marker never sits on the lab origin to the bit in all
+    three coordinates) and any coordinate that is not finite."""
+    xyz = np.array(xyz, dtype=float)
+    xyz[np.all(xyz == 0.0, axis=2)] = np.nan
+    xyz[~np.all(np.isfinite(xyz), axis=2)] = np.nan
+    return xyz
+
+
 def check_metres(values: np.ndarray, path: Path, what: str, declared: str) -> None:
     """Raise :class:`UnitsError` if values said to be in metres look like millimetres.
 

@@ -38,6 +38,7 @@ from gc_ocp.io._common import (
     check_body_span,
     check_metres,
     force_unit_scale,
+    missing_as_nan,
     moment_unit_scale,
     unit_scale,
     up_to_lab,
@@ -465,8 +466,7 @@ def read_c3d(path: Path, strict: bool = True) -> RawTrial:
     xyz = np.transpose(pts[:, keep, :], (2, 1, 0)).copy()  # (n_frames, n_markers, 3)
     if res is not None:
         xyz[np.asarray(res)[keep].T < 0] = np.nan  # C3D: residual < 0 = invalid point
-    xyz[np.all(xyz == 0.0, axis=2)] = np.nan  # all-zero = occluded (old writers)
-    xyz[~np.all(np.isfinite(xyz), axis=2)] = np.nan  # an infinite coordinate: a gap too
+    xyz = missing_as_nan(xyz)
     if scale == 1.0:
         check_metres(xyz, path, "Marker coordinates", unit)
     xyz *= scale

@@ -32,6 +32,7 @@ from gc_ocp.io._common import (
     RawTrial,
     check_body_span,
     check_metres,
+    missing_as_nan,
     unit_scale,
     without_subject_prefix,
 )
@@ -80,7 +81,7 @@ def read_trc(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
         regular = time[0] + np.arange(len(time)) / rate
         if np.max(np.abs(regular - time)) < 0.5 / rate:
             time = regular  # the Time column is often rounded to 1 ms (60 Hz -> 0.017 s steps)
-    xyz = data[:, 2:].reshape(len(rows), len(names), 3)
+    xyz = missing_as_nan(data[:, 2:].reshape(len(rows), len(names), 3))
     if scale == 1.0:
         check_metres(xyz, path, "Marker coordinates", unit)
     xyz = xyz * scale
