@@ -4,7 +4,8 @@
 * A command's set of files: :class:`OutputSet` stages every file in a temporary folder beside
   the output folder; :meth:`OutputSet.commit` removes the command's own stale files from an
   earlier run (the names it owns, not the user's other files) and moves the new set in. A run
-  that fails before ``commit`` leaves the previous outputs as they were.
+  that fails before ``commit`` leaves the previous outputs as they were. A folder holding
+  another command's outputs is refused (:data:`OWNER`): two commands' files are never mixed.
 
 Files get the permissions the user's umask gives a new file (``0666 & ~umask``), not the 0600 of
 :func:`tempfile.mkstemp`.
@@ -68,19 +69,49 @@ def _file_mode() -> int:
     return 0o666 & ~mask
 
 
-def check_writable(folder: str | os.PathLike, what: str = "--out") -> Path:
-    """Fail early (before any computation) when ``folder`` cannot be an output folder."""
+OWNER = ".gc_ocp_outputs"
+"""The file in an output folder naming the command whose outputs it holds
+(:meth:`OutputSet.commit` writes it): another command refuses the folder rather than mix its
+files with them (both write a ``report.html``; a diagnosis beside a fit's ``fit.json`` of
+another trial read as one study)."""
+
+
+def check_writable(
+    folder: str | os.PathLike, what: str = "--out", command: str | None = None
+) -> Path:
+    """Fail early (before any computation) when ``folder`` cannot be an output folder: it is a
+    file, a file cannot be made where it and its outputs' staging folder (beside it) would be,
+    or it holds another command's outputs (:data:`OWNER`; ``command``: this one's name)."""
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise InputError(f"{what} {folder} exists and is not a folder; give a folder path.")
-    parent = (
-        folder if folder.exists() else next((p for p in folder.parents if p.exists()), Path("."))
-    )
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise InputError(
-            f"{what} {folder}: {parent} is not writable; choose a folder you can write to."
-        )
+    for place in dict.fromkeys([folder.parent, folder]):  # the staging folder's, then its own
+        existing = next((p for p in (place, *place.parents) if p.exists()), Path("."))
+        _probe(existing, folder, what)
+    owner = folder / OWNER
+    if command is not None and owner.is_file():
+        other = owner.read_text(encoding="utf-8").strip()
+        if other and other != command:
+            raise InputError(
+                f"{what} {folder} holds the outputs of `{other}`; `{command}` would mix its own "
+                f"files with them. Give another {what} folder, or empty that one."
+            )
     return folder
+
+
+def _probe(place: Path, folder: Path, what: str) -> None:
+    """Create and remove a file in ``place``: permissions, a read-only or special file system
+    (``/proc``, ``/sys``) and a full disk all show here, before any computation, and as the
+    user's folder (an access check passes for root where the file system still refuses)."""
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".gc_ocp_probe.", dir=place)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise InputError(
+            f"{what} {folder}: cannot write in {place} ({e.strerror or e}); choose a folder you "
+            "can write to."
+        ) from None
 
 
 class OutputSet:
@@ -89,11 +120,20 @@ class OutputSet:
     ``owned``: every file name the command may write (its stale copies from an earlier run are
     removed on :meth:`commit`, also when this run does not write them)."""
 
-    def __init__(self, folder: str | os.PathLike, owned: tuple[str, ...]) -> None:
-        self.folder = check_writable(folder)
+    def __init__(self, folder: str | os.PathLike, owned: tuple[str, ...], command: str) -> None:
+        self.folder = check_writable(folder, command=command)
         self.owned = tuple(owned)
-        self.folder.parent.mkdir(parents=True, exist_ok=True)
-        self.stage = Path(tempfile.mkdtemp(prefix=f".{self.folder.name}.", dir=self.folder.parent))
+        self.command = command
+        try:
+            self.folder.parent.mkdir(parents=True, exist_ok=True)
+            self.stage = Path(
+                tempfile.mkdtemp(prefix=f".{self.folder.name}.", dir=self.folder.parent)
+            )
+        except OSError as e:
+            raise InputError(
+                f"--out {self.folder}: cannot write beside it ({e.strerror or e}); choose a "
+                "folder you can write to."
+            ) from None
         self.written: list[str] = []
 
     def path(self, name: str) -> Path:
@@ -118,6 +158,7 @@ class OutputSet:
         for name in self.written:
             os.replace(self.stage / name, self.folder / name)
             out.append(self.folder / name)
+        atomic_write_text(self.folder / OWNER, self.command + "\n")
         self.discard()
         return out
 

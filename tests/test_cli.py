@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import html
 import json
+from pathlib import Path
 
 import pytest
 
@@ -238,6 +239,7 @@ def test_fit_outputs_are_one_consistent_set(tmp_path, capsys):
     assert re.search(rf"not used: skipped trial {re.escape(str(broken))}: .*truncated", printed.out)
     names = sorted(p.name for p in out.iterdir())
     assert names == [
+        ".gc_ocp_outputs",  # the command whose outputs these are (gc_ocp.outputs.OWNER)
         "fit.json",
         "fit_pose_corrections.png",
         "fit_sole.png",
@@ -366,6 +368,38 @@ def test_unusable_out_fails_before_any_computation(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--out" in err and "not a folder" in err and "Traceback" not in err
     assert "solving" not in err  # nothing was computed
+
+
+@pytest.mark.skipif(not Path("/proc/self").exists(), reason="needs Linux's /proc")
+def test_an_out_folder_on_a_file_system_that_refuses_files_is_bad_input(capsys):
+    """``/proc`` refuses new files even to root, for whom an access check passes: exit 2 with
+    the folder named, before any computation (it was status 3, a PermissionError, or a
+    message naming an internal staging folder)."""
+    from gc_ocp.cli import main
+
+    assert main(["fit", "--out", "/proc/gc_ocp_out"]) == 2
+    err = capsys.readouterr().err
+    assert "--out /proc/gc_ocp_out: cannot write in /proc" in err and "Traceback" not in err
+    assert ".gc_ocp_out." not in err and "solving" not in err
+
+
+def test_a_folder_holding_another_command_s_outputs_is_refused(tmp_path, capsys):
+    """A fit's folder given to ``diagnose`` (both write report.html; a diagnosis beside another
+    trial's fit.json would read as one study): exit 2 before any computation, naming the
+    command whose outputs are there. The command that wrote them may write there again."""
+    from gc_ocp.cli import main
+    from gc_ocp.outputs import OWNER, OutputSet, check_writable
+
+    out = tmp_path / "study"
+    fit = OutputSet(out, ("fit.json", "report.html"), "gc-ocp fit")
+    fit.text("fit.json", "{}")
+    fit.commit()
+    assert (out / OWNER).read_text().strip() == "gc-ocp fit"
+    assert check_writable(out, command="gc-ocp fit") == out
+    assert main(["diagnose", "--effects", "damping", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "holds the outputs of `gc-ocp fit`" in err and "Traceback" not in err
+    assert sorted(p.name for p in out.iterdir()) == sorted([OWNER, "fit.json"])
 
 
 def test_version(capsys):

@@ -523,7 +523,7 @@ def test_sensitivity_to_processing_choices(bundled, tmp_path):
     assert flagged == {p for p, _, _, r in rep.rows() if r > SENSITIVE_RATIO}
     wide = dataclasses.replace(rep, se={**rep.se, "mu": rep.spread("mu") / 5})  # 5 SE
     assert "mu" in {f["what"] for f in wide.flags()}
-    out = OutputSet(tmp_path / "fit", ("fit.json", "landmarks.json", "report.html", *FIGS))
+    out = OutputSet(tmp_path / "fit", ("fit.json", "landmarks.json", "report.html", *FIGS), "test")
     report = fit([bundled])
     before = list(report.result.flags)
     doc = write_fit(out, report, {}, {}, wide)

@@ -307,6 +307,64 @@ def test_a_trc_gap_written_as_zeros_is_a_gap(tmp_path):
     assert zeros.load_notes == blank.load_notes and any("R.Heel" in n for n in zeros.load_notes)
 
 
+def test_a_mot_without_torque_columns_says_the_free_moment_is_taken_as_zero(tmp_path):
+    """The Rajagopal MOT with its torques named ``ground_moment_*`` (not OpenSim's
+    ``ground_torque_*``): the sets are read without a free moment, and a note says so and names
+    the columns not read as one (it was silent: the fit compared the vertical torque with 0).
+    The original file has no such note."""
+    text = RAJ[1].read_text().replace("ground_torque_", "ground_moment_")
+    (tmp_path / "moment.mot").write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        renamed = load_trial(RAJ[0], tmp_path / "moment.mot", mass=RAJ_MASS)
+        clean = load_trial(*RAJ, mass=RAJ_MASS)
+    (note,) = [n for n in renamed.load_notes if "no torque columns" in n]
+    assert "free moment is taken as 0" in note and "ground_moment_r_x" in note
+    assert not any("no torque columns" in n for n in clean.load_notes)
+    assert [s.label for s in renamed.stances] == [s.label for s in clean.stances]
+
+
+def test_a_force_set_that_sums_both_feet_is_not_one_stance(tmp_path):
+    """The Rajagopal MOT written as one force set (both feet summed, the centre of pressure of
+    the sum): the 'stance' it makes covers several steps, its centre of pressure travelling far
+    more than a foot is long. It is excluded with that reason (it was fitted at exit 0: 34 % BW
+    of vertical error and mu at 0)."""
+    lines = RAJ[1].read_text().splitlines()
+    end = lines.index("endheader")
+    data = np.loadtxt(RAJ[1], skiprows=end + 2)
+    cols = lines[end + 1].split("\t")
+    c = {n: k for k, n in enumerate(cols)}
+
+    F = np.zeros((len(data), 3))
+    M = np.zeros((len(data), 3))  # about the origin (OpenSim: Y up)
+    for side in "rl":
+        f = data[:, [c[f"ground_force_{side}_v{a}"] for a in "xyz"]]
+        p = data[:, [c[f"ground_force_{side}_p{a}"] for a in "xyz"]]
+        t = data[:, [c[f"ground_torque_{side}_{a}"] for a in "xyz"]]
+        F += f
+        M += np.cross(p, f) + t
+    fy = np.where(np.abs(F[:, 1]) > 1.0, F[:, 1], np.inf)
+    P = np.column_stack([M[:, 2] / fy, np.zeros(len(data)), -M[:, 0] / fy])  # on y = 0
+    T = M - np.cross(P, F)
+    out = np.column_stack([data[:, c["time"]], F, P, T])
+    head = "\t".join(
+        ["time", *(f"ground_force_v{a}" for a in "xyz"), *(f"ground_force_p{a}" for a in "xyz")]
+        + [f"ground_torque_{a}" for a in "xyz"]
+    )
+    body = "\n".join("\t".join(f"{v:.6f}" for v in row) for row in out)
+    (tmp_path / "both.mot").write_text(
+        "\n".join(lines[:end]) + "\nendheader\n" + head + "\n" + body + "\n"
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = load_trial(RAJ[0], tmp_path / "both.mot", mass=RAJ_MASS)
+    assert t.stances == ()
+    assert any(
+        "more than a foot is long" in e.reason and "two feet" in e.reason
+        for e in t.excluded_stances
+    )
+
+
 def test_bundled_example_loads_without_arguments():
     assert bundled_example_path().is_file()
     assert (bundled_example_path().parent / "LICENSE_test_small.txt").is_file()

@@ -322,7 +322,7 @@ def _fit_subject(
         **settings.to_json(),
     )
     prov = provenance(options, pairs, skipped)
-    out = OutputSet(folder, FIT_OUTPUTS + DIAGNOSIS_OUTPUTS + (ERROR,))
+    out = OutputSet(folder, FIT_OUTPUTS + DIAGNOSIS_OUTPUTS + (ERROR,), "gc-ocp batch")
     try:
         report = fit(
             pairs,

@@ -123,11 +123,11 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from gc_ocp.workflow.fit_files import FIT_OUTPUTS, write_fit
     from gc_ocp.workflow.fitting import check_holdout, fit
 
-    check_writable(args.out)  # before any computation
+    check_writable(args.out, command="gc-ocp fit")  # before any computation
     model = fit_model(None if args.effects is None else _effect_list(args.effects))
     pairs, skipped = _load_subject(args, lambda trials: check_holdout(args.holdout, trials))
     prov = provenance(args, pairs, skipped)
-    out = OutputSet(args.out, FIT_OUTPUTS)
+    out = OutputSet(args.out, FIT_OUTPUTS, "gc-ocp fit")
     landmarks = {"trials": [kin.info.get("landmarks") for _, kin in pairs]}
     try:
         try:
@@ -230,7 +230,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from gc_ocp.diagnosis.report import report_html, report_pngs
     from gc_ocp.outputs import OutputSet, atomic_write, check_writable
 
-    check_writable(args.out)  # before any computation
+    check_writable(args.out, command="gc-ocp diagnose")  # before any computation
     effects = _effects(args)
     pairs, skipped = _load_subject(args)
     prov = provenance(args, pairs, skipped)
@@ -247,7 +247,7 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     print(d.summary())
     _print_skipped(skipped)
     pngs = report_pngs(d)
-    out = OutputSet(args.out, DIAGNOSE_OUTPUTS)
+    out = OutputSet(args.out, DIAGNOSE_OUTPUTS, "gc-ocp diagnose")
     try:
         out.text("diagnosis.json", json.dumps({**d.to_json(), "provenance": prov}, indent=2))
         final = d.final_evaluation.full  # the selected model on all stances, as fit.json has it
@@ -340,7 +340,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     from gc_ocp.export.opensim_export import DEFAULT_RADIUS, export_opensim, fit_pairs, hertz_refit
     from gc_ocp.outputs import check_writable
 
-    check_writable(args.out)
+    check_writable(args.out, command="gc-ocp export")
     fit = args.fit_json
     pairs = None
     if args.hertz:

@@ -529,7 +529,7 @@ def export_opensim(
         spheres, registration = register_feet(model, kin, mapping)
         loaded = {side: r["body"] for side, r in registration.items()}
         compare_forces = False
-    outset = OutputSet(out, OUTPUTS)
+    outset = OutputSet(out, OUTPUTS, "gc-ocp export")
     try:
         job = model_job(cal, kin, spheres, radius, f"gc_ocp_{trial.name}", model)
         job["osim"] = str(outset.path("model.osim"))

@@ -196,6 +196,35 @@ def grf_sets(names: list[str]) -> list[dict]:
     return out
 
 
+def _no_torque_note(bare: list[dict], cols: list[str], grf: Path) -> str:
+    """What the sets without ``<p>torque<m>_{x,y,z}`` columns are read with (no free moment),
+    and the columns that may hold one under another name: a moment can be about the centre of
+    pressure (OpenSim's torque) or about another point (Camargo's ``ground_force_1_mx``: about
+    the lab origin, tens of N m), and the name does not say which."""
+    maybe = []
+    for s in bare:
+        label = s["label"].lower()
+        parts = [p for p in label.replace("force", "").split("_") if p]
+        used = {cols[i] for i in (*s["force"], *s["point"])}
+        maybe += [
+            c
+            for c in cols
+            if c not in used
+            and c not in maybe
+            and any(k in c.lower() for k in ("moment", "torque", label + "_m"))
+            and all(p in c.lower() for p in parts)
+        ]
+    labels = ", ".join(f"{s['label']}_*" for s in bare)
+    found = f" Columns not read as one: {', '.join(maybe)}." if maybe else ""
+    return (
+        f"{grf}: no torque columns for {labels} (e.g. "
+        f"{bare[0]['label'].replace('force', 'torque')}_x/_y/_z, the moment at the centre of "
+        "pressure): the free moment is taken as 0, so the fit compares the model's vertical "
+        f"torque with 0.{found} If those are the free moment at the centre of pressure, rename "
+        "them so."
+    )
+
+
 def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawTrial:
     """Read a TRC + MOT pair into a :class:`RawTrial` (SI, Z-up)."""
     names, xyz, time = read_trc(trc)
@@ -251,6 +280,9 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
             f"{s['name']}: columns {s['label']}_* (side from "
             f"{s.get('side_from', 'the r/l token in the names')})"
         )
+    bare = [s for s in sets if s["torque"] is None]
+    if bare:
+        notes.append(_no_torque_note(bare, cols, grf))
     return RawTrial(
         source=trc,
         marker_names=names,

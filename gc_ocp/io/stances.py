@@ -366,6 +366,13 @@ across and more across than along, is not a walking foot's: the plate's axes are
 listed in another order move it 13-17 cm across or 15 cm backward)."""
 
 
+COP_TRAVEL_MAX = 0.30
+"""[m] A foot's centre of pressure travels at most the foot's length heel to toe in a stance
+(6-16 cm forward in every stance of the shared walking files, :data:`COP_ACROSS`; an adult foot
+is 22-30 cm long). More, either way, is not one foot: two feet or several steps on one plate
+(or one force set of a MOT that sums both feet)."""
+
+
 def _cop_path(
     cop, loaded, times, side, names, markers, mtime, travel
 ) -> tuple[float, float] | None:
@@ -413,9 +420,17 @@ def _exclusion(
         m = _markers_at(markers, mtime, feet[side], times)
         if np.all(np.isnan(m).any(axis=2), axis=1).any():
             return "markers: no foot marker of the stance foot during part of the stance"
+    heavy = plate.force[a:b, 2] > (0.2 * bw if bw else 100.0)
+    path = _cop_path(cop[a:b], heavy, times, side, names, markers, mtime, travel)
+    if path is not None and abs(path[0]) > COP_TRAVEL_MAX:
+        return (
+            f"its centre of pressure travels {path[0] * 100:+.0f} cm along the {side} foot, more "
+            f"than a foot is long ({COP_TRAVEL_MAX * 100:.0f} cm): two feet, or several steps, "
+            f"on one {'plate' if plate.corners is not None else 'force set'} "
+            f"({plate.name}); the contact model needs each stance's foot alone on its plate"
+        )
     if plate.corners is None:
         return ""
-    heavy = plate.force[a:b, 2] > (0.2 * bw if bw else 100.0)
     c = cop[a:b][heavy]
     c = c[np.all(np.isfinite(c), axis=1)]
     if c.size:
@@ -434,7 +449,6 @@ def _exclusion(
                 f"for {out.sum() * dt * 1e3:.0f} ms (<= {COP_OFF_TIME * 1e3:.0f} ms: a transient, "
                 f"ignored)"
             )
-    path = _cop_path(cop[a:b], heavy, times, side, names, markers, mtime, travel)
     if path is not None:
         along, across = path
         if along < -COP_BACKWARD or (abs(across) > COP_ACROSS and abs(across) > along):
