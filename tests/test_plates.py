@@ -800,6 +800,29 @@ def test_a_plate_channel_in_a_unit_that_is_not_a_force_or_moment_is_refused(tmp_
         read_c3d(out)
 
 
+def test_plates_in_kilonewtons_labelled_newtons_say_so(tmp_path):
+    """The force channels divided by 1000 but still labelled N (a kN recording exported with
+    the wrong unit): no plate reaches the 20 N contact threshold, and the refusal says that the
+    largest force, under a newton, is no person's and names the channels' unit to check."""
+    from gc_ocp.errors import InputError
+    from gc_ocp.io import load_trial
+    from gc_ocp.io.checks import force_unit_hint, require_stances
+
+    def change(c):
+        ch = np.asarray(c["parameters"]["FORCE_PLATFORM"]["CHANNEL"]["value"], int) - 1
+        for j in ch[:6].ravel():
+            c["data"]["analogs"][0, j, :] /= 1000.0
+
+    out = _variant(tmp_path, change)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        trial = load_trial(out)  # the file's mass
+    with pytest.raises(InputError, match=r"largest vertical force on any plate is 0\.\d+ N"):
+        require_stances(trial)
+    assert "probably in kN" in force_unit_hint(trial.plates, 20.0)
+    assert force_unit_hint(load_trial(_bundled_c3d()).plates, 20.0) == ""  # newtons: nothing
+
+
 def _variant(tmp_path, change):
     """The bundled C3D with ``change(c)`` applied (ezc3d), written to ``tmp_path``."""
     import ezc3d

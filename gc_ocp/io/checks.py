@@ -82,6 +82,22 @@ def require_markers(trial: Trial, names) -> None:
             )
 
 
+def force_unit_hint(plates, threshold: float) -> str:
+    """A clause for a "no stance" message when no plate ever reaches ``threshold`` [N] but some
+    carry a force: plates whose forces are in kN (or another unit) read as newtons; else ""."""
+    peak = max(
+        (float(np.nanmax(np.abs(np.asarray(p.force)[:, 2]), initial=0.0)) for p in plates),
+        default=0.0,
+    )
+    if not 0.0 < peak < threshold:
+        return ""
+    return (
+        f"; the largest vertical force on any plate is {peak:.3g} N, which no person walking "
+        "puts on a plate: the force channels are probably in kN or another unit read as N "
+        "(check ANALOG:UNITS and ANALOG:SCALE, or the MOT's force columns)"
+    )
+
+
 def require_stances(trial: Trial) -> None:
     """Raise :class:`PlateError` when ``trial`` has no usable stance, naming the file, why each
     contact was excluded and the fix (before any output is written)."""
@@ -92,9 +108,14 @@ def require_stances(trial: Trial) -> None:
         f"{e.side} on {trial.plates[e.plate].name} {e.t_on:.3f}-{e.t_off:.3f} s: {e.reason}"
         for e in trial.excluded_stances
     )
+    unit = force_unit_hint(trial.plates, trial.contact_threshold)
     raise PlateError(
         f"{trial.source}: no usable stance ("
-        + (why or f"no plate is loaded above the contact threshold, {trial.contact_threshold:g} N")
+        + (
+            why
+            or f"no plate is loaded above the contact threshold, {trial.contact_threshold:g} N"
+            + unit
+        )
         + "). A stance needs one foot, fully and alone on one plate, in a walking step: give a "
         "trial where each foot lands cleanly on its own plate, or fix the plate set-up."
         + static_hint(trial.marker_names, trial.markers)

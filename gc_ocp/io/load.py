@@ -15,7 +15,13 @@ from gc_ocp.errors import InputError, MarkerError, require_file
 from gc_ocp.gaps import MAX_MARKER_SPEED, fill_short_gaps, marker_spikes
 from gc_ocp.io._common import Y_UP_TO_LAB, warn, without_subject_prefix
 from gc_ocp.io.c3d import read_c3d
-from gc_ocp.io.checks import STATIC_MAX_STD, marker_spread, stance_gap_report, static_hint
+from gc_ocp.io.checks import (
+    STATIC_MAX_STD,
+    force_unit_hint,
+    marker_spread,
+    stance_gap_report,
+    static_hint,
+)
 from gc_ocp.io.opensim import read_opensim, read_trc
 from gc_ocp.io.orientation import (
     FOOT_CROSSOVER,
@@ -211,7 +217,8 @@ def _estimate_mass(raw, plates, markers, threshold: float, path: Path) -> tuple[
         raise InputError(
             f"No subject mass in {files} or beside it (subject JSON, OpenSim scale set-up), and "
             f"the force data hold neither quiet standing nor two consecutive walking stances to "
-            f"estimate it from; pass mass=... / --mass KG." + static_hint(raw.marker_names, markers)
+            f"estimate it from{force_unit_hint(plates, threshold)}; pass mass=... / --mass KG."
+            + static_hint(raw.marker_names, markers)
         )
     bw, basis = est
     mass = bw / GRAVITY
