@@ -365,6 +365,38 @@ def test_a_force_set_that_sums_both_feet_is_not_one_stance(tmp_path):
     )
 
 
+def test_a_mot_of_another_clock_is_refused_naming_both_ranges(tmp_path):
+    """The Rajagopal TRC with its time column shifted by 5 s beside its MOT at 0 s: no sample
+    in common. Refused naming both files' ranges (it said the mass could not be estimated,
+    or, with a mass, that every stance was clipped)."""
+    lines = RAJ[0].read_text().splitlines()
+    out = lines[:5]
+    for line in lines[5:]:
+        cells = line.split("\t")
+        if len(cells) > 2 and cells[1].strip():
+            cells[1] = f"{float(cells[1]) + 5.0:.5f}"
+        out.append("\t".join(cells))
+    (tmp_path / "late.trc").write_text("\n".join(out) + "\n")
+    with pytest.raises(InputError, match=r"covers 5\.\d+-7\.\d+ s and .* 0\.\d+-2\.\d+ s"):
+        load_trial(tmp_path / "late.trc", RAJ[1], mass=RAJ_MASS)
+
+
+def test_a_mot_with_its_centre_of_pressure_in_millimetres_says_what_to_do(tmp_path):
+    """A MOT has no unit header: the refusal of COP columns in mm says to divide them by 1000
+    (it told the user to fix a header the file does not have)."""
+    lines = RAJ[1].read_text().splitlines()
+    end = lines.index("endheader")
+    cols = lines[end + 1].split("\t")
+    data = np.loadtxt(RAJ[1], skiprows=end + 2)
+    for k, c in enumerate(cols):
+        if c.endswith(("_px", "_py", "_pz")):
+            data[:, k] *= 1000.0
+    body = "\n".join("\t".join(f"{v:.6f}" for v in row) for row in data)
+    (tmp_path / "mm.mot").write_text("\n".join(lines[: end + 2]) + "\n" + body + "\n")
+    with pytest.raises(InputError, match="no unit header.*divide them by 1000"):
+        load_trial(RAJ[0], tmp_path / "mm.mot", mass=RAJ_MASS)
+
+
 def test_bundled_example_loads_without_arguments():
     assert bundled_example_path().is_file()
     assert (bundled_example_path().parent / "LICENSE_test_small.txt").is_file()

@@ -100,19 +100,26 @@ def missing_as_nan(xyz: np.ndarray) -> np.ndarray:
     return xyz
 
 
-def check_metres(values: np.ndarray, path: Path, what: str, declared: str) -> None:
+def check_metres(
+    values: np.ndarray,
+    path: Path,
+    what: str,
+    declared: str,
+    fix: str = "Fix the unit in the file header (e.g. TRC 'Units' = mm, C3D POINT:UNITS = 'mm').",
+) -> None:
     """Raise :class:`UnitsError` if values said to be in metres look like millimetres.
 
     Marker coordinates of a walking trial are within a few metres of the lab origin; a typical
     magnitude (median of |value|) above 50 "m" means the file is in mm while saying "m".
+    ``fix``: what the message tells the user to do (a file without a unit header, e.g. a MOT,
+    needs another fix than a header's unit).
     """
     finite = np.abs(values[np.isfinite(values)])
     if finite.size and float(np.median(finite)) > 50.0:
         raise UnitsError(
             f"{what} in {path} are declared in {declared!r} but their typical magnitude is "
             f"{np.median(finite):.0f} (expected < 50 m for a gait lab): the file is almost "
-            f"certainly in millimetres. Fix the unit in the file header (e.g. TRC 'Units' = mm, "
-            f"C3D POINT:UNITS = 'mm')."
+            f"certainly in millimetres. {fix}"
         )
 
 

@@ -196,6 +196,19 @@ def grf_sets(names: list[str]) -> list[dict]:
     return out
 
 
+def _check_one_clock(trc: Path, marker_time: np.ndarray, grf: Path, grf_time: np.ndarray) -> None:
+    """A TRC and its MOT share one clock: refuse a pair whose times do not overlap at all (a
+    MOT of another trial, or a TRC whose time column was shifted), naming both ranges."""
+    a0, a1 = float(np.nanmin(marker_time)), float(np.nanmax(marker_time))
+    b0, b1 = float(np.nanmin(grf_time)), float(np.nanmax(grf_time))
+    if min(a1, b1) <= max(a0, b0):
+        raise InputError(
+            f"{trc} covers {a0:.3f}-{a1:.3f} s and {grf} {b0:.3f}-{b1:.3f} s: the markers and "
+            "the forces do not overlap in time, and they must share one clock. Give the MOT of "
+            "this trial, or shift one file's time column to the other's."
+        )
+
+
 def _no_torque_note(bare: list[dict], cols: list[str], grf: Path) -> str:
     """What the sets without ``<p>torque<m>_{x,y,z}`` columns are read with (no free moment),
     and the columns that may hold one under another name: a moment can be about the centre of
@@ -233,6 +246,7 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
     if "time" not in [c.lower() for c in cols]:
         raise InputError(f"{grf} has no 'time' column; columns are {cols}.")
     t = data[:, [c.lower() for c in cols].index("time")]
+    _check_one_clock(trc, time, grf, t)
     sets = grf_sets(cols)
     if not sets:
         raise PlateError(
@@ -245,7 +259,14 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
     for s in sets:
         f = data[:, s["force"]] @ Y_UP_TO_LAB.T
         p = data[:, s["point"]] @ Y_UP_TO_LAB.T
-        check_metres(p, grf, "COP columns", "m")
+        check_metres(
+            p,
+            grf,
+            "COP columns",
+            "m",
+            "An OpenSim MOT has no unit header: its COP columns are in metres; divide them "
+            "by 1000 (or export the forces again in metres).",
+        )
         tq = data[:, s["torque"]] @ Y_UP_TO_LAB.T if s["torque"] else np.zeros_like(f)
         good = (f[:, 2] > threshold) & np.all(np.isfinite(p), axis=1)
         if good.any():
