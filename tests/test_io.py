@@ -397,6 +397,24 @@ def test_a_mot_with_its_centre_of_pressure_in_millimetres_says_what_to_do(tmp_pa
         load_trial(RAJ[0], tmp_path / "mm.mot", mass=RAJ_MASS)
 
 
+def test_a_mot_written_z_up_is_refused_naming_the_axis(tmp_path):
+    """The Rajagopal MOT turned Z-up ((x, y, z) -> (x, -z, y) in every vector): its ground
+    reaction points along Z. Refused, naming the axis and the convention (it said that the
+    height, estimated from a body lying on its side, was not in metres)."""
+    lines = RAJ[1].read_text().splitlines()
+    end = lines.index("endheader")
+    cols = lines[end + 1].split("\t")
+    data = np.loadtxt(RAJ[1], skiprows=end + 2)
+    for k, c in enumerate(cols):
+        if c.endswith(("vx", "px", "_x")):
+            y, z = data[:, k + 1].copy(), data[:, k + 2].copy()
+            data[:, k + 1], data[:, k + 2] = -z, y
+    body = "\n".join("\t".join(f"{v:.6f}" for v in row) for row in data)
+    (tmp_path / "zup.mot").write_text("\n".join(lines[: end + 2]) + "\n" + body + "\n")
+    with pytest.raises(InputError, match="points mostly along Z.*written Z-up"):
+        load_trial(RAJ[0], tmp_path / "zup.mot", mass=RAJ_MASS)
+
+
 def test_bundled_example_loads_without_arguments():
     assert bundled_example_path().is_file()
     assert (bundled_example_path().parent / "LICENSE_test_small.txt").is_file()

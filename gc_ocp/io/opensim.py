@@ -196,6 +196,21 @@ def grf_sets(names: list[str]) -> list[dict]:
     return out
 
 
+def _check_y_up(grf: Path, data: np.ndarray, sets: list[dict]) -> None:
+    """OpenSim files are Y-up, and a walking subject's ground reaction points mostly up: refuse
+    a MOT whose forces point mostly along another axis (a pair written Z-up, which would make
+    the body lie on its side), naming the axis."""
+    total = sum(np.nansum(np.abs(data[:, s["force"]]), axis=0) for s in sets)
+    axis = int(np.argmax(total))
+    if axis != 1 and total[axis] > 0:
+        name = "XYZ"[axis]
+        raise InputError(
+            f"{grf}: the ground reaction points mostly along {name} ({total[axis] / total.sum():.0%}"
+            f" of its size), not along Y: OpenSim's files are Y-up, and this MOT (and likely its "
+            f"TRC) is written {name}-up. Export both files Y-up (X forward, Y up)."
+        )
+
+
 def _check_one_clock(trc: Path, marker_time: np.ndarray, grf: Path, grf_time: np.ndarray) -> None:
     """A TRC and its MOT share one clock: refuse a pair whose times do not overlap at all (a
     MOT of another trial, or a TRC whose time column was shifted), naming both ranges."""
@@ -254,6 +269,7 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
             f"ground_force_r_px, ground_torque_r_x): the contact model needs measured ground "
             f"reactions. Columns found: {cols}"
         )
+    _check_y_up(grf, data, sets)
     plates = []
     notes = [prefix_note] if prefix_note else []
     for s in sets:
