@@ -62,6 +62,7 @@ def test_csv_manifest_groups_trials_by_subject_and_types_the_values(tmp_path):
         ("subject,trial\nS 1,x.c3d\n", ["row 2", "folder name"]),
         ("subject,trial,foot_roll\nS1,x.c3d,flat\n", ["row 2", "foot_roll", "chain", "level"]),
         ("subject,trial\nS1,missing.c3d\n", ["subject S1", "missing.c3d", "does not exist"]),
+        ("subject,trial\nS1,x.c3d,50\n", ["row 2", "beyond the header", "'50'"]),
     ],
 )
 def test_a_bad_manifest_names_the_row_and_the_fix(tmp_path, text, words):
@@ -72,6 +73,112 @@ def test_a_bad_manifest_names_the_row_and_the_fix(tmp_path, text, words):
         read_manifest(m)
     for w in words:
         assert w in str(e.value)
+
+
+@pytest.mark.parametrize(
+    "text, words",
+    [
+        ('[[subject]]\nid = "S1"\ntrials = "x.c3d"\n', ["trials is a list", "not 'x.c3d'"]),
+        ('[[subject]]\nid = "S1"\ntrials = [{trial = 5}]\n', ["a trial is a path or a table"]),
+        ('[[subject]]\nid = "S1"\ntrials = ["x.c3d"]\nmass = true\n', ["mass True", "kg"]),
+    ],
+)
+def test_a_toml_value_of_the_wrong_type_names_the_key(tmp_path, text, words):
+    """A list written as a string (it was iterated letter by letter: "t does not exist"), a
+    trial path that is a number (an AttributeError, status 3), a mass that is a boolean (read
+    as 1 kg)."""
+    shutil.copy(EXAMPLE, tmp_path / "x.c3d")
+    m = tmp_path / "m.toml"
+    m.write_text(text)
+    with pytest.raises(InputError) as e:
+        read_manifest(m)
+    for w in words:
+        assert w in str(e.value)
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".toml"])
+def test_a_manifest_that_is_not_utf8_says_so(tmp_path, suffix):
+    """A manifest saved as Latin-1 (a spreadsheet's default in some locales): refused naming
+    the file and the encoding to use (it was a UnicodeDecodeError, status 3)."""
+    m = tmp_path / f"m{suffix}"
+    m.write_bytes(
+        "subject,trial\nM\u00fcller,x.c3d\n".encode("latin-1")
+        if suffix == ".csv"
+        else '[[subject]]\nid = "M\u00fcller"\ntrials = ["x.c3d"]\n'.encode("latin-1")
+    )
+    with pytest.raises(InputError, match="is not UTF-8 text .* save it as UTF-8"):
+        read_manifest(m)
+
+
+def test_a_manifest_s_marker_set_file_is_its_folder_s_and_part_of_the_results_key(tmp_path):
+    """A marker-set path in a manifest is relative to the manifest (as its trials; it was the
+    working folder's), and the file's content is in the subject's key: editing the file makes
+    the results stale (its name alone was, and a rerun skipped the subject)."""
+    from gc_ocp.batch.subject import subject_key
+
+    shutil.copy(EXAMPLE, tmp_path / "x.c3d")
+    ms = tmp_path / "ms.toml"
+    shutil.copy(Path(gc_ocp.__file__).parent / "data" / "markersets" / "plugingait.toml", ms)
+    m = tmp_path / "m.csv"
+    m.write_text("subject,trial,markerset\nS1,x.c3d,ms.toml\n")
+    (s,) = read_manifest(m)
+    assert Path(s.markerset) == ms
+    key = subject_key(s, Settings())
+    ms.write_text(ms.read_text().replace("reference_height = 1.7", "reference_height = 1.75"))
+    assert subject_key(s, Settings()) != key
+
+
+@pytest.mark.parametrize(
+    "subject, words",
+    [
+        ("x.c3d", ["Subject objects", "not str"]),
+        (Subject("../evil", (TrialSpec(EXAMPLE),)), ["'../evil'", "folder name"]),
+        (Subject("summary.csv", (TrialSpec(EXAMPLE),)), ["study's own files"]),
+        (Subject("S1", ("x.c3d",)), ["TrialSpec", "not str"]),
+    ],
+)
+def test_a_study_of_subjects_that_are_not_subjects_is_refused_before_any_work(
+    tmp_path, subject, words
+):
+    """The Python API given what a manifest cannot hold: a path for a subject, an id that
+    leaves the study's folder (its files were written to ../evil) or is the study's own
+    summary.csv (the run crashed after fitting), a path for a trial. Each an InputError before
+    the output folder is made."""
+    out = tmp_path / "out"
+    with pytest.raises(InputError) as e:
+        run([subject], out, progress=None)
+    for w in words:
+        assert w in str(e.value)
+    assert not out.exists()
+
+
+def test_the_study_page_draws_when_no_subject_was_fitted():
+    """Every subject failed: the summary figures have nothing to put on their log axis (it
+    raised, and the run ended with status 3 before its summary page)."""
+    import io
+
+    from gc_ocp.batch.page import summary_figures
+
+    figs = summary_figures([{"subject": "S1", "status": "failed"}])
+    for fig in figs.values():
+        fig.savefig(io.BytesIO(), format="png")
+
+
+def test_a_subject_that_now_fails_leaves_no_earlier_results_beside_its_error(tmp_path):
+    """A subject fitted before whose inputs changed and whose fit now fails: its earlier
+    fit.json and report.html are removed with its done.json (they stayed beside the new
+    error.json, a report of inputs the study no longer has)."""
+    from gc_ocp.batch.subject import process_subject
+
+    folder = tmp_path / "out" / "S1"
+    folder.mkdir(parents=True)
+    for name in ("fit.json", "report.html", "done.json", "fit_wrench.png"):
+        (folder / name).write_text("earlier")
+    (folder / "notes.txt").write_text("mine")
+    subject = Subject("S1", (TrialSpec(_broken(tmp_path / "in")),))
+    outcome = process_subject(subject, tmp_path / "out", FAST)
+    assert outcome["status"] == "failed"
+    assert sorted(p.name for p in folder.iterdir()) == ["error.json", "notes.txt"]
 
 
 def test_toml_manifest(tmp_path):

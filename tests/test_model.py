@@ -144,6 +144,45 @@ def test_markerset_unknown_name_lists_choices():
         assert n in str(e.value)
 
 
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        (
+            lambda t: t.replace("reference_height = 1.70", "reference_height = 170"),
+            ["170", "metres"],
+        ),
+        (
+            lambda t: t.replace("[markers]", '[markers]\nXTRA = "hindfoot_l"'),
+            ["XTRA", "not a table"],
+        ),
+        (lambda t: t.replace("weight = 2.0", 'weight = "x"', 1), ["weight must be a number"]),
+        (lambda t: "# caf\u00e9\n" + t, ["not UTF-8"]),
+    ],
+)
+def test_a_marker_set_file_with_a_wrong_value_names_it(tmp_path, change, words):
+    """A reference height in cm (it scaled every marker 100 times, fitted at exit 0), a marker
+    given as a string, a weight that is not a number, a file not in UTF-8: each a MarkerError
+    naming the file and what to fix (they were status 3 or silent)."""
+    from gc_ocp.errors import InputError
+
+    src = load_markerset("plugingait").source
+    text = change(src.read_text())
+    f = tmp_path / "ms.toml"
+    f.write_bytes(text.encode("latin-1" if "not UTF-8" in words else "utf-8"))
+    with pytest.raises(InputError) as e:
+        load_markerset(f)
+    assert str(f) in str(e.value)
+    for w in words:
+        assert w in str(e.value)
+
+
+def test_a_marker_set_file_with_an_upper_case_suffix_loads(tmp_path):
+    src = load_markerset("plugingait").source
+    f = tmp_path / "ms.TOML"
+    f.write_text(src.read_text())
+    assert load_markerset(f).markers.keys() == load_markerset("plugingait").markers.keys()
+
+
 def test_missing_foot_marker_is_named():
     ms = load_markerset("plugingait")
     names = [n for n in ms.markers if n != "LHEE"]

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import io
 import math
 import re
 from collections.abc import Mapping
@@ -33,6 +34,7 @@ import numpy as np
 
 from gc_ocp.errors import InputError
 from gc_ocp.foot import FOOT_ROLLS
+from gc_ocp.text import read_utf8
 
 TRIAL_SUFFIXES = (".c3d", ".trc")
 STATIC_SPEED = 0.3
@@ -119,8 +121,8 @@ def read_manifest(path: str | Path) -> list[Subject]:
     return subjects
 
 
-def _check_id(value: str, where: str) -> str:
-    value = value.strip()
+def check_id(value: str, where: str) -> str:
+    value = str(value).strip()
     if not _ID.match(value):
         raise InputError(
             f"{where}: subject id {value!r} is not usable as a folder name; use letters, digits, "
@@ -136,7 +138,7 @@ def _resolve(base: Path, value: str) -> Path:
 
 def _number(value, key: str, where: str) -> float:
     try:
-        x = float(value)
+        x = math.nan if isinstance(value, bool) else float(value)  # TOML's true is no mass
     except (TypeError, ValueError):
         x = math.nan
     if not math.isfinite(x) or x <= 0:
@@ -157,6 +159,10 @@ def _settings(raw: Mapping, base: Path, where: str) -> dict:
             out[key] = _number(v, key, where)
         elif key == "static":
             out[key] = _resolve(base, str(v))
+        elif key == "markerset" and (
+            str(v).strip().lower().endswith(".toml") or "/" in str(v) or "\\" in str(v)
+        ):  # a file (not a shipped set's name): relative to the manifest, as the trials
+            out[key] = str(_resolve(base, str(v)))
         elif key == "foot_roll":
             out[key] = str(v).strip()
             if out[key] not in FOOT_ROLLS:
@@ -171,7 +177,7 @@ def _settings(raw: Mapping, base: Path, where: str) -> dict:
 
 def _from_csv(path: Path) -> list[Subject]:
     base = path.parent
-    with open(path, newline="", encoding="utf-8-sig") as f:
+    with io.StringIO(read_utf8(path, "Manifest"), newline="") as f:
         reader = csv.DictReader(f)
         header = [h.strip() for h in (reader.fieldnames or [])]
         missing = [c for c in ("subject", "trial") if c not in header]
@@ -190,11 +196,17 @@ def _from_csv(path: Path) -> list[Subject]:
         order: dict[str, list] = {}
         given: dict[str, dict] = {}
         for row_no, row in enumerate(reader, start=2):
-            row = {(k or "").strip(): v for k, v in row.items()}
             where = f"Manifest {path}, row {row_no}"
+            if None in row:  # csv.DictReader's key for the values beyond the header
+                raise InputError(
+                    f"{where}: {len(row[None])} value(s) beyond the header's {len(header)} "
+                    f"columns ({', '.join(map(repr, row[None]))}); add their column to the header "
+                    "or remove them."
+                )
+            row = {(k or "").strip(): v for k, v in row.items()}
             if not (row.get("subject") or "").strip() or not (row.get("trial") or "").strip():
                 raise InputError(f"{where}: subject and trial must both be given.")
-            sid = _check_id(row["subject"], where)
+            sid = check_id(row["subject"], where)
             grf = (row.get("grf") or "").strip()
             order.setdefault(sid, []).append(
                 TrialSpec(_resolve(base, row["trial"]), _resolve(base, grf) if grf else None)
@@ -222,7 +234,7 @@ def _from_toml(path: Path) -> list[Subject]:
     except ModuleNotFoundError:  # Python 3.10
         import tomli as tomllib  # type: ignore[no-redef]
     try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+        doc = tomllib.loads(read_utf8(path, "Manifest"))
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"Manifest {path} is not valid TOML ({e}); fix the syntax.") from e
     base = path.parent
@@ -237,7 +249,7 @@ def _from_toml(path: Path) -> list[Subject]:
         where = f"Manifest {path}, subject table {k}"
         if "id" not in t or "trials" not in t:
             raise InputError(f"{where}: needs id and trials.")
-        sid = _check_id(str(t["id"]), where)
+        sid = check_id(str(t["id"]), where)
         if sid in seen:
             raise InputError(f"{where}: subject {sid} is listed twice; list it once.")
         seen.add(sid)
@@ -248,10 +260,19 @@ def _from_toml(path: Path) -> list[Subject]:
                 f"{', '.join(SUBJECT_KEYS)}."
             )
         trials = []
+        if not isinstance(t["trials"], list):
+            raise InputError(
+                f"{where}: trials is a list of paths or of tables {{trial = ..., grf = ...}}, "
+                f'not {t["trials"]!r}; write trials = ["walk1.c3d", ...].'
+            )
         for item in t["trials"]:
             if isinstance(item, str):
                 trials.append(TrialSpec(_resolve(base, item)))
-            elif isinstance(item, Mapping) and "trial" in item:
+            elif (
+                isinstance(item, Mapping)
+                and isinstance(item.get("trial"), str)
+                and isinstance(item.get("grf", ""), str)
+            ):
                 grf = item.get("grf")
                 trials.append(
                     TrialSpec(_resolve(base, item["trial"]), _resolve(base, grf) if grf else None)
@@ -327,7 +348,7 @@ def _from_folder(folder: Path) -> list[Subject]:
             raise InputError(
                 f"Subject folder {sub}: no walking trial (every file's markers stand still)."
             )
-        sid = _check_id(sub.name, f"Subject folder {sub}")
+        sid = check_id(sub.name, f"Subject folder {sub}")
         out.append(
             Subject(
                 id=sid,

@@ -38,15 +38,20 @@ def summary_figures(rows: Sequence[dict]) -> dict:
     ok = [r for r in rows if r["status"] == "done"]
     figs = {}
     fig, ax = plt.subplots(figsize=(8, 3.6))
+    plotted = False
     for j, foot in enumerate(("left", "right")):
         for i, u in enumerate(UNITS):
             v = [x for x in _finite(r[f"f_ref_{u}_N"] for r in ok if r["foot"] == foot) if x > 0]
             x = i + (j - 0.5) * 0.3
             ax.plot([x] * len(v), v, "o", alpha=0.6, color=f"C{j}", label=foot if i == 0 else None)
             if v:
+                plotted = True
                 ax.plot([x - 0.12, x + 0.12], [sorted(v)[len(v) // 2]] * 2, color="k", lw=2)
     ax.set_xticks(range(len(UNITS)), UNITS)
-    ax.set_yscale("log")  # a unit its stances hardly load can sit decades above the others
+    if plotted:  # (no subject fitted: nothing to put on a log axis, which refuses to draw)
+        ax.set_yscale("log")  # a unit its stances hardly load can sit decades above the others
+    else:
+        ax.text(0.5, 0.5, "no subject fitted", ha="center", va="center", transform=ax.transAxes)
     ax.set_ylabel("force at the reference depth [N]")
     ax.set_title("contact units across subjects (bar: median; log scale)")
     ax.legend()

@@ -28,13 +28,13 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from gc_ocp.batch.manifest import Subject, read_manifest
+from gc_ocp.batch.manifest import Subject, TrialSpec, check_id, read_manifest
 from gc_ocp.batch.page import summary_html
-from gc_ocp.batch.subject import Settings, process_subject
+from gc_ocp.batch.subject import BATCH, Settings, process_subject
 from gc_ocp.batch.summary import error_rows, write_summary
 from gc_ocp.errors import InputError
 from gc_ocp.execution import dask_client
-from gc_ocp.outputs import atomic_write_text, check_writable
+from gc_ocp.outputs import OWNER, atomic_write_text, check_writable
 
 
 @dataclasses.dataclass
@@ -99,6 +99,42 @@ class Progress:
 
 def _duration(s: float) -> str:
     return f"{s:.0f} s" if s < 90 else f"{s / 60:.0f} min" if s < 5400 else f"{s / 3600:.1f} h"
+
+
+ROOT_OUTPUTS = ("summary.csv", "summary.parquet", "summary.html")
+"""The study's own files beside the subjects' folders: no subject may be named so."""
+
+
+def _subjects(manifest) -> list:
+    """The subjects of ``manifest`` (a manifest file or folder, or Subject objects), each
+    checked: a Subject, its id usable as a folder inside the study's (no path, none of
+    :data:`ROOT_OUTPUTS`)."""
+    if manifest is None:
+        raise InputError("Give a manifest: a CSV or TOML file, a study folder, or Subject objects.")
+    if isinstance(manifest, (str, Path)):
+        subjects = read_manifest(manifest)
+    else:
+        subjects = list(manifest)
+    for s in subjects:
+        if not isinstance(s, Subject):
+            raise InputError(
+                f"A study's subjects are gc_ocp.batch.Subject objects (or a manifest file or "
+                f"folder), not {type(s).__name__} {s!r:.60}; e.g. "
+                "Subject('S1', (TrialSpec(Path('walk.c3d')),))."
+            )
+        check_id(s.id, f"Subject {s.id!r}")
+        if s.id in ROOT_OUTPUTS:
+            raise InputError(
+                f"Subject id {s.id!r} is the name of one of the study's own files "
+                f"({', '.join(ROOT_OUTPUTS)}); rename the subject."
+            )
+        bad = [t for t in s.trials if not isinstance(t, TrialSpec)]
+        if bad:
+            raise InputError(
+                f"Subject {s.id}: trials are TrialSpec objects (TrialSpec(Path('walk.c3d'))), "
+                f"not {type(bad[0]).__name__} {bad[0]!r:.60}."
+            )
+    return subjects
 
 
 def clean_stale(out: Path, ids: Sequence[str]) -> list[Path]:
@@ -179,13 +215,21 @@ def run(
     (the same as ``settings.diagnose``); ``settings``: how every subject is fitted.
     ``progress``: a function called with each progress line, None for silence, "auto" for
     stderr when it is a terminal."""
-    subjects = list(manifest) if not isinstance(manifest, (str, Path)) else read_manifest(manifest)
+    subjects = _subjects(manifest)
+    if not isinstance(settings, (Settings, type(None))):
+        raise InputError(
+            f"settings must be a gc_ocp.batch.Settings, not {type(settings).__name__}; e.g. "
+            "Settings(diagnose=True)."
+        )
     ids = [s.id for s in subjects]
     dup = sorted({i for i in ids if ids.count(i) > 1})
     if dup:
         raise InputError(f"Subject id(s) {', '.join(dup)} appear twice; give each subject once.")
-    out = check_writable(out)
+    if out is None:
+        raise InputError("Give the study's output folder (out=..., --out DIR).")
+    out = check_writable(out, command=BATCH)
     out.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out / OWNER, BATCH + "\n")  # the study's folder, before any subject's
     clean_stale(out, ids)
     settings = settings or Settings()
     if diagnose:

@@ -39,11 +39,13 @@ from gc_ocp.batch.manifest import Subject
 from gc_ocp.batch.summary import error_rows, subject_rows
 from gc_ocp.errors import GcOcpError, InputError, SolveError
 from gc_ocp.estimation.bias import check_replicates
-from gc_ocp.outputs import OutputSet, atomic_write, atomic_write_text
+from gc_ocp.outputs import OWNER, OutputSet, atomic_write, atomic_write_text
 from gc_ocp.workflow.provenance import sha256
 
 DONE = "done.json"
 ERROR = "error.json"
+BATCH = "gc-ocp batch"
+"""The command that owns a study's folders (:data:`~gc_ocp.outputs.OWNER`)."""
 DIAGNOSIS_OUTPUTS = ("diagnosis.json", "diagnosis_report.html")
 KINEMATICS_CACHE = Path(".cache") / "kinematics"
 
@@ -94,8 +96,20 @@ def subject_key(subject: Subject, settings: Settings) -> str:
             "values": values,
             "files": files,
             "static": static,
+            "markerset": _markerset_content(subject),
         }
     )
+
+
+def _markerset_content(subject: Subject) -> str | None:
+    """The digest of the subject's marker-set file: a result made with a marker set is stale
+    once the file is edited, though its name is the same."""
+    from gc_ocp.model.markerset import markerset_path
+
+    if subject.markerset is None:
+        return None
+    p = markerset_path(subject.markerset)
+    return sha256(p) if p.is_file() else None
 
 
 def completed(folder: Path, key: str) -> dict | None:
@@ -124,6 +138,7 @@ def _kinematics(trial, subject: Subject, spec, cache_root: Path):
             "grf": sha256(spec.grf) if spec.grf else None,
             "static": sha256(subject.static) if subject.static else None,
             "markerset": subject.markerset,
+            "markerset_file": _markerset_content(subject),
             "cutoff": subject.cutoff,
             "foot_roll": subject.foot_roll,
             "mass": subject.mass,
@@ -269,11 +284,15 @@ def _process(subject: Subject, out_root: Path, settings: Settings) -> dict:
             "traceback": trace,
             "warnings": said,
         }
-        folder.mkdir(parents=True, exist_ok=True)
-        stale = folder / DONE
-        if stale.exists():
-            stale.unlink()
-        atomic_write_text(folder / ERROR, json.dumps({"key": key, **err}, indent=2))
+        if not _owned_by_another_command(folder):  # (else it is not ours to write in)
+            from gc_ocp.workflow.fit_files import FIT_OUTPUTS
+
+            folder.mkdir(parents=True, exist_ok=True)
+            # an earlier run's outputs of other inputs (the key changed) would sit beside this
+            # failure as if they were its subject's results: removed with its done.json
+            for name in (DONE, *FIT_OUTPUTS, *DIAGNOSIS_OUTPUTS):
+                (folder / name).unlink(missing_ok=True)
+            atomic_write_text(folder / ERROR, json.dumps({"key": key, **err}, indent=2))
         return {
             "subject": subject.id,
             "status": "failed",
@@ -305,6 +324,13 @@ def _process(subject: Subject, out_root: Path, settings: Settings) -> dict:
     }
 
 
+def _owned_by_another_command(folder: Path) -> bool:
+    """The subject's folder holds the outputs of another command than ``gc-ocp batch``
+    (:data:`~gc_ocp.outputs.OWNER`): nothing of this run is written there."""
+    owner = folder / OWNER
+    return owner.is_file() and owner.read_text(encoding="utf-8").strip() not in ("", BATCH)
+
+
 def _fit_subject(
     subject: Subject, folder: Path, cache_root: Path, settings: Settings
 ) -> tuple[list[dict], list[str]]:
@@ -322,7 +348,7 @@ def _fit_subject(
         **settings.to_json(),
     )
     prov = provenance(options, pairs, skipped)
-    out = OutputSet(folder, FIT_OUTPUTS + DIAGNOSIS_OUTPUTS + (ERROR,), "gc-ocp batch")
+    out = OutputSet(folder, FIT_OUTPUTS + DIAGNOSIS_OUTPUTS + (ERROR,), BATCH)
     try:
         report = fit(
             pairs,

@@ -26,6 +26,7 @@ from gc_ocp.model.recognition import (
     recognise_landmarks,
     shipped_mapping,
 )
+from gc_ocp.text import read_utf8
 
 __all__ = [
     "FOOT_SEGMENTS",
@@ -45,29 +46,52 @@ def available_markersets() -> list[str]:
     return sorted(p.stem for p in MARKERSET_DIR.glob("*.toml"))
 
 
+def markerset_path(name_or_path: str | Path) -> Path:
+    """The file of a shipped marker set's name (``"plugingait"``) or of a TOML path (which may
+    not exist)."""
+    p = Path(name_or_path)
+    return p if p.suffix.lower() == ".toml" else MARKERSET_DIR / f"{name_or_path}.toml"
+
+
 def load_markerset(name_or_path: str | Path) -> MarkerSet:
     """Load a shipped marker set by name (``"plugingait"``...) or any TOML file by path."""
-    p = Path(name_or_path)
-    if p.suffix != ".toml":
-        p = MARKERSET_DIR / f"{name_or_path}.toml"
+    p = markerset_path(name_or_path)
     if not p.exists():
         raise MarkerError(
             f'Marker set "{name_or_path}" not found; available marker sets: {available_markersets()} '
             f"(in {MARKERSET_DIR}), or give the path of a .toml file (format: docs/markersets.md)."
         )
     try:
-        data = tomllib.loads(p.read_text())
+        data = tomllib.loads(read_utf8(p, "Marker set file"))
     except tomllib.TOMLDecodeError as e:
         raise MarkerError(f"Marker set file {p} is not valid TOML: {e}") from None
+    table = data.get("markers", {})
+    if not isinstance(table, dict):
+        raise MarkerError(
+            f"Marker set file {p}: [markers] must be a table of marker tables, not {table!r:.40} "
+            "(format: docs/markersets.md)."
+        )
     markers = {}
-    for label, d in data.get("markers", {}).items():
+    for label, d in table.items():
+        if not isinstance(d, dict):
+            raise MarkerError(
+                f'Marker "{label}" in {p} is {d!r:.40}, not a table with segment and position, '
+                'e.g. "LHEE" = {segment = "hindfoot_l", position = [-0.03, 0.0, 0.05]} '
+                "(format: docs/markersets.md)."
+            )
         try:
             pos = np.array(d["position"], dtype=float)
             seg = str(d["segment"])
+            weight = _number(d.get("weight", 1.0), "weight")
         except KeyError as e:
             raise MarkerError(
                 f'Marker "{label}" in {p} has no {e.args[0]}; each marker needs '
                 "segment and position"
+            ) from None
+        except (TypeError, ValueError) as e:
+            raise MarkerError(
+                f'Marker "{label}" in {p}: {e}; position is three numbers [m] in the segment\'s '
+                "frame, weight a number (format: docs/markersets.md)."
             ) from None
         if pos.shape != (3,):
             raise MarkerError(
@@ -78,13 +102,27 @@ def load_markerset(name_or_path: str | Path) -> MarkerSet:
             label,
             seg,
             pos,
-            float(d.get("weight", 1.0)),
+            weight,
             str(d.get("role", "")),
             bool(d.get("cluster", False)),
         )
-    return MarkerSet(
-        str(data.get("name", p.stem)), p, float(data.get("reference_height", 1.70)), markers
-    )
+    try:
+        height = _number(data.get("reference_height", 1.70), "reference_height")
+    except (TypeError, ValueError) as e:
+        raise MarkerError(f"Marker set file {p}: {e}.") from None
+    if not 0.5 <= height <= 2.5:
+        raise MarkerError(
+            f"Marker set file {p}: reference_height {height:g} is not a height in metres "
+            "(0.5-2.5): the marker positions are scaled from it; give it in metres."
+        )
+    return MarkerSet(str(data.get("name", p.stem)), p, height, markers)
+
+
+def _number(value, what: str) -> float:
+    """A TOML number (not a string or a boolean, which ``float`` would take)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{what} must be a number, not {value!r}")
+    return float(value)
 
 
 def detect_markerset(marker_names, markers=None, source="the trial") -> MarkerSet:
