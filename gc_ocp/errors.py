@@ -37,6 +37,22 @@ class ModelError(GcOcpError):
     """The body model or contact layout is inconsistent."""
 
 
+class UnknownNameError(InputError, ModelError):
+    """A name the user gave (an effect, a component, a base) that the package does not know:
+    bad input (an :class:`InputError`, which a notebook's ``except InputError`` and the CLI's
+    exit status 2 take) and a model that cannot be made (a :class:`ModelError`, as before)."""
+
+
+def names_of(value, what: str) -> list[str]:
+    """``value`` as a list of names: one string is one name (``"damping"``, not its letters);
+    anything but strings is refused naming ``what``."""
+    names = [value] if isinstance(value, str) else list(value)
+    bad = [n for n in names if not isinstance(n, str)]
+    if bad:
+        raise InputError(f"{what} are names (strings), but got {bad[0]!r}")
+    return names
+
+
 class RankError(GcOcpError, ValueError):
     """A linear system has no unique solution (rank deficient)."""
 

@@ -61,3 +61,64 @@ def test_a_trial_and_its_kinematics_print_in_one_line(pair):
         assert "\n" not in text and len(text) < 300
     assert "3 stances" in repr(trial) and "63.6 kg" in repr(trial)
     assert "27 coordinates" in repr(kin)
+
+
+@pytest.mark.parametrize(
+    "kw, words",
+    [
+        ({"mass": "70kg"}, ["mass must be a number in kg", "'70kg'"]),
+        ({"mass": [70]}, ["mass must be a number in kg"]),
+        ({"height": True}, ["height must be a number in m"]),
+        ({"belt_speed": "fast"}, ["belt_speed must be a number in m/s"]),
+    ],
+)
+def test_a_value_that_is_not_a_number_is_named(kw, words):
+    """``load_trial(mass="70kg")`` and the like: an InputError naming the argument and its unit
+    (they were a ValueError or TypeError from inside). A numeric string stays accepted, as on
+    the command line."""
+    import gc_ocp
+    from gc_ocp.errors import InputError
+
+    with pytest.raises(InputError) as e:
+        gc_ocp.load_trial(**kw)
+    for w in words:
+        assert w in str(e.value)
+    assert gc_ocp.load_trial(mass="70").mass == 70.0
+
+
+def test_kinematics_arguments_of_the_wrong_kind_are_named():
+    """A cutoff as text, a static trial given as a path, a walking trial given as the static
+    one (the CLI refused it; the API fitted it)."""
+    import gc_ocp
+    from gc_ocp.errors import InputError
+
+    t = gc_ocp.load_trial()
+    with pytest.raises(InputError, match="cutoff_hz must be a number in Hz"):
+        gc_ocp.compute_kinematics(t, cutoff_hz="six")
+    with pytest.raises(InputError, match="gc_ocp.load_static"):
+        gc_ocp.compute_kinematics(t, static="static.c3d")
+    with pytest.raises(InputError, match="is not static"):
+        gc_ocp.compute_kinematics(t, static=t)
+
+
+def test_effect_names_and_diagnosis_settings_are_checked(bundled_stances):
+    """An unknown effect or base is an InputError (a notebook's except InputError missed the
+    ModelError it was), one string is one name (it was split into letters), and workers or
+    mismatch draws below their range are refused (they ran serially, or with no draws)."""
+    from gc_ocp.diagnosis import diagnose_stances
+    from gc_ocp.diagnosis.diagnose import candidate_names, resolve_base
+    from gc_ocp.errors import InputError
+    from gc_ocp.estimation.components import base_model, model_from_names
+
+    with pytest.raises(InputError, match="Unknown effect"):
+        candidate_names(base_model(), ["dampnig"])
+    assert candidate_names(base_model(), "damping") == ["damping"]
+    with pytest.raises(InputError, match="Unknown base"):
+        resolve_base("reg")
+    with pytest.raises(InputError, match="Unknown component"):
+        model_from_names(["frictoin"])
+    assert model_from_names("damping") == model_from_names(["damping"])
+    data = list(bundled_stances)
+    for kw in ({"workers": 0}, {"workers": -1}, {"mismatch_draws": -3}):
+        with pytest.raises(InputError, match="must be"):
+            diagnose_stances(data, candidates=["damping"], **kw)

@@ -73,6 +73,19 @@ def test_a_mass_estimated_from_plates_in_the_wrong_unit_is_refused(walk):
         check_for_fit([(low, k)])
 
 
+def test_kinematics_of_another_trial_are_refused(walk):
+    """A notebook's slip, the kinematics of another trial beside a trial (another name, or the
+    same file's motion cut shorter): refused naming both (it was fitted: the feet of one walk
+    under the plates of another, the flags blaming the contact model)."""
+    t, k = walk
+    other = dataclasses.replace(k, trial_name="Walking2")
+    with pytest.raises(InputError, match="are of 'Walking2'.*pair each trial with its own"):
+        check_for_fit([(t, other)])
+    shorter = dataclasses.replace(k, time=k.time[:-10])
+    with pytest.raises(InputError, match="not of that trial"):
+        check_for_fit([(t, shorter)])
+
+
 def test_belt_speed_on_overground_is_refused(walk):
     t, k = walk
     with pytest.raises(InputError, match="overground walking; drop --belt-speed"):

@@ -16,7 +16,7 @@ import numpy as np
 from gc_ocp.diagnosis.compare import check_trained_feet, evaluate_on, reduction
 from gc_ocp.diagnosis.diagnose import POSE_WIDTH, resolve_base, sized_base
 from gc_ocp.diagnosis.result import WaterfallStep
-from gc_ocp.errors import ModelError
+from gc_ocp.errors import ModelError, UnknownNameError
 from gc_ocp.estimation.components import REGISTRY, candidate_effects, model_from_names
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.solve import IpoptOptions
@@ -54,7 +54,9 @@ def confirm_stances(
     _, base_model_ = resolve_base(base)
     unknown = [n for n in selected if n not in REGISTRY]
     if unknown:
-        raise ModelError(f"Unknown effect(s) {unknown}; choose from {list(candidate_effects())}")
+        raise UnknownNameError(
+            f"Unknown effect(s) {unknown}; choose from {list(candidate_effects())}"
+        )
     if not test:
         raise ModelError(
             "No stance to confirm on: give stances or trials the diagnosis did not use"

@@ -16,6 +16,7 @@ Confirmation on new stances is :mod:`.confirm`; the HTML page, :mod:`.report`.
 from __future__ import annotations
 
 import dataclasses
+import numbers
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor
@@ -57,7 +58,7 @@ from gc_ocp.diagnosis.selection import (
     rank,
 )
 from gc_ocp.diagnosis.where import where
-from gc_ocp.errors import InputError, ModelError
+from gc_ocp.errors import InputError, ModelError, UnknownNameError, names_of
 from gc_ocp.estimation.components import (
     REGISTRY,
     bare_seed_model,
@@ -120,10 +121,12 @@ def sized_base(
 def candidate_names(base: tuple, candidates: Sequence[str] | None = None) -> list[str]:
     """The effects to try on ``base``: ``candidates`` (default: every effect of the library,
     :data:`EFFECTS`) minus those the base already has."""
-    names = list(candidate_effects() if candidates is None else candidates)
+    names = list(candidate_effects()) if candidates is None else names_of(candidates, "candidates")
     unknown = [n for n in names if n not in REGISTRY]
     if unknown:
-        raise ModelError(f"Unknown effect(s) {unknown}; choose from {list(candidate_effects())}")
+        raise UnknownNameError(
+            f"Unknown effect(s) {unknown}; choose from {list(candidate_effects())}"
+        )
     return [n for n in names if not REGISTRY[n].present_in(base)]
 
 
@@ -131,7 +134,7 @@ def resolve_base(base: str | tuple) -> tuple[str, tuple]:
     """``(label, model)`` of a base given by name (:data:`BASES`) or as a model tuple."""
     if isinstance(base, str):
         if base not in BASES:
-            raise ModelError(f'Unknown base "{base}"; choose one of {sorted(BASES)}')
+            raise UnknownNameError(f'Unknown base "{base}"; choose one of {sorted(BASES)}')
         return base, BASES[base]()
     return "custom", tuple(base)
 
@@ -182,6 +185,19 @@ def diagnose_stances(
     candidate)."""
     if null_fits not in NULL_FITS:
         raise InputError(f"null_fits must be one of {', '.join(NULL_FITS)}, but got {null_fits!r}")
+    if workers is not None and (
+        isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 1
+    ):
+        raise InputError(f"workers must be 1 or more (None: the cores), but got {workers!r}")
+    if (
+        isinstance(mismatch_draws, bool)
+        or not isinstance(mismatch_draws, numbers.Integral)
+        or mismatch_draws < 0
+    ):
+        raise InputError(
+            f"mismatch_draws must be a whole number, 0 or more ({MISMATCH_DRAWS} is the default), "
+            f"but got {mismatch_draws!r}"
+        )
     if null_fits == "refit" and mismatch_draws < 1:
         raise InputError(
             f"null_fits='refit' makes one replicate per mismatch draw, but mismatch_draws is "

@@ -391,9 +391,30 @@ def _one_height(trials: list[Trial]) -> tuple[list[Trial], list[str]]:
     return _pooled(trials, "height", height, source)
 
 
+def own_kinematics(trial: Trial, kin) -> None:
+    """Refuse kinematics computed from another trial than ``trial`` (another name or another
+    time axis): fitted, the plates of one walk would be explained by the feet of another, and
+    the fit's flags would blame the contact model (a notebook's ``[(t1, k2)]``)."""
+    t = np.asarray(trial.marker_time)
+    same = (
+        kin.trial_name == trial.name
+        and len(kin.time) == len(t)
+        and np.allclose(np.asarray(kin.time), t, atol=1e-9)
+    )
+    if not same:
+        raise InputError(
+            f"The kinematics given with {trial.source} are of {kin.trial_name!r} "
+            f"({len(kin.time)} frames, {kin.time[0]:.3f}-{kin.time[-1]:.3f} s), not of that trial "
+            f"({trial.name!r}, {len(t)} frames, {t[0]:.3f}-{t[-1]:.3f} s): pair each trial with "
+            "its own, [(t, gc_ocp.compute_kinematics(t)) for t in trials]."
+        )
+
+
 def check_for_fit(pairs: list) -> tuple[list, list[str]]:
     """Check ``[(trial, kinematics)]`` before fitting: errors raise, the rest returns as
     ``(checked pairs, notes)`` (stances excluded, belt speed set, one mass for the subject)."""
+    for t, kin in pairs:
+        own_kinematics(t, kin)
     duplicates([t for t, _ in pairs])
     trials, notes = one_subject([t for t, _ in pairs])
     pairs = [(t, kin) for t, (_, kin) in zip(trials, pairs, strict=True)]

@@ -33,6 +33,7 @@ from gc_ocp.io.pairing import TRIAL_FIX, find_grf
 from gc_ocp.io.stances import DEFAULT_THRESHOLD, check_peaks, detect_stances
 from gc_ocp.io.subject import estimate_body_weight, read_subject_metadata
 from gc_ocp.trial import ESTIMATED, GRAVITY, ExcludedStance, Plate, Trial, belt_velocity
+from gc_ocp.values import number
 
 
 def bundled_example_path() -> Path:
@@ -102,7 +103,7 @@ def load_trial(
             f"--grf FILE.mot."
         )
     if mass is not None:
-        raw.mass, raw.mass_source = float(mass), "given (mass=)"
+        raw.mass, raw.mass_source = number(mass, "mass", "kg"), "given (mass=)"
     meta = read_subject_metadata([p for p in (path, raw.grf_source) if p is not None])
     if raw.mass is None and "mass" in meta:
         raw.mass, raw.mass_source = meta["mass"]
@@ -111,7 +112,7 @@ def load_trial(
     if raw.mass is not None:
         _check_mass(raw.mass, raw.mass_source)
     if height is not None:
-        raw.height, raw.height_source = float(height), "given (height=)"
+        raw.height, raw.height_source = number(height, "height", "m"), "given (height=)"
     if raw.height is not None and not (0.5 < raw.height < 2.6):
         raise InputError(
             f"Subject height {raw.height} m ({raw.height_source}) is not plausible; "
@@ -168,6 +169,8 @@ def load_trial(
     )
     raw.notes.extend(side_notes)
     check_peaks(plates, stances, str(path))
+    if belt_speed is not None:
+        belt_speed = number(belt_speed, "belt_speed", "m/s")
     if belt_speed is not None and belt_speed < 0:
         raise InputError(
             f"belt_speed={belt_speed}: give the belt speed as a positive number in m/s."

@@ -48,6 +48,7 @@ from gc_ocp.model.markerset import MarkerSet, detect_markerset, load_markerset
 from gc_ocp.model.recognition import shipped_mapping
 from gc_ocp.model.urdf import POSTERIOR_FROM_HEEL, POSTERIOR_HALF_WIDTH
 from gc_ocp.trial import Trial
+from gc_ocp.values import number
 
 FOOT_FLAT = (0.20, 0.45)
 """Fraction of stance used as foot-flat for the sole-height calibration without a static trial."""
@@ -396,6 +397,16 @@ def compute_kinematics(
             "trial = gc_ocp.load_trial(path); kin = gc_ocp.compute_kinematics(trial) (one "
             "call per trial of a subject)."
         )
+    cutoff_hz = number(cutoff_hz, "cutoff_hz", "Hz")
+    if static is not None:
+        if not isinstance(static, Trial):
+            raise InputError(
+                f"static takes a loaded static trial, not {type(static).__name__} {static!r:.60}: "
+                "static = gc_ocp.load_static(path, trial); compute_kinematics(trial, static=static)"
+            )
+        from gc_ocp.io.load import check_static
+
+        check_static(static.source, static.marker_names, static.markers)  # as load_static
     say = progress or (lambda s: None)
     if markerset is None:
         markerset = detect_markerset(trial.marker_names, trial.markers, trial.source)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import importlib
 
-from gc_ocp.errors import ModelError
+from gc_ocp.errors import ModelError, UnknownNameError, names_of
 from gc_ocp.estimation.components.base import Component, DecodeContext, Scope, SummaryRow
 from gc_ocp.estimation.components.belt import BeltSpeed
 from gc_ocp.estimation.components.contact import ContactLaw, Param
@@ -114,9 +114,10 @@ def describe_block(class_name: str, block: dict) -> list[SummaryRow]:
 def model_from_names(names, base: tuple = ()) -> tuple[Component, ...]:
     """``base`` plus the registered components ``names`` (the defaults for the model they join,
     :meth:`Component.for_model`), skipping those whose class is already in ``base``."""
+    names = names_of(names, "component names")
     unknown = [n for n in names if n not in REGISTRY]
     if unknown:
-        raise ModelError(f"Unknown component(s) {unknown}; choose from {sorted(REGISTRY)}")
+        raise UnknownNameError(f"Unknown component(s) {unknown}; choose from {sorted(REGISTRY)}")
     model = tuple(base)
     for n in names:
         if REGISTRY[n] not in {type(c) for c in model}:
