@@ -122,3 +122,28 @@ def test_effect_names_and_diagnosis_settings_are_checked(bundled_stances):
     for kw in ({"workers": 0}, {"workers": -1}, {"mismatch_draws": -3}):
         with pytest.raises(InputError, match="must be"):
             diagnose_stances(data, candidates=["damping"], **kw)
+
+
+def test_a_static_trial_of_another_subject_is_refused():
+    """The Rajagopal static trial scaled 1.3 times (another, larger subject): its foot markers
+    are 30 % off the walking trial's distances, refused (it was used: height 2.34 m, the
+    exponent 2.5 against 1.25). The trial's own static trial passes."""
+    import dataclasses
+    from pathlib import Path
+
+    from gc_ocp.kinematics.pipeline import check_static_feet
+    from gc_ocp.model.markerset import detect_markerset
+
+    data = Path(gc_ocp.__file__).parents[2] / "shared" / "data" / "opensim_rajagopal_overground"
+    if not data.is_dir():
+        pytest.skip("the shared data are not beside the repository")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = gc_ocp.load_trial(data / "motion_capture_walk.trc", data / "grf_walk.mot", mass=85.07)
+        static = gc_ocp.load_static(data / "static_walk_1.trc", t)
+    ms = detect_markerset(t.marker_names, t.markers, t.source)
+    check_static_feet(static, t, ms)
+    larger = dataclasses.replace(static, markers=1.3 * static.markers)
+    with pytest.raises(InputError, match="of another subject") as e:
+        check_static_feet(larger, t, ms)
+    assert "30%" in str(e.value) or "31%" in str(e.value)

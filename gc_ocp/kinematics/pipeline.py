@@ -364,6 +364,52 @@ def landmark_mapping(markerset: MarkerSet, trial: Trial) -> dict:
     return shipped_mapping(markerset, trial.marker_names, trial.markers, trial.source)
 
 
+STATIC_FOOT_TOLERANCE = (0.15, 0.010)
+"""A static trial's foot-marker distances agree with the walking trial's within 15 % and 10 mm
+(either suffices), taken as the median over every pair of one foot's markers: a foot is rigid
+enough over its markers that skin sliding moves a distance by a few millimetres, and a marker
+mislabelled in one file moves only its own pairs (the BTS files: RIIT 170 mm from RIMH in the
+static trial, 50 mm in the walking ones). Beyond both, the static trial is another subject's,
+or the markers were placed again between the two."""
+
+
+def check_static_feet(static: Trial, walking: Trial, markerset: MarkerSet) -> None:
+    """Refuse a static trial whose feet are not the walking trial's: the distances between two
+    foot markers of one side, median over frames, compared pair by pair; the median pair must
+    agree (:data:`STATIC_FOOT_TOLERANCE`). A static trial of another (1.3 times larger) subject
+    was used, the fit's height 2.34 m where the walking trial's is 1.80 m and every contact
+    parameter off."""
+    rel, absolute = STATIC_FOOT_TOLERANCE
+    pairs = []
+    for side in ("left", "right"):
+        names = [
+            m.name
+            for m in markerset.foot_markers(side)
+            if m.name in static.marker_names and m.name in walking.marker_names
+        ]
+        for i, a in enumerate(names):
+            for b in names[i + 1 :]:
+                d = [
+                    float(np.nanmedian(np.linalg.norm(t.marker(a) - t.marker(b), axis=1)))
+                    for t in (static, walking)
+                ]
+                if all(np.isfinite(d)) and min(d) > 0:
+                    pairs.append((abs(d[0] - d[1]) / d[1], a, b, d))
+    if not pairs:
+        return
+    pairs.sort(key=lambda p: p[0])
+    off, a, b, (ds, dw) = pairs[len(pairs) // 2]  # the median pair
+    if off > rel and abs(ds - dw) > absolute:
+        raise InputError(
+            f"Static trial {static.source}: its foot markers are {off:.0%} off their distances "
+            f"in the walking trial {walking.source} (median over {len(pairs)} pairs; e.g. {a} "
+            f"and {b}: {ds * 1e3:.0f} mm against {dw * 1e3:.0f} mm; a foot is rigid to a few mm "
+            "there): the static trial is of another subject, or the markers were placed again. "
+            "Give this session's static trial, or none (static=None; on the command line: leave "
+            "out --static)."
+        )
+
+
 def compute_kinematics(
     trial: Trial,
     model: BodyModel | None = None,
@@ -431,9 +477,10 @@ def compute_kinematics(
         ]  # (a second column of a duplicated label, "RANK#2", has no name in the static)
         if missing:
             raise InputError(
-                f"Static trial {static.source} lacks foot markers {missing}; "
-                "pass static=None to calibrate on the walking trial."
+                f"Static trial {static.source} lacks foot markers {missing}; calibrate on the "
+                "walking trial instead (static=None; on the command line: leave out --static)."
             )
+        check_static_feet(static, trial, markerset)
         sidx = [static.marker_names.index(n) for n in st_names]
         k = np.linspace(
             0, len(static.marker_time) - 1, min(N_STATIC_FRAMES, len(static.marker_time))
