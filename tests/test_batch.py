@@ -181,6 +181,20 @@ def test_a_subject_that_now_fails_leaves_no_earlier_results_beside_its_error(tmp
     assert sorted(p.name for p in folder.iterdir()) == ["error.json", "notes.txt"]
 
 
+def test_a_study_folder_whose_subject_keeps_its_trials_one_level_down_says_so(tmp_path):
+    """Subject B's trials in B/session1/: refused naming the folder (B vanished from the study
+    without a word). A subfolder with no trial anywhere (an output folder) is still passed."""
+    (tmp_path / "A").mkdir()
+    shutil.copy(EXAMPLE, tmp_path / "A" / "walk.c3d")
+    (tmp_path / "B" / "session1").mkdir(parents=True)
+    shutil.copy(EXAMPLE, tmp_path / "B" / "session1" / "walk.c3d")
+    (tmp_path / "out").mkdir()
+    with pytest.raises(InputError, match="B holds trials only in its subfolders"):
+        read_manifest(tmp_path)
+    shutil.rmtree(tmp_path / "B")
+    assert [s.id for s in read_manifest(tmp_path)] == ["A"]
+
+
 def test_toml_manifest(tmp_path):
     shutil.copy(EXAMPLE, tmp_path / "w.c3d")
     m = tmp_path / "m.toml"

@@ -157,6 +157,8 @@ def test_markerset_unknown_name_lists_choices():
         ),
         (lambda t: t.replace("weight = 2.0", 'weight = "x"', 1), ["weight must be a number"]),
         (lambda t: "# caf\u00e9\n" + t, ["not UTF-8"]),
+        (lambda t: t.replace('"hindfoot_l"', '"heel_l"', 1), ["heel_l", "not a segment"]),
+        (lambda t: t.replace('"thigh_l"', '"knee_l"', 1), ["knee_l", "not a segment"]),
     ],
 )
 def test_a_marker_set_file_with_a_wrong_value_names_it(tmp_path, change, words):

@@ -335,6 +335,18 @@ def _from_folder(folder: Path) -> list[Subject]:
             p for p in sub.iterdir() if p.is_file() and p.suffix.lower() in TRIAL_SUFFIXES
         )
         if not files:
+            deeper = sorted(
+                p.relative_to(sub)
+                for p in sub.rglob("*")
+                if p.is_file() and p.suffix.lower() in TRIAL_SUFFIXES
+            )
+            if deeper:  # a subject's trials one level down would vanish from the study unsaid
+                raise InputError(
+                    f"Subject folder {sub} holds trials only in its subfolders ({deeper[0]}"
+                    f"{' and more' if len(deeper) > 1 else ''}); a study folder has one "
+                    "subfolder per subject with its trial files directly inside: move them up, "
+                    "or list them in a CSV/TOML manifest (docs/batch.md)."
+                )
             continue  # not a subject folder (e.g. an output folder beside them)
         statics = [p for p in files if _static_or_unreadable(p) is True]
         if len(statics) > 1:

@@ -14,6 +14,13 @@ import numpy as np
 from gc_ocp.errors import MarkerError
 
 FOOT_SEGMENTS = ("hindfoot", "toes")
+MARKER_SEGMENTS = ("pelvis", "torso") + tuple(
+    f"{seg}_{side}"
+    for seg in ("thigh", "shank", "hindfoot", "toes", "upper_arm", "forearm")
+    for side in "lr"
+)
+"""The model segments a marker may sit on (``docs/markersets.md``); the model's other frames
+(joints, sole points) move with these and are no marker's."""
 
 
 @dataclass(frozen=True)

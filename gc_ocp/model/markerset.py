@@ -20,7 +20,7 @@ import dataclasses
 import warnings
 
 from gc_ocp.errors import MarkerError
-from gc_ocp.model.markerdefs import FOOT_SEGMENTS, MarkerDef, MarkerSet
+from gc_ocp.model.markerdefs import FOOT_SEGMENTS, MARKER_SEGMENTS, MarkerDef, MarkerSet
 from gc_ocp.model.recognition import (
     markerset_from_recognition,
     recognise_landmarks,
@@ -96,6 +96,11 @@ def load_markerset(name_or_path: str | Path) -> MarkerSet:
         if pos.shape != (3,):
             raise MarkerError(
                 f'Marker "{label}" in {p}: position must have 3 values, but got {pos.shape}'
+            )
+        if seg not in MARKER_SEGMENTS:
+            raise MarkerError(
+                f'Marker "{label}" in {p}: segment "{seg}" is not a segment of the model; '
+                f"choose one of {', '.join(MARKER_SEGMENTS)} (docs/markersets.md)."
             )
         pos.setflags(write=False)
         markers[label] = MarkerDef(
