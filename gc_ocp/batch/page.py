@@ -53,7 +53,9 @@ def summary_figures(rows: Sequence[dict]) -> dict:
     else:
         ax.text(0.5, 0.5, "no subject fitted", ha="center", va="center", transform=ax.transAxes)
     ax.set_ylabel("force at the reference depth [N]")
-    ax.set_title("contact units across subjects (bar: median; log scale)")
+    ax.set_title(
+        "contact units across subjects (bar: median" + ("; log scale)" if plotted else ")")
+    )
     ax.legend()
     fig.tight_layout()
     figs["units"] = fig
@@ -70,6 +72,8 @@ def summary_figures(rows: Sequence[dict]) -> dict:
                 b.set_facecolor(f"C{k}")
                 b.set_alpha(0.5)
         ax.plot([], [], "s", color=f"C{k}", alpha=0.5, label=label)
+    if not ok:
+        ax.text(0.5, 0.5, "no subject fitted", ha="center", va="center", transform=ax.transAxes)
     ax.set_xticks(range(len(CHANNELS)), [SHORT[c] for c in CHANNELS])
     ax.set_ylabel("RMS [% BW; torques % BW x height]")
     ax.set_title("fit error across subjects and feet")
