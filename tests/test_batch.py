@@ -66,11 +66,16 @@ def test_csv_manifest_groups_trials_by_subject_and_types_the_values(tmp_path):
     ],
 )
 def test_a_bad_manifest_names_the_row_and_the_fix(tmp_path, text, words):
-    shutil.copy(EXAMPLE, tmp_path / "x.c3d")
-    m = tmp_path / "m.csv"
-    m.write_text(text)
+    _refused(tmp_path / "m.csv", text, words)
+
+
+def _refused(manifest: Path, text: str, words: list[str]) -> None:
+    """``text`` written as ``manifest`` (beside a copy of the example as x.c3d) is refused
+    with every one of ``words`` in the message."""
+    shutil.copy(EXAMPLE, manifest.parent / "x.c3d")
+    manifest.write_text(text)
     with pytest.raises(InputError) as e:
-        read_manifest(m)
+        read_manifest(manifest)
     for w in words:
         assert w in str(e.value)
 
@@ -87,13 +92,7 @@ def test_a_toml_value_of_the_wrong_type_names_the_key(tmp_path, text, words):
     """A list written as a string (it was iterated letter by letter: "t does not exist"), a
     trial path that is a number (an AttributeError, status 3), a mass that is a boolean (read
     as 1 kg)."""
-    shutil.copy(EXAMPLE, tmp_path / "x.c3d")
-    m = tmp_path / "m.toml"
-    m.write_text(text)
-    with pytest.raises(InputError) as e:
-        read_manifest(m)
-    for w in words:
-        assert w in str(e.value)
+    _refused(tmp_path / "m.toml", text, words)
 
 
 @pytest.mark.parametrize("suffix", [".csv", ".toml"])

@@ -242,6 +242,19 @@ def test_walking_rotation_turns_the_walk_to_plus_x(direction, turns, treadmill):
 
 
 @needs_data
+def _mot_table(path: Path) -> tuple[list[str], int, list[str], np.ndarray]:
+    """A MOT file's lines, the index of its ``endheader`` line, its column names and its data."""
+    lines = path.read_text().splitlines()
+    end = lines.index("endheader")
+    return lines, end, lines[end + 1].split("\t"), np.loadtxt(path, skiprows=end + 2)
+
+
+def _write_mot(path: Path, head: list[str], data: np.ndarray) -> None:
+    """A MOT of the header lines ``head`` (through the column names) and ``data``."""
+    body = "\n".join("\t".join(f"{v:.6f}" for v in row) for row in data)
+    path.write_text("\n".join(head) + "\n" + body + "\n")
+
+
 def test_rotated_trc_mot_pair_is_turned_back(tmp_path):
     """End-to-end: the Rajagopal files turned 90 deg about the vertical load like the originals."""
     ref = _load("raj")
@@ -258,16 +271,12 @@ def test_rotated_trc_mot_pair_is_turned_back(tmp_path):
         xyz = np.column_stack([-xyz[:, 2], xyz[:, 1], xyz[:, 0]])  # walk toward file -Z (lab +Y)
         out.append("\t".join(cells[:2] + [f"{x:.3f}" for x in xyz.ravel()]))
     (tmp_path / "rot.trc").write_text("\n".join(out) + "\n")
-    lines = RAJ[1].read_text().splitlines()
-    end = lines.index("endheader")
-    cols = lines[end + 1].split("\t")
-    data = np.loadtxt(RAJ[1], skiprows=end + 2)
+    lines, end, cols, data = _mot_table(RAJ[1])
     for c, col in enumerate(cols):
         if col.endswith(("vx", "px", "_x")):
             x, z = data[:, c].copy(), data[:, c + 2].copy()
             data[:, c], data[:, c + 2] = -z, x
-    body = "\n".join("\t".join(f"{v:.6f}" for v in row) for row in data)
-    (tmp_path / "rot.mot").write_text("\n".join(lines[: end + 2]) + "\n" + body + "\n")
+    _write_mot(tmp_path / "rot.mot", lines[: end + 2], data)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         rot = load_trial(tmp_path / "rot.trc", tmp_path / "rot.mot", mass=RAJ_MASS)
@@ -329,12 +338,8 @@ def test_a_force_set_that_sums_both_feet_is_not_one_stance(tmp_path):
     the sum): the 'stance' it makes covers several steps, its centre of pressure travelling far
     more than a foot is long. It is excluded with that reason (it was fitted at exit 0: 34 % BW
     of vertical error and mu at 0)."""
-    lines = RAJ[1].read_text().splitlines()
-    end = lines.index("endheader")
-    data = np.loadtxt(RAJ[1], skiprows=end + 2)
-    cols = lines[end + 1].split("\t")
+    lines, end, cols, data = _mot_table(RAJ[1])
     c = {n: k for k, n in enumerate(cols)}
-
     F = np.zeros((len(data), 3))
     M = np.zeros((len(data), 3))  # about the origin (OpenSim: Y up)
     for side in "rl":
@@ -351,10 +356,7 @@ def test_a_force_set_that_sums_both_feet_is_not_one_stance(tmp_path):
         ["time", *(f"ground_force_v{a}" for a in "xyz"), *(f"ground_force_p{a}" for a in "xyz")]
         + [f"ground_torque_{a}" for a in "xyz"]
     )
-    body = "\n".join("\t".join(f"{v:.6f}" for v in row) for row in out)
-    (tmp_path / "both.mot").write_text(
-        "\n".join(lines[:end]) + "\nendheader\n" + head + "\n" + body + "\n"
-    )
+    _write_mot(tmp_path / "both.mot", [*lines[: end + 1], head], out)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         t = load_trial(RAJ[0], tmp_path / "both.mot", mass=RAJ_MASS)
@@ -384,15 +386,11 @@ def test_a_mot_of_another_clock_is_refused_naming_both_ranges(tmp_path):
 def test_a_mot_with_its_centre_of_pressure_in_millimetres_says_what_to_do(tmp_path):
     """A MOT has no unit header: the refusal of COP columns in mm says to divide them by 1000
     (it told the user to fix a header the file does not have)."""
-    lines = RAJ[1].read_text().splitlines()
-    end = lines.index("endheader")
-    cols = lines[end + 1].split("\t")
-    data = np.loadtxt(RAJ[1], skiprows=end + 2)
+    lines, end, cols, data = _mot_table(RAJ[1])
     for k, c in enumerate(cols):
         if c.endswith(("_px", "_py", "_pz")):
             data[:, k] *= 1000.0
-    body = "\n".join("\t".join(f"{v:.6f}" for v in row) for row in data)
-    (tmp_path / "mm.mot").write_text("\n".join(lines[: end + 2]) + "\n" + body + "\n")
+    _write_mot(tmp_path / "mm.mot", lines[: end + 2], data)
     with pytest.raises(InputError, match="no unit header.*divide them by 1000"):
         load_trial(RAJ[0], tmp_path / "mm.mot", mass=RAJ_MASS)
 
@@ -401,16 +399,12 @@ def test_a_mot_written_z_up_is_refused_naming_the_axis(tmp_path):
     """The Rajagopal MOT turned Z-up ((x, y, z) -> (x, -z, y) in every vector): its ground
     reaction points along Z. Refused, naming the axis and the convention (it said that the
     height, estimated from a body lying on its side, was not in metres)."""
-    lines = RAJ[1].read_text().splitlines()
-    end = lines.index("endheader")
-    cols = lines[end + 1].split("\t")
-    data = np.loadtxt(RAJ[1], skiprows=end + 2)
+    lines, end, cols, data = _mot_table(RAJ[1])
     for k, c in enumerate(cols):
         if c.endswith(("vx", "px", "_x")):
             y, z = data[:, k + 1].copy(), data[:, k + 2].copy()
             data[:, k + 1], data[:, k + 2] = -z, y
-    body = "\n".join("\t".join(f"{v:.6f}" for v in row) for row in data)
-    (tmp_path / "zup.mot").write_text("\n".join(lines[: end + 2]) + "\n" + body + "\n")
+    _write_mot(tmp_path / "zup.mot", lines[: end + 2], data)
     with pytest.raises(InputError, match="points mostly along Z.*written Z-up"):
         load_trial(RAJ[0], tmp_path / "zup.mot", mass=RAJ_MASS)
 
