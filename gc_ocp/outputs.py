@@ -99,6 +99,13 @@ def check_writable(
     return folder
 
 
+def claim(folder: str | os.PathLike, command: str) -> None:
+    """Record ``command`` as the owner of ``folder``'s outputs (:data:`OWNER`), for the
+    commands that write their files one by one (each atomically) rather than as an
+    :class:`OutputSet`."""
+    atomic_write_text(Path(folder) / OWNER, command + "\n")
+
+
 def _probe(place: Path, folder: Path, what: str) -> None:
     """Create and remove a file in ``place``: permissions, a read-only or special file system
     (``/proc``, ``/sys``) and a full disk all show here, before any computation, and as the

@@ -58,7 +58,9 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 def cmd_kinematics(args: argparse.Namespace) -> int:
     from gc_ocp.kinematics.export import write_kinematics
+    from gc_ocp.outputs import check_writable, claim
 
+    check_writable(args.out, command="gc-ocp kinematics")  # before any computation
     trials = _load(args)
     names = [t.name for t in trials]
     for i, trial in enumerate(trials):
@@ -69,12 +71,17 @@ def cmd_kinematics(args: argparse.Namespace) -> int:
         paths = write_kinematics(trial, kin, out, fmt=args.format)
         for p in paths:
             print(f"wrote {p}")
+    claim(args.out, "gc-ocp kinematics")
     return 0
 
 
 def cmd_reproduce_seed(args: argparse.Namespace) -> int:
     from gc_ocp.contact.seed_study import reproduce_seed, table1_markdown, table2_markdown
+    from gc_ocp.outputs import check_writable, claim
 
+    check_writable(args.out, command="gc-ocp reproduce-seed")  # before any computation
+    if args.seeds < 1:
+        raise InputError(f"--seeds must be 1 or more, but got {args.seeds}")
     trials = _load(args)
     if len(trials) != 1:
         raise InputError(
@@ -93,6 +100,7 @@ def cmd_reproduce_seed(args: argparse.Namespace) -> int:
         _progress(f"note: {note}")
     print(table1_markdown(res["table1"]))
     print(table2_markdown(res["table2"]))
+    claim(args.out, "gc-ocp reproduce-seed")
     print(f"wrote table1.json, table1.md, table2.json, table2.md to {args.out}")
     return 0
 
@@ -330,9 +338,16 @@ def cmd_batch(args: argparse.Namespace) -> int:
 def cmd_export(args: argparse.Namespace) -> int:
     if args.target == "casadi":
         from gc_ocp.export.casadi_export import casadi_function, write_casadi
+        from gc_ocp.outputs import check_writable, claim
 
-        path = args.out if args.out.suffix == ".casadi" else args.out / "contact.casadi"
+        if args.out.suffix == ".casadi":  # the file itself
+            check_writable(args.out.parent)
+            path = args.out
+        else:  # a folder, perhaps another command's
+            path = check_writable(args.out, command="gc-ocp export") / "contact.casadi"
         write_casadi(args.fit_json, path)
+        if path != args.out:
+            claim(args.out, "gc-ocp export")
         print(casadi_function(args.fit_json))
         print(f"wrote {path}")
         return 0

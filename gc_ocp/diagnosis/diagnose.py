@@ -122,6 +122,7 @@ def candidate_names(base: tuple, candidates: Sequence[str] | None = None) -> lis
     """The effects to try on ``base``: ``candidates`` (default: every effect of the library,
     :data:`EFFECTS`) minus those the base already has."""
     names = list(candidate_effects()) if candidates is None else names_of(candidates, "candidates")
+    names = list(dict.fromkeys(names))  # an effect named twice is one candidate
     unknown = [n for n in names if n not in REGISTRY]
     if unknown:
         raise UnknownNameError(

@@ -11,7 +11,9 @@ are not written to JSON. How the rows are computed is :mod:`.selection`; the HTM
 from __future__ import annotations
 
 import dataclasses
+import json
 from collections.abc import Mapping
+from pathlib import Path
 
 import numpy as np
 
@@ -19,7 +21,7 @@ from gc_ocp.contact.channels import TABLE_KEYS
 from gc_ocp.diagnosis.compare import Evaluation, heldout_quality, score, superior_rms
 from gc_ocp.diagnosis.null import RESOLUTION_PCT, NullTest
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
-from gc_ocp.errors import InputError
+from gc_ocp.errors import InputError, names_of, require_file
 
 SCORE_TEXT = (
     "held-out combined score: sqrt(2 E / n), E = data cost + nuisance prior cost + "
@@ -327,14 +329,43 @@ class Diagnosis:
         evaluations (the fits): enough for its summary, JSON, report page (given the final
         fit) and the figures that need no fit (ranking, waterfall, heat maps). A
         ``diagnosis.json`` of the former threshold rule (before the calibrated test: no
-        ``alpha``) is refused with what to do."""
+        ``alpha``) is refused with what to do; so is a document that is not a diagnosis.json
+        (an :class:`~gc_ocp.errors.InputError` naming what is wrong). ``d`` may also be the
+        file's path."""
+        if isinstance(d, str | Path):
+            require_file(
+                Path(d), "Diagnosis file", "give the diagnosis.json gc-ocp diagnose wrote."
+            )
+            try:
+                d = json.loads(Path(d).read_text())
+            except json.JSONDecodeError as e:
+                raise InputError(f"{d} is not a diagnosis.json ({e}).") from None
+        if not isinstance(d, Mapping) or "ranking" not in d or "waterfall" not in d:
+            raise InputError(
+                f"not a diagnosis.json (a {type(d).__name__}"
+                + (f" with keys {sorted(d)[:6]}" if isinstance(d, Mapping) else "")
+                + "); give the file gc-ocp diagnose wrote."
+            )
+        try:
+            return cls._from_document(d)
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
+            if isinstance(e, InputError):
+                raise
+            raise InputError(
+                f"the diagnosis.json is incomplete or edited ({type(e).__name__}: {e}); give "
+                "the file gc-ocp diagnose wrote, unedited."
+            ) from None
+
+    @classmethod
+    def _from_document(cls, d: Mapping) -> Diagnosis:
+        """:meth:`from_json` of a diagnosis document (what it reads, unchecked)."""
         if "alpha" not in d:
             raise InputError(
                 "This diagnosis.json was written by an earlier gc_ocp, whose decision rule was a "
                 "2 % threshold (it has 'threshold_pct', no 'alpha'); its verdicts cannot be shown "
                 "as the calibrated test's. Run `gc-ocp diagnose` again on the trials."
             )
-        selected = list(d["selected"])
+        selected = names_of(d["selected"], "selected")
         waterfall = [
             WaterfallStep(**w, label="+".join(["base", *selected[:k]]))
             for k, w in enumerate(d["waterfall"])

@@ -10,6 +10,7 @@ subject's body weight and height before stances are pooled.
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -218,12 +219,28 @@ class EstimationResult:
 
     @classmethod
     def from_json(cls, d: dict | str) -> EstimationResult:
-        """The result written by :meth:`to_json` (a dict, or a path / text of ``fit.json``)."""
-        if isinstance(d, str) and d.lstrip().startswith("{"):
-            d = json.loads(d)
-        elif isinstance(d, str) or hasattr(d, "read_text"):
-            require_file(Path(d), "Fit file", "give the fit.json gc-ocp fit wrote.")
-            d = json.loads(Path(d).read_text())
+        """The result written by :meth:`to_json` (a dict, or a path / text of ``fit.json``); a
+        file or document that is not one is an :class:`~gc_ocp.errors.InputError` naming it."""
+        what = "the fit document"
+        try:
+            if isinstance(d, str) and d.lstrip().startswith("{"):
+                d = json.loads(d)
+            elif isinstance(d, str) or hasattr(d, "read_text"):
+                what = str(d)
+                require_file(Path(d), "Fit file", "give the fit.json gc-ocp fit wrote.")
+                d = json.loads(Path(d).read_text())
+            return cls._from_document(d)
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
+            if isinstance(e, InputError):
+                raise
+            raise InputError(
+                f"{what} is not a gc-ocp fit.json ({type(e).__name__}: {e}); give the file "
+                "gc-ocp fit wrote, unedited."
+            ) from None
+
+    @classmethod
+    def _from_document(cls, d: Mapping) -> EstimationResult:
+        """:meth:`from_json` of a parsed document (what it reads, unchecked)."""
         fits = []
         for f in d["stance_fits"]:
             f = dict(f)

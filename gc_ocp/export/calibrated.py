@@ -86,9 +86,58 @@ class CalibratedContact:
         belt speed) are taken (each trial has its own kinematics, whose sole calibration places
         the points; default: the first)."""
         doc = fit_document(fit)
+        if not isinstance(doc, Mapping):
+            raise InputError(
+                f"the fit is a JSON {type(doc).__name__}, not a gc-ocp fit.json (an object); give "
+                "the file gc-ocp fit wrote"
+            )
         for key in ("components", "blocks", "stance_fits"):
             if key not in doc:
                 raise InputError(f"the fit has no {key!r}: it is not a gc-ocp fit.json")
+        solver = doc.get("solver")
+        if isinstance(solver, Mapping) and solver.get("success") is False:
+            raise InputError(
+                f"the fit did not converge ({solver.get('status', 'unknown status')}): its "
+                "parameters are where the solver stopped, not an estimate to simulate with; "
+                "export a converged fit"
+            )
+        try:
+            out = cls._parse(doc, provenance, trial)
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
+            raise InputError(
+                f"the fit document is not a complete gc-ocp fit.json ({type(e).__name__}: {e}); "
+                "give the file gc-ocp fit wrote, unedited"
+            ) from None
+        out.check()
+        return out
+
+    def check(self) -> None:
+        """Refuse parameters no contact has (the exports would write them: a NaN or negative
+        stiffness, a negative friction coefficient) and a body weight or height that is not a
+        person's."""
+        bad = []
+        for side in self.points:
+            for u in self.units:
+                k = self.value("k", side, u)
+                if not (np.isfinite(k) and k > 0):
+                    bad.append(f"{side} {u} k = {k:g} (must be > 0)")
+            for p, lo in (("n", 1.0), ("c", 0.0), ("mu", 0.0)):
+                v = self.value(p, side)
+                if not (np.isfinite(v) and v >= lo):
+                    bad.append(f"{side} {p} = {v:g} (must be >= {lo:g})")
+        if not (np.isfinite(self.body_weight) and self.body_weight > 0):
+            bad.append(f"body weight {self.body_weight:g} N")
+        if not (np.isfinite(self.height) and 0.5 <= self.height <= 2.6):
+            bad.append(f"height {self.height:g} m")
+        if bad:
+            raise InputError(
+                f"the fit's parameters are not a contact's: {'; '.join(bad[:4])}"
+                f"{' and more' if len(bad) > 4 else ''}; export the fit gc-ocp fit wrote, unedited"
+            )
+
+    @classmethod
+    def _parse(cls, doc: Mapping, provenance, trial) -> CalibratedContact:
+        """:meth:`from_fit` on a document that has the keys (what it reads, unchecked)."""
         extra = {n: c for n, c in doc["components"].items() if EXPORTABLE.get(n) != c}
         if extra:
             raise InputError(

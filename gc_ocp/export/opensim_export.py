@@ -51,7 +51,13 @@ from gc_ocp.export.opensim_worker import DEFAULT_RADIUS
 from gc_ocp.io._common import Y_UP_TO_LAB
 from gc_ocp.outputs import OutputSet
 from gc_ocp.stance import trial_names
+from gc_ocp.values import number
 from gc_ocp.wrench import transport_wrench
+
+MAX_RADIUS = 0.05
+"""[m] The largest contact sphere the export takes: a heel's curvature (5 cm); a unit's sphere is
+millimetres (the default 5 mm), and a radius in metres given as millimetres (5) made a
+200 million % BW misfit."""
 
 OUTPUTS = (
     "model.osim",
@@ -506,6 +512,12 @@ def export_opensim(
     as ``model.osim``; the coordinates and the comparison (which need the package's body) are
     then not written."""
     say = progress or (lambda s: None)
+    radius = number(radius, "radius", "m")
+    if not 0.0 < radius <= MAX_RADIUS:
+        raise InputError(
+            f"radius {radius:g} m is not a contact sphere's under a foot (0 to {MAX_RADIUS:g} m; "
+            f"default {DEFAULT_RADIUS:g} m): give it in metres (--radius 0.005)"
+        )
     doc = fit_document(fit)
     if pairs is None:
         pairs = fit_pairs(CalibratedContact.from_fit(doc), say)

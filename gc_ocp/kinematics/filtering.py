@@ -29,7 +29,7 @@ def lowpass(
     """
     if not 0 < cutoff_hz < rate / 2:
         raise InputError(
-            f"cutoff_hz must be in (0, {rate / 2}) Hz for a {rate} Hz signal, but got {cutoff_hz}"
+            f"cutoff_hz must be in (0, {rate / 2:.4g}) Hz for a {rate:.4g} Hz signal, but got {cutoff_hz:g}"
         )
     if time is None:
         time = np.arange(x.shape[0]) / rate
