@@ -468,3 +468,76 @@ def test_a_treadmill_fit_s_model_forces_are_on_its_belt():
     assert (
         rms["all"]["anterior_force_pct_bw"] < 2 * doc["rms"]["right"]["anterior_force_pct_bw"] + 1
     )
+
+
+def _edited(doc: dict, path: tuple, value) -> dict:
+    """A deep copy of ``doc`` with the entry at ``path`` set to ``value`` (None: removed)."""
+    out = json.loads(json.dumps(doc))
+    node = out
+    for key in path[:-1]:
+        node = node[key]
+    if value is None:
+        del node[path[-1]]
+    else:
+        node[path[-1]] = value
+    return out
+
+
+@pytest.mark.parametrize(
+    "path, value, words",
+    [
+        (("blocks", "contact", "left", "PL", "k"), float("nan"), ["left PL k = nan"]),
+        (("blocks", "contact", "left", "PL", "k"), -5000.0, ["left PL k = -5000"]),
+        (("blocks", "contact", "shared", "mu"), -0.5, ["mu = -0.5"]),
+        (("blocks", "contact", "shared", "n"), 0.5, ["n = 0.5"]),
+        (("solver", "success"), False, ["did not converge"]),
+        (("blocks", "contact", "left", "TT"), None, ["not a complete gc-ocp fit.json", "TT"]),
+        (("blocks",), "x", ["not a complete gc-ocp fit.json"]),
+    ],
+)
+def test_an_export_of_an_edited_or_failed_fit_is_refused(hertz_fit, path, value, words):
+    """The exports wrote what a fit.json said: a NaN or negative stiffness, a negative
+    friction coefficient, a non-converged fit (exit 0); an incomplete file crashed (status 3).
+    Each is an InputError naming the value."""
+    from gc_ocp.errors import InputError
+    from gc_ocp.export.calibrated import fit_document
+
+    doc = fit_document(hertz_fit)
+    CalibratedContact.from_fit(doc)  # the fit as written exports
+    with pytest.raises(InputError) as e:
+        CalibratedContact.from_fit(_edited(doc, path, value))
+    for w in words:
+        assert w in str(e.value)
+
+
+def test_a_results_file_that_is_not_one_is_an_input_error(tmp_path, hertz_fit):
+    """EstimationResult.from_json and Diagnosis.from_json on what is not their file: a
+    truncated file, a fit.json given as a diagnosis, an edited one (they raised JSONDecodeError,
+    KeyError or TypeError). A diagnosis's selected effects as one string is refused too (it
+    loaded as its letters)."""
+    from gc_ocp.diagnosis import Diagnosis
+    from gc_ocp.errors import InputError
+    from gc_ocp.estimation.result import EstimationResult
+    from gc_ocp.export.calibrated import fit_document
+
+    doc = fit_document(hertz_fit)
+    cut = tmp_path / "fit.json"
+    cut.write_text(json.dumps(doc)[:500])
+    with pytest.raises(InputError, match="is not a gc-ocp fit.json"):
+        EstimationResult.from_json(cut)
+    with pytest.raises(InputError, match="is not a gc-ocp fit.json"):
+        EstimationResult.from_json(_edited(doc, ("solver",), None))
+    with pytest.raises(InputError, match="not a diagnosis.json"):
+        Diagnosis.from_json(doc)
+    with pytest.raises(InputError, match="not a diagnosis.json"):
+        Diagnosis.from_json(cut)
+
+
+def test_an_export_radius_outside_a_contact_sphere_s_is_refused(hertz_fit, tmp_path):
+    from gc_ocp.errors import InputError
+    from gc_ocp.export.opensim_export import export_opensim
+
+    for radius in (0.0, -1.0, float("nan"), 5.0):
+        with pytest.raises(InputError, match="not a contact sphere's|must be a number in m"):
+            export_opensim(hertz_fit, tmp_path / "out", radius=radius)
+    assert not (tmp_path / "out").exists()
