@@ -399,6 +399,15 @@ def test_a_folder_holding_another_command_s_outputs_is_refused(tmp_path, capsys)
     assert main(["diagnose", "--effects", "damping", "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "holds the outputs of `gc-ocp fit`" in err and "Traceback" not in err
+    # the commands that write file by file too (they overwrote the fit's landmarks.json)
+    for argv in (["kinematics"], ["reproduce-seed", "--seeds", "1"]):
+        assert main([*argv, "--out", str(out)]) == 2
+        assert "holds the outputs of `gc-ocp fit`" in capsys.readouterr().err
+    # an existing file as casadi's folder (it was status 3, FileExistsError)
+    blocker = tmp_path / "notes.txt"
+    blocker.write_text("x")
+    assert main(["export", "casadi", str(out / "fit.json"), "--out", str(blocker)]) == 2
+    assert "not a folder" in capsys.readouterr().err
     assert sorted(p.name for p in out.iterdir()) == sorted([OWNER, "fit.json"])
 
 
