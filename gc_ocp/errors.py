@@ -53,6 +53,19 @@ def names_of(value, what: str) -> list[str]:
     return names
 
 
+def read_document(read, what: str, fix: str):
+    """``read()``, the reading of a JSON document the package wrote (a fit.json, a
+    diagnosis.json), with what an edited, truncated or foreign document raises there (a missing
+    key, a value of the wrong type, a JSON error) turned into an :class:`InputError`: ``what``
+    is wrong, the exception, and the ``fix``."""
+    try:
+        return read()
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
+        if isinstance(e, InputError):
+            raise
+        raise InputError(f"{what} ({type(e).__name__}: {e}); {fix}") from None
+
+
 class RankError(GcOcpError, ValueError):
     """A linear system has no unique solution (rank deficient)."""
 

@@ -21,7 +21,7 @@ from gc_ocp.contact.channels import TABLE_KEYS
 from gc_ocp.diagnosis.compare import Evaluation, heldout_quality, score, superior_rms
 from gc_ocp.diagnosis.null import RESOLUTION_PCT, NullTest
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
-from gc_ocp.errors import InputError, names_of, require_file
+from gc_ocp.errors import InputError, names_of, read_document, require_file
 
 SCORE_TEXT = (
     "held-out combined score: sqrt(2 E / n), E = data cost + nuisance prior cost + "
@@ -346,15 +346,11 @@ class Diagnosis:
                 + (f" with keys {sorted(d)[:6]}" if isinstance(d, Mapping) else "")
                 + "); give the file gc-ocp diagnose wrote."
             )
-        try:
-            return cls._from_document(d)
-        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
-            if isinstance(e, InputError):
-                raise
-            raise InputError(
-                f"the diagnosis.json is incomplete or edited ({type(e).__name__}: {e}); give "
-                "the file gc-ocp diagnose wrote, unedited."
-            ) from None
+        return read_document(
+            lambda: cls._from_document(d),
+            "the diagnosis.json is incomplete or edited",
+            "give the file gc-ocp diagnose wrote, unedited.",
+        )
 
     @classmethod
     def _from_document(cls, d: Mapping) -> Diagnosis:

@@ -18,7 +18,7 @@ import numpy as np
 
 from gc_ocp._version import __version__
 from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
-from gc_ocp.errors import InputError, require_file
+from gc_ocp.errors import InputError, read_document, require_file
 from gc_ocp.estimation.components import describe_block
 from gc_ocp.estimation.components.contact import ContactLaw
 from gc_ocp.estimation.measurement import fit_error
@@ -222,21 +222,15 @@ class EstimationResult:
         """The result written by :meth:`to_json` (a dict, or a path / text of ``fit.json``); a
         file or document that is not one is an :class:`~gc_ocp.errors.InputError` naming it."""
         what = "the fit document"
-        try:
-            if isinstance(d, str) and d.lstrip().startswith("{"):
-                d = json.loads(d)
-            elif isinstance(d, str) or hasattr(d, "read_text"):
-                what = str(d)
-                require_file(Path(d), "Fit file", "give the fit.json gc-ocp fit wrote.")
-                d = json.loads(Path(d).read_text())
-            return cls._from_document(d)
-        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
-            if isinstance(e, InputError):
-                raise
-            raise InputError(
-                f"{what} is not a gc-ocp fit.json ({type(e).__name__}: {e}); give the file "
-                "gc-ocp fit wrote, unedited."
-            ) from None
+        if isinstance(d, str) and not d.lstrip().startswith("{") or hasattr(d, "read_text"):
+            what = str(d)
+            require_file(Path(d), "Fit file", "give the fit.json gc-ocp fit wrote.")
+            d = Path(d).read_text()
+        return read_document(
+            lambda: cls._from_document(json.loads(d) if isinstance(d, str) else d),
+            f"{what} is not a gc-ocp fit.json",
+            "give the file gc-ocp fit wrote, unedited.",
+        )
 
     @classmethod
     def _from_document(cls, d: Mapping) -> EstimationResult:

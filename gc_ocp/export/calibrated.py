@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gc_ocp.errors import InputError, require_file
+from gc_ocp.errors import InputError, read_document, require_file
 from gc_ocp.estimation.components.contact import ContactLaw, Param
 from gc_ocp.foot import SEED_LAYOUT, TrialKinematics
 from gc_ocp.trial import belt_velocity
@@ -101,13 +101,11 @@ class CalibratedContact:
                 "parameters are where the solver stopped, not an estimate to simulate with; "
                 "export a converged fit"
             )
-        try:
-            out = cls._parse(doc, provenance, trial)
-        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
-            raise InputError(
-                f"the fit document is not a complete gc-ocp fit.json ({type(e).__name__}: {e}); "
-                "give the file gc-ocp fit wrote, unedited"
-            ) from None
+        out = read_document(
+            lambda: cls._parse(doc, provenance, trial),
+            "the fit document is not a complete gc-ocp fit.json",
+            "give the file gc-ocp fit wrote, unedited",
+        )
         out.check()
         return out
 
