@@ -148,8 +148,11 @@ def _kinematics(trial, subject: Subject, spec, cache_root: Path):
     )
     path = cache_root / f"{key}.pkl"
     try:
-        return pickle.loads(path.read_bytes())
-    except (OSError, pickle.UnpicklingError, EOFError, AttributeError):
+        cached = pickle.loads(path.read_bytes())
+        # the key is the files' content: the same recording under another file name (a copy)
+        # has these kinematics, under its own name
+        return dataclasses.replace(cached, trial_name=trial.name)
+    except (OSError, pickle.UnpicklingError, EOFError, AttributeError, TypeError):
         pass
     kw = {} if subject.cutoff is None else {"cutoff_hz": subject.cutoff}
     static = load_static(subject.static, trial) if subject.static is not None else None
