@@ -165,7 +165,7 @@ class OutputSet:
         for name in self.written:
             os.replace(self.stage / name, self.folder / name)
             out.append(self.folder / name)
-        atomic_write_text(self.folder / OWNER, self.command + "\n")
+        claim(self.folder, self.command)
         self.discard()
         return out
 

@@ -34,7 +34,7 @@ from gc_ocp.batch.subject import BATCH, Settings, process_subject
 from gc_ocp.batch.summary import error_rows, write_summary
 from gc_ocp.errors import InputError
 from gc_ocp.execution import dask_client
-from gc_ocp.outputs import OWNER, atomic_write_text, check_writable
+from gc_ocp.outputs import atomic_write_text, check_writable, claim
 
 
 @dataclasses.dataclass
@@ -229,7 +229,7 @@ def run(
         raise InputError("Give the study's output folder (out=..., --out DIR).")
     out = check_writable(out, command=BATCH)
     out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out / OWNER, BATCH + "\n")  # the study's folder, before any subject's
+    claim(out, BATCH)  # the study's folder, before any subject's
     clean_stale(out, ids)
     settings = settings or Settings()
     if diagnose:
