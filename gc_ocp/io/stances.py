@@ -405,6 +405,14 @@ def _cop_path(
     return along_m, float(np.median(across[-q:]) - np.median(across[:q]))
 
 
+def _two_feet(along: float, side: str, plate, what: str) -> str:
+    return (
+        f"its centre of pressure travels {along * 100:+.0f} cm along the {side} foot, more than "
+        f"a foot is long ({COP_TRAVEL_MAX * 100:.0f} cm): two feet, or several steps, on one "
+        f"{what} ({plate.name}); the contact model needs each stance's foot alone on its plate"
+    )
+
+
 def _exclusion(
     plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime, bw, thr, notes, travel
 ):
@@ -422,15 +430,9 @@ def _exclusion(
             return "markers: no foot marker of the stance foot during part of the stance"
     heavy = plate.force[a:b, 2] > (0.2 * bw if bw else 100.0)
     path = _cop_path(cop[a:b], heavy, times, side, names, markers, mtime, travel)
-    if path is not None and abs(path[0]) > COP_TRAVEL_MAX:
-        return (
-            f"its centre of pressure travels {path[0] * 100:+.0f} cm along the {side} foot, more "
-            f"than a foot is long ({COP_TRAVEL_MAX * 100:.0f} cm): two feet, or several steps, "
-            f"on one {'plate' if plate.corners is not None else 'force set'} "
-            f"({plate.name}); the contact model needs each stance's foot alone on its plate"
-        )
-    if plate.corners is None:
-        return ""
+    too_far = path is not None and abs(path[0]) > COP_TRAVEL_MAX
+    if plate.corners is None:  # a MOT's force set: no outline, no axes of its own to check
+        return _two_feet(path[0], side, plate, "force set") if too_far else ""
     c = cop[a:b][heavy]
     c = c[np.all(np.isfinite(c), axis=1)]
     if c.size:
@@ -458,7 +460,15 @@ def _exclusion(
                 f"it; a walking stance rolls from heel to toe: the plate's axes are wrong in the "
                 f"file (FORCE_PLATFORM:CORNERS order, ORIGIN, or its moment/COP channels); fix "
                 f"the force-plate set-up"
+                + (
+                    f"; or, as it travels more than a foot is long ({COP_TRAVEL_MAX * 100:.0f} "
+                    "cm), two feet or several steps were on the plate"
+                    if too_far
+                    else ""
+                )
             )
+        if too_far:
+            return _two_feet(along, side, plate, "plate")
     if side in feet and feet[side]:
         m = _markers_at(markers, mtime, feet[side], times)
         low = np.isfinite(m[..., 2]) & (m[..., 2] < plate.surface_height + LOW_MARKER)
