@@ -541,3 +541,26 @@ def test_an_export_radius_outside_a_contact_sphere_s_is_refused(hertz_fit, tmp_p
         with pytest.raises(InputError, match="not a contact sphere's|must be a number in m"):
             export_opensim(hertz_fit, tmp_path / "out", radius=radius)
     assert not (tmp_path / "out").exists()
+
+
+def test_an_export_does_not_reload_a_trial_that_changed_since_the_fit(tmp_path, hertz_fit):
+    """The OpenSim export reloads the fit's trials from its provenance: a file at the recorded
+    path whose SHA-256 is not the recorded one (another recording saved under the name) is
+    refused (it was reloaded and exported without a word)."""
+    import shutil
+
+    from gc_ocp.errors import InputError
+    from gc_ocp.export.calibrated import fit_document
+    from gc_ocp.export.opensim_export import fit_pairs
+    from gc_ocp.io.load import bundled_example_path
+    from gc_ocp.workflow.provenance import sha256
+
+    src = bundled_example_path()
+    copy = tmp_path / "walk.c3d"
+    shutil.copy(src, copy)
+    prov = {"trials": [{"files": [{"path": str(copy), "sha256": sha256(src)}], "mass_kg": 63.6}]}
+    cal = CalibratedContact.from_fit(fit_document(hertz_fit), provenance=prov)
+    with open(copy, "ab") as f:
+        f.write(b"\0" * 512)
+    with pytest.raises(InputError, match="have changed since the fit"):
+        fit_pairs(cal)

@@ -52,6 +52,7 @@ from gc_ocp.io._common import Y_UP_TO_LAB
 from gc_ocp.outputs import OutputSet
 from gc_ocp.stance import trial_names
 from gc_ocp.values import number
+from gc_ocp.workflow.provenance import sha256
 from gc_ocp.wrench import transport_wrench
 
 MAX_RADIUS = 0.05
@@ -691,6 +692,17 @@ def fit_pairs(cal: CalibratedContact, say=lambda s: None) -> list:
             raise InputError(
                 f"the fit's trial files {missing} are gone; export where the fit ran, or give "
                 "the trials in Python (pairs=...)."
+            )
+        changed = [
+            f["path"]
+            for f in t.get("files", [])
+            if f.get("sha256") and sha256(Path(f["path"])) != f["sha256"]
+        ]
+        if changed:  # the fit's contact model on another recording's kinematics
+            raise InputError(
+                f"the fit's trial files {changed} have changed since the fit (their SHA-256 is "
+                "not the one fit.json records): fit them again, or give the trials in Python "
+                "(pairs=...)."
             )
         specs.append(TrialSpec(files[0], files[1] if len(files) > 1 else None))
     static = opts.get("static")
