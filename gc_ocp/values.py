@@ -7,12 +7,13 @@ import math
 from gc_ocp.errors import InputError
 
 
-def number(value, what: str, unit: str) -> float:
-    """``value`` as a finite float (an int, a float or a numeric string, as a CLI's option
-    would be), else an :class:`InputError` that names ``what`` and its ``unit``: a string with a
-    unit in it, a list, a boolean (``float(True)`` is 1)."""
+def number(value, what: str, unit: str, text: bool = True) -> float:
+    """``value`` as a finite float (an int, a float or, with ``text``, a numeric string, as a
+    CLI's option would be), else an :class:`InputError` that names ``what`` and its ``unit``: a
+    string with a unit in it, a list, a boolean (``float(True)`` is 1). ``text=False`` for a
+    file's typed value (a TOML number), where a string is a mistake of the file."""
     try:
-        if isinstance(value, bool):
+        if isinstance(value, bool) or (not text and isinstance(value, str)):
             raise TypeError
         x = float(value)
     except (TypeError, ValueError):

@@ -14,10 +14,10 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from gc_ocp.diagnosis.compare import check_trained_feet, evaluate_on, reduction
-from gc_ocp.diagnosis.diagnose import POSE_WIDTH, resolve_base, sized_base
+from gc_ocp.diagnosis.diagnose import POSE_WIDTH, effect_names, resolve_base, sized_base
 from gc_ocp.diagnosis.result import WaterfallStep
-from gc_ocp.errors import ModelError, UnknownNameError
-from gc_ocp.estimation.components import REGISTRY, candidate_effects, model_from_names
+from gc_ocp.errors import ModelError
+from gc_ocp.estimation.components import model_from_names
 from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.solve import IpoptOptions
 from gc_ocp.io.consistency import same_motion
@@ -52,11 +52,7 @@ def confirm_stances(
     estimated on ``train`` only (the new stances inform no choice made before they are scored)."""
     say = progress or (lambda s: None)
     _, base_model_ = resolve_base(base)
-    unknown = [n for n in selected if n not in REGISTRY]
-    if unknown:
-        raise UnknownNameError(
-            f"Unknown effect(s) {unknown}; choose from {list(candidate_effects())}"
-        )
+    selected = effect_names(selected, "selected")
     if not test:
         raise ModelError(
             "No stance to confirm on: give stances or trials the diagnosis did not use"

@@ -118,17 +118,23 @@ def sized_base(
     )
 
 
-def candidate_names(base: tuple, candidates: Sequence[str] | None = None) -> list[str]:
-    """The effects to try on ``base``: ``candidates`` (default: every effect of the library,
-    :data:`EFFECTS`) minus those the base already has."""
-    names = list(candidate_effects()) if candidates is None else names_of(candidates, "candidates")
-    names = list(dict.fromkeys(names))  # an effect named twice is one candidate
+def effect_names(names, what: str = "effects") -> list[str]:
+    """``names`` (one string is one name) as effects of the library, each once, in the order
+    given; an unknown one is an :class:`~gc_ocp.errors.UnknownNameError` naming the choices."""
+    names = list(dict.fromkeys(names_of(names, what)))  # an effect named twice is one
     unknown = [n for n in names if n not in REGISTRY]
     if unknown:
         raise UnknownNameError(
             f"Unknown effect(s) {unknown}; choose from {list(candidate_effects())}"
         )
-    return [n for n in names if not REGISTRY[n].present_in(base)]
+    return names
+
+
+def candidate_names(base: tuple, candidates: Sequence[str] | None = None) -> list[str]:
+    """The effects to try on ``base``: ``candidates`` (default: every effect of the library,
+    :data:`EFFECTS`) minus those the base already has."""
+    names = candidate_effects() if candidates is None else candidates
+    return [n for n in effect_names(names, "candidates") if not REGISTRY[n].present_in(base)]
 
 
 def resolve_base(base: str | tuple) -> tuple[str, tuple]:

@@ -31,7 +31,7 @@ _TO_NEWTON = {
     "lbf": 4.4482216152605,
     "lb": 4.4482216152605,  # on a force channel, a pound is the pound-force
 }
-_MOMENT_ARM_TO_METRE = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "in": 0.0254}
+_MOMENT_ARM_TO_METRE = {**_TO_METRE, "in": 0.0254}  # the lengths, and inch-pounds
 
 
 def _unit_key(unit: str) -> str:

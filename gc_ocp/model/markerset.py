@@ -19,7 +19,7 @@ except ModuleNotFoundError:  # Python 3.10: the tomli backport has the same API
 import dataclasses
 import warnings
 
-from gc_ocp.errors import MarkerError
+from gc_ocp.errors import InputError, MarkerError
 from gc_ocp.model.markerdefs import FOOT_SEGMENTS, MARKER_SEGMENTS, MarkerDef, MarkerSet
 from gc_ocp.model.recognition import (
     markerset_from_recognition,
@@ -27,6 +27,7 @@ from gc_ocp.model.recognition import (
     shipped_mapping,
 )
 from gc_ocp.text import read_utf8
+from gc_ocp.values import number
 
 __all__ = [
     "FOOT_SEGMENTS",
@@ -82,13 +83,13 @@ def load_markerset(name_or_path: str | Path) -> MarkerSet:
         try:
             pos = np.array(d["position"], dtype=float)
             seg = str(d["segment"])
-            weight = _number(d.get("weight", 1.0), "weight")
+            weight = number(d.get("weight", 1.0), "weight", "relative units", text=False)
         except KeyError as e:
             raise MarkerError(
                 f'Marker "{label}" in {p} has no {e.args[0]}; each marker needs '
                 "segment and position"
             ) from None
-        except (TypeError, ValueError) as e:
+        except (TypeError, ValueError) as e:  # (an InputError of the weight's is a ValueError)
             raise MarkerError(
                 f'Marker "{label}" in {p}: {e}; position is three numbers [m] in the segment\'s '
                 "frame, weight a number (format: docs/markersets.md)."
@@ -112,8 +113,8 @@ def load_markerset(name_or_path: str | Path) -> MarkerSet:
             bool(d.get("cluster", False)),
         )
     try:
-        height = _number(data.get("reference_height", 1.70), "reference_height")
-    except (TypeError, ValueError) as e:
+        height = number(data.get("reference_height", 1.70), "reference_height", "m", text=False)
+    except InputError as e:
         raise MarkerError(f"Marker set file {p}: {e}.") from None
     if not 0.5 <= height <= 2.5:
         raise MarkerError(
@@ -121,13 +122,6 @@ def load_markerset(name_or_path: str | Path) -> MarkerSet:
             "(0.5-2.5): the marker positions are scaled from it; give it in metres."
         )
     return MarkerSet(str(data.get("name", p.stem)), p, height, markers)
-
-
-def _number(value, what: str) -> float:
-    """A TOML number (not a string or a boolean, which ``float`` would take)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{what} must be a number, not {value!r}")
-    return float(value)
 
 
 def detect_markerset(marker_names, markers=None, source="the trial") -> MarkerSet:

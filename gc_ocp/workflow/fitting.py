@@ -509,8 +509,8 @@ def fit(
                     "code": "heldout_not_converged",
                     "what": held.label,
                     "message": f"the held-out stance's solve (the contact model frozen) did not "
-                    f"converge ({hres.status}), also solved again from where it stopped: its score is not a prediction to rely on; hold "
-                    "out another stance (--holdout)",
+                    f"converge ({hres.status}), also solved again from where it stopped: its "
+                    "score is not a prediction to rely on; hold out another stance (--holdout)",
                 }
             )
         report.heldout = hres
