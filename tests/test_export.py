@@ -531,6 +531,17 @@ def test_a_results_file_that_is_not_one_is_an_input_error(tmp_path, hertz_fit):
         Diagnosis.from_json(doc)
     with pytest.raises(InputError, match="not a diagnosis.json"):
         Diagnosis.from_json(cut)
+    # one reader of the three loaders' files (gc_ocp.text.read_json_file): a file in another
+    # encoding raised UnicodeDecodeError (status 3); a folder is named as one
+    latin = tmp_path / "latin.json"
+    latin.write_bytes(b'{"note": "caf\xe9"}')
+    for load in (EstimationResult.from_json, Diagnosis.from_json, fit_document):
+        with pytest.raises(InputError, match="is not UTF-8 text"):
+            load(latin)
+        with pytest.raises(InputError, match="is a folder"):
+            load(tmp_path)
+    with pytest.raises(InputError, match="is not a gc-ocp fit.json"):
+        fit_document(cut)
 
 
 def test_an_export_radius_outside_a_contact_sphere_s_is_refused(hertz_fit, tmp_path):

@@ -11,7 +11,6 @@ are not written to JSON. How the rows are computed is :mod:`.selection`; the HTM
 from __future__ import annotations
 
 import dataclasses
-import json
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -21,7 +20,8 @@ from gc_ocp.contact.channels import TABLE_KEYS
 from gc_ocp.diagnosis.compare import Evaluation, heldout_quality, score, superior_rms
 from gc_ocp.diagnosis.null import RESOLUTION_PCT, NullTest
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
-from gc_ocp.errors import InputError, names_of, read_document, require_file
+from gc_ocp.errors import InputError, names_of, read_document
+from gc_ocp.text import read_json_file
 
 SCORE_TEXT = (
     "held-out combined score: sqrt(2 E / n), E = data cost + nuisance prior cost + "
@@ -333,13 +333,12 @@ class Diagnosis:
         (an :class:`~gc_ocp.errors.InputError` naming what is wrong). ``d`` may also be the
         file's path."""
         if isinstance(d, str | Path):
-            require_file(
-                Path(d), "Diagnosis file", "give the diagnosis.json gc-ocp diagnose wrote."
+            d = read_json_file(
+                d,
+                "Diagnosis file",
+                "a diagnosis.json",
+                "give the diagnosis.json gc-ocp diagnose wrote.",
             )
-            try:
-                d = json.loads(Path(d).read_text())
-            except json.JSONDecodeError as e:
-                raise InputError(f"{d} is not a diagnosis.json ({e}).") from None
         if not isinstance(d, Mapping) or "ranking" not in d or "waterfall" not in d:
             raise InputError(
                 f"not a diagnosis.json (a {type(d).__name__}"

@@ -18,11 +18,12 @@ import numpy as np
 
 from gc_ocp._version import __version__
 from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
-from gc_ocp.errors import InputError, read_document, require_file
+from gc_ocp.errors import InputError, read_document
 from gc_ocp.estimation.components import describe_block
 from gc_ocp.estimation.components.contact import ContactLaw
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
+from gc_ocp.text import read_json_file
 from gc_ocp.trial import SIDES
 from gc_ocp.wrench import cop_from_wrench
 
@@ -224,8 +225,9 @@ class EstimationResult:
         what = "the fit document"
         if isinstance(d, str) and not d.lstrip().startswith("{") or hasattr(d, "read_text"):
             what = str(d)
-            require_file(Path(d), "Fit file", "give the fit.json gc-ocp fit wrote.")
-            d = Path(d).read_text()
+            d = read_json_file(
+                d, "Fit file", "a gc-ocp fit.json", "give the fit.json gc-ocp fit wrote."
+            )
         return read_document(
             lambda: cls._from_document(json.loads(d) if isinstance(d, str) else d),
             f"{what} is not a gc-ocp fit.json",

@@ -15,15 +15,15 @@ calibrated model for now).
 from __future__ import annotations
 
 import dataclasses
-import json
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
-from gc_ocp.errors import InputError, read_document, require_file
+from gc_ocp.errors import InputError, read_document
 from gc_ocp.estimation.components.contact import ContactLaw, Param
 from gc_ocp.foot import SEED_LAYOUT, TrialKinematics
+from gc_ocp.text import read_json_file
 from gc_ocp.trial import belt_velocity
 
 EXPORTABLE = {
@@ -217,16 +217,12 @@ def fit_document(fit) -> dict:
     """The JSON document (``fit.json``'s) of a ``FitReport``, an ``EstimationResult``, a
     ``fit.json`` dict or its path."""
     if isinstance(fit, str | Path):
-        path = Path(fit)
-        require_file(
-            path, "Fit file", "give the fit.json of a fit (in the folder gc-ocp fit --out wrote)."
+        return read_json_file(
+            fit,
+            "Fit file",
+            "a gc-ocp fit.json",
+            "give the fit.json of a fit (in the folder gc-ocp fit --out wrote).",
         )
-        try:
-            return json.loads(path.read_text())
-        except json.JSONDecodeError as e:
-            raise InputError(
-                f"{path} is not a fit.json ({e}); give the file gc-ocp fit wrote."
-            ) from None
     # a FitReport's own document (its result's, plus the held-out stance's fit and the
     # checks, as fit.json has them), an EstimationResult's, or a dict as it is
     return dict(fit) if isinstance(fit, Mapping) else fit.to_json()
