@@ -55,6 +55,15 @@ def test_unit_not_identified_and_reported_so():
     stances = [SimpleNamespace(side="left", body_weight=624.0)]
     flags = ContactLaw().flags(block, stances)
     assert sorted(f["what"] for f in flags) == ["left/AM", "left/PM"]
+    message = {f["what"]: f["message"] for f in flags}
+    assert message["left/PM"].endswith(
+        "force at the reference depth 29 N (its SE, 53 N, exceeds it)"
+    )
+    assert message["left/AM"].endswith("force at the reference depth 2.3e+05 N (369 BW at 5 mm)")
+    # just over the 2 BW limit: not rounded down to "2 BW", which would read as within it
+    block["left"]["AM"].update(f_ref=2.2 * 624.0, f_ref_se=100.0)
+    [am] = ContactLaw().flags({"left": {"AM": block["left"]["AM"]}}, stances)
+    assert am["message"].endswith("(2.2 BW at 5 mm)")
     assert block["left"]["PL"]["identified"] and not block["left"]["AM"]["identified"]
     from gc_ocp.estimation.result import _shown
 

@@ -320,9 +320,11 @@ class ContactLaw(Component):
                 f, se = e["f_ref"], e["f_ref_se"]
                 bad = []
                 if np.isfinite(se) and se > f:
-                    bad.append(f"SE {se:.3g} N above its value")
+                    bad.append(f"its SE, {se:.3g} N, exceeds it")
                 if f > 2 * bw[side]:
-                    bad.append(f"{f / bw[side]:.0f} BW at {self.reference_depth * 1e3:g} mm")
+                    ratio = f / bw[side]  # over 2 BW: never rounded down to "2 BW"
+                    bw_text = f"{ratio:.1f}" if ratio < 10 else f"{ratio:.0f}"
+                    bad.append(f"{bw_text} BW at {self.reference_depth * 1e3:g} mm")
                 e["identified"] = not bad
                 if bad:
                     out.append(
