@@ -424,6 +424,23 @@ def test_each_effect_block_is_shown_by_its_component(case):
             assert f"{r.label}\n{pm_value(r.value, r.se, unit=r.unit)}" in page
 
 
+def test_figures_label_channels_in_words():
+    """The heat map's rows and the waterfall's legend name the channels as the page's tables
+    do ("right superior force", "COP"), not by their JSON keys ("superior_force", "cop_mm")."""
+    import matplotlib.pyplot as plt
+
+    _, _, _, d, _ = _fixture(CASES[0])
+    fig = d.heatmap("base")
+    rows = [t.get_text() for t in fig.axes[0].get_yticklabels()]
+    plt.close(fig)
+    assert rows and not [r for r in rows if "_" in r], rows
+    assert any(r.endswith(" COP") for r in rows) and any("superior force" in r for r in rows)
+    fig = d.waterfall_figure()
+    legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    plt.close(fig)
+    assert "anteroposterior torque" in legend and not [t for t in legend if "_" in t], legend
+
+
 def test_the_summary_says_which_round_s_null_stopped_early():
     """A round whose null draws stopped early (``null_stopped_early``) is named in the summary
     with the draws it made of those planned; a diagnosis whose nulls made every draw (the

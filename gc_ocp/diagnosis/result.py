@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gc_ocp.contact.channels import TABLE_KEYS
+from gc_ocp.contact.channels import TABLE_KEYS, channel_name
 from gc_ocp.diagnosis.compare import Evaluation, heldout_quality, score, superior_rms
 from gc_ocp.diagnosis.null import RESOLUTION_PCT, NullTest
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
@@ -496,7 +496,7 @@ class Diagnosis:
             vals = [
                 np.nanmean([w.heldout_rms[s][ch] for s in w.heldout_rms]) for w in self.waterfall
             ]
-            ax.plot(x, vals, ".--", lw=1, label=ch.replace("_pct_bwh", "").replace("_pct_bw", ""))
+            ax.plot(x, vals, ".--", lw=1, label=channel_name(ch))
         ax.set_xticks(x, labels, rotation=15)
         ax.set_ylabel("held-out RMS [% BW, % BW×H]")
         ax.set_ylim(bottom=0)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, WRENCH_COLUMN
+from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, WRENCH_COLUMN, channel_name
 from gc_ocp.diagnosis.phases import PHASES, phase_bounds, phase_index
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.problem import Weights
@@ -135,7 +135,7 @@ def heatmap_figure(w: dict, title: str = "Where the residual lies"):
     rows, vals, texts = [], [], []
     for side, chans in w["normalised"].items():
         for key, cells in chans.items():
-            rows.append(f"{side} {key.replace('_pct_bwh', '').replace('_pct_bw', '')}")
+            rows.append(f"{side} {channel_name(key)}")  # words, as the page's tables
             vals.append([cells[c] for c in CELLS])
             texts.append([w["rms"][side][key][c] for c in CELLS])
     v = np.array(vals, float)
