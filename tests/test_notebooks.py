@@ -104,3 +104,22 @@ def test_notebook_runs(path: Path, tmp_path, monkeypatch):
         if plots:
             images = [o for o in c.get("outputs", []) if "image/png" in o.get("data", {})]
             assert images, f"{path.name} cell {i} calls {plots[0].strip()!r} but shows no figure"
+
+
+def test_diagnosis_notebook_states_its_small_settings():
+    """The diagnosis notebook's text gives the null's mismatch draws its parameter cell sets
+    under ``GC_OCP_NOTEBOOK_SMALL=1`` (the setting ``make test`` runs it with), not another
+    number."""
+    import re
+
+    nb = nbformat.read(ROOT / "notebooks" / "03_sim_to_real_diagnosis.ipynb", as_version=4)
+    code = next(c.source for c in nb.cells if c.cell_type == "code" and "NULL_DRAWS =" in c.source)
+    small, full = map(int, re.search(r"(\d+) if SMALL else (\d+)", code).groups())
+    text = next(
+        c.source
+        for c in nb.cells
+        if c.cell_type == "markdown" and "GC_OCP_NOTEBOOK_SMALL=1" in c.source
+    )
+    said = re.search(r"(\d+) draws of the null's mismatch family\s+instead of (\d+)", text)
+    assert said, text
+    assert tuple(map(int, said.groups())) == (small, full), text
