@@ -568,3 +568,22 @@ def test_fit_with_a_bias_correction_reports_what_it_removed(tmp_path, capsys):
     # this trial's pose widths stop at soft tissue's limit (a misfit): no drift is drawn, and
     # the correction says so
     assert b["drift"] is False and "drew the markers&#39; noise only" in page
+
+
+def test_every_option_with_a_default_states_it_in_its_help():
+    """``--help`` of every command says the default of each option that has one (a value the
+    user gets without asking), so that no default is found only by reading the code."""
+    import argparse
+
+    from gc_ocp.cli import build_parser
+
+    [sub] = [a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)]
+    silent = [
+        f"{name} {a.option_strings[0]} (default {a.default!r})"
+        for name, p in sub.choices.items()
+        for a in p._actions
+        if a.option_strings
+        and a.default not in (None, False, argparse.SUPPRESS)
+        and "default" not in (a.help or "").lower()
+    ]
+    assert not silent, silent

@@ -90,7 +90,10 @@ def build_parser() -> argparse.ArgumentParser:
     _add_trial_args(p)
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
     p.add_argument(
-        "--format", choices=("csv", "npz"), default="csv", help="Trajectory file format."
+        "--format",
+        choices=("csv", "npz"),
+        default="csv",
+        help="Trajectory file format (default csv).",
     )
     p.set_defaults(func=cmd_kinematics)
 
@@ -237,7 +240,9 @@ def build_parser() -> argparse.ArgumentParser:
         "DIR/confusion.json (after every case; --resume continues it) and confusion.png.",
     )
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
-    p.add_argument("--seeds", type=int, default=3, help="Noise draws per effect and magnitude.")
+    p.add_argument(
+        "--seeds", type=int, default=3, help="Noise draws per effect and magnitude (default 3)."
+    )
     p.add_argument(
         "--magnitude",
         action="append",
@@ -246,7 +251,10 @@ def build_parser() -> argparse.ArgumentParser:
         "small: half the moderate's departure from neutral; gc_ocp.bench.truth.MAGNITUDES).",
     )
     p.add_argument(
-        "--base", choices=("registered", "seed"), default="registered", help="Diagnosis base."
+        "--base",
+        choices=("registered", "seed"),
+        default="registered",
+        help="Diagnosis base (default registered).",
     )
     p.add_argument(
         "--effects", help='Comma-separated truths (effects and/or "none"); default all candidates.'

@@ -31,10 +31,18 @@ def _add_trial_args(p: argparse.ArgumentParser, with_static: bool = True) -> Non
         "one in its folder).",
     )
     p.add_argument(
-        "--mass", type=float, metavar="KG", help="Subject mass [kg] (overrides the file)."
+        "--mass",
+        type=float,
+        metavar="KG",
+        help="Subject mass [kg] (overrides the file; with none in either, it is estimated from "
+        "the plates, with a warning).",
     )
     p.add_argument(
-        "--height", type=float, metavar="M", help="Subject height [m] (overrides the file)."
+        "--height",
+        type=float,
+        metavar="M",
+        help="Subject height [m] (overrides the file; with none in either, the commands that "
+        "pose the body estimate it from the markers, with a warning).",
     )
     p.add_argument(
         "--belt-speed",
