@@ -252,6 +252,27 @@ def test_a_row_the_floor_stops_says_whether_more_steps_would_clear_it(diagnosis)
         "inconclusive (p = 0.039); about 5 more steps would decide the test, but its held-out "
         "gain is under the rule's effect-size floor, which more steps do not raise"
     )
+    # a held-out gain above the floor, the in-sample one under it: the verdict names the
+    # in-sample gain, not the held-out one (+2.0 % is not under a 0.5 % floor)
+    in_sample = dataclasses.replace(
+        both, heldout_rms_reduction_pct=2.0, insample_rms_reduction_pct=0.2
+    )
+    assert _verdict(in_sample) == (
+        "inconclusive (p = 0.039); about 5 more steps would decide the test, but its in-sample "
+        "gain is under the rule's effect-size floor, which more steps do not raise"
+    )
+    # named by the test with a held-out loss: not inconclusive (the row's flag, the summary's
+    # list), and its verdict does not call it so
+    loss = dataclasses.replace(
+        under,
+        heldout_rms_reduction_pct=-0.3,
+        heldout_rms_reduction_ci=(-0.6, -0.1),
+        inconclusive=False,
+    )
+    assert _verdict(loss) == (
+        "not named: the test names it (p = 0.039), but its held-out gain is under the rule's "
+        "effect-size floor, which more steps do not raise"
+    )
     assert RankRow.from_json(row.to_json()) == row and RankRow.from_json(under.to_json()) == under
     # a diagnosis.json written before the floor's number: the test's number, as it was read then
     old = {k: v for k, v in both.to_json().items() if k != "floor_stances"}

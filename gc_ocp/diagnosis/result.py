@@ -159,19 +159,31 @@ class RankRow:
         if self.passes:
             return f"named ({p})"
         more = self.more_stances
+        # the floor stops a row (floor_stances None) when its held-out or its in-sample gain is
+        # under it: the smaller of the two is then under it, and the verdict names that one
+        held, ins = self.heldout_rms_reduction_pct, self.insample_rms_reduction_pct
+        which = "in-sample" if held is not None and ins < held else "held-out"
         under = (
-            "its held-out gain is under the rule's effect-size floor, which more steps do not raise"
+            f"its {which} gain is under the rule's effect-size floor, which more steps do not raise"
         )
         if c.more_stances == 0:
+            # named by the test, stopped by the floor: "inconclusive" only when the row is (a
+            # held-out loss is not, :func:`~gc_ocp.diagnosis.selection.rank`), so that the
+            # verdict and the row's ``inconclusive`` (the summary's, the JSON's) agree
+            head = (
+                "inconclusive: named by the test"
+                if self.inconclusive
+                else "not named: the test names it"
+            )
             if more:
                 return (
-                    f"inconclusive: named by the test ({p}), but its held-out interval still "
+                    f"{head} ({p}), but its held-out interval still "
                     f"reaches 0; {_about(more, self.inconclusive)} would decide"
                 )
             if self.floor_stances is None:
-                return f"inconclusive: named by the test ({p}), but {under}"
+                return f"{head} ({p}), but {under}"
             # floor_stances 0 on a row that does not pass: written before the floor's number
-            return f"inconclusive: named by the test ({p}), below the rule's effect-size floor"
+            return f"{head} ({p}), below the rule's effect-size floor"
         if self.inconclusive:
             if more is None and c.more_stances:
                 return (
