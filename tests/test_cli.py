@@ -11,7 +11,7 @@ import pytest
 from gc_ocp.cli import main
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS
 from gc_ocp.foot import UNITS
-from gc_ocp.html.fit_tables import sole_prior_text
+from gc_ocp.html.fit_tables import pose_prior_text, sole_prior_text
 
 TABLE1_CASES = [
     "synthetic_noiseless_uniform_k",
@@ -294,6 +294,11 @@ def _check_fit_report(out):
     # the sole table names the prior width the fit used (5 mm, or estimated with sole_scale)
     assert f"foot frame; prior {sole_prior_text(d['blocks']['sole'])})" in page
     assert f"{d['heldout_rms']['right']['superior_force_pct_bw']:.2f} % BW" in page
+    # the held-out stance's own pose correction, which its flags (if any) speak of
+    pose = d["heldout_pose_correction_rms"]["right"]
+    prior = pose_prior_text(d["heldout"]["blocks"]["pose"])
+    said = f"Its foot-pose correction RMS (prior {prior}): right {pose['mm']:.2f} mm, "
+    assert said + f"{pose['deg']:.2f} deg." in page
 
 
 def test_the_sole_table_names_an_estimated_prior_width():

@@ -63,6 +63,7 @@ def fit_report_html(
         "sole": sole_table(res.blocks.get("sole", {})),
         "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
         "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),
+        "held_pose_prior": None if held is None else pose_prior_text(held.blocks.get("pose") or {}),
         "effects": effect_blocks(res),
         "rms": rms_table(res, None if held is None else held.rms | _cop(held)),
         "figures": {name: data_uri(png) for name, png in pngs.items()},
