@@ -236,6 +236,15 @@ def test_fold_fits_nest_and_a_screened_candidate_is_not_held_out(base_eval):
     assert row.heldout_rms_reduction_pct is None
     assert row.insample_rms_reduction_pct == pytest.approx(gain)
     assert "not held out" in row.line() and "p = 0.4" in row.line()
+    # scored against itself, its in-sample gain is exactly 0, under the effect-size floor that
+    # more stances do not raise: the row promised "about 5 more steps would decide" (a review
+    # of the BTS subject's page: 109 steps for a -0.0 % gain); it now names the floor
+    more = NullTest(0.1, 0.0, 0.5, 0.2, 0.4, 2.3, 5, len(plan))
+    (row,) = rank(screened, {"damping": screened}, {"damping": more}, 50, 0, 100.0)
+    assert row.insample_rms_reduction_pct == 0.0 and row.floor_stances is None
+    assert row.more_stances is None and not row.inconclusive
+    assert "in-sample gain is under the rule's effect-size floor" in row.verdict()
+    assert "would decide at this gain" not in row.verdict()
 
 
 def test_a_fold_fit_sees_nothing_of_its_held_out_stance(base_eval):

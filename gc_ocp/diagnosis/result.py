@@ -162,7 +162,8 @@ class RankRow:
         # the floor stops a row (floor_stances None) when its held-out or its in-sample gain is
         # under it: the smaller of the two is then under it, and the verdict names that one
         held, ins = self.heldout_rms_reduction_pct, self.insample_rms_reduction_pct
-        which = "in-sample" if held is not None and ins < held else "held-out"
+        # (a screened row has only its in-sample gain)
+        which = "in-sample" if held is None or ins < held else "held-out"
         under = (
             f"its {which} gain is under the rule's effect-size floor, which more steps do not raise"
         )

@@ -304,22 +304,27 @@ def _screened_row(
     name: str, ev: Evaluation, parent: Evaluation, test: NullTest | None = None
 ) -> RankRow:
     """The ranking row of a candidate screened out by the calibrated test (not held out: it
-    cannot pass)."""
+    cannot pass). Its effect-size floor's number is not measured (0) unless its in-sample
+    reduction is under the floor: then no number of further stances clears it (None, as
+    :func:`floor_stances` says of a held-out row), and its row must not promise one."""
+    insample = insample_reduction(parent.full, ev.full)
+    floor = None if insample < MIN_REDUCTION_PCT else 0
     return RankRow(
         effect=name,
         heldout_rms_reduction_pct=None,
         heldout_rms_reduction_ci=(None, None),
         heldout_superior_force_reduction_pct=None,
-        insample_rms_reduction_pct=insample_reduction(parent.full, ev.full),
+        insample_rms_reduction_pct=insample,
         per_stance_reduction_pct={},
         n_params=n_params(ev, parent),
         passes=False,
         screened=True,
-        inconclusive=_inconclusive(False, test),
+        inconclusive=_inconclusive(False, test, floor),
         gain_from_nuisance=None,
         confounded_with=(),
         flags=tuple(f["code"] for f in ev.full.flags),
         calibrated=test,
+        floor_stances=floor,
     )
 
 
