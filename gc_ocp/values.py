@@ -1,4 +1,5 @@
-"""Numbers a user gives the Python API (a notebook's ``mass="70kg"``): one rule, one message."""
+"""Numbers a user gives the Python API (a notebook's ``mass="70kg"``): one rule, one message; and
+the one way a standard error is written for a reader (:func:`se_text`)."""
 
 from __future__ import annotations
 
@@ -21,3 +22,29 @@ def number(value, what: str, unit: str, text: bool = True) -> float:
     if not math.isfinite(x):
         raise InputError(f"{what} must be a number in {unit}, but got {value!r}")
     return x
+
+
+def two_digits(x) -> str:
+    """``x`` to two significant digits, written out as a reader writes a standard error
+    (``230``, ``7800``, ``0.088``) where ``.2g`` gives ``2.3e+02``; trailing zeros dropped as
+    ``.2g`` drops them (``0.5``); the exponent form only outside 1e-4 to 1e6, and a non-finite
+    number as ``.2g`` writes it."""
+    x = float(x)
+    if not math.isfinite(x) or x == 0.0:
+        return format(x, ".2g")
+    e = math.floor(math.log10(abs(x)))
+    if e < -4 or e >= 6:
+        return format(x, ".2g")
+    r = round(x, 1 - e)
+    e = math.floor(math.log10(abs(r)))  # 9.96 rounds to 10: one decimal fewer
+    text = format(r, f".{max(0, 1 - e)}f")
+    return text.rstrip("0").rstrip(".") if "." in text else text  # 0.50 -> 0.5, as .2g
+
+
+def se_text(se, value_text: str) -> str:
+    """A standard error as its value is written beside it: in the exponent form where the value
+    is (``3.896e+04 ± 6.4e+03``), else written out (``704 ± 230``, :func:`two_digits`), so
+    that a row never mixes the two (``704 ± 2.3e+02`` was hard to read)."""
+    if "e" in value_text.replace("–", "") and not value_text.strip().isalpha():
+        return format(float(se), ".2g")
+    return two_digits(se)

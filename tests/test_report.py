@@ -518,3 +518,21 @@ def test_the_one_step_s_miss_of_the_parent_is_measured_and_noted(diagnosis, bund
     assert (listed is not None and "for damping (refit" in listed) == (
         gain > MIN_REDUCTION_PCT and row.heldout_rms_reduction_pct > MIN_REDUCTION_PCT
     )
+
+
+def test_a_standard_error_is_written_as_its_value_is():
+    """A reviewer read "704 ± 2.3e+02" and "13451 ± 7.8e+03" on a page: ``.2g`` writes a
+    two-digit SE of 100 or more with an exponent beside a written-out value. It is now written
+    out there, and in the exponent form beside a value in that form, so a cell never mixes the
+    two; two significant digits either way."""
+    from gc_ocp.html.fit_tables import pm_value
+    from gc_ocp.values import two_digits
+
+    assert pm_value(704.2, 230.4, ".0f") == "704 ± 230"
+    assert pm_value(13451.0, 7812.0, ".0f") == "13451 ± 7800"
+    assert pm_value(38960.0, 6400.0) == "3.896e+04 ± 6.4e+03"
+    assert pm_value(0.2601, 0.0112) == "0.2601 ± 0.011"
+    # ".2g"'s digits where it writes no exponent; rounding up carries to the next decade
+    for v in (0.0876, 1.5, 0.5, 9.96, 0.00012, 2e7):
+        assert two_digits(v) == format(v, ".2g")
+    assert (two_digits(99.6), two_digits(15000.0)) == ("100", "15000")

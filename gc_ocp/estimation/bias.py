@@ -67,6 +67,7 @@ from gc_ocp.estimation.synthetic import plate_signal, simulate, with_pose_error
 from gc_ocp.foot import FootKinematics
 from gc_ocp.marker_noise import filter_kernel
 from gc_ocp.stance import StanceData
+from gc_ocp.values import se_text
 
 REPLICATES = 16
 """Replicates of :func:`bias_corrected` unless told otherwise: the bias's Monte Carlo error is
@@ -277,7 +278,7 @@ class BiasCorrection:
 
     def message(self) -> str:
         parts = [
-            f"{k} {self.bias[k]:+.3g} (+- {self.bias_se[k]:.2g})"
+            f"{k} {self.bias[k]:+.3g} (+- {se_text(self.bias_se[k], f'{self.bias[k]:+.3g}')})"
             for k in self.bias
             if k in ("n", "c", "mu") and k not in self.at_bound
         ]

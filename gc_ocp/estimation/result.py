@@ -25,6 +25,7 @@ from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
 from gc_ocp.text import read_json_file
 from gc_ocp.trial import SIDES
+from gc_ocp.values import se_text
 from gc_ocp.wrench import cop_from_wrench
 
 COP_MIN_FRACTION_BW = 0.10
@@ -164,7 +165,9 @@ class EstimationResult:
         shared = self.params.get("shared", {})
         for k, v in shared.items():
             if not k.endswith("_se"):
-                lines.append(f"shared {k} = {v:.4g} ± {shared.get(k + '_se', float('nan')):.2g}")
+                lines.append(
+                    f"shared {k} = {v:.4g} ± {se_text(shared.get(k + '_se', float('nan')), f'{v:.4g}')}"
+                )
         for name, rows in self.block_rows().items():
             lines += [f"{name} {r.text()}" for r in rows]
         if self.flags:
@@ -290,7 +293,8 @@ def _shown(p: dict, unit: str, key: str, fmt: str) -> str:
     se = e.get(key + "_se")
     if not se:  # fixed (a held-out stance's frozen law): no uncertainty of its own here
         return f"{unit} {e[key]:{fmt}} (fixed)"
-    return f"{unit} {e[key]:{fmt}}±{se:.2g}"
+    value = f"{e[key]:{fmt}}"
+    return f"{unit} {value}±{se_text(se, value)}"
 
 
 def fit_quality(fits: list) -> tuple[dict, dict]:

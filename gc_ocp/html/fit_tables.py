@@ -13,6 +13,7 @@ import numpy as np
 
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_name, channel_unit
 from gc_ocp.estimation.components.base import per_axis
+from gc_ocp.values import se_text
 
 CORE_BLOCKS = ("contact", "sole", "pose", "belt")
 """Blocks of the registered base shown in their own tables; any other block is an effect's."""
@@ -61,7 +62,8 @@ def pm_value(value: float, se: float | None, fmt: str = ".4g", unit: str = "") -
         return fmt_num(value, fmt) + unit
     if se == 0:
         return fmt_num(value, fmt) + unit + " (fixed)"
-    return f"{fmt_num(value, fmt)} ± {fmt_num(se, '.2g')}{unit}"
+    text = fmt_num(value, fmt)
+    return f"{text} ± {se_text(se, text)}{unit}"
 
 
 def contact_tables(params: dict) -> dict:

@@ -30,6 +30,10 @@ by draw); the pages do not show it and are unchanged.
 The method text then said that only the null's noise, not its spread between mismatch
 draws, shrinks with more stances: both pages re-rendered (``--rerender``), that sentence the only
 change.
+A standard error is written as its value is (2026-11-30, ``gc_ocp.values.se_text``): written out
+beside a written-out value (``207 ± 160``, ``14669 ± 9400``, where ``.2g`` gave ``1.6e+02``),
+in the exponent form beside a value in that form (``3.896e+04 ± 6.4e+03``, unchanged): both
+pages re-rendered (``--rerender``), those cells the only change.
 """
 
 from __future__ import annotations

@@ -44,6 +44,7 @@ import numpy as np
 
 from gc_ocp.errors import ModelError
 from gc_ocp.estimation.variables import block_values
+from gc_ocp.values import se_text
 
 if TYPE_CHECKING:  # pragma: no cover
     from gc_ocp.estimation.frame import Frame
@@ -69,7 +70,8 @@ class SummaryRow(NamedTuple):
     def text(self) -> str:
         """``"label = value ± se unit"`` (4 and 2 significant digits)."""
         unit = "" if self.unit in ("", "-") else f" {self.unit}"
-        return f"{self.label} = {self.value:.4g} ± {self.se:.2g}{unit}"
+        value = f"{self.value:.4g}"
+        return f"{self.label} = {value} ± {se_text(self.se, value)}{unit}"
 
 
 @dataclass
