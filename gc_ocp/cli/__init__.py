@@ -131,7 +131,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="Also refit with other marker cutoffs (4, 8 Hz) and stance margins (60 ms) and report how "
         "far the headline parameters move, in units of their SE (sensitivity.json/.md).",
     )
-    p.add_argument("--holdout", help='Stance to hold out, e.g. "right@0.407s" (see `gc-ocp info`).')
+    p.add_argument(
+        "--holdout",
+        help='Stance to hold out: its label or a unique part of it, e.g. "right@0.407s" (`gc-ocp '
+        'info` lists them; with several trials, the trial\'s name first: "walk2:right@1.2"); '
+        '"auto": the last stance of the foot with the most stances (default: none held out).',
+    )
     p.add_argument(
         "--fixed-pose-width",
         action="store_true",

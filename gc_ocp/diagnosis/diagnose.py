@@ -458,7 +458,10 @@ def _calibrated(
             told = lambda k, n: say(f"  refit null: replicate {k} of up to {n}")  # noqa: E731
         else:
             source, task, told = inputs, None, None
-            say(f"  calibrated null: {n_draws} mismatch draws, each a refit of {parent.label}")
+            say(
+                f"  calibrated null: up to {n_draws} mismatch draws (they stop once no "
+                f"candidate can be named), each a refit of {parent.label}"
+            )
         null, draw, skipped, shares = mismatch_null(
             source, family, n_draws, seed, executor, stop, alpha, among, task, told
         )

@@ -33,7 +33,12 @@ change.
 A standard error is written as its value is (2026-11-30, ``gc_ocp.values.se_text``): written out
 beside a written-out value (``207 ± 160``, ``14669 ± 9400``, where ``.2g`` gave ``1.6e+02``),
 in the exponent form beside a value in that form (``3.896e+04 ± 6.4e+03``, unchanged): both
-pages re-rendered (``--rerender``), those cells the only change.
+pages re-rendered (``--rerender``), those cells the only change. The ranking table laid out
+for a reader (same day, a review's screenshot: intervals broken over two lines, the decision
+column a word wide): the interval and the test kept on their lines (``td.nw``), the decision
+column at least 12em wide, the page 72em wide, the test's p-value to three significant digits
+as the decision gives it: both pages re-rendered, those cells, the style and that width the
+only change.
 """
 
 from __future__ import annotations
