@@ -48,3 +48,8 @@ def se_text(se, value_text: str) -> str:
     if "e" in value_text.replace("–", "") and not value_text.strip().isalpha():
         return format(float(se), ".2g")
     return two_digits(se)
+
+
+BOUND_TEXT = "(at its bound: not an estimate)"
+"""What a table shows in place of ``± SE`` for a parameter flagged ``at_bound`` (its SE assumes
+an interior optimum and means nothing there)."""

@@ -536,3 +536,35 @@ def test_a_standard_error_is_written_as_its_value_is():
     for v in (0.0876, 1.5, 0.5, 9.96, 0.00012, 2e7):
         assert two_digits(v) == format(v, ".2g")
     assert (two_digits(99.6), two_digits(15000.0)) == ("100", "15000")
+
+
+def test_a_parameter_at_its_bound_shows_no_standard_error():
+    """A reviewer read "n = 1 ± 0.088" in a fit's tables while its flags said n sat on its
+    bound and its SE is not meaningful. A parameter the fit flags ``at_bound`` is shown with
+    that in place of its SE, in the page's tables and the summary; the others as before."""
+    import dataclasses
+
+    from gc_ocp.html.fit_tables import contact_tables
+    from gc_ocp.values import BOUND_TEXT
+
+    _, _, _, _, final = _fixture(CASES[0])
+    before = contact_tables(final.params, final.at_bound)
+    flagged = dataclasses.replace(
+        final,
+        flags=[
+            *final.flags,
+            {"code": "at_bound", "what": "contact/mu", "message": "mu at its bound"},
+            {"code": "at_bound", "what": "contact/k/left/PL", "message": "k at its bound"},
+        ],
+    )
+    assert flagged.at_bound >= {"contact/mu", "contact/k/left/PL"}
+    after = contact_tables(flagged.params, flagged.at_bound)
+    shared = dict(after["shared"])
+    assert shared["mu"].endswith(BOUND_TEXT) and "±" not in shared["mu"]
+    assert dict(before["shared"])["mu"].count("±") == 1
+    pl = next(u for u in after["units"] if (u["side"], u["unit"]) == ("left", "PL"))
+    assert pl["k"].endswith(BOUND_TEXT)
+    assert [u for u in after["units"] if u is not pl] == [
+        u for u in before["units"] if (u["side"], u["unit"]) != ("left", "PL")
+    ]
+    assert f"shared mu = {final.params['shared']['mu']:.4g} {BOUND_TEXT}" in flagged.summary()

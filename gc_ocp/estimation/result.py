@@ -25,7 +25,7 @@ from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
 from gc_ocp.text import read_json_file
 from gc_ocp.trial import SIDES
-from gc_ocp.values import se_text
+from gc_ocp.values import BOUND_TEXT, se_text
 from gc_ocp.wrench import cop_from_wrench
 
 COP_MIN_FRACTION_BW = 0.10
@@ -90,6 +90,12 @@ class EstimationResult:
         """The contact law's block: ``{side: {unit: {"k", "k_se", "f_ref", "f_ref_se"}, ...},
         "shared": {...}}`` (see :meth:`ContactLaw.decode`)."""
         return self.blocks.get("contact", {})
+
+    @property
+    def at_bound(self) -> frozenset[str]:
+        """The variables flagged ``at_bound`` (``"contact/n"``, ``"contact/k/left/PM"``): their
+        value is not an estimate and their SE means nothing; the tables say so in place of it."""
+        return frozenset(f["what"] for f in self.flags if f.get("code") == "at_bound")
 
     @property
     def sole_corrections_mm(self) -> dict:
@@ -165,8 +171,14 @@ class EstimationResult:
         shared = self.params.get("shared", {})
         for k, v in shared.items():
             if not k.endswith("_se"):
+                se = shared.get(k + "_se", float("nan"))
                 lines.append(
-                    f"shared {k} = {v:.4g} ± {se_text(shared.get(k + '_se', float('nan')), f'{v:.4g}')}"
+                    f"shared {k} = {v:.4g} "
+                    + (
+                        BOUND_TEXT
+                        if f"contact/{k}" in self.at_bound
+                        else f"± {se_text(se, f'{v:.4g}')}"
+                    )
                 )
         for name, rows in self.block_rows().items():
             lines += [f"{name} {r.text()}" for r in rows]

@@ -13,7 +13,7 @@ import numpy as np
 
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_name, channel_unit
 from gc_ocp.estimation.components.base import per_axis
-from gc_ocp.values import se_text
+from gc_ocp.values import BOUND_TEXT, se_text
 
 CORE_BLOCKS = ("contact", "sole", "pose", "belt")
 """Blocks of the registered base shown in their own tables; any other block is an effect's."""
@@ -47,8 +47,12 @@ def rms_table(res, heldout: dict | None) -> dict:
     return {"sides": sides, "heldout": bool(heldout), "rows": rows}
 
 
-def pm(d: dict, key: str, fmt: str = ".4g") -> str:
-    """``value ± SE`` of ``d[key]`` (``d[key + "_se"]``); a zero SE marks a fixed value."""
+def pm(d: dict, key: str, fmt: str = ".4g", bound: bool = False) -> str:
+    """``value ± SE`` of ``d[key]`` (``d[key + "_se"]``); a zero SE marks a fixed value;
+    ``bound``: the parameter is flagged at its bound (:data:`~gc_ocp.values.BOUND_TEXT` in place
+    of the SE)."""
+    if bound:
+        return f"{fmt_num(d[key], fmt)} {BOUND_TEXT}"
     return pm_value(d[key], d.get(key + "_se"), fmt)
 
 
@@ -66,9 +70,10 @@ def pm_value(value: float, se: float | None, fmt: str = ".4g", unit: str = "") -
     return f"{text} ± {se_text(se, text)}{unit}"
 
 
-def contact_tables(params: dict) -> dict:
+def contact_tables(params: dict, at_bound: frozenset[str] = frozenset()) -> dict:
     """The contact law's block as tables: per unit k and force at 5 mm, per-foot scalars, shared
-    parameters (each ``value ± SE``)."""
+    parameters (each ``value ± SE``; a parameter of ``at_bound``, the fit's
+    :attr:`~gc_ocp.estimation.result.EstimationResult.at_bound`, says so instead)."""
     units, per_foot = [], []
     for side, per in params.items():
         if side == "shared" or not isinstance(per, dict):
@@ -79,19 +84,30 @@ def contact_tables(params: dict) -> dict:
                     {
                         "side": side,
                         "unit": unit,
-                        "k": pm(e, "k", ".4g"),
+                        "k": pm(e, "k", ".4g", f"contact/k/{side}/{unit}" in at_bound),
                         "f_ref": pm(e, "f_ref", ".0f"),
                         "identified": e.get("identified", True),
                     }
                 )
         scalars = [k for k, v in per.items() if not isinstance(v, dict) and not k.endswith("_se")]
         if scalars:
-            per_foot.append({"side": side, "values": [(k, pm(per, k)) for k in scalars]})
+            per_foot.append(
+                {
+                    "side": side,
+                    "values": [
+                        (k, pm(per, k, bound=f"contact/{k}/{side}" in at_bound)) for k in scalars
+                    ],
+                }
+            )
     shared = params.get("shared", {})
     return {
         "units": units,
         "per_foot": per_foot,
-        "shared": [(k, pm(shared, k)) for k in shared if not k.endswith("_se")],
+        "shared": [
+            (k, pm(shared, k, bound=f"contact/{k}" in at_bound))
+            for k in shared
+            if not k.endswith("_se")
+        ],
     }
 
 
