@@ -964,3 +964,44 @@ def test_held_out_solves_that_did_not_converge_are_noted():
     }
     (note,) = unconverged_notes(evs)
     assert note.startswith("base+damping: the held-out solve of 1 of 2 stance(s)") and "(b)" in note
+
+
+def test_a_later_round_holds_out_its_contenders_before_its_null(bundled, monkeypatch):
+    """From round 2 on, a screened candidate whose in-sample gain clears the effect-size floor
+    (a contender: the test could still name it) is held out before the round's null, so that a
+    held-out gain under the floor ends the null's draws at their first look; before, it was held
+    out only after all the draws, if the test named it (a review: the clock offset named at
+    p 0.044 after 32 draws and then stopped by the floor). A spy on the round's calibrated test
+    (the real one runs) records which candidates it was given screened. The floor is lowered
+    to 0.3 % so that the ground offset (+0.47 % in-sample in round 2 on these data) is a
+    contender; the toe hinge (-0.2 %) stays screened."""
+    import importlib
+
+    from gc_ocp.diagnosis import selection
+
+    dmod = importlib.import_module("gc_ocp.diagnosis.diagnose")  # the module, not the function
+
+    stances, truth = bundled
+    data = simulate(stances, (*truth, Damping(fixed=1.0)), np.random.default_rng(1))
+    monkeypatch.setattr(selection, "MIN_REDUCTION_PCT", 0.3)
+    seen = []
+    real = dmod._calibrated
+
+    def spy(stances, current, parent_lin, evs, *args, **kwargs):
+        seen.append({n: ev.screened for n, ev in evs.items()})
+        return real(stances, current, parent_lin, evs, *args, **kwargs)
+
+    monkeypatch.setattr(dmod, "_calibrated", spy)
+    kw = {"candidates": ["damping", "ground_offset", "toe_joint"], "n_boot": 100}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = diagnose_stances(data, workers=1, mismatch_draws=4, alpha=0.35, **kw)
+    assert d.selected[:1] == ["damping"] and len(d.rounds) >= 2
+    assert not any(seen[0].values())  # round 1 holds out every candidate
+    later = {r.effect: r for r in d.rounds[1]}
+    assert later["ground_offset"].insample_rms_reduction_pct >= 0.3
+    assert seen[1]["ground_offset"] is False  # held out before the null
+    assert not later["ground_offset"].screened
+    assert later["ground_offset"].heldout_rms_reduction_pct is not None
+    assert later["toe_joint"].insample_rms_reduction_pct < 0.3
+    assert seen[1]["toe_joint"] is True and later["toe_joint"].screened

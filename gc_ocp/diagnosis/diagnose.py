@@ -287,6 +287,16 @@ def diagnose_stances(
             remaining = [n for n in remaining if n not in failed]  # not retried in later rounds
             ok = {n: ev for n, ev in evs.items() if n not in failed}
             able, known = contenders(current, ok, n_boot, seed, rate)
+            if not first and stop_early:
+                # a screened candidate the floor cannot yet rule out (its in-sample gain clears
+                # it) keeps the null's draws going, and would be held out if the test named it:
+                # hold it out now, so that a held-out gain under the floor stops the draws at
+                # their first look instead of after all of them (the test and its claims are
+                # unchanged: the floor is the null's business only through ``able``)
+                early = [j for j in jobs if j.name in able and ok[j.name].screened]
+                again = RoundInputs(tuple(stances), tuple(plan), current, weights, options)
+                hold_out(early, ok, evs, again, pool, say)
+                able, known = contenders(current, ok, n_boot, seed, rate)
             tests, info = _calibrated(
                 stances,
                 current,
@@ -308,19 +318,13 @@ def diagnose_stances(
             )
             calibration.append(info)
             if not first:
-                named = [j for j in jobs if j.name in tests and tests[j.name].p_adjusted < alpha]
-                if named:
-                    again = RoundInputs(tuple(stances), tuple(plan), current, weights, options)
-                    held = evaluate_round(
-                        [dataclasses.replace(j, full=ok[j.name].full) for j in named],
-                        again,
-                        pool,
-                        say,
-                    )
-                    for n, ev in held.items():
-                        if not isinstance(ev, NotEvaluable):
-                            ev.linear = ok[n].linear
-                            ok[n] = evs[n] = ev
+                named = [
+                    j
+                    for j in jobs
+                    if j.name in tests and tests[j.name].p_adjusted < alpha and ok[j.name].screened
+                ]
+                again = RoundInputs(tuple(stances), tuple(plan), current, weights, options)
+                hold_out(named, ok, evs, again, pool, say)
             evaluations.update({ev.label: ev for ev in ok.values()})
             rows = rank(current, evs, tests, n_boot, seed, rate, alpha, known)
             rounds.append(rows)
@@ -362,6 +366,21 @@ def diagnose_stances(
         max_effects=max_effects,
         floor_pct=MIN_REDUCTION_PCT,
     )
+
+
+def hold_out(jobs: Sequence[Job], ok: dict, evs: dict, inputs: RoundInputs, pool, say) -> None:
+    """Hold out the screened candidates of ``jobs`` (a later round's): their folds fitted from
+    their fits on all stances, which they keep, as does their linearisation; ``ok`` and ``evs``
+    updated in place (a fold that raises leaves the screened evaluation)."""
+    if not jobs:
+        return
+    held = evaluate_round(
+        [dataclasses.replace(j, full=ok[j.name].full) for j in jobs], inputs, pool, say
+    )
+    for n, ev in held.items():
+        if not isinstance(ev, NotEvaluable):
+            ev.linear = ok[n].linear
+            ok[n] = evs[n] = ev
 
 
 def draws_made(family: MismatchFamily | None, null_fits: str) -> bool:
