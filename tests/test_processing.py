@@ -20,6 +20,7 @@ from gc_ocp.io.processing import (
     COP_NOISE_FACTOR,
     FORCE_SLOPE,
     MARKER_SLOPE,
+    censor_threshold,
     detect_marker_processing,
     detect_plate_processing,
     detect_processing,
@@ -207,6 +208,51 @@ def test_zeroed_then_filtered_plate_shows_the_filter_tail():
     p = detect_plate_processing(_plate(t, x[:, 0], x[:, 1:]))
     assert p.zero_edges == "filter tail" and p.filtered
     assert p.zero_threshold < 1e-3  # below any plate's resolution: arithmetic, not a load
+
+
+def test_plate_zeroed_on_its_vertical_channel_only_gives_the_threshold():
+    """A lab that sets only Fz to 0 below the threshold and keeps the other five channels: Fz is
+    censored all the same, so the threshold is found as for a six-channel zeroing (before, no
+    threshold was found and the zeros were fitted as measured forces)."""
+    t, fz, noise = _plate_signal()
+    raw = fz + noise[:, 2]
+    z = np.where(np.abs(raw) < THRESHOLD, 0.0, raw)
+    p = detect_plate_processing(_plate(t, z, noise))
+    assert THRESHOLD <= p.zero_threshold <= THRESHOLD + _crossing_rise(raw)  # as six channels
+    assert p.zero_edges == "step"
+    assert not p.resampled  # the exact zeros are not the knots of an interpolation
+    assert censor_threshold(p) == p.zero_threshold
+    # the raw plate's Fz reads exactly 0 in single samples only (float noise): nothing found
+    assert detect_plate_processing(_plate(t, raw, noise)).zero_threshold is None
+
+
+def test_zeroed_then_causally_filtered_plate_shows_the_filter_tail():
+    """Zeroing, then a causal (one-pass) low-pass: its tail decays into the zero run after each
+    load only, while the force before a load rises from 0 by the filter's first coefficient.
+    Not a threshold step of ~1e-45 N (before: "step", censored at that value, or "continuous",
+    zeroed at ~0 N). At 100 Hz the tail underflows float32 within ~0.25 s, inside the 0.55 s
+    between the stances."""
+    t, fz, noise = _plate_signal()
+    z, other = _zeroed(fz + noise[:, 2], noise)
+    b, a = signal.butter(2, 100.0, fs=RATE)
+    x = signal.lfilter(b, a, np.column_stack([z, other]), axis=0).astype(np.float32).astype(float)
+    p = detect_plate_processing(_plate(t, x[:, 0], x[:, 1:]))
+    assert p.zero_edges == "filter tail" and p.filtered
+    assert p.zero_threshold < 1e-3  # below any plate's resolution: arithmetic, not a load
+    assert censor_threshold(p) == 0.0
+
+
+def test_stance_edge_on_a_noisy_plate_is_not_an_unloaded_offset():
+    """A 3 N mains hum raises the quiet limit of the 50 ms windows (3 x the quietest std, ~8 N)
+    above the std of the window where a stance's force tapers to 0 (the toe leaving the plate:
+    20 N to 0 over 45 ms, std ~6 N): that window's mean (~9 N) is a load, not an offset of the
+    unloaded plate."""
+    t, fz, noise = _plate_signal()
+    hum = 3.0 * np.sin(2 * np.pi * 50.0 * t)
+    end = 0.5 + 0.65  # the first stance ends on a window boundary (1150 samples = 23 windows)
+    toe = np.where((t >= end) & (t < end + 0.045), 20.0 * (1.0 - (t - end) / 0.045), 0.0)
+    p = detect_plate_processing(_plate(t, fz + toe + noise[:, 2] + hum, noise))
+    assert p.unloaded_offsets == ()
 
 
 @pytest.mark.parametrize("kind", ["linear", "cubic"])

@@ -8,7 +8,8 @@ Rules (conventions and signal properties only, never a file or lab name; ``docs/
 "What the lab's processing did", gives the reasons and limits):
 
 * **zeroed below a threshold**: runs of samples where all six wrench channels are exactly 0 (a
-  plate's electronics are never exactly 0 on six channels at once); the threshold is the smallest
+  plate's electronics are never exactly 0 on six channels at once), or longer runs where Fz
+  alone is (a threshold applied to the vertical channel only); the threshold is the smallest
   |Fz| next to such a run.
 * **low-passed**: a raw sensor has a white noise floor up to Nyquist; a filter makes the spectrum
   fall by orders of magnitude above its cutoff, or leaves only the rounding of the stored numbers.
@@ -34,6 +35,11 @@ ZERO_RUN_MIN = 5
 """Shortest run [samples] of six exactly-zero wrench channels taken as zeroing. Even a coarsely
 quantised raw channel is exactly 0 at most ~half the time: six channels together for 5 samples
 in a row, < 0.5^30 ~ 1e-9 per sample."""
+FZ_ZERO_RUN_MIN = 30
+"""Shortest run [samples] of an exactly-zero vertical force alone taken as zeroing (a lab that
+thresholds the vertical channel only and keeps the others): the same odds as
+:data:`ZERO_RUN_MIN` for one channel, 0.5^30 ~ 1e-9 per sample (60 ms at 500 Hz, 0.3 s at
+100 Hz: shorter than the swing between two stances on one plate)."""
 PLATE_WINDOW = 0.25
 """Welch window for plate spectra [s]: several windows per stance (0.6-0.8 s)."""
 MARKER_WINDOW = 1.0
@@ -62,6 +68,12 @@ f^-4 force), a shallower one would read the signal's own fall as the filter."""
 MARKER_SLOPE = 7.0
 """Same for marker trajectories: their acceleration jumps (heel strike, toe-off), so they fall
 as f^-6; the raw marker data of ../shared/data fall as f^-6 to f^-7 above the stride harmonics."""
+TAIL_SHARE = 0.25
+"""Share of the edges of the zero runs below :data:`PLATE_NOISE_MIN` (two samples in a row) that
+makes them a filter's tail. A zero-lag (forward-backward) filter leaves its tail on both edges of every run, a causal
+one on the edges after the loads only (half of them; the edges before a load then rise
+smoothly from 0, by the filter's first coefficient); a threshold or a noisy edge gives a value
+below 1 mN by chance only (~1e-3 N / noise per edge)."""
 BASELINE_WINDOW = 0.05
 """Window [s] for the unloaded check (as :func:`gc_ocp.io.c3d.unloaded_baseline`)."""
 UNLOADED_MAX = 50.0
@@ -85,7 +97,8 @@ class PlateProcessing:
     name, rate_hz: the plate and its sampling rate [Hz] (samples over duration).
     zero_threshold: [N] the wrench was set to exactly 0 where |Fz| was below this (the smallest
         |Fz| next to an exact-zero run; an upper bound, within one sample's rise of the lab's
-        value); ``None`` when the plate has no exact-zero run of :data:`ZERO_RUN_MIN` samples.
+        value); ``None`` when the plate has no exact-zero run of :data:`ZERO_RUN_MIN` samples
+        (:data:`FZ_ZERO_RUN_MIN` of Fz alone: :func:`exact_zero_runs`).
     zero_edges: ``"step"`` (the first non-zero samples jump from 0: a threshold),
         ``"continuous"`` (the force leaves 0 at its own rate: zeroed at ~0 N; the threshold is
         then at most one sample's rise) or ``"filter tail"`` (the edges decay to values no plate
@@ -281,33 +294,44 @@ def mean_rate(time: np.ndarray) -> float:
 
 def exact_zero_runs(wrench: np.ndarray) -> np.ndarray:
     """Mask ``(n,)`` of the samples of ``wrench`` ``(n, 6)`` where all channels are exactly 0,
-    when at least one such run reaches :data:`ZERO_RUN_MIN` samples (else all False)."""
+    when at least one such run reaches :data:`ZERO_RUN_MIN` samples, together with the runs of
+    :data:`FZ_ZERO_RUN_MIN` samples or more where the vertical force alone is exactly 0 (a
+    threshold applied to Fz only: the other channels keep their noise, and Fz is as censored);
+    all False without either."""
     zero = np.all(wrench == 0.0, axis=1)
     if not any(b - a >= ZERO_RUN_MIN for a, b in _runs(zero)):
-        return np.zeros(zero.shape, dtype=bool)
+        zero = np.zeros(zero.shape, dtype=bool)
+    fz_zero = np.asarray(wrench[:, 2] == 0.0)
+    for a, b in _runs(fz_zero):
+        if b - a >= FZ_ZERO_RUN_MIN:
+            zero[a:b] = True
     return zero
 
 
 def zero_threshold(fz: np.ndarray, zero: np.ndarray) -> tuple[float | None, str]:
     """The threshold [N] below which ``fz`` was zeroed (``zero``: the exact-zero samples) and how
-    the force leaves the zero runs (see :class:`PlateProcessing`): ``"filter tail"`` when most
-    edge values are below any plate's resolution (:data:`PLATE_NOISE_MIN`: only a recursive
-    filter's response decaying into the zeroed stretches makes such numbers), else
-    ``"step"`` when most edges jump from 0 by more than twice the next sample's change (a lone
-    sample between zero runs counts as a step), else ``"continuous"``."""
-    edge, step = [], []
+    the force leaves the zero runs (see :class:`PlateProcessing`): ``"filter tail"`` when at
+    least :data:`TAIL_SHARE` of the edges are, with the sample beyond them, below any plate's
+    resolution (:data:`PLATE_NOISE_MIN`: only a recursive filter's response decaying into the
+    zeroed stretches makes such numbers; a single one is round-off), else ``"step"`` when most edges jump from 0 by more than
+    twice the next sample's change (a lone sample between zero runs counts as a step), else
+    ``"continuous"``."""
+    edge, step, tail = [], [], []
     for a, b in _runs(zero):
         for i, j in ((a - 1, a - 2), (b, b + 1)):  # the non-zero sample next to the run, its next
             if 0 <= i < fz.size and not zero[i]:
                 edge.append(abs(fz[i]))
                 if 0 <= j < fz.size and not zero[j]:
                     step.append(abs(fz[i]) > 2.0 * abs(fz[i] - fz[j]))
+                    # a tail decays over many samples: the next one is below 1 mN too
+                    tail.append(max(abs(fz[i]), abs(fz[j])) < PLATE_NOISE_MIN)
                 else:
                     step.append(True)  # one sample between zeros: above the threshold alone
+                    tail.append(False)
     if not edge:
         return None, ""
     low = float(min(edge))
-    if np.median(edge) < PLATE_NOISE_MIN:
+    if np.mean(tail) >= TAIL_SHARE:
         return low, "filter tail"
     return low, "step" if np.mean(step) >= 0.5 else "continuous"
 
@@ -315,7 +339,10 @@ def zero_threshold(fz: np.ndarray, zero: np.ndarray) -> tuple[float | None, str]
 def unloaded_windows(fz: np.ndarray, rate: float, zero: np.ndarray) -> np.ndarray:
     """Boolean ``(n_windows,)``: the :data:`BASELINE_WINDOW` windows of ``fz`` that are quiet
     (standard deviation below max(2 N, 3 x the quietest window), as the loader's baseline) and
-    unloaded (mean |Fz| < :data:`UNLOADED_MAX`) and hold no exactly-zeroed sample."""
+    unloaded (mean |Fz| < :data:`UNLOADED_MAX`, and neither they nor their neighbours hold a
+    sample of :data:`UNLOADED_MAX` or more: the window where a stance's force rises from or
+    falls to 0 has a small mean and, on a noisy plate, a std within the quiet limit) and hold
+    no exactly-zeroed sample."""
     n = max(int(round(BASELINE_WINDOW * rate)), 2)
     nw = fz.size // n
     if nw == 0:
@@ -329,7 +356,9 @@ def unloaded_windows(fz: np.ndarray, rate: float, zero: np.ndarray) -> np.ndarra
     if not ok.any():
         return ok
     quiet = std < max(2.0, 3.0 * float(std[ok].min()))
-    return ok & quiet & (np.abs(w.mean(axis=1)) < UNLOADED_MAX)
+    load = np.abs(w).max(axis=1) >= UNLOADED_MAX
+    near = load | np.concatenate([[False], load[:-1]]) | np.concatenate([load[1:], [False]])
+    return ok & quiet & ~near & (np.abs(w.mean(axis=1)) < UNLOADED_MAX)
 
 
 def _offsets(fz, rate, unloaded) -> tuple[tuple[float, float, float], ...]:
