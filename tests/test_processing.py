@@ -15,6 +15,7 @@ import pytest
 from scipy import interpolate, optimize, signal
 
 from gc_ocp.io import load_trial
+from gc_ocp.io._resampling import interpolation_factor
 from gc_ocp.io._spectra import BANDS_PER_DECADE, SIX_DB
 from gc_ocp.io.processing import (
     COP_NOISE_FACTOR,
@@ -224,6 +225,29 @@ def test_plate_zeroed_on_its_vertical_channel_only_gives_the_threshold():
     assert censor_threshold(p) == p.zero_threshold
     # the raw plate's Fz reads exactly 0 in single samples only (float noise): nothing found
     assert detect_plate_processing(_plate(t, raw, noise)).zero_threshold is None
+
+
+def test_coarse_raw_plate_held_at_a_lower_rate_is_not_zeroed():
+    """A raw Fz quantised to 2 N steps (1.5 N noise: exactly 0 in ~half the samples) and held
+    from 100 Hz to 1000 Hz repeats each of its zeros 10 times: runs of 30 samples are then 3
+    native samples, not evidence of a zeroing (FZ_ZERO_RUN_TIME)."""
+    t, fz, noise = _plate_signal()
+    held = np.repeat((np.round((fz + noise[:, 2]) / 2.0) * 2.0)[::10], 10)[: t.size]
+    p = detect_plate_processing(_plate(t, held, np.repeat(noise[::10], 10, axis=0)[: t.size]))
+    assert p.zero_threshold is None and p.zero_edges == ""
+    assert p.interpolation == "hold" and p.native_rate_hz == pytest.approx(100.0)
+
+
+def test_smooth_signal_with_a_few_non_vanishing_differences_is_not_interpolated():
+    """A signal so smooth that its higher differences vanish at float32 resolution everywhere
+    but at one sharp peak (a plate low-passed at 10 Hz: 3 of 3938 differences) is no
+    interpolation: those few are not at every knot (MIN_KNOT_SHARE; before: cubic, factor 32)."""
+    t = np.arange(4000) / RATE
+    x = (700.0 * np.sin(2 * np.pi * 0.5 * t)).astype(np.float32).astype(float)
+    for bump in (5e-4, 1e-3):  # 2 and 3 differences above the float32 step of 700 N
+        y = x.copy()
+        y[2001] += bump
+        assert interpolation_factor([(0, y)]) is None
 
 
 def test_zeroed_then_causally_filtered_plate_shows_the_filter_tail():

@@ -23,6 +23,14 @@ R >= 2 and p + 1 non-zero phases, at least 1 - (p+1)/R of them vanish: 0.33 for 
 white noise has ~none)."""
 
 
+MIN_KNOT_SHARE = 0.5
+"""Share of non-vanishing differences the non-vanishing phases must hold (averaged over them):
+a knot's stencil straddles the change of the interpolating polynomial, non-zero on noisy data
+at nearly every knot; a strongly low-passed signal whose differences all vanish but for a few
+at its sharpest peak (3 of 3938 on a plate low-passed at 10 Hz: read as a cubic interpolation
+from 1080 / 32 Hz before) has these few at any phases, not at every knot."""
+
+
 def decimals_quantum(x: np.ndarray) -> float:
     """Step of the decimal numbers ``x`` was written with (10^-k for the smallest k <= 9 that
     makes every value a whole number of steps, to 1e-6 of a step), 0 when none fits (binary
@@ -62,9 +70,16 @@ def interpolation_factor(segments: Sequence[tuple[int, np.ndarray]]) -> tuple[in
             continue
         best = (0.0, 0)
         for r in range(p + 2, MAX_FACTOR + 1):
-            quiet = np.array([small[idx % r == k].all() for k in range(r)])
+            small_share = np.array([small[idx % r == k].mean() for k in range(r)])
+            quiet = small_share == 1.0
             share = float(quiet.mean())
-            if quiet.sum() >= r - (p + 1) and best[0] + 1e-9 < share < 1.0:
+            # the other phases straddle a knot at (almost) every one of their samples
+            knots = float(np.mean(1.0 - small_share[~quiet])) if (~quiet).any() else 0.0
+            if (
+                quiet.sum() >= r - (p + 1)
+                and knots >= MIN_KNOT_SHARE
+                and best[0] + 1e-9 < share < 1.0
+            ):
                 best = (share, r)
         if best[1]:
             return best[1], p

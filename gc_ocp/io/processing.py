@@ -38,8 +38,12 @@ in a row, < 0.5^30 ~ 1e-9 per sample."""
 FZ_ZERO_RUN_MIN = 30
 """Shortest run [samples] of an exactly-zero vertical force alone taken as zeroing (a lab that
 thresholds the vertical channel only and keeps the others): the same odds as
-:data:`ZERO_RUN_MIN` for one channel, 0.5^30 ~ 1e-9 per sample (60 ms at 500 Hz, 0.3 s at
-100 Hz: shorter than the swing between two stances on one plate)."""
+:data:`ZERO_RUN_MIN` for one channel, 0.5^30 ~ 1e-9 per sample (a coarsely quantised raw Fz is
+exactly 0 in 26 % of the samples of the type-2a plate of ../shared/data, in runs of <= 6)."""
+FZ_ZERO_RUN_TIME = 0.3
+"""[s] ... and at least this long when the rate is known: 30 samples of a plate resampled from
+100 Hz (a held or interpolated sample repeats its zeros R times, and the odds are those of the
+native samples). Shorter than the unloaded time around a stance on its plate."""
 PLATE_WINDOW = 0.25
 """Welch window for plate spectra [s]: several windows per stance (0.6-0.8 s)."""
 MARKER_WINDOW = 1.0
@@ -98,7 +102,8 @@ class PlateProcessing:
     zero_threshold: [N] the wrench was set to exactly 0 where |Fz| was below this (the smallest
         |Fz| next to an exact-zero run; an upper bound, within one sample's rise of the lab's
         value); ``None`` when the plate has no exact-zero run of :data:`ZERO_RUN_MIN` samples
-        (:data:`FZ_ZERO_RUN_MIN` of Fz alone: :func:`exact_zero_runs`).
+        (:data:`FZ_ZERO_RUN_MIN` and :data:`FZ_ZERO_RUN_TIME` of Fz alone:
+        :func:`exact_zero_runs`).
     zero_edges: ``"step"`` (the first non-zero samples jump from 0: a threshold),
         ``"continuous"`` (the force leaves 0 at its own rate: zeroed at ~0 N; the threshold is
         then at most one sample's rise) or ``"filter tail"`` (the edges decay to values no plate
@@ -292,19 +297,19 @@ def mean_rate(time: np.ndarray) -> float:
 # --- plates ------------------------------------------------------------------------------------
 
 
-def exact_zero_runs(wrench: np.ndarray) -> np.ndarray:
+def exact_zero_runs(wrench: np.ndarray, rate: float | None = None) -> np.ndarray:
     """Mask ``(n,)`` of the samples of ``wrench`` ``(n, 6)`` where all channels are exactly 0,
-    when at least one such run reaches :data:`ZERO_RUN_MIN` samples, together with the runs of
-    :data:`FZ_ZERO_RUN_MIN` samples or more where the vertical force alone is exactly 0 (a
-    threshold applied to Fz only: the other channels keep their noise, and Fz is as censored);
-    all False without either."""
+    when at least one such run reaches :data:`ZERO_RUN_MIN` samples; or where the vertical force
+    alone is exactly 0, when one such run reaches :data:`FZ_ZERO_RUN_MIN` samples and (``rate``
+    [Hz] given) :data:`FZ_ZERO_RUN_TIME` (a threshold applied to Fz only: the other channels
+    keep their noise, and Fz is as censored); all False without either."""
+    fz_zero = np.asarray(wrench[:, 2] == 0.0)
+    n_min = FZ_ZERO_RUN_MIN if rate is None else max(FZ_ZERO_RUN_MIN, FZ_ZERO_RUN_TIME * rate)
+    if any(b - a >= n_min for a, b in _runs(fz_zero)):
+        return fz_zero
     zero = np.all(wrench == 0.0, axis=1)
     if not any(b - a >= ZERO_RUN_MIN for a, b in _runs(zero)):
-        zero = np.zeros(zero.shape, dtype=bool)
-    fz_zero = np.asarray(wrench[:, 2] == 0.0)
-    for a, b in _runs(fz_zero):
-        if b - a >= FZ_ZERO_RUN_MIN:
-            zero[a:b] = True
+        return np.zeros(zero.shape, dtype=bool)
     return zero
 
 
@@ -396,7 +401,7 @@ def detect_plate_processing(plate: Plate, marker_rate: float | None = None) -> P
     rate = mean_rate(np.asarray(plate.time))
     wrench = np.hstack([plate.force, plate.moment])
     fz = np.asarray(plate.force[:, 2], dtype=float)
-    zero = exact_zero_runs(wrench)
+    zero = exact_zero_runs(wrench, rate)
     threshold, edges = zero_threshold(fz, zero) if zero.any() else (None, "")
     loaded = [(a, fz[a:b]) for a, b in _runs(~zero & np.isfinite(fz))]
 
