@@ -1117,3 +1117,33 @@ def test_type_1_cop_channels_are_read_in_their_own_unit(tmp_path):
     c.write(str(out))
     for a, b in zip(read_c3d(src).plates, read_c3d(out).plates, strict=True):
         np.testing.assert_allclose(b.moment, a.moment, atol=1e-5 * np.abs(a.moment).max())
+
+
+@needs_data
+@pytest.mark.parametrize("zeroed_below", [50.0, 120.0])
+def test_stance_clipped_by_the_file_start_stays_clipped_on_a_zeroed_plate(tmp_path, zeroed_below):
+    """Gait2392's left plate reads 20.5 N at the first sample, rising 8 N per sample: a stance
+    clipped by the file start (the README's "others are clipped by the file ends"). A lab zeroing
+    below 50 N (or 120 N) sets its first samples to 0, which says "below 50 N", not "below the
+    20 N contact threshold": the stance is still clipped (before: used, and it moved the fitted
+    shared exponent n by 5 SE)."""
+    src = DATA / README["gait2392"][1]
+    lines = src.read_text().splitlines()
+    end = [x.strip() for x in lines].index("endheader")  # header lines end in tabs
+    cols = lines[end + 1].split()
+    data = np.loadtxt(src, skiprows=end + 2)
+    for pre in ("", "1_"):
+        low = data[:, cols.index(f"{pre}ground_force_vy")] < zeroed_below
+        for j, c in enumerate(cols):
+            if c.startswith((f"{pre}ground_force_", f"{pre}ground_torque_")):
+                data[low, j] = 0.0
+    grf = tmp_path / "zeroed_grf.mot"
+    body = "\n".join("\t".join(f"{v:.8g}" for v in row) for row in data)
+    grf.write_text("\n".join(lines[: end + 2]) + "\n" + body + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        trial = load_trial(DATA / README["gait2392"][0], grf=grf, mass=72.6)
+    used = sorted((s.side, round(s.t_on, 1)) for s in trial.stances)
+    assert used == [("left", 1.3), ("right", 0.6)]  # the README's two full stances
+    first = [s for s in trial.excluded_stances if s.side == "left" and s.t_on < 0.1]
+    assert len(first) == 1 and first[0].reason.startswith("clipped: the plate reads 0")

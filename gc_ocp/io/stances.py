@@ -12,7 +12,8 @@
   (:func:`gc_ocp.io.orientation.body_velocity`), or on a treadmill the stance foot's heel -> toe
   direction (``Stance.heading``).
 * Exclusions (warning + :class:`~gc_ocp.trial.ExcludedStance`): clipped by the file ends
-  (force above threshold at the first/last sample, or markers not covering the stance); not a
+  (force above threshold at the first/last sample, a lab's zeroing that hides it:
+  :func:`_zeroed_file_edge`, or markers not covering the stance); not a
   walking stance (longer than :data:`MAX_STANCE`, or the body moving slower than
   :data:`~gc_ocp.io.orientation.MIN_OVERGROUND_SPEED` while the stance foot stands still:
   standing or stepping in place; on a treadmill the foot moves with the belt); a COP outside the
@@ -413,6 +414,33 @@ def _two_feet(along: float, side: str, plate, what: str) -> str:
     )
 
 
+def _zeroed_file_edge(fz: np.ndarray, a: int, b: int, thr: float) -> str:
+    """The clipping a lab's zeroing hides (``""``: none). A plate zeroed below X > ``thr`` reads
+    exactly 0 from the file's first sample up to a stance's first kept sample (>= X): those zeros
+    say "below X", not "below ``thr``", so the force may already have been above ``thr`` at the
+    first sample, as the clipping test of the unzeroed plate would have found. The stance is
+    clipped when the zeros are fewer than twice the samples the force takes to rise from ``thr``
+    to its first kept value at its rate there (a walking force passes 20-50 N in a few ms: a
+    stance that starts from a longer zero run began inside the file). Same at the file's end."""
+    n = fz.size
+
+    def short(zeros: int, edge: float, nxt: float) -> bool:
+        rise = abs(nxt - edge)
+        return edge > thr and rise > 0 and zeros < 2.0 * (edge - thr) / rise
+
+    if 0 < a and a + 1 < n and np.all(fz[:a] == 0.0) and short(a, fz[a], fz[a + 1]):
+        return (
+            f"clipped: the plate reads 0 (zeroed by the lab below ~{fz[a]:.0f} N) from the first "
+            f"sample of the file to the stance, too briefly to show its onset"
+        )
+    if b < n and b >= 2 and np.all(fz[b:] == 0.0) and short(n - b, fz[b - 1], fz[b - 2]):
+        return (
+            f"clipped: the plate reads 0 (zeroed by the lab below ~{fz[b - 1]:.0f} N) from the "
+            f"stance to the last sample of the file, too briefly to show its end"
+        )
+    return ""
+
+
 def _exclusion(
     plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime, bw, thr, notes, travel
 ):
@@ -421,6 +449,9 @@ def _exclusion(
         return "clipped: force already above threshold at the first sample of the file"
     if b >= n:
         return "clipped: force still above threshold at the last sample of the file"
+    zeroed = _zeroed_file_edge(plate.force[:, 2], a, b, thr)
+    if zeroed:
+        return zeroed
     if t_on < mtime[0] or t_off > mtime[-1]:
         return "clipped: marker data do not cover the stance"
     times = plate.time[a:b]
