@@ -209,6 +209,9 @@ def test_zeroed_then_filtered_plate_shows_the_filter_tail():
     p = detect_plate_processing(_plate(t, x[:, 0], x[:, 1:]))
     assert p.zero_edges == "filter tail" and p.filtered
     assert p.zero_threshold < 1e-3  # below any plate's resolution: arithmetic, not a load
+    # the unloaded stretches hold the filter's response to the zeroing, not noise (the zeroing
+    # removed it): no "exact" cutoff or noise level read on them (before: 106 Hz, 0.71 N)
+    assert p.lowpass_basis != "unloaded noise" and p.noise_std is None
 
 
 def test_plate_zeroed_on_its_vertical_channel_only_gives_the_threshold():

@@ -344,10 +344,7 @@ def zero_threshold(fz: np.ndarray, zero: np.ndarray) -> tuple[float | None, str]
 def unloaded_windows(fz: np.ndarray, rate: float, zero: np.ndarray) -> np.ndarray:
     """Boolean ``(n_windows,)``: the :data:`BASELINE_WINDOW` windows of ``fz`` that are quiet
     (standard deviation below max(2 N, 3 x the quietest window), as the loader's baseline) and
-    unloaded (mean |Fz| < :data:`UNLOADED_MAX`, and neither they nor their neighbours hold a
-    sample of :data:`UNLOADED_MAX` or more: the window where a stance's force rises from or
-    falls to 0 has a small mean and, on a noisy plate, a std within the quiet limit) and hold
-    no exactly-zeroed sample."""
+    unloaded (mean |Fz| < :data:`UNLOADED_MAX`) and hold no exactly-zeroed sample."""
     n = max(int(round(BASELINE_WINDOW * rate)), 2)
     nw = fz.size // n
     if nw == 0:
@@ -361,9 +358,7 @@ def unloaded_windows(fz: np.ndarray, rate: float, zero: np.ndarray) -> np.ndarra
     if not ok.any():
         return ok
     quiet = std < max(2.0, 3.0 * float(std[ok].min()))
-    load = np.abs(w).max(axis=1) >= UNLOADED_MAX
-    near = load | np.concatenate([[False], load[:-1]]) | np.concatenate([load[1:], [False]])
-    return ok & quiet & ~near & (np.abs(w.mean(axis=1)) < UNLOADED_MAX)
+    return ok & quiet & (np.abs(w.mean(axis=1)) < UNLOADED_MAX)
 
 
 def _offsets(fz, rate, unloaded) -> tuple[tuple[float, float, float], ...]:
@@ -372,7 +367,11 @@ def _offsets(fz, rate, unloaded) -> tuple[tuple[float, float, float], ...]:
         return ()
     w = fz[: unloaded.size * n].reshape(-1, n)
     mean, sem = w.mean(axis=1), w.std(axis=1) / np.sqrt(n)
-    off = unloaded & (np.abs(mean) > np.maximum(OFFSET_TOL, 3.0 * sem))
+    # not next to a load: the window where a stance's force tapers to 0 has a small mean and, on
+    # a noisy plate (mains hum), a std within the quiet limit; it reads a load, not an offset
+    load = np.abs(w).max(axis=1) >= UNLOADED_MAX
+    near = load | np.concatenate([[False], load[:-1]]) | np.concatenate([load[1:], [False]])
+    off = unloaded & ~near & (np.abs(mean) > np.maximum(OFFSET_TOL, 3.0 * sem))
     return tuple((a * n / rate, b * n / rate, float(np.mean(mean[a:b]))) for a, b in _runs(off))
 
 
@@ -415,7 +414,11 @@ def detect_plate_processing(plate: Plate, marker_rate: float | None = None) -> P
     noise = sp.band_spectrum(noise_segs, rate, nper_noise, prewhiten=0)
     nper = sp.window_length(rate, PLATE_WINDOW)
 
-    use_noise = noise is not None and noise.n_windows >= NOISE_MIN_WINDOWS
+    # zeroed, then low-passed: the unloaded stretches hold the filter's response to the zeroing
+    # (its tails), not the plate's noise, which the zeroing removed
+    use_noise = (
+        noise is not None and noise.n_windows >= NOISE_MIN_WINDOWS and edges != "filter tail"
+    )
     spec = noise if use_noise else sp.band_spectrum([s for _, s in loaded], rate, nper)
     lowpass, basis, noise_std, filtered = None, "", None, False
     if spec is not None:
