@@ -1125,8 +1125,7 @@ def test_stance_clipped_by_the_file_start_stays_clipped_on_a_zeroed_plate(tmp_pa
     """Gait2392's left plate reads 20.5 N at the first sample, rising 8 N per sample: a stance
     clipped by the file start (the README's "others are clipped by the file ends"). A lab zeroing
     below 50 N (or 120 N) sets its first samples to 0, which says "below 50 N", not "below the
-    20 N contact threshold": the stance is still clipped (before: used, and it moved the fitted
-    shared exponent n by 5 SE)."""
+    20 N contact threshold": the stance is still clipped (before: used by the fit)."""
     src = DATA / README["gait2392"][1]
     lines = src.read_text().splitlines()
     end = [x.strip() for x in lines].index("endheader")  # header lines end in tabs
