@@ -105,7 +105,8 @@ class PlateProcessing:
         (:data:`FZ_ZERO_RUN_MIN` and :data:`FZ_ZERO_RUN_TIME` of Fz alone:
         :func:`exact_zero_runs`).
     zero_edges: ``"step"`` (the first non-zero samples jump from 0: a threshold),
-        ``"continuous"`` (the force leaves 0 at its own rate: zeroed at ~0 N; the threshold is
+        ``"continuous"`` (the force leaves 0 at its own rate: zeroed at ~0 N, or at a low rate
+        below a threshold under one sample's rise, which the edges cannot tell apart; the threshold is
         then at most one sample's rise) or ``"filter tail"`` (the edges decay to values no plate
         resolves: zeroed, then a recursive low-pass ran over the zeros); ``""`` without zeroing
         (:func:`zero_threshold`).
@@ -168,8 +169,9 @@ class PlateProcessing:
                 {
                     "step": f"zeroed below {thr} (exact zeros where unloaded: a threshold, as "
                     f"OpenSim exports and some C3D exporters apply)",
-                    "continuous": f"exact zeros where unloaded, but the force leaves 0 smoothly "
-                    f"(the smallest edge is {thr}: zeroed at ~0 N, not by a threshold step)",
+                    "continuous": f"exact zeros where unloaded, the force leaving them at its "
+                    f"own rate (the smallest edge is {thr}: zeroed below at most that, which one "
+                    "sample's rise cannot tell from ~0 N; not censored)",
                     "filter tail": "exact zeros where unloaded, with edges decaying to "
                     f"{self.zero_threshold:.1g} N: zeroed, then low-passed (a recursive "
                     f"filter's tail runs into the zero runs until it underflows)",
