@@ -654,3 +654,39 @@ def test_a_warm_start_laid_over_another_point_keeps_what_the_result_lacks():
     assert had.any() and (~had).any()  # the test needs both kinds of variable
     np.testing.assert_array_equal(laid[had], plain[had])
     np.testing.assert_array_equal(laid[~had], under[~had])
+
+
+def test_ctrl_c_during_a_solve_raises_keyboard_interrupt(monkeypatch):
+    """CasADi catches Ctrl-C (SIGINT) during an Ipopt solve, stops it and clears Python's
+    KeyboardInterrupt: the solve came back as an ordinary failure (NonIpopt_Exception_Thrown),
+    and ``gc-ocp fit`` went on with its other starts, wrote another result than an
+    uninterrupted run's and exited 0. The signal is sent 0.2 s after the solver is called, on a
+    solve that cannot end by itself before (tol 1e-30, no acceptable stop), so it arrives inside
+    Ipopt; the solve's end is bounded by max_iter should the interrupt be lost."""
+    import importlib
+    import os
+    import signal
+    import threading
+
+    solve_module = importlib.import_module("gc_ocp.estimation.solve")  # not the function
+    make = solve_module.make_solver
+
+    def interrupted(*a, **kw):
+        real = make(*a, **kw)
+
+        class Solver:
+            def __call__(self, **args):
+                threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGINT)).start()
+                return real(**args)
+
+            def stats(self):
+                return real.stats()
+
+        return Solver()
+
+    monkeypatch.setattr(solve_module, "make_solver", interrupted)
+    _, _, sts = _stances(np.random.default_rng(2))
+    prob = build_estimation(sts, _model())
+    with pytest.raises(KeyboardInterrupt):
+        solve(prob, IpoptOptions(tol=1e-30, acceptable_iter=0, max_iter=100_000))
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # handler restored

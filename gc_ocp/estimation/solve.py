@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+import signal
+import threading
 import time as _time
 from dataclasses import dataclass
 
@@ -266,7 +269,8 @@ def solve(
     solver = anchor.solvers[(options, warm)]
     x_init = problem.x0 if x0 is None else x0
     t0 = _time.perf_counter()
-    sol = solver(x0=x_init, lbx=problem.lbx, ubx=problem.ubx, p=scale)
+    with _interrupt_kept():
+        sol = solver(x0=x_init, lbx=problem.lbx, ubx=problem.ubx, p=scale)
     seconds = _time.perf_counter() - t0
     stats = solver.stats()
     # Ipopt relaxes the bounds by its bound_relax_factor (1e-8, relative): its solution can lie
@@ -293,6 +297,36 @@ def solve(
             f"Ipopt did not converge: {status} after {result.iterations} iterations", result
         )
     return result
+
+
+@contextlib.contextmanager
+def _interrupt_kept():
+    """Raise ``KeyboardInterrupt`` after the block when Ctrl-C (SIGINT) came during it. CasADi
+    checks for the signal during an Ipopt solve, stops the solve and *clears* Python's
+    ``KeyboardInterrupt``: the solve returns as failed (``NonIpopt_Exception_Thrown``), and a
+    multi-start went on with its other starts, so that ``gc-ocp fit`` ignored the Ctrl-C, wrote
+    a result other than an uninterrupted run's and exited 0. Only in the main thread (the only
+    one Python delivers signals to, and where a handler may be set)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.getsignal(signal.SIGINT)
+    if not callable(previous):  # ignored (SIG_IGN) or the system's default: nothing to keep
+        yield
+        return
+    seen = []
+
+    def handler(signum, frame):
+        seen.append(signum)
+        previous(signum, frame)
+
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if seen:
+        raise KeyboardInterrupt
 
 
 def retry_from_stop(
