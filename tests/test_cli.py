@@ -592,3 +592,39 @@ def test_every_option_with_a_default_states_it_in_its_help():
         and "default" not in (a.help or "").lower()
     ]
     assert not silent, silent
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_an_interrupted_fit_says_so_in_one_line_and_leaves_nothing(tmp_path, sig):
+    """Ctrl-C printed a traceback of some 30 lines; SIGTERM killed the process where it stood
+    and left the outputs' staging folder (``.fit.*``) beside ``--out`` for good. Both now stop
+    with one line, exit status 130 / 143, and nothing written. The signal is sent when the
+    inverse kinematics has started (its first progress line), seconds before the fit could
+    write anything."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "fit"
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    p = subprocess.Popen(
+        [sys.executable, "-m", "gc_ocp.cli", "fit", "--out", str(out)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    err = []
+    for line in p.stderr:
+        err.append(line)
+        if line.startswith("IK frame"):
+            p.send_signal(getattr(signal, sig))
+            break
+    err += p.stderr.readlines()
+    status = p.wait(timeout=120)
+    text = "".join(err)
+    assert status == {"SIGINT": 130, "SIGTERM": 143}[sig], text
+    assert "Traceback" not in text
+    assert err[-1].startswith("gc-ocp fit: " + ("interrupted" if sig == "SIGINT" else "terminated"))
+    assert not out.exists() and not list(tmp_path.glob(".fit.*"))

@@ -4,7 +4,9 @@ Every subcommand prints a one-line error (no traceback) and exits with status 2 
 (any :class:`gc_ocp.errors.GcOcpError`), and exits 1 when a numerical solve fails. Any other
 exception is a bug: one line ``internal error: <type>: <message> (please report with the command
 line)`` and exit status 3. Set the environment variable ``GC_OCP_DEBUG=1`` to also print the
-traceback.
+traceback. Ctrl-C (SIGINT) and SIGTERM stop a command with one line and exit status 130 / 143,
+after its staged outputs are discarded (:class:`gc_ocp.outputs.OutputSet`): SIGTERM is raised as
+:class:`Terminated`, a ``KeyboardInterrupt``, so every cleanup that Ctrl-C runs runs too.
 
 Layout: :mod:`.common` (trial arguments, loading, provenance), :mod:`.commands` (one function per
 subcommand); this module builds the parser and runs a command.
@@ -14,7 +16,9 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
+import threading
 import traceback
 import warnings
 from pathlib import Path
@@ -413,13 +417,43 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the command runs (as Ctrl-C is): its ``finally`` blocks discard the
+    staged outputs (a killed process left its staging folder beside ``--out``)."""
+
+
+def _terminated(signum, frame) -> None:
+    raise Terminated
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.simplefilter("default")
     warnings.formatwarning = lambda msg, cat, *a, **k: f"warning: {msg}\n"
+    on_term = None
+    if threading.current_thread() is threading.main_thread():
+        on_term = signal.signal(signal.SIGTERM, _terminated)
+    try:
+        return _run(args)
+    finally:
+        if on_term is not None:
+            signal.signal(signal.SIGTERM, on_term)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         return int(args.func(args) or 0)
+    except KeyboardInterrupt as e:
+        how, status = (
+            ("terminated (SIGTERM)", 143) if isinstance(e, Terminated) else ("interrupted", 130)
+        )
+        kept = (
+            "finished subjects are kept, rerun the same command to resume"
+            if args.command == "batch"
+            else "this run wrote nothing; rerun the same command"
+        )
+        return _fail(args, f"{how}: {kept}.", status)
     except SolveError as e:
         return _fail(args, f"solve failed: {e}", 1)
     except GcOcpError as e:

@@ -301,32 +301,37 @@ def solve(
 
 @contextlib.contextmanager
 def _interrupt_kept():
-    """Raise ``KeyboardInterrupt`` after the block when Ctrl-C (SIGINT) came during it. CasADi
-    checks for the signal during an Ipopt solve, stops the solve and *clears* Python's
-    ``KeyboardInterrupt``: the solve returns as failed (``NonIpopt_Exception_Thrown``), and a
-    multi-start went on with its other starts, so that ``gc-ocp fit`` ignored the Ctrl-C, wrote
-    a result other than an uninterrupted run's and exited 0. Only in the main thread (the only
-    one Python delivers signals to, and where a handler may be set)."""
+    """Raise again, after the block, what a signal's Python handler raised during it (Ctrl-C's
+    ``KeyboardInterrupt``; SIGTERM's under ``gc-ocp``, :class:`gc_ocp.cli.Terminated`). CasADi
+    runs the handlers during an Ipopt solve, stops the solve and *clears* their exception: the
+    solve returns as failed (``NonIpopt_Exception_Thrown``), and a multi-start went on with its
+    other starts, so that ``gc-ocp fit`` ignored the Ctrl-C, wrote a result other than an
+    uninterrupted run's and exited 0. Only in the main thread (the only one Python delivers
+    signals to, and where a handler may be set)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.getsignal(signal.SIGINT)
-    if not callable(previous):  # ignored (SIG_IGN) or the system's default: nothing to keep
-        yield
-        return
-    seen = []
+    previous = {
+        s: h for s in (signal.SIGINT, signal.SIGTERM) if callable(h := signal.getsignal(s))
+    }  # (ignored or the system's default: nothing runs in Python, nothing to keep)
+    raised: list[BaseException] = []
 
     def handler(signum, frame):
-        seen.append(signum)
-        previous(signum, frame)
+        try:
+            previous[signum](signum, frame)
+        except BaseException as e:
+            raised.append(e)
+            raise
 
-    signal.signal(signal.SIGINT, handler)
+    for s in previous:
+        signal.signal(s, handler)
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
-    if seen:
-        raise KeyboardInterrupt
+        for s, h in previous.items():
+            signal.signal(s, h)
+    if raised:
+        raise raised[0]
 
 
 def retry_from_stop(
