@@ -383,3 +383,35 @@ def test_a_long_error_in_the_progress_line_is_cut_at_a_word_and_says_where_the_r
     cut = line.split("(InputError: ", 1)[1]
     assert cut.startswith(msg[:100]) and "... (P07/error.json)" in cut
     assert not cut.split("...")[0].endswith(("differ", "of one", "th"))  # a whole word last
+
+
+def test_an_interrupt_while_the_summary_is_made_writes_none_of_it(tmp_path, monkeypatch):
+    """Ctrl-C while the study's page drew its figures (seconds) left summary.csv and
+    summary.parquet without summary.html, or beside an earlier run's page: "no summary is
+    written for a run that did not end". And a worker killed midway (its subject redone on
+    another) left its staging folder ``OUT/.<id>.*`` in a finished study's folder."""
+    from distributed import Client, LocalCluster
+
+    batch_run = sys.modules["gc_ocp.batch.run"]  # (gc_ocp.batch.run is the function)
+
+    subjects = [Subject("S1", (TrialSpec(_broken(tmp_path / "in")),))]  # fails fast
+    out = tmp_path / "out"
+    gather = batch_run._gather
+
+    def killed_worker_left_staging(*a, **kw):
+        gather(*a, **kw)
+        (out / ".S1.x1y2z3").mkdir()  # what OutputSet's mkdtemp names, for a killed task
+
+    def interrupted(*a, **kw):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(batch_run, "_gather", killed_worker_left_staging)
+    monkeypatch.setattr(batch_run, "summary_html", interrupted)
+    with (
+        LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=":0") as cluster,
+        Client(cluster) as client,
+    ):
+        with pytest.raises(KeyboardInterrupt):
+            run(subjects, out, client=client, settings=FAST, progress=None)
+    assert not list(out.glob("summary*"))
+    assert not list(out.glob(".S1.*"))

@@ -243,6 +243,8 @@ def run(
     futures = {}
     with dask_client(workers, scheduler, client) as client:
         _gather(client, subjects, out, settings, bar, outcomes, futures)
+    # a worker killed midway left its subject's staging folder (the subject was redone elsewhere)
+    clean_stale(out, ids)
     ordered = [outcomes[s.id] for s in subjects]
     result = BatchResult(
         rows=[r for o in ordered for r in o["rows"]],
@@ -253,10 +255,11 @@ def run(
         out=out,
         seconds=time.perf_counter() - t0,
     )
+    # the page's figures (seconds) before any of the summary's files: an interrupt there left
+    # summary.csv without summary.html (or beside an earlier run's)
+    page = summary_html(result.rows, result.subjects, result.seconds)
     write_summary(result.rows, out)
-    atomic_write_text(
-        out / "summary.html", summary_html(result.rows, result.subjects, result.seconds)
-    )
+    atomic_write_text(out / "summary.html", page)
     return result
 
 
