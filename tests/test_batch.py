@@ -415,3 +415,25 @@ def test_an_interrupt_while_the_summary_is_made_writes_none_of_it(tmp_path, monk
             run(subjects, out, client=client, settings=FAST, progress=None)
     assert not list(out.glob("summary*"))
     assert not list(out.glob(".S1.*"))
+
+
+def test_a_second_run_on_the_same_folder_is_refused_while_the_first_runs(tmp_path):
+    """Two runs on one folder ran together: the second's start removed the first's staging
+    folders as stale (its subject then failed, FileNotFoundError), and that failure deleted
+    the subject's results the first had finished: the first exited 0 with a subject whose
+    files were gone. The running study holds a lock on its folder; a second run is refused
+    before it touches anything."""
+    import fcntl
+
+    out = tmp_path / "out"
+    out.mkdir()
+    staging = out / ".S1.abc123"  # the first run's subject, being written
+    staging.mkdir()
+    subjects = [Subject("S1", (TrialSpec(_broken(tmp_path / "in")),))]
+    with open(
+        out / ".gc_ocp_batch.lock", "a"
+    ) as first:  # gc_ocp.batch.run.LOCK  # what the first run holds
+        fcntl.flock(first, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        with pytest.raises(InputError, match="another gc-ocp batch is running"):
+            run(subjects, out, settings=FAST, workers=1, progress=None)
+    assert staging.is_dir() and not (out / "S1").exists()

@@ -156,6 +156,31 @@ def clean_stale(out: Path, ids: Sequence[str]) -> list[Path]:
     return removed
 
 
+LOCK = ".gc_ocp_batch.lock"
+"""The file a running study holds locked (``flock``) in its folder: a second run on the same
+folder is refused. (Both ran before: the second's start removed the first's staging folders as
+stale, and its failing subject deleted the first's finished results.)"""
+
+
+def _lock(out: Path):
+    """``out``'s :data:`LOCK` held for this run (the open file; closing it releases the lock,
+    as does the end of the process), or :class:`InputError` when another run holds it."""
+    f = open(out / LOCK, "a")  # noqa: SIM115 (held until the run ends)
+    try:
+        import fcntl
+    except ImportError:  # (Windows: no flock; one run per folder stays the user's rule)
+        return f
+    try:
+        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        f.close()
+        raise InputError(
+            f"--out {out}: another gc-ocp batch is running on this folder; wait for it to end or "
+            "give another folder (one run per output folder at a time)."
+        ) from None
+    return f
+
+
 def _progress_default() -> Callable[[str], None] | None:
     if sys.stderr.isatty():
         return lambda s: print(s, file=sys.stderr, flush=True)
@@ -229,38 +254,42 @@ def run(
         raise InputError("Give the study's output folder (out=..., --out DIR).")
     out = check_writable(out, command=BATCH)
     out.mkdir(parents=True, exist_ok=True)
-    claim(out, BATCH)  # the study's folder, before any subject's
-    clean_stale(out, ids)
-    settings = settings or Settings()
-    if diagnose:
-        settings = dataclasses.replace(settings, diagnose=True)
-    if workers is not None and workers < 1:
-        raise InputError(f"workers must be 1 or more, but got {workers}")
-    say = _progress_default() if progress == "auto" else progress
-    t0 = time.perf_counter()
-    bar = Progress(len(subjects), say)
-    outcomes: dict[str, dict] = {}
-    futures = {}
-    with dask_client(workers, scheduler, client) as client:
-        _gather(client, subjects, out, settings, bar, outcomes, futures)
-    # a worker killed midway left its subject's staging folder (the subject was redone elsewhere)
-    clean_stale(out, ids)
-    ordered = [outcomes[s.id] for s in subjects]
-    result = BatchResult(
-        rows=[r for o in ordered for r in o["rows"]],
-        subjects=[
-            {k: o[k] for k in ("subject", "status", "seconds", "error", "peak_rss_mb")}
-            for o in ordered
-        ],
-        out=out,
-        seconds=time.perf_counter() - t0,
-    )
-    # the page's figures (seconds) before any of the summary's files: an interrupt there left
-    # summary.csv without summary.html (or beside an earlier run's)
-    page = summary_html(result.rows, result.subjects, result.seconds)
-    write_summary(result.rows, out)
-    atomic_write_text(out / "summary.html", page)
-    return result
+    lock = _lock(out)  # before anything of the study's is written or removed
+    try:
+        claim(out, BATCH)  # the study's folder, before any subject's
+        clean_stale(out, ids)
+        settings = settings or Settings()
+        if diagnose:
+            settings = dataclasses.replace(settings, diagnose=True)
+        if workers is not None and workers < 1:
+            raise InputError(f"workers must be 1 or more, but got {workers}")
+        say = _progress_default() if progress == "auto" else progress
+        t0 = time.perf_counter()
+        bar = Progress(len(subjects), say)
+        outcomes: dict[str, dict] = {}
+        futures = {}
+        with dask_client(workers, scheduler, client) as client:
+            _gather(client, subjects, out, settings, bar, outcomes, futures)
+        # a worker killed midway left its subject's staging folder (the subject was redone elsewhere)
+        clean_stale(out, ids)
+        ordered = [outcomes[s.id] for s in subjects]
+        result = BatchResult(
+            rows=[r for o in ordered for r in o["rows"]],
+            subjects=[
+                {k: o[k] for k in ("subject", "status", "seconds", "error", "peak_rss_mb")}
+                for o in ordered
+            ],
+            out=out,
+            seconds=time.perf_counter() - t0,
+        )
+        # the page's figures (seconds) before any of the summary's files: an interrupt there left
+        # summary.csv without summary.html (or beside an earlier run's)
+        page = summary_html(result.rows, result.subjects, result.seconds)
+        write_summary(result.rows, out)
+        atomic_write_text(out / "summary.html", page)
+        return result
+    finally:
+        lock.close()
 
 
 __all__ = ("BatchResult", "clean_stale", "run")
