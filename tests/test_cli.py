@@ -628,3 +628,22 @@ def test_an_interrupted_fit_says_so_in_one_line_and_leaves_nothing(tmp_path, sig
     assert "Traceback" not in text
     assert err[-1].startswith("gc-ocp fit: " + ("interrupted" if sig == "SIGINT" else "terminated"))
     assert not out.exists() and not list(tmp_path.glob(".fit.*"))
+
+
+def test_kinematics_interrupted_while_drawing_its_figure_leaves_no_partial_set(
+    tmp_path, monkeypatch, capsys
+):
+    """``gc-ocp kinematics`` wrote its files one by one into --out: Ctrl-C while the figure was
+    drawn left sole_points.csv alone (no summary, figure or owner file), or beside an earlier
+    run's figure. Its files are now staged and moved in together."""
+    import gc_ocp.kinematics.export as export
+
+    def interrupted(*a, **kw):
+        raise KeyboardInterrupt
+
+    out = tmp_path / "kin"
+    monkeypatch.setattr(export, "plot_kinematics", interrupted)
+    assert main(["kinematics", "--out", str(out)]) == 130
+    assert "interrupted" in capsys.readouterr().err
+    assert not out.exists() or not any(out.iterdir())
+    assert not list(tmp_path.glob(".kin.*"))

@@ -451,7 +451,7 @@ def _run(args: argparse.Namespace) -> int:
         kept = (
             "finished subjects are kept, rerun the same command to resume"
             if args.command == "batch"
-            else "this run wrote nothing; rerun the same command"
+            else "no output of this run is half-written; rerun the same command"
         )
         return _fail(args, f"{how}: {kept}.", status)
     except SolveError as e:

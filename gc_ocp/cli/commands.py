@@ -56,9 +56,19 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
+KINEMATICS_OUTPUTS = (
+    "sole_points.csv",
+    "sole_points.npz",
+    "kinematics_summary.json",
+    "landmarks.json",
+    "kinematics.png",
+)
+"""Every file ``gc-ocp kinematics`` may write in a trial's folder (one set, replaced as a whole)."""
+
+
 def cmd_kinematics(args: argparse.Namespace) -> int:
     from gc_ocp.kinematics.export import write_kinematics
-    from gc_ocp.outputs import check_writable, claim
+    from gc_ocp.outputs import OutputSet, check_writable, claim
 
     check_writable(args.out, command="gc-ocp kinematics")  # before any computation
     trials = _load(args)
@@ -68,7 +78,15 @@ def cmd_kinematics(args: argparse.Namespace) -> int:
         _print_landmarks(kin)
         sub = trial.name if names.count(trial.name) == 1 else f"{i + 1}_{trial.name}"
         out = args.out if len(trials) == 1 else args.out / sub  # one folder per trial
-        paths = write_kinematics(trial, kin, out, fmt=args.format)
+        # staged and moved in together: an interrupt while the figure was drawn left the
+        # trajectories without their summary and figure (or beside an earlier run's)
+        files = OutputSet(out, KINEMATICS_OUTPUTS, "gc-ocp kinematics")
+        try:
+            for p in write_kinematics(trial, kin, files.stage, fmt=args.format):
+                files.path(p.name)
+            paths = files.commit()
+        finally:
+            files.discard()
         for p in paths:
             print(f"wrote {p}")
     claim(args.out, "gc-ocp kinematics")
