@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import socket
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -121,6 +122,32 @@ def _probe(place: Path, folder: Path, what: str) -> None:
         ) from None
 
 
+STAGE_OWNER = ".owner"
+"""In a staging folder: the host and process id of the run that stages there
+(:func:`remove_dead_stages`)."""
+
+
+def remove_dead_stages(folder: Path) -> None:
+    """Remove the staging folders beside ``folder`` (``.NAME.*``) of runs of this host whose
+    process is gone: a run killed outright (SIGKILL, a power cut) cannot remove its own, and
+    they stayed beside ``--out`` for good (an interruption review). A live process's, another
+    host's (a shared file system) or one without an owner record is left alone."""
+    host = socket.gethostname()
+    for stage in folder.parent.glob(f".{folder.name}.*"):
+        try:
+            who, pid = (stage / STAGE_OWNER).read_text().split()
+        except (OSError, ValueError):
+            continue
+        if who != host or not pid.isdigit():
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            shutil.rmtree(stage, ignore_errors=True)
+        except OSError:
+            pass  # alive (another user's, say)
+
+
 class OutputSet:
     """The files of one command run, staged in a temporary folder and moved in together.
 
@@ -133,9 +160,11 @@ class OutputSet:
         self.command = command
         try:
             self.folder.parent.mkdir(parents=True, exist_ok=True)
+            remove_dead_stages(self.folder)
             self.stage = Path(
                 tempfile.mkdtemp(prefix=f".{self.folder.name}.", dir=self.folder.parent)
             )
+            (self.stage / STAGE_OWNER).write_text(f"{socket.gethostname()} {os.getpid()}\n")
         except OSError as e:
             raise InputError(
                 f"--out {self.folder}: cannot write beside it ({e.strerror or e}); choose a "

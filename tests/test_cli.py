@@ -647,3 +647,41 @@ def test_kinematics_interrupted_while_drawing_its_figure_leaves_no_partial_set(
     assert "interrupted" in capsys.readouterr().err
     assert not out.exists() or not any(out.iterdir())
     assert not list(tmp_path.glob(".kin.*"))
+
+
+def test_a_killed_run_s_staging_folder_is_removed_by_the_next(tmp_path):
+    """A run killed outright (SIGKILL) cannot remove its staging folder ``.OUT.*`` beside
+    ``--out`` (an interruption review found them left for good). The next run of any command
+    into that folder removes the staging folders of this host's dead processes; a live
+    process's (a run going on now) and one without an owner record stay."""
+    import os
+    import subprocess
+    import sys
+
+    from gc_ocp.outputs import STAGE_OWNER, OutputSet
+
+    out = tmp_path / "fit"
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    stages = {}
+    for name, pid in (("dead", int(dead.stdout)), ("live", os.getpid()), ("unowned", None)):
+        stages[name] = tmp_path / f".fit.{name}"
+        stages[name].mkdir()
+        if pid is not None:
+            import socket
+
+            (stages[name] / STAGE_OWNER).write_text(f"{socket.gethostname()} {pid}\n")
+    files = OutputSet(out, ("fit.json",), "gc-ocp fit")
+    try:
+        assert not stages["dead"].exists()
+        assert stages["live"].exists() and stages["unowned"].exists()
+        assert files.stage.exists() and (files.stage / STAGE_OWNER).exists()
+        files.text("fit.json", "{}")
+        assert [p.name for p in files.commit()] == ["fit.json"]
+    finally:
+        files.discard()
+    assert sorted(p.name for p in out.iterdir()) == [".gc_ocp_outputs", "fit.json"]
