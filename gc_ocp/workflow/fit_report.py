@@ -52,7 +52,7 @@ def fit_report_html(
             "heldout": None
             if held is None
             else next(iter(held.rms.values()))["superior_force_pct_bw"],
-            "shared": [(p, pm(shared, p)) for p in names],
+            "shared": [(p, pm(shared, p, bound=f"contact/{p}" in res.at_bound)) for p in names],
         },
         "checks": list(report.checks),
         "pose_scale": None if report.pose_scale is None else report.pose_scale.message(),
