@@ -687,6 +687,14 @@ def test_ctrl_c_during_a_solve_raises_keyboard_interrupt(monkeypatch):
     monkeypatch.setattr(solve_module, "make_solver", interrupted)
     _, _, sts = _stances(np.random.default_rng(2))
     prob = build_estimation(sts, _model())
-    with pytest.raises(KeyboardInterrupt):
-        solve(prob, IpoptOptions(tol=1e-30, acceptable_iter=0, max_iter=100_000))
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # handler restored
+    # Python's own Ctrl-C handler, as in a command line run: a pytest-xdist worker ignores
+    # SIGINT (its controller stops it), and the solve then ran to max_iter (CI hung on it)
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            # the interrupt comes after ~16 of this problem's 12 ms iterations; 2000 (~25 s)
+            # make a lost interrupt fail the test instead of hanging it
+            solve(prob, IpoptOptions(tol=1e-30, acceptable_iter=0, max_iter=2000))
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # restored
+    finally:
+        signal.signal(signal.SIGINT, before)
