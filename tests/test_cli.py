@@ -614,6 +614,9 @@ def test_an_interrupted_fit_says_so_in_one_line_and_leaves_nothing(tmp_path, sig
         stderr=subprocess.PIPE,
         text=True,
         env=env,
+        # Ctrl-C's default, as in a terminal: a test run in the background (a CI's) ignores
+        # SIGINT, and a child inherits that, Python then keeping it ignored
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     err = []
     for line in p.stderr:
