@@ -103,7 +103,16 @@ def dask_client(
             yield c
         return
     method = start_method(start)
-    with dask.config.set({"distributed.worker.multiprocessing-method": method}):
+    settings = {
+        "distributed.worker.multiprocessing-method": method,
+        # its workers ignore Ctrl-C: the command stops and closes the cluster (one line, not
+        # one traceback per worker); added to the caller's own preloads
+        "distributed.worker.preload": [
+            *dask.config.get("distributed.worker.preload", []),
+            "gc_ocp._worker_signals",
+        ],
+    }
+    with dask.config.set(settings):
         _prepare(method)
         try:
             cluster = LocalCluster(

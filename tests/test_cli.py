@@ -688,3 +688,40 @@ def test_a_killed_run_s_staging_folder_is_removed_by_the_next(tmp_path):
     finally:
         files.discard()
     assert sorted(p.name for p in out.iterdir()) == [".gc_ocp_outputs", "fit.json"]
+
+
+def test_ctrl_c_in_a_parallel_diagnosis_prints_no_worker_traceback(tmp_path):
+    """Ctrl-C reaches every process of the terminal's group: the command stopped with one line,
+    but each worker of its local Dask cluster printed a traceback of its own (four, ~100 lines,
+    in an interruption review). The workers now ignore SIGINT (``gc_ocp._worker_signals``, a
+    Dask worker preload): the command closes them. The signal goes to the whole group when the
+    first candidate's evaluation is reported, i.e. while the workers run the others."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "diag"
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
+    p = subprocess.Popen(
+        [sys.executable, "-m", "gc_ocp.cli", "diagnose", "--workers", "2", "--out", str(out)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        start_new_session=True,  # its own group, as a terminal's job
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # as in a terminal
+    )
+    err = []
+    for line in p.stderr:
+        err.append(line)
+        if "base+" in line and "held-out score" in line:  # a candidate's, on a worker
+            os.killpg(p.pid, signal.SIGINT)
+            break
+    err += p.stderr.readlines()
+    status = p.wait(timeout=300)
+    text = "".join(err)
+    assert status == 130, text
+    assert "Traceback" not in text and "KeyboardInterrupt" not in text, text
+    assert err[-1].startswith("gc-ocp diagnose: interrupted")
+    assert not out.exists()
