@@ -725,3 +725,46 @@ def test_ctrl_c_in_a_parallel_diagnosis_prints_no_worker_traceback(tmp_path):
     assert "Traceback" not in text and "KeyboardInterrupt" not in text, text
     assert err[-1].startswith("gc-ocp diagnose: interrupted")
     assert not out.exists()
+
+
+def test_an_interrupt_during_the_move_of_a_set_waits_for_its_end(tmp_path, monkeypatch):
+    """An output set is moved in file by file; Ctrl-C between two moves left the folder half
+    this run's, half the last one's (an interruption review, by reading). The interrupt now
+    waits for the set's end and then acts: every file is the new run's, and KeyboardInterrupt
+    follows. The signal is sent to this process between the first and the second move."""
+    import os
+    import signal
+
+    from gc_ocp import outputs
+
+    out = tmp_path / "fit"
+    old = outputs.OutputSet(out, ("a.txt", "b.txt"), "gc-ocp fit")
+    old.text("a.txt", "old")
+    old.text("b.txt", "old")
+    old.commit()
+    real = os.replace
+    sent = []
+
+    moved = []
+
+    def replace(src, dst):
+        if Path(dst).parent == out:
+            moved.append(dst)
+            if len(moved) == 2:  # Ctrl-C now, the first file moved, the second not yet
+                sent.append(signal.SIGINT)
+                os.kill(os.getpid(), signal.SIGINT)
+        return real(src, dst)
+
+    monkeypatch.setattr(outputs.os, "replace", replace)
+    # Python's own Ctrl-C handler, as in a terminal (a pytest-xdist worker ignores SIGINT)
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        new = outputs.OutputSet(out, ("a.txt", "b.txt"), "gc-ocp fit")
+        new.text("a.txt", "new")
+        new.text("b.txt", "new")
+        with pytest.raises(KeyboardInterrupt):
+            new.commit()
+    finally:
+        signal.signal(signal.SIGINT, before)
+    assert sent and [(out / n).read_text() for n in ("a.txt", "b.txt")] == ["new", "new"]
+    assert signal.getsignal(signal.SIGINT) is before  # the handlers are the caller's again
