@@ -53,6 +53,15 @@ def test_info_on_bundled_example(capsys):
     assert main(["info"]) == 0
     out = capsys.readouterr().out
     assert "test_small" in out and "right" in out and "left" in out
+    # the lab's processing as a fit reads it (info showed none of it): the bundled trial's
+    # first two plates were zeroed by Vicon below ~10 N, as every fit's notes say
+    from gc_ocp import load_trial
+    from gc_ocp.io.processing import censor_threshold, detect_processing
+
+    proc = detect_processing(load_trial())
+    for name in ("plate1", "plate2"):
+        x = censor_threshold(proc.plates[name])
+        assert x > 0 and f"{name} as processed: zeroed below {x:.1f} N" in out
 
 
 def test_info_describes_every_readable_trial_and_names_the_unreadable_one(tmp_path, capsys):

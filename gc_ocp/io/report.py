@@ -34,9 +34,25 @@ def _heading(rad: float) -> str:
     return "unknown" if not np.isfinite(rad) else f"{np.degrees(rad):+.0f} deg"
 
 
+def processing_lines(trial: Trial) -> list[str]:
+    """What the lab's processing did to the plates and markers, as a fit reads it
+    (:func:`gc_ocp.io.processing.detect_processing`; a zero threshold is censored in every fit):
+    one line per finding, for ``gc-ocp info``, which showed none of it (a processing review)."""
+    from gc_ocp.io.processing import detect_processing
+
+    proc = detect_processing(trial)
+    out = []
+    for name, p in proc.plates.items():
+        out += [f"  {name} as processed: {s}" for s in p.findings()]
+    if proc.markers is not None:
+        out += [f"  markers as processed: {s}" for s in proc.markers.findings()]
+    return out
+
+
 def describe_trial(trial: Trial) -> str:
     """Readable summary: rates, markers and the recognised marker set, vertical axis and walking
-    direction, plates (type, reference, removed offset), stances (foot, plate, times, heading,
+    direction, plates (type, reference, removed offset), the lab's processing
+    (:func:`processing_lines`), stances (foot, plate, times, heading,
     peak force in N and % BW), exclusions with reasons, mass and its source, and the stride
     body-weight check."""
     bw = trial.body_weight
@@ -95,6 +111,7 @@ def describe_trial(trial: Trial) -> str:
             + ("" if p.corners is not None else ", no corners")
             + f", {zero}"
         )
+    lines += processing_lines(trial)
     lines.append(f"  mass {trial.mass:.2f} kg ({trial.mass_source})")
     lines.append(f"  body weight {bw:.1f} N = {trial.mass:.2f} kg x {GRAVITY}")
     h = f"{trial.height:.3f} m ({trial.height_source})" if trial.height else "unknown"
