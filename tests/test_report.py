@@ -568,3 +568,43 @@ def test_a_parameter_at_its_bound_shows_no_standard_error():
         u for u in before["units"] if (u["side"], u["unit"]) != ("left", "PL")
     ]
     assert f"shared mu = {final.params['shared']['mu']:.4g} {BOUND_TEXT}" in flagged.summary()
+
+
+@pytest.mark.parametrize("steps", [1, None])
+def test_waterfall_legend_hides_no_point(steps):
+    """Every point of the waterfall is visible: the legend covers none of them. With one step (a
+    diagnosis that names nothing, as notebook 03's part 2 in small mode) every channel's point
+    sits in one column, and the legend at matplotlib's "best" place lay over the superior force's
+    point, the figure's main one."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from gc_ocp.diagnosis.result import WaterfallStep
+
+    _, _, _, d, _ = _fixture(CASES[0])
+    if steps == 1:  # notebook 03's part 2 (small mode): base only, superior force on top
+        rms = {
+            "anterior_force_pct_bw": 0.64,
+            "superior_force_pct_bw": 1.40,
+            "lateral_force_pct_bw": 0.55,
+            "anteroposterior_torque_pct_bwh": 0.23,
+            "longitudinal_torque_pct_bwh": 0.036,
+            "mediolateral_torque_pct_bwh": 0.17,
+        }
+        d = dataclasses.replace(
+            d, waterfall=[WaterfallStep("base", 1.40, {"right": rms}, 0.62, "base")]
+        )
+    fig = d.waterfall_figure()
+    fig.canvas.draw()
+    ax = fig.axes[0]
+    box = ax.get_legend().get_window_extent()
+    covered = [
+        (line.get_label(), x, y)
+        for line in ax.get_lines()
+        for x, y in ax.transData.transform(line.get_xydata())
+        if box.x0 - 3 <= x <= box.x1 + 3 and box.y0 - 3 <= y <= box.y1 + 3
+    ]
+    plt.close(fig)
+    assert not covered, covered

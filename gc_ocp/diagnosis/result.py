@@ -501,7 +501,7 @@ class Diagnosis:
             "o-",
             lw=2.2,
             color="k",
-            label="superior force (both feet)",
+            label="superior force (all held-out stances)",
         )
         for ch in TABLE_KEYS.values():
             if ch == "superior_force_pct_bw":
@@ -513,7 +513,9 @@ class Diagnosis:
         ax.set_xticks(x, labels, rotation=15)
         ax.set_ylabel("held-out RMS [% BW, % BW×H]")
         ax.set_ylim(bottom=0)
-        ax.legend(fontsize=7, ncol=2)
+        # beside the axes, not over them: with one step (nothing named) every point is in one
+        # column, and a legend inside covered the superior force's point
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
         ax.set_title("How far the gap shrinks")
         fig.tight_layout()
         return fig
