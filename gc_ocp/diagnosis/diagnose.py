@@ -537,7 +537,8 @@ def _calibrated(
         }
     seconds = time.perf_counter() - t0
     n_rep = n_replicates if null is None else int(next(iter(null.values())).size)
-    say(f"  calibrated null: {n_rep} replicates, z_crit {crit}, {seconds:.1f} s")
+    z = "n/a" if crit is None else f"{crit:.3g}"
+    say(f"  calibrated null: {n_rep} replicates, z_crit {z}, {seconds:.1f} s")
     made = 0 if draw is None else int(np.unique(draw).size) + skipped
     info = {
         "replicates": n_rep,

@@ -183,7 +183,7 @@ def residual_figure(
             j = CHANNELS.index(ch)
             ax.plot(r["time"], r["pct"][:, j], lw=1.2, label=ch.replace("_", " "))
         ax.axhline(0.0, color="k", lw=0.5)
-        ax.set_ylabel("% BW (×H)")
+        ax.set_ylabel("model − measured\n[% BW (×H)]")
         ax.set_title(f"{r['label']} (phases from {r['method']})", fontsize=9)
     axes[-1, 0].set_xlabel("time [s]")
     # the legend above the panels, not over the first stance's residual
