@@ -104,6 +104,31 @@ def test_notebook_runs(path: Path, tmp_path, monkeypatch):
         if plots:
             images = [o for o in c.get("outputs", []) if "image/png" in o.get("data", {})]
             assert images, f"{path.name} cell {i} calls {plots[0].strip()!r} but shows no figure"
+    if path.name == "03_sim_to_real_diagnosis.ipynb":
+        _withheld_effect_reading_matches_its_output(nb)
+
+
+def _withheld_effect_reading_matches_its_output(nb) -> None:
+    """Notebook 03's reading of part 2 says whether the withheld damping was named as the
+    executed cell prints it (``selected first: none`` or ``['damping']``): the text once said
+    the selection added damping and stopped there while the notebook printed ``none``."""
+    import re
+
+    printed = "".join(
+        o.get("text", "")
+        for c in nb.cells
+        if c.cell_type == "code" and "selected first:" in c.source
+        for o in c.get("outputs", [])
+    )
+    said = re.search(r"selected first: (.+)", printed)
+    assert said, printed
+    reading = next(
+        c.source
+        for c in reversed(nb.cells)
+        if c.cell_type == "markdown" and c.source.startswith("**Reading it.**")
+    )
+    named = said.group(1).strip() != "none"
+    assert ("not named" not in reading) == named, (said.group(0), reading)
 
 
 def test_diagnosis_notebook_states_its_small_settings():
