@@ -34,7 +34,7 @@ from gc_ocp.batch.subject import BATCH, Settings, process_subject
 from gc_ocp.batch.summary import error_rows, write_summary
 from gc_ocp.errors import InputError
 from gc_ocp.execution import dask_client
-from gc_ocp.outputs import atomic_write_text, check_writable, claim
+from gc_ocp.outputs import atomic_write_text, check_writable, claim, signals_deferred
 
 
 @dataclasses.dataclass
@@ -285,8 +285,9 @@ def run(
         # the page's figures (seconds) before any of the summary's files: an interrupt there left
         # summary.csv without summary.html (or beside an earlier run's)
         page = summary_html(result.rows, result.subjects, result.seconds)
-        write_summary(result.rows, out)
-        atomic_write_text(out / "summary.html", page)
+        with signals_deferred():  # and an interrupt waits for the summary's three files
+            write_summary(result.rows, out)
+            atomic_write_text(out / "summary.html", page)
         return result
     finally:
         lock.close()
