@@ -109,7 +109,7 @@ def dask_client(
         # one traceback per worker); added to the caller's own preloads
         "distributed.worker.preload": [
             *dask.config.get("distributed.worker.preload", []),
-            "gc_ocp._worker_signals",
+            "gc_ocp.signals",
         ],
     }
     with dask.config.set(settings):

@@ -5,7 +5,7 @@
   the output folder; :meth:`OutputSet.commit` removes the command's own stale files from an
   earlier run (the names it owns, not the user's other files) and moves the new set in. A run
   that fails before ``commit`` leaves the previous outputs as they were; Ctrl-C or SIGTERM during
-  ``commit`` waits for its end (:func:`signals_deferred`). A folder holding
+  ``commit`` waits for its end (:func:`gc_ocp.signals.deferred`). A folder holding
   another command's outputs is refused (:data:`OWNER`): two commands' files are never mixed.
 
 Files get the permissions the user's umask gives a new file (``0666 & ~umask``), not the 0600 of
@@ -14,16 +14,14 @@ Files get the permissions the user's umask gives a new file (``0666 & ~umask``),
 
 from __future__ import annotations
 
-import contextlib
 import os
 import shutil
-import signal
 import socket
 import tempfile
-import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
+from gc_ocp import signals
 from gc_ocp.errors import InputError
 
 
@@ -126,29 +124,6 @@ def _probe(place: Path, folder: Path, what: str) -> None:
         ) from None
 
 
-@contextlib.contextmanager
-def signals_deferred() -> Iterator[None]:
-    """Ctrl-C (SIGINT) and SIGTERM wait for the block's end, then act as they would have: a
-    set of files moved in one by one is never left half old, half new by an interrupt (an
-    interruption review found that window by reading). Only signals with a Python handler are
-    held (Ctrl-C's default one; the CLI's SIGTERM); elsewhere, and outside the main thread, the
-    block runs as it is."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    held, old = [], {}
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        if callable(signal.getsignal(sig)):
-            old[sig] = signal.signal(sig, lambda signum, frame: held.append((signum, frame)))
-    try:
-        yield
-    finally:
-        for sig, handler in old.items():
-            signal.signal(sig, handler)
-        for signum, frame in held[:1]:  # the first acts (raises); the others would repeat it
-            old[signum](signum, frame)
-
-
 STAGE_OWNER = ".owner"
 """In a staging folder: the host and process id of the run that stages there
 (:func:`remove_dead_stages`)."""
@@ -215,7 +190,7 @@ class OutputSet:
         """Remove the command's stale files and move the staged set into the folder."""
         self.folder.mkdir(parents=True, exist_ok=True)
         out = []
-        with signals_deferred():  # an interrupt waits for the whole set
+        with signals.deferred():  # an interrupt waits for the whole set
             for name in self.owned:
                 if name not in self.written and (self.folder / name).exists():
                     (self.folder / name).unlink()

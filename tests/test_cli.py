@@ -702,7 +702,7 @@ def test_a_killed_run_s_staging_folder_is_removed_by_the_next(tmp_path):
 def test_ctrl_c_in_a_parallel_diagnosis_prints_no_worker_traceback(tmp_path):
     """Ctrl-C reaches every process of the terminal's group: the command stopped with one line,
     but each worker of its local Dask cluster printed a traceback of its own (four, ~100 lines,
-    in an interruption review). The workers now ignore SIGINT (``gc_ocp._worker_signals``, a
+    in an interruption review). The workers now ignore SIGINT (``gc_ocp.signals``, a
     Dask worker preload): the command closes them. The signal goes to the whole group when the
     first candidate's evaluation is reported, i.e. while the workers run the others."""
     import os

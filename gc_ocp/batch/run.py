@@ -28,13 +28,14 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from gc_ocp import signals
 from gc_ocp.batch.manifest import Subject, TrialSpec, check_id, read_manifest
 from gc_ocp.batch.page import summary_html
 from gc_ocp.batch.subject import BATCH, Settings, process_subject
 from gc_ocp.batch.summary import error_rows, write_summary
 from gc_ocp.errors import InputError
 from gc_ocp.execution import dask_client
-from gc_ocp.outputs import atomic_write_text, check_writable, claim, signals_deferred
+from gc_ocp.outputs import atomic_write_text, check_writable, claim
 
 
 @dataclasses.dataclass
@@ -285,7 +286,7 @@ def run(
         # the page's figures (seconds) before any of the summary's files: an interrupt there left
         # summary.csv without summary.html (or beside an earlier run's)
         page = summary_html(result.rows, result.subjects, result.seconds)
-        with signals_deferred():  # and an interrupt waits for the summary's three files
+        with signals.deferred():  # and an interrupt waits for the summary's three files
             write_summary(result.rows, out)
             atomic_write_text(out / "summary.html", page)
         return result

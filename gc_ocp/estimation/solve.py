@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-import contextlib
-import signal
-import threading
 import time as _time
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
+from gc_ocp import signals
 from gc_ocp.errors import ModelError, SolveError
 from gc_ocp.estimation.components.base import DecodeContext
 from gc_ocp.estimation.flags import fit_flags, variable_flags
@@ -269,7 +267,7 @@ def solve(
     solver = anchor.solvers[(options, warm)]
     x_init = problem.x0 if x0 is None else x0
     t0 = _time.perf_counter()
-    with _interrupt_kept():
+    with signals.kept():  # Ctrl-C during the solve interrupts the fit
         sol = solver(x0=x_init, lbx=problem.lbx, ubx=problem.ubx, p=scale)
     seconds = _time.perf_counter() - t0
     stats = solver.stats()
@@ -297,41 +295,6 @@ def solve(
             f"Ipopt did not converge: {status} after {result.iterations} iterations", result
         )
     return result
-
-
-@contextlib.contextmanager
-def _interrupt_kept():
-    """Raise again, after the block, what a signal's Python handler raised during it (Ctrl-C's
-    ``KeyboardInterrupt``; SIGTERM's under ``gc-ocp``, :class:`gc_ocp.cli.Terminated`). CasADi
-    runs the handlers during an Ipopt solve, stops the solve and *clears* their exception: the
-    solve returns as failed (``NonIpopt_Exception_Thrown``), and a multi-start went on with its
-    other starts, so that ``gc-ocp fit`` ignored the Ctrl-C, wrote a result other than an
-    uninterrupted run's and exited 0. Only in the main thread (the only one Python delivers
-    signals to, and where a handler may be set)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = {
-        s: h for s in (signal.SIGINT, signal.SIGTERM) if callable(h := signal.getsignal(s))
-    }  # (ignored or the system's default: nothing runs in Python, nothing to keep)
-    raised: list[BaseException] = []
-
-    def handler(signum, frame):
-        try:
-            previous[signum](signum, frame)
-        except BaseException as e:
-            raised.append(e)
-            raise
-
-    for s in previous:
-        signal.signal(s, handler)
-    try:
-        yield
-    finally:
-        for s, h in previous.items():
-            signal.signal(s, h)
-    if raised:
-        raise raised[0]
 
 
 def retry_from_stop(
