@@ -91,15 +91,18 @@ def check_writable(
     for place in dict.fromkeys([folder.parent, folder]):  # the staging folder's, then its own
         existing = next((p for p in (place, *place.parents) if p.exists()), Path("."))
         _probe(existing, folder, what)
-    owner = folder / OWNER
-    if command is not None and owner.is_file():
-        other = owner.read_text(encoding="utf-8").strip()
-        if other and other != command:
-            raise InputError(
-                f"{what} {folder} holds the outputs of `{other}`; `{command}` would mix its own "
-                f"files with them. Give another {what} folder, or empty that one."
-            )
+    if command is not None and (other := owner_of(folder)) not in ("", command):
+        raise InputError(
+            f"{what} {folder} holds the outputs of `{other}`; `{command}` would mix its own "
+            f"files with them. Give another {what} folder, or empty that one."
+        )
     return folder
+
+
+def owner_of(folder: str | os.PathLike) -> str:
+    """The command whose outputs ``folder`` holds (:data:`OWNER`; "" for none)."""
+    owner = Path(folder) / OWNER
+    return owner.read_text(encoding="utf-8").strip() if owner.is_file() else ""
 
 
 def claim(folder: str | os.PathLike, command: str) -> None:

@@ -39,7 +39,7 @@ from gc_ocp.batch.manifest import Subject
 from gc_ocp.batch.summary import error_rows, subject_rows
 from gc_ocp.errors import GcOcpError, InputError, SolveError
 from gc_ocp.estimation.bias import check_replicates
-from gc_ocp.outputs import OWNER, OutputSet, atomic_write, atomic_write_text
+from gc_ocp.outputs import OutputSet, atomic_write, atomic_write_text, owner_of
 from gc_ocp.workflow.provenance import sha256
 
 DONE = "done.json"
@@ -330,8 +330,7 @@ def _process(subject: Subject, out_root: Path, settings: Settings) -> dict:
 def _owned_by_another_command(folder: Path) -> bool:
     """The subject's folder holds the outputs of another command than ``gc-ocp batch``
     (:data:`~gc_ocp.outputs.OWNER`): nothing of this run is written there."""
-    owner = folder / OWNER
-    return owner.is_file() and owner.read_text(encoding="utf-8").strip() not in ("", BATCH)
+    return owner_of(folder) not in ("", BATCH)
 
 
 def _fit_subject(
