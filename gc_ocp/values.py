@@ -4,6 +4,7 @@ the one way a standard error is written for a reader (:func:`se_text`)."""
 from __future__ import annotations
 
 import math
+import numbers
 
 from gc_ocp.errors import InputError
 
@@ -22,6 +23,12 @@ def number(value, what: str, unit: str, text: bool = True) -> float:
     if not math.isfinite(x):
         raise InputError(f"{what} must be a number in {unit}, but got {value!r}")
     return x
+
+
+def is_count(value) -> bool:
+    """``value`` is a whole number given as one (a Python or NumPy integer), not a boolean
+    (``True`` is an int) nor a float that happens to be whole."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
 def two_digits(x) -> str:

@@ -35,6 +35,7 @@ import numpy as np
 from gc_ocp.errors import InputError
 from gc_ocp.foot import FOOT_ROLLS
 from gc_ocp.text import read_utf8
+from gc_ocp.values import number
 
 TRIAL_SUFFIXES = (".c3d", ".trc")
 STATIC_SPEED = 0.3
@@ -137,11 +138,11 @@ def _resolve(base: Path, value: str) -> Path:
 
 
 def _number(value, key: str, where: str) -> float:
-    try:
-        x = math.nan if isinstance(value, bool) else float(value)  # TOML's true is no mass
-    except (TypeError, ValueError):
+    try:  # a number or numeric text (TOML's true is no mass: values.number)
+        x = number(value, key, _NUMBERS[key])
+    except InputError:
         x = math.nan
-    if not math.isfinite(x) or x <= 0:
+    if not x > 0:
         raise InputError(
             f"{where}: {key} {value!r} is not a positive number; give it in {_NUMBERS[key]}."
         )

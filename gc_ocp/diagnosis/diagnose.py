@@ -16,7 +16,6 @@ Confirmation on new stances is :mod:`.confirm`; the HTML page, :mod:`.report`.
 from __future__ import annotations
 
 import dataclasses
-import numbers
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor
@@ -73,6 +72,7 @@ from gc_ocp.estimation.problem import Weights
 from gc_ocp.estimation.solve import IpoptOptions
 from gc_ocp.estimation.starts import with_lls_start
 from gc_ocp.stance import StanceData
+from gc_ocp.values import is_count
 from gc_ocp.workflow.fitting import fit_data
 
 POSE_WIDTH = "estimated"
@@ -192,15 +192,9 @@ def diagnose_stances(
     candidate)."""
     if null_fits not in NULL_FITS:
         raise InputError(f"null_fits must be one of {', '.join(NULL_FITS)}, but got {null_fits!r}")
-    if workers is not None and (
-        isinstance(workers, bool) or not isinstance(workers, numbers.Integral) or workers < 1
-    ):
+    if workers is not None and not (is_count(workers) and workers >= 1):
         raise InputError(f"workers must be 1 or more (None: the cores), but got {workers!r}")
-    if (
-        isinstance(mismatch_draws, bool)
-        or not isinstance(mismatch_draws, numbers.Integral)
-        or mismatch_draws < 0
-    ):
+    if not (is_count(mismatch_draws) and mismatch_draws >= 0):
         raise InputError(
             f"mismatch_draws must be a whole number, 0 or more ({MISMATCH_DRAWS} is the default), "
             f"but got {mismatch_draws!r}"

@@ -67,7 +67,7 @@ from gc_ocp.estimation.synthetic import plate_signal, simulate, with_pose_error
 from gc_ocp.foot import FootKinematics
 from gc_ocp.marker_noise import filter_kernel
 from gc_ocp.stance import StanceData
-from gc_ocp.values import se_text
+from gc_ocp.values import is_count, se_text
 
 REPLICATES = 16
 """Replicates of :func:`bias_corrected` unless told otherwise: the bias's Monte Carlo error is
@@ -86,7 +86,7 @@ def check_replicates(replicates: int | None) -> None:
     (a mean change and its spread)."""
     if replicates is None:
         return
-    if not isinstance(replicates, (int, np.integer)) or isinstance(replicates, bool):
+    if not is_count(replicates):
         raise InputError(
             f"bias_correction={replicates!r}: give the number of replicates ({REPLICATES} is a "
             "good choice), 0 for none, or None to let the fit decide from the markers' noise."
