@@ -74,8 +74,8 @@ MARKER_SLOPE = 7.0
 as f^-6; the raw marker data of ../shared/data fall as f^-6 to f^-7 above the stride harmonics."""
 TAIL_SHARE = 0.25
 """Share of the edges of the zero runs below :data:`PLATE_NOISE_MIN` (two samples in a row) that
-makes them a filter's tail. A zero-lag (forward-backward) filter leaves its tail on both edges of every run, a causal
-one on the edges after the loads only (half of them; the edges before a load then rise
+makes them a filter's tail. A zero-lag (forward-backward) filter leaves its tail on both edges
+of every run, a causal one on the edges after the loads only (half of them; the edges before a load then rise
 smoothly from 0, by the filter's first coefficient); a threshold or a noisy edge gives a value
 below 1 mN by chance only (~1e-3 N / noise per edge)."""
 BASELINE_WINDOW = 0.05
@@ -320,9 +320,9 @@ def zero_threshold(fz: np.ndarray, zero: np.ndarray) -> tuple[float | None, str]
     the force leaves the zero runs (see :class:`PlateProcessing`): ``"filter tail"`` when at
     least :data:`TAIL_SHARE` of the edges are, with the sample beyond them, below any plate's
     resolution (:data:`PLATE_NOISE_MIN`: only a recursive filter's response decaying into the
-    zeroed stretches makes such numbers; a single one is round-off), else ``"step"`` when most edges jump from 0 by more than
-    twice the next sample's change (a lone sample between zero runs counts as a step), else
-    ``"continuous"``."""
+    zeroed stretches makes such numbers; a single one is round-off), else ``"step"`` when most
+    edges jump from 0 by more than twice the next sample's change (a lone sample between zero
+    runs counts as a step), else ``"continuous"``."""
     edge, step, tail = [], [], []
     for a, b in _runs(zero):
         for i, j in ((a - 1, a - 2), (b, b + 1)):  # the non-zero sample next to the run, its next

@@ -366,7 +366,8 @@ def fit(
     component's prior. A pose correction's own prior (``sigma_mm``, ``sigma_deg``) is where the
     estimate starts, not a bound: it stays within what soft tissue moves a foot (5 mm, 5 deg,
     :data:`~gc_ocp.estimation.pose_scale.PLAUSIBLE_MM`; a width stopped there is flagged),
-    whatever the start; to impose a wider width, give it with ``pose_scale=False``. sole_scale: estimate the sole correction's widths (one per foot-frame
+    whatever the start; to impose a wider width, give it with ``pose_scale=False``.
+    sole_scale: estimate the sole correction's widths (one per foot-frame
     axis, widened from the 5 mm prior where the stances ask for more) in the same rounds
     (:func:`~gc_ocp.estimation.pose_scale.sole_update`); None (default): whenever the pose
     width is estimated; False: the component's 5 mm prior (``docs/quality.md``, 'The sole
