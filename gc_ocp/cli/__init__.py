@@ -233,8 +233,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=None,
         metavar="N",
-        help="Worker processes of a local Dask cluster for the candidates' fits and the null's "
-        "draws (default: every core, at most 4; 1: in this process).",
+        help="Worker processes of a local Dask cluster for the base's and the candidates' fits"
+        " and the null's draws (default: every core, at most 4; 1: in this process).",
     )
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="Output folder.")
     p.set_defaults(func=cmd_diagnose)

@@ -23,13 +23,14 @@ from types import MappingProxyType
 
 import numpy as np
 
-from gc_ocp.diagnosis.compare import MAX_FOLDS, Evaluation, evaluate, fold_plan, held_out
+from gc_ocp.diagnosis.compare import MAX_FOLDS, Evaluation, fold_plan, held_out
 from gc_ocp.diagnosis.draws import NullInputs, debiased, mismatch_null
 from gc_ocp.diagnosis.execution import (
     Job,
     NotEvaluable,
     RoundInputs,
     candidate_executor,
+    evaluate_base,
     evaluate_round,
 )
 from gc_ocp.diagnosis.mismatch import MismatchFamily
@@ -48,13 +49,14 @@ from gc_ocp.diagnosis.null import (
 )
 from gc_ocp.diagnosis.onestep import fold_prior_means, linearize_parent
 from gc_ocp.diagnosis.refits import NULL_FITS, RefitInputs, draw_refits, observed_refit
-from gc_ocp.diagnosis.result import Diagnosis, RankRow, WaterfallStep
+from gc_ocp.diagnosis.result import NOT_TESTED_WHY, Diagnosis, RankRow, WaterfallStep
 from gc_ocp.diagnosis.selection import (
     MIN_REDUCTION_PCT,
     best_passing,
     contenders,
     flag_non_additive,
     rank,
+    within_reach,
 )
 from gc_ocp.diagnosis.where import where
 from gc_ocp.errors import InputError, ModelError, UnknownNameError, names_of
@@ -174,7 +176,7 @@ def diagnose_stances(
     the parent (:mod:`.draws`). ``max_effects``: stop the forward selection after
     that many effects (``0``: rank only; ``1``: rank and add the best passing effect, as the
     withheld-effect benchmark does). ``workers``: processes of a local Dask cluster that
-    evaluate a round's candidates and null draws in parallel (default
+    evaluate the base's fits, a round's candidates and null draws in parallel (default
     :func:`~gc_ocp.diagnosis.execution.default_workers`; 1: in this process). ``executor``: a
     :class:`concurrent.futures.Executor` to run them on instead (e.g. a
     ``dask.distributed.Client(...).get_executor()``; ``workers`` is then ignored).
@@ -242,18 +244,19 @@ def diagnose_stances(
         "stances": [st.label for st in stances],
         **({"groups": [[stances[i].label for i in g] for g in plan]} if grouped else {}),
     }
-    say(f"fitting the base ({base_label}) on {len(stances)} stances, {len(plan)} folds")
-    kw = {"weights": weights, "options": options, "progress": say}
-    current = evaluate(stances, base_model_, "base", (), plan, **kw)
-    evaluations = {"base": current}
-    waterfall = [WaterfallStep.of("base", current)]
     selected: list[str] = []
     remaining = list(names)
     rounds: list[list[RankRow]] = []
     calibration: list[dict] = []
-    hint: dict = {}
+    # the order a round hands its candidates to the workers, the dearest first: round 1 by
+    # their declared relative cost, later rounds by the time each took in the round before
+    hint: dict = {n: REGISTRY[n].relative_cost for n in names if n in REGISTRY}
     limit = len(names) if max_effects is None else max_effects
     with candidate_executor(workers, executor) as pool:
+        say(f"fitting the base ({base_label}) on {len(stances)} stances, {len(plan)} folds")
+        current = evaluate_base(stances, base_model_, plan, pool, weights, options, say)
+        evaluations = {"base": current}
+        waterfall = [WaterfallStep.of("base", current)]
         while remaining:
             say(f"round {len(rounds) + 1}: {len(remaining)} candidate(s) on top of {current.label}")
             parent_lin = linearize_parent(stances, current.model, current.full, weights)
@@ -291,25 +294,31 @@ def diagnose_stances(
                 again = RoundInputs(tuple(stances), tuple(plan), current, weights, options)
                 hold_out(early, ok, evs, again, pool, say)
                 able, known = contenders(current, ok, n_boot, seed, rate)
-            tests, info = _calibrated(
-                stances,
-                current,
-                parent_lin,
-                ok,
-                plan,
-                weights,
-                options,
-                rate,
-                mismatch,
-                mismatch_draws,
-                n_replicates,
-                seed,
-                alpha,
-                say,
-                pool,
-                able if stop_early else None,
-                null_fits,
-            )
+            if not first and stop_early and not within_reach(current, ok, known):
+                # no candidate clears the floor, nor would with more stances: no draw of the
+                # null could name one or tell how many steps would (its rows: "not tested")
+                tests, info = {}, _not_tested(mismatch_draws)
+                say(f"  no null: {NOT_TESTED_WHY}")
+            else:
+                tests, info = _calibrated(
+                    stances,
+                    current,
+                    parent_lin,
+                    ok,
+                    plan,
+                    weights,
+                    options,
+                    rate,
+                    mismatch,
+                    mismatch_draws,
+                    n_replicates,
+                    seed,
+                    alpha,
+                    say,
+                    pool,
+                    able if stop_early else None,
+                    null_fits,
+                )
             calibration.append(info)
             if not first:
                 named = [
@@ -400,6 +409,25 @@ def unconverged_notes(evaluations: Mapping[str, Evaluation]) -> list[str]:
                 f"score counts them where they stopped"
             )
     return out
+
+
+def _not_tested(n_draws: int) -> dict:
+    """The calibration record of a later round that makes no null: every candidate is out of
+    the effect-size floor's reach (:func:`~gc_ocp.diagnosis.selection.within_reach`), so the
+    test cannot change its answer (round 1, the ranking the user reads, is always tested)."""
+    return {
+        "replicates": 0,
+        "mismatch_draws": 0,
+        "mismatch_draws_left_out": 0,
+        "mismatch_draws_planned": n_draws,
+        "null_stopped_early": False,
+        "not_tested": True,
+        "null_looks": [],
+        "floor_leaves": [],
+        "z_critical": None,
+        "one_step_miss": None,
+        "seconds": 0.0,
+    }
 
 
 def _calibrated(

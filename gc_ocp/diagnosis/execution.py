@@ -22,7 +22,10 @@ model's functions once themselves.
 One task per *fit* (a candidate's folds spread over the processes) was tried and measured
 slower than one task per candidate (bundled trial 63.6 s against 49.5 s; three BTS trials
 149.5 s against 149.6 s): every process then derives and loads every configuration's
-functions, and the results travel between processes.
+functions, and the results travel between processes. The base is the exception
+(:func:`evaluate_base`): it is fitted alone, before any round, so one task per candidate would
+leave every process but one idle, and every process derives the base's functions anyway, to
+refit it in the null's draws.
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ from concurrent.futures import Executor, as_completed
 
 import numpy as np
 
-from gc_ocp.diagnosis.compare import Evaluation, describe, evaluate
+from gc_ocp.diagnosis.compare import Evaluation, describe, evaluate, fit_fold, fit_model
 from gc_ocp.diagnosis.onestep import from_own_fit, linearize_child
 from gc_ocp.errors import InputError, ModelError, SolveError
 from gc_ocp.estimation.problem import Weights
@@ -222,6 +225,55 @@ def run_tasks(
     return out
 
 
+def _base_fit(
+    stances: tuple[StanceData, ...],
+    model: tuple,
+    plan: tuple[tuple[int, ...], ...],
+    j: int | None,
+    weights: Weights | None,
+    options: IpoptOptions | None,
+):
+    """A task of :func:`evaluate_base`: the base's fit on all ``stances`` (``j`` None, with its
+    covariance) or the folds of group ``j`` of ``plan``."""
+    if j is None:
+        return fit_model(list(stances), model, None, weights, options)
+    return fit_fold(list(stances), model, plan, j, None, None, weights, options)
+
+
+def evaluate_base(
+    stances: Sequence[StanceData],
+    model: tuple,
+    plan: Sequence[Sequence[int]],
+    executor: Executor | None = None,
+    weights: Weights | None = None,
+    options: IpoptOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Evaluation:
+    """:func:`~gc_ocp.diagnosis.compare.evaluate` of the base (``model``, no parent), its fit on
+    all stances and each fold's one task on ``executor`` (None: here, one after the other;
+    module doc). A base fold starts from the usual starts, never from another fit
+    (:func:`~gc_ocp.diagnosis.compare.fit_fold`), so its fits are independent and the result
+    is the same wherever they run."""
+    say = progress or (lambda s: None)
+    weights = weights or Weights()
+    t0 = time.perf_counter()
+    st, pl = tuple(stances), tuple(tuple(g) for g in plan)
+    calls = [(st, model, pl, j, weights, options) for j in (None, *range(len(pl)))]
+    full, *folds = run_tasks(_base_fit, calls, executor)
+    ev = Evaluation(
+        "base",
+        (),
+        model,
+        full,
+        [f for fold in folds for f in fold],
+        time.perf_counter() - t0,
+        False,
+        weights,
+    )
+    say(f"  base: {describe(ev)} ({ev.seconds:.1f} s)")
+    return ev
+
+
 def evaluate_round(
     jobs: Sequence[Job],
     inputs: RoundInputs,
@@ -286,6 +338,7 @@ __all__ = (
     "RoundInputs",
     "candidate_executor",
     "default_workers",
+    "evaluate_base",
     "evaluate_round",
     "recorded",
     "run_job",

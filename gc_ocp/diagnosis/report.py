@@ -218,16 +218,25 @@ def _draws(calibration: list) -> str:
 
 
 def _stopped(calibration: list) -> str:
-    """The method's sentence on the rounds whose null draws stopped early (none: empty)."""
+    """The method's sentence on the rounds whose null draws stopped early or were not made
+    (none: empty)."""
     made = [c.get("mismatch_draws") for c in calibration]
-    if not any(c.get("null_stopped_early") for c in calibration):
-        return ""
-    return (
-        f"; a round's draws stop early, a look every {DRAWS_PER_LOOK}, once no candidate the "
-        "effect-size floor leaves could be named whatever the rest would give (draws made per "
-        f"round: {', '.join(str(m) for m in made)}): a stopped round's p-values are from the "
-        "draws made"
-    )
+    out = ""
+    if any(c.get("null_stopped_early") for c in calibration):
+        out += (
+            f"; a round's draws stop early, a look every {DRAWS_PER_LOOK}, once no candidate the "
+            "effect-size floor leaves could be named whatever the rest would give (draws made per "
+            f"round: {', '.join(str(m) for m in made)}): a stopped round's p-values are from the "
+            "draws made"
+        )
+    skipped = [str(k) for k, c in enumerate(calibration, 1) if c.get("not_tested")]
+    if skipped:
+        out += (
+            f"; round {', '.join(skipped)} made no draws: none of its candidates clears the "
+            "effect-size floor, nor would with more stances, so no draw could name one (they "
+            "are not tested)"
+        )
+    return out
 
 
 def _method(d) -> dict:

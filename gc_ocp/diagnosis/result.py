@@ -38,6 +38,15 @@ inverse square of a small margin, so a figure of 10^4-10^5 (seen on real trials)
 in its order. ``diagnosis.json`` keeps the number itself (``calibrated.more_stances``)."""
 
 
+NOT_TESTED_WHY = (
+    "no candidate of the round clears the rule's effect-size floor, nor would with more stances "
+    "(more stances estimate a gain better, they do not raise it), so no draw of the null could "
+    "name one: none was made and its candidates are not tested"
+)
+"""Why a later round of the diagnosis makes no null (``diagnose._not_tested``): its summary
+line."""
+
+
 def _about(n: int, exact: bool = False) -> str:
     """``n`` further steps in a verdict's words (:data:`SESSION_STEPS`; ``exact``: the number
     however large, for an *inconclusive* row, whose number is within a practical follow-up of
@@ -148,8 +157,17 @@ class RankRow:
         c = self.calibrated
         if self.not_evaluable is not None:
             return "not evaluable"
+        # the floor stops a row (floor_stances None) when its held-out or its in-sample gain is
+        # under it: the smaller of the two is then under it, and the verdict names that one
+        held, ins = self.heldout_rms_reduction_pct, self.insample_rms_reduction_pct
+        # (a screened row has only its in-sample gain)
+        which = "in-sample" if held is None or ins < held else "held-out"
+        under = (
+            f"its {which} gain is under the rule's effect-size floor, which more steps do not raise"
+        )
         if c is None:
-            return "not tested"
+            # a later round whose every candidate the floor stops makes no null (diagnose)
+            return f"not tested: {under}" if self.floor_stances is None else "not tested"
         if c.inert:
             return (
                 "no gain: these stances do not move it (its reductions, observed and null, are "
@@ -159,14 +177,6 @@ class RankRow:
         if self.passes:
             return f"named ({p})"
         more = self.more_stances
-        # the floor stops a row (floor_stances None) when its held-out or its in-sample gain is
-        # under it: the smaller of the two is then under it, and the verdict names that one
-        held, ins = self.heldout_rms_reduction_pct, self.insample_rms_reduction_pct
-        # (a screened row has only its in-sample gain)
-        which = "in-sample" if held is None or ins < held else "held-out"
-        under = (
-            f"its {which} gain is under the rule's effect-size floor, which more steps do not raise"
-        )
         if c.more_stances == 0:
             # named by the test, stopped by the floor: "inconclusive" only when the row is (a
             # held-out loss is not, :func:`~gc_ocp.diagnosis.selection.rank`), so that the
@@ -442,6 +452,8 @@ class Diagnosis:
                 "(null_fits='refit'): the test weighs the held-out reductions shown"
             )
         for k, c in enumerate(self.calibration, 1):
+            if c.get("not_tested"):
+                lines.append(f"round {k} made no null draws: {NOT_TESTED_WHY}")
             if c.get("null_stopped_early"):
                 lines.append(
                     f"round {k}'s null stopped after {c['mismatch_draws']} of "
@@ -521,4 +533,4 @@ class Diagnosis:
         return fig
 
 
-__all__ = ("SCORE_TEXT", "Diagnosis", "RankRow", "WaterfallStep")
+__all__ = ("NOT_TESTED_WHY", "SCORE_TEXT", "Diagnosis", "RankRow", "WaterfallStep")

@@ -143,6 +143,12 @@ class Component:
     response is so curved at its neutral value that one step from there misses most of what its
     refit gains. Default False (the neutral point is exact for the null and costs no refit)."""
 
+    relative_cost: ClassVar[float] = 1.0
+    """About how many times a fit of the base costs a fit with this effect added: the order in
+    which the diagnosis's first round hands its candidates to the workers, the dearest first, so
+    that the longest does not start last (later rounds order by the time each took in the
+    round before). Scheduling only: no result depends on it."""
+
     benchmark_values: ClassVar[dict[str, Any] | None] = None
     """The withheld-effect benchmark's injected value per magnitude, ``{"small": v, "moderate":
     v, "strong": v}`` (physical units, the effect's own; ``small`` half the moderate's departure
