@@ -311,6 +311,21 @@ def test_a_broken_trial_is_recorded_and_the_others_complete_then_a_rerun_skips_t
         for foot in ("left", "right"):  # the units whose force the data do not fix, by name
             weak = [u for u, e in law[foot].items() if isinstance(e, dict) and not e["identified"]]
             assert (rows[("S1", foot)]["units_not_identified"] or "") == "; ".join(weak)
+        # a parameter the fit left on a bound: named, its SE left empty (not an estimate); the
+        # flags added to this subject's fit.json as a fit writes them (at_bound, "what": the key)
+        from gc_ocp.batch.summary import subject_rows
+
+        doc = json.loads((out / "S1" / "fit.json").read_text())
+        marks = [("contact/mu", "mu"), ("contact/k/left/PM", "k PM")]
+        doc["flags"] += [
+            {"code": "at_bound", "what": w, "message": "at its bound"} for w, _ in marks
+        ]
+        rows_b = {r["foot"]: r for r in subject_rows(Subject("S1", ()), doc, None)}
+        assert rows_b["left"]["params_at_bound"] == "mu; k PM"
+        assert rows_b["right"]["params_at_bound"] == "mu"  # the left foot's unit is its own
+        assert rows_b["left"]["mu_se"] is None and rows_b["left"]["f_ref_PM_N_se"] is None
+        assert rows_b["right"]["f_ref_PM_N_se"] == rows[("S1", "right")]["f_ref_PM_N_se"]
+        assert rows_b["left"]["n_se"] == rows[("S1", "left")]["n_se"] > 0  # the others kept
         page = (out / "summary.html").read_text(encoding="utf-8")
         # self-contained but for the subjects' own reports beside it
         assert set(re.findall(r'href="([^"]+)"', page)) == {"S1/report.html"}  # one per foot row

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from gc_ocp.contact.channels import CHANNELS as WRENCH_CHANNELS
 from gc_ocp.contact.channels import TABLE_KEYS
+from gc_ocp.estimation.flags import variable_key
 from gc_ocp.foot import UNITS
 from gc_ocp.outputs import atomic_write, atomic_write_text
 
@@ -35,6 +36,7 @@ COLUMNS = (
     *(f"{p}{s}" for p in SHARED for s in ("", "_se")),
     *(f"f_ref_{u}_N{s}" for u in UNITS for s in ("", "_se")),
     "units_not_identified",
+    "params_at_bound",
     *(f"rms_{c}" for c in CHANNELS),
     "cop_rms_mm",
     "heldout_stance",
@@ -54,6 +56,8 @@ COLUMNS = (
 """The summary's columns, in order (``f_ref``: a unit's force at the reference depth [N];
 ``units_not_identified``: the units whose force the data do not fix, ``"PM; AM"``, whose
 ``f_ref`` is a value with no meaning beside its SE: leave them out of a group's statistics;
+``params_at_bound``: the parameters the fit left on a bound of their range, ``"mu; k PM"``:
+their value is the bound, not an estimate, and their SE column is empty;
 ``bias_replicates``: the markers' noise's bias correction, 0 where none was made, e.g. a
 subject whose markers are quiet enough: :func:`gc_ocp.workflow.fitting.bias_replicates`)."""
 
@@ -66,6 +70,7 @@ NUMERIC = frozenset(
         "foot",
         "status",
         "units_not_identified",
+        "params_at_bound",
         "heldout_stance",
         "flag_codes",
         "diagnosis_selected",
@@ -127,11 +132,22 @@ def subject_rows(subject, fit_doc: dict, diagnosis: dict | None) -> list[dict]:
             "solver_status": fit_doc["solver"]["status"],
             "iterations": fit_doc["solver"]["iterations"],
         }
+        # a parameter at its bound has no meaningful SE (the fit's flag says so): left empty
+        bound = {f["what"] for f in fit_doc.get("flags", []) if f.get("code") == "at_bound"}
+        at_shared = [
+            p
+            for p in SHARED
+            if {variable_key("contact", p), variable_key("contact", p, foot)} & bound
+        ]
+        at_unit = [u for u in UNITS if variable_key("contact", "k", foot, u) in bound]
         for p in SHARED:
-            values[p], values[f"{p}_se"] = shared.get(p), shared.get(f"{p}_se")
+            se = None if p in at_shared else shared.get(f"{p}_se")
+            values[p], values[f"{p}_se"] = shared.get(p), se
         for u in UNITS:
             e = units.get(u, {})
-            values[f"f_ref_{u}_N"], values[f"f_ref_{u}_N_se"] = e.get("f_ref"), e.get("f_ref_se")
+            se = None if u in at_unit else e.get("f_ref_se")
+            values[f"f_ref_{u}_N"], values[f"f_ref_{u}_N_se"] = e.get("f_ref"), se
+        values["params_at_bound"] = "; ".join([*at_shared, *(f"k {u}" for u in at_unit)])
         values["units_not_identified"] = "; ".join(
             u for u in UNITS if units.get(u, {}).get("identified") is False
         )

@@ -30,6 +30,12 @@ POOR_SUPERIOR_PCT_BW = 10.0
 POOR_COP_MM = 50.0
 
 
+def variable_key(*parts) -> str:
+    """A variable block's name in the flags and the tables that look them up: its key's parts
+    joined by "/" (``"contact/n"``, ``"contact/k/left/PM"``, ``"contact/mu/right"``)."""
+    return "/".join(map(str, parts))
+
+
 def flag(code: str, what: str, message: str) -> dict:
     return {"code": code, "what": what, "message": message}
 
@@ -48,7 +54,7 @@ def variable_flags(specs, x: np.ndarray) -> list[dict]:
     out = []
     for s in specs:
         z = np.asarray(x[s.slice], float)
-        key = "/".join(map(str, s.key))
+        key = variable_key(*s.key)
         lo, hi = _at_bound(s, z)
         if s.kind == "param":
             for j in np.flatnonzero(lo | hi):

@@ -21,6 +21,7 @@ from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
 from gc_ocp.errors import InputError, read_document
 from gc_ocp.estimation.components import describe_block
 from gc_ocp.estimation.components.contact import ContactLaw
+from gc_ocp.estimation.flags import variable_key
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
 from gc_ocp.text import read_json_file
@@ -176,7 +177,7 @@ class EstimationResult:
                     f"shared {k} = {v:.4g} "
                     + (
                         BOUND_TEXT
-                        if f"contact/{k}" in self.at_bound
+                        if variable_key("contact", k) in self.at_bound
                         else f"± {se_text(se, f'{v:.4g}')}"
                     )
                 )
