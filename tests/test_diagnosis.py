@@ -1050,3 +1050,26 @@ def test_a_later_round_holds_out_its_contenders_and_tests_only_what_the_floor_ca
         back.calibration[1]["not_tested"]
         and back.rounds[1][0].verdict() == later[back.rounds[1][0].effect].verdict()
     )
+
+
+def test_the_ranking_figure_keeps_gains_readable_beside_a_large_loss():
+    """A candidate that misfits badly (-160 % held out, seen on notebook 03's full run) would
+    squash every gain to a sliver: the axis stops at OFF_SCALE times the largest gain below 0
+    and that row says its value at the edge; without such a loss the axis shows every interval
+    whole."""
+    from types import SimpleNamespace
+
+    import matplotlib.pyplot as plt
+
+    from gc_ocp.diagnosis.result import OFF_SCALE, Diagnosis
+
+    rows = [_row("damping", 5.0), _row("friction", 0.5), _row("contact_density", -160.0)]
+    fig = Diagnosis.ranking_figure(SimpleNamespace(ranking=rows))
+    ax = fig.axes[0]
+    assert ax.get_xlim()[0] == pytest.approx(-OFF_SCALE * 6.0)  # the largest gain's upper end
+    assert [t.get_text() for t in ax.texts] == [" \u25c0 -160 % [-161, -159]"]
+    plt.close(fig)
+    fig = Diagnosis.ranking_figure(SimpleNamespace(ranking=rows[:2]))
+    ax = fig.axes[0]
+    assert ax.get_xlim()[0] < -0.5 and not ax.texts  # friction's interval reaches -0.5: whole
+    plt.close(fig)

@@ -30,6 +30,10 @@ SCORE_TEXT = (
 )
 """What ``diagnosis.json`` says its ``score`` is."""
 
+OFF_SCALE = 2.0
+"""The ranking figure's axis reaches this many times the largest gain below 0; a candidate's
+loss beyond it is written at the edge (:meth:`Diagnosis.ranking_figure`)."""
+
 SESSION_STEPS = 1000
 """A verdict names the further steps that would decide up to this many; beyond it, it says
 "more than" this many. About 500 per foot: eight minutes of treadmill walking, more than any
@@ -232,7 +236,7 @@ class RankRow:
             return f"{self.effect} not evaluable"
         if self.heldout_rms_reduction_pct is None:
             return (
-                f"{self.effect} in-sample {self.insample_rms_reduction_pct:+.1f} % (not held out:"
+                f"{self.effect} in-sample {self.insample_rms_reduction_pct:+.1f} % (not held out;"
                 f" {self.verdict()})"
             )
         lo, hi = self.heldout_rms_reduction_ci
@@ -495,6 +499,24 @@ class Diagnosis:
         ax.barh(y, v, color=colors)
         ax.errorbar(v, y, xerr=[v - ci[:, 0], ci[:, 1] - v], fmt="none", ecolor="k", capsize=3)
         ax.axvline(0.0, color="k", lw=0.6)
+        # a loss far beyond the largest gain (a candidate that misfits, -160 % beside gains of
+        # +5 %) would squash every gain to a sliver: the axis stops at OFF_SCALE times the
+        # largest gain, and a row beyond it says its value at the edge
+        if v.size:
+            top = max(float(np.max(ci[:, 1])), float(np.max(v)), 1.0)
+            edge = -OFF_SCALE * top
+            if min(float(np.min(ci[:, 0])), float(np.min(v))) < edge:
+                ax.set_xlim(edge, 1.05 * top)
+                for yi, vi, (lo, hi) in zip(y, v, ci, strict=True):
+                    if min(vi, lo) < edge:
+                        ax.text(
+                            edge,
+                            yi,
+                            f" \u25c0 {vi:+.0f} % [{lo:+.0f}, {hi:+.0f}]",
+                            va="center",
+                            fontsize=8,
+                            bbox={"facecolor": "white", "edgecolor": "none", "pad": 1.0},
+                        )
         ax.set_yticks(y, [e.effect + (" *" if e.confounded_with else "") for e in r])
         ax.set_xlabel("held-out reduction of the combined score [%]  (green: named; * confounded)")
         fig.tight_layout()
