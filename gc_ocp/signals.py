@@ -15,6 +15,7 @@ changed."""
 from __future__ import annotations
 
 import contextlib
+import logging
 import signal
 import threading
 from collections.abc import Callable, Iterator
@@ -84,6 +85,22 @@ def dask_setup(worker=None) -> None:
     every process of its group: the command, which stops with one line and closes its cluster
     (its workers with it), and each worker, which printed a traceback of its own (four in an
     interruption review of ``gc-ocp diagnose --workers 2``, ~100 lines before the command's
-    one). A worker has nothing to clean up that its cluster's closing does not."""
+    one). A worker has nothing to clean up that its cluster's closing does not.
+
+    Its tasks still running when the cluster closes are cancelled, and Dask's worker logged a
+    warning for each ("Async instruction for <Task cancelled ...> ended with CancelledError",
+    two 300-character lines after the command's one): those records are dropped
+    (:class:`CancelledAtClose`); every other warning of the worker is kept."""
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+    log = logging.getLogger("distributed.worker.state_machine")
+    if not any(isinstance(f, CancelledAtClose) for f in log.filters):
+        log.addFilter(CancelledAtClose())
+
+
+class CancelledAtClose(logging.Filter):
+    """Drops the worker's record of a task cancelled because its cluster closed (module doc of
+    :func:`dask_setup`): a task that ended with ``CancelledError``."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "ended with CancelledError" not in record.getMessage()
