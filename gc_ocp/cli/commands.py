@@ -89,7 +89,8 @@ def cmd_kinematics(args: argparse.Namespace) -> int:
             files.discard()
         for p in paths:
             print(f"wrote {p}")
-    claim(args.out, "gc-ocp kinematics")
+    if len(trials) > 1:  # the folder of the trials' folders (one trial's set claims its own)
+        claim(args.out, "gc-ocp kinematics")
     return 0
 
 
