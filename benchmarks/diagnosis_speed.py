@@ -1,6 +1,7 @@
 """Diagnosis speed: a full diagnosis of the bundled trial, cold and warm, and where the time goes.
 
-Run:  PYTHONPATH=. python benchmarks/diagnosis_speed.py [--skip-cold] [--subject DIR]
+Run:  PYTHONPATH=. python benchmarks/diagnosis_speed.py [--skip-cold] [--subject FILE ...]
+      [--static FILE]
 
 1. Bundled trial (3 stances, 2 held-out folds), default base ("registered"), every candidate of
    the library (7), forward selection to the end:
@@ -15,7 +16,9 @@ Run:  PYTHONPATH=. python benchmarks/diagnosis_speed.py [--skip-cold] [--subject
    (bootstrap, ranking, residual maps).
 2. Several trials of one subject (``--subject FILE FILE FILE``, e.g. three walking trials of the
    BTS subject in ``../shared/data/bts_unipd_5trials``): cold (a fresh compile cache of its own)
-   then warm, default workers.
+   then warm, default workers; ``--static FILE``: with the subject's static trial (the BTS
+   subject's ``Static1.c3d``: its registration changes the answer from none to damping, so that
+   the time of a diagnosis that names an effect is measured).
 
 Targets (issue 13): <= 60 s warm for the bundled trial, <= 120 s for three trials of a subject,
 on a 2-core machine; issue 22 keeps the second with the calibrated null's refits included. Machines here are noisy: read ratios, not absolute seconds.
@@ -45,7 +48,8 @@ def child(args) -> None:
         pairs = []
         for p in args.trials:
             t = gc_ocp.load_trial(p)
-            pairs.append((t, gc_ocp.compute_kinematics(t)))
+            static = gc_ocp.load_static(args.static, t) if args.static else None
+            pairs.append((t, gc_ocp.compute_kinematics(t, static=static)))
     else:
         t = gc_ocp.load_trial()
         pairs = [(t, gc_ocp.compute_kinematics(t))]
@@ -77,13 +81,15 @@ def child(args) -> None:
     )
 
 
-def run(mode: str, cache: str, workers: int | None = None, trials=()) -> dict:
+def run(mode: str, cache: str, workers: int | None = None, trials=(), static=None) -> dict:
     env = dict(os.environ, GC_OCP_CACHE_DIR=cache)
     cmd = [sys.executable, __file__, "--child", mode]
     if workers is not None:
         cmd += ["--workers", str(workers)]
     for t in trials:
         cmd += ["--trial", str(t)]
+    if static is not None:
+        cmd += ["--static", str(static)]
     t0 = time.perf_counter()
     out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
     if out.returncode != 0:
@@ -120,6 +126,7 @@ def main() -> None:
     ap.add_argument("--trial", dest="trials", action="append", default=[])
     ap.add_argument("--skip-cold", action="store_true")
     ap.add_argument("--subject", type=Path, nargs="+", default=None)
+    ap.add_argument("--static", type=Path, default=None)
     args = ap.parse_args()
     if args.child:
         args.mode = args.child
@@ -151,11 +158,12 @@ def main() -> None:
         # the first run compiles this subject's configurations (more stances: other shapes); in
         # a fresh cache of its own unless --skip-cold, so that it is the cold first run
         first_cache = cache if args.skip_cold else tempfile.mkdtemp(prefix="gc_ocp_bench_cache_")
-        first = run("diagnose", first_cache, trials=trials)
+        first = run("diagnose", first_cache, trials=trials, static=args.static)
+        what = f"{len(trials)} trials of one subject" + (" + static" if args.static else "")
         if not args.skip_cold:
-            report(f"{len(trials)} trials of one subject, cold (compiles)", first, fit_s)
-        s = run("diagnose", first_cache, trials=trials)
-        report(f"{len(trials)} trials of one subject, warm", s, fit_s)
+            report(f"{what}, cold (compiles)", first, fit_s)
+        s = run("diagnose", first_cache, trials=trials, static=args.static)
+        report(f"{what}, warm", s, fit_s)
 
 
 if __name__ == "__main__":
