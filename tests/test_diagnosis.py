@@ -415,8 +415,8 @@ def test_parallel_rounds_give_the_serial_answer(bundled):
     data = simulate(stances, (*truth, Damping(fixed=1.0)), np.random.default_rng(1))
     # alpha 0.35: damping (p ~0.25 on three stances under a null of 4 mismatch draws, whose
     # p-value counts draws: at least 1/5) is selected, so that a second round (screening) is
-    # compared too; stop_early=False: that round's null is made (its one candidate is out of
-    # the effect-size floor's reach, which would spare it) and compared as well
+    # compared too; stop_early=False: that round's null is made in full (its one candidate is
+    # out of the effect-size floor's reach, which would stop it at its first look) and compared
     kw = {"candidates": ["damping", "stiffness_exponent"], "n_boot": 100, "mismatch_draws": 4}
     kw.update(alpha=0.35, stop_early=False)
     with warnings.catch_warnings():
@@ -1026,7 +1026,9 @@ def test_a_later_round_holds_out_its_contenders_and_tests_only_what_the_floor_ca
     kw = {"candidates": ["damping", "ground_offset", "toe_joint"], "n_boot": 100}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        d = diagnose_stances(data, workers=1, mismatch_draws=4, alpha=0.35, **kw)
+        # alpha 0.1 and 10 draws: round 1 can name damping (p 1/11 at least), while round 2's
+        # first look, 8 draws, cannot name anything (p 1/9 at least), the null's to spare
+        d = diagnose_stances(data, workers=1, mismatch_draws=10, alpha=0.1, **kw)
     assert d.selected[:1] == ["damping"] and len(d.rounds) >= 2
     assert not any(seen[0].values())  # round 1 holds out every candidate
     later = {r.effect: r for r in d.rounds[1]}
@@ -1036,7 +1038,7 @@ def test_a_later_round_holds_out_its_contenders_and_tests_only_what_the_floor_ca
     assert later["toe_joint"].insample_rms_reduction_pct < 0.3 and later["toe_joint"].screened
     # out of the floor's reach, both: round 2 makes no null, and says so
     assert len(seen) == 1 and d.calibration[1]["not_tested"]
-    assert d.calibration[1]["mismatch_draws"] == 0 and d.calibration[0]["mismatch_draws"] == 4
+    assert d.calibration[1]["mismatch_draws"] == 0 and d.calibration[0]["mismatch_draws"] == 10
     for r in later.values():
         assert r.calibrated is None and not r.passes and not r.inconclusive
         which = "held-out" if r.effect == "ground_offset" else "in-sample"
@@ -1050,6 +1052,35 @@ def test_a_later_round_holds_out_its_contenders_and_tests_only_what_the_floor_ca
         back.calibration[1]["not_tested"]
         and back.rounds[1][0].verdict() == later[back.rounds[1][0].effect].verdict()
     )
+
+
+def test_a_later_round_whose_null_could_name_a_candidate_under_the_floor_is_tested(bundled):
+    """A later round out of the effect-size floor's reach makes no null only when the null
+    could not name a candidate anyway (its first look's draws too few for alpha): the test
+    that names one under the floor holds it out and makes it *inconclusive*
+    (``selection.rank``), an answer the skipped null would lose. The noise-only null
+    (``--null-draws 0``) counts its replicates: on these data it names friction in round 2
+    (p ~0.05, +0.0 % held out), which a review found reported "not tested" instead (the
+    answer's ``inconclusive`` empty, it was ``["friction"]`` before the null was spared)."""
+    from gc_ocp.diagnosis.diagnose import first_look_names
+    from gc_ocp.diagnosis.null import DEFAULT_FAMILY
+
+    assert first_look_names(None, "one-step", 0, 0.05)  # noise only: the replicates count
+    assert not first_look_names(DEFAULT_FAMILY, "one-step", 32, 0.05)  # p >= 1/9 at 8 draws
+    assert first_look_names(DEFAULT_FAMILY, "one-step", 32, 0.2)  # 1/9 < 0.2
+    assert first_look_names(DEFAULT_FAMILY, "one-step", 4, 0.35)  # 1/5 < 0.35
+    stances, truth = bundled
+    data = simulate(stances, (*truth, Damping(fixed=1.0)), np.random.default_rng(1))
+    kw = {"candidates": ["damping", "friction", "time_offset"], "n_boot": 100}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        d = diagnose_stances(data, workers=1, mismatch=None, mismatch_draws=0, alpha=0.35, **kw)
+    assert d.selected[:1] == ["damping"] and len(d.rounds) == 2
+    assert not d.calibration[1].get("not_tested") and d.calibration[1]["replicates"] > 0
+    later = {r.effect: r for r in d.rounds[1]}
+    assert all(r.calibrated is not None for r in later.values())
+    assert later["friction"].calibrated.p_adjusted < 0.35 and not later["friction"].screened
+    assert d.inconclusive == ["friction"]
 
 
 def test_the_ranking_figure_keeps_gains_readable_beside_a_large_loss():

@@ -37,6 +37,7 @@ from gc_ocp.diagnosis.mismatch import MismatchFamily
 from gc_ocp.diagnosis.null import (
     ALPHA,
     DEFAULT_FAMILY,
+    DRAWS_PER_LOOK,
     MISMATCH_DRAWS,
     N_REPLICATES,
     calibrate,
@@ -294,9 +295,15 @@ def diagnose_stances(
                 again = RoundInputs(tuple(stances), tuple(plan), current, weights, options)
                 hold_out(early, ok, evs, again, pool, say)
                 able, known = contenders(current, ok, n_boot, seed, rate)
-            if not first and stop_early and not within_reach(current, ok, known):
-                # no candidate clears the floor, nor would with more stances: no draw of the
-                # null could name one or tell how many steps would (its rows: "not tested")
+            spare = (
+                not first
+                and stop_early
+                and not first_look_names(mismatch, null_fits, mismatch_draws, alpha)
+            )
+            if spare and not within_reach(current, ok, known):
+                # no candidate clears the floor, nor would with more stances, and the null
+                # would stop at its first look, whose p-values cannot fall under alpha: no
+                # draw could name one or tell how many steps would (its rows: "not tested")
                 tests, info = {}, _not_tested(mismatch_draws)
                 say(f"  no null: {NOT_TESTED_WHY}")
             else:
@@ -392,6 +399,22 @@ def draws_made(family: MismatchFamily | None, null_fits: str) -> bool:
     family). Otherwise the null is the noise-only one-step null, whose p-value counts its
     wild-bootstrap replicates."""
     return null_fits == "refit" or (family is not None and family.scale > 0)
+
+
+def first_look_names(
+    family: MismatchFamily | None, null_fits: str, n_draws: int, alpha: float
+) -> bool:
+    """Whether a later round's null, stopped at its first look (no candidate the floor leaves:
+    :func:`~gc_ocp.diagnosis.null.cannot_name`), could still name a candidate: its p-value
+    counts the draws made (at most :data:`~gc_ocp.diagnosis.null.DRAWS_PER_LOOK`), so it
+    cannot unless they reach :func:`~gc_ocp.diagnosis.null.fewest_draws`; a noise-only null
+    (no draws) counts its replicates and can. A candidate the test names under the floor is
+    held out when screened and, with a held-out gain above 0, *inconclusive*
+    (:func:`~gc_ocp.diagnosis.selection.rank`): a round whose null could name one is tested
+    even when every candidate is out of the floor's reach."""
+    if not draws_made(family, null_fits) or n_draws <= 0:
+        return True
+    return min(DRAWS_PER_LOOK, n_draws) >= fewest_draws(alpha)
 
 
 def unconverged_notes(evaluations: Mapping[str, Evaluation]) -> list[str]:
