@@ -314,6 +314,7 @@ def test_a_broken_trial_is_recorded_and_the_others_complete_then_a_rerun_skips_t
         # a parameter the fit left on a bound: named, its SE left empty (not an estimate); the
         # flags added to this subject's fit.json as a fit writes them (at_bound, "what": the key)
         from gc_ocp.batch.summary import subject_rows
+        from gc_ocp.foot import UNITS
 
         doc = json.loads((out / "S1" / "fit.json").read_text())
         marks = [("contact/mu", "mu"), ("contact/k/left/PM", "k PM")]
@@ -326,6 +327,11 @@ def test_a_broken_trial_is_recorded_and_the_others_complete_then_a_rerun_skips_t
         assert rows_b["left"]["mu_se"] is None and rows_b["left"]["f_ref_PM_N_se"] is None
         assert rows_b["right"]["f_ref_PM_N_se"] == rows[("S1", "right")]["f_ref_PM_N_se"]
         assert rows_b["left"]["n_se"] == rows[("S1", "left")]["n_se"] > 0  # the others kept
+        # a stiffness of a wider scope (one k per foot) at its bound: every unit of that foot
+        doc["flags"].append({"code": "at_bound", "what": "contact/k/right", "message": "-"})
+        rows_c = {r["foot"]: r for r in subject_rows(Subject("S1", ()), doc, None)}
+        assert rows_c["right"]["params_at_bound"] == "mu; " + "; ".join(f"k {u}" for u in UNITS)
+        assert rows_c["left"]["params_at_bound"] == "mu; k PM"
         page = (out / "summary.html").read_text(encoding="utf-8")
         # self-contained but for the subjects' own reports beside it
         assert set(re.findall(r'href="([^"]+)"', page)) == {"S1/report.html"}  # one per foot row

@@ -1043,7 +1043,7 @@ def test_a_later_round_holds_out_its_contenders_and_tests_only_what_the_floor_ca
         assert r.calibrated is None and not r.passes and not r.inconclusive
         which = "held-out" if r.effect == "ground_offset" else "in-sample"
         assert r.verdict() == (
-            f"not tested: its {which} gain is under the rule's effect-size floor, which more "
+            f"not tested; its {which} gain is under the rule's effect-size floor, which more "
             "steps do not raise"
         )
     assert "round 2 made no null draws: no candidate of the round clears" in d.summary()
@@ -1103,4 +1103,14 @@ def test_the_ranking_figure_keeps_gains_readable_beside_a_large_loss():
     fig = Diagnosis.ranking_figure(SimpleNamespace(ranking=rows[:2]))
     ax = fig.axes[0]
     assert ax.get_xlim()[0] < -0.5 and not ax.texts  # friction's interval reaches -0.5: whole
+    plt.close(fig)
+    # a row without an interval (NaN) does not turn the axis's stop off; with no gain at all
+    # there is nothing to keep readable, and every loss is drawn whole
+    nan = (float("nan"),) * 2
+    odd = [*rows, RankRow("x", 1.0, nan, 1.0, 1.0, {}, 1, False, False, False, None, (), ())]
+    fig = Diagnosis.ranking_figure(SimpleNamespace(ranking=odd))
+    assert fig.axes[0].get_xlim()[0] == pytest.approx(-OFF_SCALE * 6.0)
+    plt.close(fig)
+    fig = Diagnosis.ranking_figure(SimpleNamespace(ranking=[_row("a", -160.0), _row("b", -3.0)]))
+    assert fig.axes[0].get_xlim()[0] < -161.0 and not fig.axes[0].texts
     plt.close(fig)

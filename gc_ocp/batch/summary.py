@@ -139,7 +139,8 @@ def subject_rows(subject, fit_doc: dict, diagnosis: dict | None) -> list[dict]:
             for p in SHARED
             if {variable_key("contact", p), variable_key("contact", p, foot)} & bound
         ]
-        at_unit = [u for u in UNITS if variable_key("contact", "k", foot, u) in bound]
+        k_keys = (variable_key("contact", "k"), variable_key("contact", "k", foot))  # wider k
+        at_unit = [u for u in UNITS if {variable_key("contact", "k", foot, u), *k_keys} & bound]
         for p in SHARED:
             se = None if p in at_shared else shared.get(f"{p}_se")
             values[p], values[f"{p}_se"] = shared.get(p), se

@@ -171,7 +171,7 @@ class RankRow:
         )
         if c is None:
             # a later round whose every candidate the floor stops makes no null (diagnose)
-            return f"not tested: {under}" if self.floor_stances is None else "not tested"
+            return f"not tested; {under}" if self.floor_stances is None else "not tested"
         if c.inert:
             return (
                 "no gain: these stances do not move it (its reductions, observed and null, are "
@@ -502,17 +502,18 @@ class Diagnosis:
         # a loss far beyond the largest gain (a candidate that misfits, -160 % beside gains of
         # +5 %) would squash every gain to a sliver: the axis stops at OFF_SCALE times the
         # largest gain, and a row beyond it says its value at the edge
-        if v.size:
-            top = max(float(np.max(ci[:, 1])), float(np.max(v)), 1.0)
-            edge = -OFF_SCALE * top
-            if min(float(np.min(ci[:, 0])), float(np.min(v))) < edge:
-                ax.set_xlim(edge, 1.05 * top)
+        # (nan-aware: a row without an interval; no gain at all: nothing to keep readable)
+        top = max(np.nanmax(ci[:, 1], initial=-np.inf), np.nanmax(v, initial=-np.inf))
+        if top > 0.0:
+            edge = -OFF_SCALE * max(float(top), 1.0)
+            if min(np.nanmin(ci[:, 0], initial=np.inf), np.nanmin(v, initial=np.inf)) < edge:
+                ax.set_xlim(edge, 1.05 * max(float(top), 1.0))
                 for yi, vi, (lo, hi) in zip(y, v, ci, strict=True):
                     if min(vi, lo) < edge:
                         ax.text(
                             edge,
                             yi,
-                            f" \u25c0 {vi:+.0f} % [{lo:+.0f}, {hi:+.0f}]",
+                            f" \u25c0 {vi:+.3g} % [{lo:+.3g}, {hi:+.3g}]",
                             va="center",
                             fontsize=8,
                             bbox={"facecolor": "white", "edgecolor": "none", "pad": 1.0},

@@ -144,7 +144,7 @@ class Component:
     refit gains. Default False (the neutral point is exact for the null and costs no refit)."""
 
     relative_cost: ClassVar[float] = 1.0
-    """About how many times a fit of the base costs a fit with this effect added: the order in
+    """About how many times a fit with this effect added costs a fit of the base: the order in
     which the diagnosis's first round hands its candidates to the workers, the dearest first, so
     that the longest does not start last (later rounds order by the time each took in the
     round before). Scheduling only: no result depends on it."""
