@@ -123,6 +123,9 @@ def dask_client(
             )
         except RuntimeError as e:
             raise _start_error(method, e) from e
+        from gc_ocp.signals import quiet_close
+
+        quiet_close("distributed.nanny")  # its workers' nannies run here (signals.CLOSE_NOISE)
         with cluster, Client(cluster) as c:
             yield c
 

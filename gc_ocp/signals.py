@@ -87,20 +87,37 @@ def dask_setup(worker=None) -> None:
     interruption review of ``gc-ocp diagnose --workers 2``, ~100 lines before the command's
     one). A worker has nothing to clean up that its cluster's closing does not.
 
-    Its tasks still running when the cluster closes are cancelled, and Dask's worker logged a
-    warning for each ("Async instruction for <Task cancelled ...> ended with CancelledError",
-    two 300-character lines after the command's one): those records are dropped
-    (:class:`CancelledAtClose`); every other warning of the worker is kept."""
+    The closing itself made Dask's worker log what it met (:data:`CLOSE_NOISE`): a warning per
+    task still running, cancelled ("... ended with CancelledError", two 300-character lines
+    after the command's one), and, for a worker busy in a solve while the scheduler closed, a
+    heartbeat's 30-line traceback. Those records are dropped (:class:`CloseNoise`); every other
+    record of the worker is kept. Only the package's local cluster loads this preload, and its
+    scheduler lives in the command's process: a worker that loses it is being closed."""
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-    log = logging.getLogger("distributed.worker.state_machine")
-    if not any(isinstance(f, CancelledAtClose) for f in log.filters):
-        log.addFilter(CancelledAtClose())
+    quiet_close("distributed.worker", "distributed.worker.state_machine")
 
 
-class CancelledAtClose(logging.Filter):
-    """Drops the worker's record of a task cancelled because its cluster closed (module doc of
-    :func:`dask_setup`): a task that ended with ``CancelledError``."""
+CLOSE_NOISE = (
+    "ended with CancelledError",  # distributed.worker.state_machine: a task cancelled at close
+    "Failed to communicate with scheduler during heartbeat",  # distributed.worker: it is gone
+    "Worker process still alive after",  # distributed.nanny (the command's process): killed
+)
+"""What Dask logs because a local cluster closes while its workers are busy, not because of a
+fault (an interruption review of ``gc-ocp diagnose --workers 2``; a CI run under load)."""
+
+
+class CloseNoise(logging.Filter):
+    """Drops the records of :data:`CLOSE_NOISE` (:func:`dask_setup`)."""
 
     def filter(self, record: logging.LogRecord) -> bool:
-        return "ended with CancelledError" not in record.getMessage()
+        message = record.getMessage()
+        return not any(m in message for m in CLOSE_NOISE)
+
+
+def quiet_close(*loggers: str) -> None:
+    """:class:`CloseNoise` on each of ``loggers`` (once)."""
+    for name in loggers:
+        log = logging.getLogger(name)
+        if not any(isinstance(f, CloseNoise) for f in log.filters):
+            log.addFilter(CloseNoise())
