@@ -230,6 +230,28 @@ def test_plate_zeroed_on_its_vertical_channel_only_gives_the_threshold():
     assert detect_plate_processing(_plate(t, raw, noise)).zero_threshold is None
 
 
+def test_plate_zeroed_then_offset_gives_the_threshold_and_its_level():
+    """A lab that removes an unloaded offset after the zeroing (every sample minus 1.5 N): the
+    zeros read exactly -1.5 N, not 0. A run of 30 and more exactly equal samples near 0 is no
+    plate's noise, so it is a zeroing all the same: the threshold is found (in the stored
+    values, 1.5 N lower), its level reported, and the held samples censored (before, no
+    threshold was found: the held level was fitted as a measured force, and a MOT so made read
+    "raw: a noise floor reaches Nyquist"). Held at a foot's load instead (a stuck signal), it
+    is not a zeroing."""
+    t, fz, noise = _plate_signal()
+    raw = fz + noise[:, 2]
+    z = np.where(np.abs(raw) < THRESHOLD, 0.0, raw) - 1.5
+    p = detect_plate_processing(_plate(t, z, noise))
+    assert THRESHOLD - 1.5 <= p.zero_threshold <= THRESHOLD - 1.5 + _crossing_rise(raw)
+    assert p.zero_edges == "step" and p.zero_level == -1.5
+    assert censor_threshold(p) == p.zero_threshold
+    assert "the zeroed Fz reads -1.5 N, not 0: an offset removed after the zeroing" in (
+        p.findings()
+    )
+    stuck = np.where(np.abs(raw) < THRESHOLD, 300.0, raw)
+    assert detect_plate_processing(_plate(t, stuck, noise)).zero_threshold is None
+
+
 def test_coarse_raw_plate_held_at_a_lower_rate_is_not_zeroed():
     """A raw Fz quantised to 2 N steps (1.5 N noise: exactly 0 in ~half the samples) and held
     from 100 Hz to 1000 Hz repeats each of its zeros 10 times: runs of 30 samples are then 3

@@ -44,6 +44,12 @@ FZ_ZERO_RUN_TIME = 0.3
 """[s] ... and at least this long when the rate is known: 30 samples of a plate resampled from
 100 Hz (a held or interpolated sample repeats its zeros R times, and the odds are those of the
 native samples). Shorter than the unloaded time around a stance on its plate."""
+RESIDUE_MAX = 10.0
+"""[N] Largest level a zeroed vertical force may be held at instead of 0: a lab that removes an
+unloaded offset after zeroing leaves its zeros at minus that offset (a few N: the largest
+offset an unloaded stretch of ../shared/data reads is 2.2 N). A run of :data:`FZ_ZERO_RUN_MIN`
+exactly equal samples is zeroing by the same odds as one of exact zeros; a level of a loaded
+foot (hundreds of N) is a held or stuck signal, not zeroing."""
 PLATE_WINDOW = 0.25
 """Welch window for plate spectra [s]: several windows per stance (0.6-0.8 s)."""
 MARKER_WINDOW = 1.0
@@ -111,6 +117,8 @@ class PlateProcessing:
         resolves: zeroed, then a recursive low-pass ran over the zeros); ``""`` without zeroing
         (:func:`zero_threshold`).
     zeroed_fraction: share of the samples inside exact-zero runs.
+    zero_level: [N] the level the zeroed vertical force is held at: 0, or a small residue where
+        an unloaded offset was removed after the zeroing (:func:`held_level`).
     filtered: the lab low-passed the forces (a stop band at the top of the spectrum, a floor
         below any plate's noise, or a filter tail at the zero runs).
     lowpass_hz: cutoff [Hz] of that low-pass, read as a zero-lag Butterworth's design cutoff
@@ -153,6 +161,7 @@ class PlateProcessing:
     cop_held_below: float | None
     cop_min_load: float
     cop_min_load_basis: str
+    zero_level: float = 0.0
 
     @property
     def resampled(self) -> bool:
@@ -165,18 +174,24 @@ class PlateProcessing:
         out = []
         if self.zero_threshold is not None:
             thr = f"{self.zero_threshold:.1f} N"
+            zeros = "exact zeros" if self.zero_level == 0.0 else "a constant"
             out.append(
                 {
-                    "step": f"zeroed below {thr} (exact zeros where unloaded: a threshold, as "
+                    "step": f"zeroed below {thr} ({zeros} where unloaded: a threshold, as "
                     f"OpenSim exports and some C3D exporters apply)",
-                    "continuous": f"exact zeros where unloaded, the force leaving them at its "
+                    "continuous": f"{zeros} where unloaded, the force leaving them at its "
                     f"own rate (the smallest edge is {thr}: zeroed below at most that, which one "
                     "sample's rise cannot tell from ~0 N; not censored)",
-                    "filter tail": "exact zeros where unloaded, with edges decaying to "
+                    "filter tail": f"{zeros} where unloaded, with edges decaying to "
                     f"{self.zero_threshold:.1g} N: zeroed, then low-passed (a recursive "
                     f"filter's tail runs into the zero runs until it underflows)",
                 }[self.zero_edges]
             )
+            if self.zero_level != 0.0:
+                out.append(
+                    f"the zeroed Fz reads {self.zero_level:+.3g} N, not 0: an offset removed "
+                    "after the zeroing"
+                )
         elif self.zeroed_fraction == 1.0:
             out.append("reads exactly 0 throughout (unused)")
         if self.lowpass_hz is not None:
@@ -299,16 +314,33 @@ def mean_rate(time: np.ndarray) -> float:
 # --- plates ------------------------------------------------------------------------------------
 
 
+def held_level(fz: np.ndarray, n_min: float) -> float | None:
+    """The level at which ``fz`` is held exactly (the same number) for at least ``n_min``
+    samples in a row, within :data:`RESIDUE_MAX` of 0: 0 for a plain zeroing, minus an offset
+    removed after it; the level holding most such samples when several do; None without one."""
+    fz = np.asarray(fz, dtype=float)
+    if fz.size < 2:
+        return None
+    same = np.concatenate([[False], fz[1:] == fz[:-1]])  # equal to the sample before
+    held: dict[float, int] = {}
+    for a, b in _runs(same):  # samples a-1 .. b-1 hold one value
+        if b - a + 1 >= n_min and abs(fz[a]) <= RESIDUE_MAX:
+            held[float(fz[a])] = held.get(float(fz[a]), 0) + b - a + 1
+    return max(held, key=held.get) if held else None
+
+
 def exact_zero_runs(wrench: np.ndarray, rate: float | None = None) -> np.ndarray:
     """Mask ``(n,)`` of the samples of ``wrench`` ``(n, 6)`` where all channels are exactly 0,
     when at least one such run reaches :data:`ZERO_RUN_MIN` samples; or where the vertical force
-    alone is exactly 0, when one such run reaches :data:`FZ_ZERO_RUN_MIN` samples and (``rate``
-    [Hz] given) :data:`FZ_ZERO_RUN_TIME` (a threshold applied to Fz only: the other channels
-    keep their noise, and Fz is as censored); all False without either."""
-    fz_zero = np.asarray(wrench[:, 2] == 0.0)
+    alone is held at its zeroing level (exactly 0, or a small residue: :func:`held_level`), when
+    one such run reaches :data:`FZ_ZERO_RUN_MIN` samples and (``rate`` [Hz] given)
+    :data:`FZ_ZERO_RUN_TIME` (a threshold applied to Fz only: the other channels keep their
+    noise, and Fz is as censored; or an offset removed after the zeroing); all False without
+    either."""
     n_min = FZ_ZERO_RUN_MIN if rate is None else max(FZ_ZERO_RUN_MIN, FZ_ZERO_RUN_TIME * rate)
-    if any(b - a >= n_min for a, b in _runs(fz_zero)):
-        return fz_zero
+    level = held_level(wrench[:, 2], n_min)
+    if level is not None:
+        return np.asarray(wrench[:, 2] == level)
     zero = np.all(wrench == 0.0, axis=1)
     if not any(b - a >= ZERO_RUN_MIN for a, b in _runs(zero)):
         return np.zeros(zero.shape, dtype=bool)
@@ -471,6 +503,7 @@ def detect_plate_processing(plate: Plate, marker_rate: float | None = None) -> P
         cop_held_below=held,
         cop_min_load=float(cop),
         cop_min_load_basis=cop_basis,
+        zero_level=float(fz[zero][0]) if zero.any() else 0.0,
     )
 
 
