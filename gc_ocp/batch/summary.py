@@ -16,7 +16,7 @@ from pathlib import Path
 
 from gc_ocp.contact.channels import CHANNELS as WRENCH_CHANNELS
 from gc_ocp.contact.channels import TABLE_KEYS
-from gc_ocp.estimation.flags import variable_key
+from gc_ocp.estimation.flags import at_bound_names, k_at_bound, law_at_bound
 from gc_ocp.foot import UNITS
 from gc_ocp.outputs import atomic_write, atomic_write_text
 
@@ -133,14 +133,9 @@ def subject_rows(subject, fit_doc: dict, diagnosis: dict | None) -> list[dict]:
             "iterations": fit_doc["solver"]["iterations"],
         }
         # a parameter at its bound has no meaningful SE (the fit's flag says so): left empty
-        bound = {f["what"] for f in fit_doc.get("flags", []) if f.get("code") == "at_bound"}
-        at_shared = [
-            p
-            for p in SHARED
-            if {variable_key("contact", p), variable_key("contact", p, foot)} & bound
-        ]
-        k_keys = (variable_key("contact", "k"), variable_key("contact", "k", foot))  # wider k
-        at_unit = [u for u in UNITS if {variable_key("contact", "k", foot, u), *k_keys} & bound]
+        bound = at_bound_names(fit_doc.get("flags", []))
+        at_shared = [p for p in SHARED if law_at_bound(bound, p, foot)]
+        at_unit = [u for u in UNITS if k_at_bound(bound, foot, u)]
         for p in SHARED:
             se = None if p in at_shared else shared.get(f"{p}_se")
             values[p], values[f"{p}_se"] = shared.get(p), se

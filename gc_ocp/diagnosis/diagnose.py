@@ -285,6 +285,8 @@ def diagnose_stances(
             remaining = [n for n in remaining if n not in failed]  # not retried in later rounds
             ok = {n: ev for n, ev in evs.items() if n not in failed}
             able, known = contenders(current, ok, n_boot, seed, rate)
+            # a later round's hold-outs: folds fitted, no linearisation for the null (:func:`hold_out`)
+            again = RoundInputs(tuple(stances), tuple(plan), current, weights, options)
             if not first and stop_early:
                 # a screened candidate the floor cannot yet rule out (its in-sample gain clears
                 # it) keeps the null's draws going, and would be held out if the test named it:
@@ -292,7 +294,6 @@ def diagnose_stances(
                 # their first look instead of after all of them (the test and its claims are
                 # unchanged: the floor is the null's business only through ``able``)
                 early = [j for j in jobs if j.name in able and ok[j.name].screened]
-                again = RoundInputs(tuple(stances), tuple(plan), current, weights, options)
                 hold_out(early, ok, evs, again, pool, say)
                 able, known = contenders(current, ok, n_boot, seed, rate)
             spare = (
@@ -300,7 +301,7 @@ def diagnose_stances(
                 and stop_early
                 and not first_look_names(mismatch, null_fits, mismatch_draws, alpha)
             )
-            if spare and not within_reach(current, ok, known):
+            if spare and not within_reach(able, known):
                 # no candidate clears the floor, nor would with more stances, and the null
                 # would stop at its first look, whose p-values cannot fall under alpha: no
                 # draw could name one or tell how many steps would (its rows: "not tested")
@@ -333,7 +334,6 @@ def diagnose_stances(
                     for j in jobs
                     if j.name in tests and tests[j.name].p_adjusted < alpha and ok[j.name].screened
                 ]
-                again = RoundInputs(tuple(stances), tuple(plan), current, weights, options)
                 hold_out(named, ok, evs, again, pool, say)
             evaluations.update({ev.label: ev for ev in ok.values()})
             rows = rank(current, evs, tests, n_boot, seed, rate, alpha, known)

@@ -289,23 +289,18 @@ def contenders(
     return out, known
 
 
-def within_reach(
-    parent: Evaluation, evs: Mapping[str, Evaluation], known: Mapping[str, tuple[Evaluation, dict]]
-) -> set[str]:
+def within_reach(able: set[str], known: Mapping[str, tuple[Evaluation, dict]]) -> set[str]:
     """The candidates of a round that clear the effect-size floor now or would with more
-    stances (:func:`floor_stances` not None): a screened candidate whose in-sample reduction
-    clears it, a held-out one (its reduction in ``known``, :func:`contenders`) whose held-out
-    and in-sample reductions do. None of the others can be named whatever the calibrated test
-    says, nor become nameable with more steps: more stances estimate a gain better, they do not
-    raise it."""
-    out = set()
-    for name, ev in evs.items():
-        if ev.screened:
-            if insample_reduction(parent.full, ev.full) >= MIN_REDUCTION_PCT:
-                out.add(name)
-        elif floor_stances(red := known[name][1], len(red["per_stance"])) is not None:
-            out.add(name)
-    return out
+    stances: those it leaves (``able``, from :func:`contenders`, whose ``known`` held-out
+    reductions these are) and the held-out ones that :func:`floor_stances` gives a number of
+    further stances. None of the others can be named whatever the calibrated test says, nor
+    become nameable with more steps: more stances estimate a gain better, they do not raise
+    it."""
+    return able | {
+        name
+        for name, (_, red) in known.items()
+        if floor_stances(red, len(red["per_stance"])) is not None
+    }
 
 
 def _inconclusive(passes: bool, test: NullTest | None, floor: int | None = 0) -> bool:

@@ -36,6 +36,27 @@ def variable_key(*parts) -> str:
     return "/".join(map(str, parts))
 
 
+def at_bound_names(flags) -> frozenset[str]:
+    """The variables ``flags`` (a fit's, or ``fit.json``'s) flag ``at_bound``: their value is the
+    bound, not an estimate, and their SE means nothing."""
+    return frozenset(f["what"] for f in flags if f.get("code") == "at_bound")
+
+
+def law_at_bound(bound, param: str, side: str | None = None) -> bool:
+    """The contact law's ``param`` (``"n"``, ``"mu"``) is among ``bound``
+    (:func:`at_bound_names`), shared or, with ``side``, that foot's own."""
+    keys = {variable_key("contact", param)}
+    if side is not None:
+        keys.add(variable_key("contact", param, side))
+    return bool(keys & bound)
+
+
+def k_at_bound(bound, side: str, unit: str) -> bool:
+    """The stiffness of ``side``'s ``unit`` is among ``bound`` (:func:`at_bound_names`): its own
+    ``k``, or a ``k`` of a wider scope (the foot's, or one for all units)."""
+    return law_at_bound(bound, "k", side) or variable_key("contact", "k", side, unit) in bound
+
+
 def flag(code: str, what: str, message: str) -> dict:
     return {"code": code, "what": what, "message": message}
 

@@ -21,7 +21,7 @@ from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
 from gc_ocp.errors import InputError, read_document
 from gc_ocp.estimation.components import describe_block
 from gc_ocp.estimation.components.contact import ContactLaw
-from gc_ocp.estimation.flags import variable_key
+from gc_ocp.estimation.flags import at_bound_names, law_at_bound
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
 from gc_ocp.text import read_json_file
@@ -96,7 +96,7 @@ class EstimationResult:
     def at_bound(self) -> frozenset[str]:
         """The variables flagged ``at_bound`` (``"contact/n"``, ``"contact/k/left/PM"``): their
         value is not an estimate and their SE means nothing; the tables say so in place of it."""
-        return frozenset(f["what"] for f in self.flags if f.get("code") == "at_bound")
+        return at_bound_names(self.flags)
 
     @property
     def sole_corrections_mm(self) -> dict:
@@ -177,7 +177,7 @@ class EstimationResult:
                     f"shared {k} = {v:.4g} "
                     + (
                         BOUND_TEXT
-                        if variable_key("contact", k) in self.at_bound
+                        if law_at_bound(self.at_bound, k)
                         else f"± {se_text(se, f'{v:.4g}')}"
                     )
                 )

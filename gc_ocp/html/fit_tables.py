@@ -13,7 +13,7 @@ import numpy as np
 
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_name, channel_unit
 from gc_ocp.estimation.components.base import per_axis
-from gc_ocp.estimation.flags import variable_key
+from gc_ocp.estimation.flags import k_at_bound, law_at_bound
 from gc_ocp.values import BOUND_TEXT, se_text
 
 CORE_BLOCKS = ("contact", "sole", "pose", "belt")
@@ -85,9 +85,7 @@ def contact_tables(params: dict, at_bound: frozenset[str] = frozenset()) -> dict
                     {
                         "side": side,
                         "unit": unit,
-                        "k": pm(
-                            e, "k", ".4g", variable_key("contact", "k", side, unit) in at_bound
-                        ),
+                        "k": pm(e, "k", ".4g", k_at_bound(at_bound, side, unit)),
                         "f_ref": pm(e, "f_ref", ".0f"),
                         "identified": e.get("identified", True),
                     }
@@ -98,8 +96,7 @@ def contact_tables(params: dict, at_bound: frozenset[str] = frozenset()) -> dict
                 {
                     "side": side,
                     "values": [
-                        (k, pm(per, k, bound=variable_key("contact", k, side) in at_bound))
-                        for k in scalars
+                        (k, pm(per, k, bound=law_at_bound(at_bound, k, side))) for k in scalars
                     ],
                 }
             )
@@ -108,7 +105,7 @@ def contact_tables(params: dict, at_bound: frozenset[str] = frozenset()) -> dict
         "units": units,
         "per_foot": per_foot,
         "shared": [
-            (k, pm(shared, k, bound=variable_key("contact", k) in at_bound))
+            (k, pm(shared, k, bound=law_at_bound(at_bound, k)))
             for k in shared
             if not k.endswith("_se")
         ],
