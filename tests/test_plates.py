@@ -1120,12 +1120,16 @@ def test_type_1_cop_channels_are_read_in_their_own_unit(tmp_path):
 
 
 @needs_data
-@pytest.mark.parametrize("zeroed_below", [50.0, 120.0])
-def test_stance_clipped_by_the_file_start_stays_clipped_on_a_zeroed_plate(tmp_path, zeroed_below):
+@pytest.mark.parametrize("zeroed_below, offset", [(50.0, 0.0), (120.0, 0.0), (50.0, -1.5)])
+def test_stance_clipped_by_the_file_start_stays_clipped_on_a_zeroed_plate(
+    tmp_path, zeroed_below, offset
+):
     """Gait2392's left plate reads 20.5 N at the first sample, rising 8 N per sample: a stance
     clipped by the file start (the README's "others are clipped by the file ends"). A lab zeroing
     below 50 N (or 120 N) sets its first samples to 0, which says "below 50 N", not "below the
-    20 N contact threshold": the stance is still clipped (before: used by the fit)."""
+    20 N contact threshold": the stance is still clipped (before: used by the fit). The same
+    with an offset of -1.5 N removed after the zeroing, so that the zeros read -1.5 N (before
+    2026-12-01 the file's first samples were then not read as zeros, and the stance was used)."""
     src = DATA / README["gait2392"][1]
     lines = src.read_text().splitlines()
     end = [x.strip() for x in lines].index("endheader")  # header lines end in tabs
@@ -1136,6 +1140,7 @@ def test_stance_clipped_by_the_file_start_stays_clipped_on_a_zeroed_plate(tmp_pa
         for j, c in enumerate(cols):
             if c.startswith((f"{pre}ground_force_", f"{pre}ground_torque_")):
                 data[low, j] = 0.0
+        data[:, cols.index(f"{pre}ground_force_vy")] += offset
     grf = tmp_path / "zeroed_grf.mot"
     body = "\n".join("\t".join(f"{v:.8g}" for v in row) for row in data)
     grf.write_text("\n".join(lines[: end + 2]) + "\n" + body + "\n")
@@ -1145,4 +1150,5 @@ def test_stance_clipped_by_the_file_start_stays_clipped_on_a_zeroed_plate(tmp_pa
     used = sorted((s.side, round(s.t_on, 1)) for s in trial.stances)
     assert used == [("left", 1.3), ("right", 0.6)]  # the README's two full stances
     first = [s for s in trial.excluded_stances if s.side == "left" and s.t_on < 0.1]
-    assert len(first) == 1 and first[0].reason.startswith("clipped: the plate reads 0")
+    reads = "reads 0" if offset == 0.0 else f"reads {offset:g} N throughout (its zeroing level)"
+    assert len(first) == 1 and first[0].reason.startswith(f"clipped: the plate {reads}")

@@ -329,6 +329,12 @@ def held_level(fz: np.ndarray, n_min: float) -> float | None:
     return max(held, key=held.get) if held else None
 
 
+def fz_run_min(rate: float | None = None) -> float:
+    """Shortest run [samples] of a vertical force held at one level taken as zeroing:
+    :data:`FZ_ZERO_RUN_MIN`, and :data:`FZ_ZERO_RUN_TIME` at ``rate`` [Hz] when it is known."""
+    return FZ_ZERO_RUN_MIN if rate is None else max(FZ_ZERO_RUN_MIN, FZ_ZERO_RUN_TIME * rate)
+
+
 def exact_zero_runs(wrench: np.ndarray, rate: float | None = None) -> np.ndarray:
     """Mask ``(n,)`` of the samples of ``wrench`` ``(n, 6)`` where all channels are exactly 0,
     when at least one such run reaches :data:`ZERO_RUN_MIN` samples; or where the vertical force
@@ -337,8 +343,7 @@ def exact_zero_runs(wrench: np.ndarray, rate: float | None = None) -> np.ndarray
     :data:`FZ_ZERO_RUN_TIME` (a threshold applied to Fz only: the other channels keep their
     noise, and Fz is as censored; or an offset removed after the zeroing); all False without
     either."""
-    n_min = FZ_ZERO_RUN_MIN if rate is None else max(FZ_ZERO_RUN_MIN, FZ_ZERO_RUN_TIME * rate)
-    level = held_level(wrench[:, 2], n_min)
+    level = held_level(wrench[:, 2], fz_run_min(rate))
     if level is not None:
         return np.asarray(wrench[:, 2] == level)
     zero = np.all(wrench == 0.0, axis=1)

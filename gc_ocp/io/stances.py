@@ -39,6 +39,7 @@ import numpy as np
 from gc_ocp.errors import PlateError
 from gc_ocp.io._common import foot_markers, heel_toe, warn
 from gc_ocp.io.orientation import MIN_OVERGROUND_SPEED, body_velocity
+from gc_ocp.io.processing import fz_run_min, held_level, mean_rate
 from gc_ocp.trial import ExcludedStance, Plate, Stance
 
 DEFAULT_THRESHOLD = 20.0
@@ -414,29 +415,41 @@ def _two_feet(along: float, side: str, plate, what: str) -> str:
     )
 
 
-def _zeroed_file_edge(fz: np.ndarray, a: int, b: int, thr: float) -> str:
+def _zeroed_file_edge(fz: np.ndarray, a: int, b: int, thr: float, rate: float) -> str:
     """The clipping a lab's zeroing hides (``""``: none). A plate zeroed below X > ``thr`` reads
     exactly 0 from the file's first sample up to a stance's first kept sample (>= X): those zeros
     say "below X", not "below ``thr``", so the force may already have been above ``thr`` at the
     first sample, as the clipping test of the unzeroed plate would have found. The stance is
     clipped when the zeros are fewer than twice the samples the force takes to rise from ``thr``
     to its first kept value at its rate there (a walking force passes 20-50 N in a few ms: a
-    stance that starts from a longer zero run began inside the file). Same at the file's end."""
+    stance that starts from a longer zero run began inside the file). Same at the file's end.
+    A lab that removed an offset after its zeroing holds its zeros at a small level instead of
+    0 (:func:`~gc_ocp.io.processing.held_level`, found on the plate's longer runs at ``rate``
+    [Hz]): the edge's run at that level is its zeros just the same."""
     n = fz.size
+    level = held_level(fz, fz_run_min(rate))
+    levels = (0.0,) if level is None else (0.0, level)
+
+    def zeroed(run: np.ndarray) -> float | None:
+        """The zeroing level ``run`` is held at throughout, or None."""
+        return next((v for v in levels if np.all(run == v)), None)
+
+    def says(v: float) -> str:
+        return "reads 0" if v == 0.0 else f"reads {v:g} N throughout (its zeroing level)"
 
     def short(zeros: int, edge: float, nxt: float) -> bool:
         rise = abs(nxt - edge)
         return edge > thr and rise > 0 and zeros < 2.0 * (edge - thr) / rise
 
-    if 0 < a and a + 1 < n and np.all(fz[:a] == 0.0) and short(a, fz[a], fz[a + 1]):
+    if 0 < a and a + 1 < n and (v := zeroed(fz[:a])) is not None and short(a, fz[a], fz[a + 1]):
         return (
-            f"clipped: the plate reads 0 (zeroed by the lab below ~{fz[a]:.0f} N) from the first "
-            f"sample of the file to the stance, too briefly to show its onset"
+            f"clipped: the plate {says(v)} (zeroed by the lab below ~{fz[a]:.0f} N) from the "
+            f"first sample of the file to the stance, too briefly to show its onset"
         )
-    if b < n and b >= 2 and np.all(fz[b:] == 0.0) and short(n - b, fz[b - 1], fz[b - 2]):
+    if 2 <= b < n and (v := zeroed(fz[b:])) is not None and short(n - b, fz[b - 1], fz[b - 2]):
         return (
-            f"clipped: the plate reads 0 (zeroed by the lab below ~{fz[b - 1]:.0f} N) from the "
-            f"stance to the last sample of the file, too briefly to show its end"
+            f"clipped: the plate {says(v)} (zeroed by the lab below ~{fz[b - 1]:.0f} N) from "
+            f"the stance to the last sample of the file, too briefly to show its end"
         )
     return ""
 
@@ -449,7 +462,7 @@ def _exclusion(
         return "clipped: force already above threshold at the first sample of the file"
     if b >= n:
         return "clipped: force still above threshold at the last sample of the file"
-    zeroed = _zeroed_file_edge(plate.force[:, 2], a, b, thr)
+    zeroed = _zeroed_file_edge(plate.force[:, 2], a, b, thr, mean_rate(plate.time))
     if zeroed:
         return zeroed
     if t_on < mtime[0] or t_off > mtime[-1]:
