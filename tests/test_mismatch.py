@@ -403,6 +403,47 @@ def test_plate_hum_and_threshold_are_what_they_say(bundled):
     assert 0.0 < _rms_pct_bw(cut, base) < 40.0 * 1.3 / bw * 100
 
 
+def test_plate_calibration_is_what_it_says_and_off_by_default(bundled):
+    """The opt-in plate calibration member: each stance's plate 2-5 mm off horizontally (its
+    COP moved by that vector) and its channels within +-2 % of the truth, the same error on the
+    frames and the plate's own samples; off (the default), the family's draws and every other
+    member's random numbers are what they were."""
+    stances, truth = bundled
+    base = _clean(stances, truth)
+    on = mm.MismatchFamily(plate_offset=(2e-3, 5e-3), plate_gain=0.02)
+    draw = on.draw(np.random.default_rng(3))
+    assert draw.plate_seed != 0 and draw.plate_offset == (2e-3, 5e-3)
+    assert mm.MismatchDraw.from_json(json.loads(json.dumps(draw.to_json()))) == draw
+    got = mm.plate_processing(base, _only(**{k: getattr(draw, k) for k in PLATE}), None)
+    for g, b in zip(got, base, strict=True):
+        for w_g, w_b in ((g.measured, b.measured), (g.plate_wrench, b.plate_wrench)):
+            loaded = w_b[:, 2] > 0.2 * b.body_weight
+            ratio = w_g[loaded, :3] / w_b[loaded, :3]
+            # one gain per channel, within +-2 % (a channel near 0 has no readable ratio)
+            big = np.abs(w_b[loaded, :3]) > 1.0
+            for j in range(3):
+                r = ratio[big[:, j], j]
+                assert np.ptp(r) < 1e-9 and abs(r[0] - 1) <= 0.02
+            # the COP (moment about the reference point over the vertical force) moves by the
+            # plate's horizontal offset, 2-5 mm, after the gains' own share
+            cop = lambda w: np.stack([-w[:, 4] / w[:, 2], w[:, 3] / w[:, 2]], 1)  # noqa: E731
+            shift = np.median(cop(w_g[loaded]) - cop(w_b[loaded]), axis=0)
+            assert 1e-3 < np.linalg.norm(shift) < 6e-3
+    # off by default: no seed drawn, the same numbers as a family without the member
+    off = mm.MismatchFamily()
+    assert not off.plate_calibration
+    a, b = off.draw(np.random.default_rng(3)), draw
+    assert a.plate_seed == 0 and a.plate_gain == 0.0
+    assert dataclasses.replace(b, plate_offset=(0.0, 0.0), plate_gain=0.0, plate_seed=0) == a
+    same = mm.plate_processing(base, _only(), np.random.default_rng(0))  # every member off
+    assert all(np.array_equal(x.measured, y.measured) for x, y in zip(same, base, strict=True))
+    with pytest.raises(InputError, match="plate_gain"):
+        mm.MismatchFamily(plate_gain=1.5)
+
+
+PLATE = ("plate_offset", "plate_gain", "plate_seed")
+
+
 def test_the_seen_low_pass_keeps_slow_motion_and_removes_fast_motion():
     """A reference: a foot translating slowly (0.5 Hz, 50 mm) with a 20 Hz, 1 mm wobble, seen
     at 6 Hz. In the interior (a fifth of the window from each end) the wobble falls to the
