@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import warnings
+from pathlib import Path
 from types import SimpleNamespace
 
 import casadi as ca
@@ -442,6 +443,25 @@ def test_plate_calibration_is_what_it_says_and_off_by_default(bundled):
 
 
 PLATE = ("plate_offset", "plate_gain", "plate_seed")
+
+
+def test_a_run_made_before_the_plate_member_can_be_resumed():
+    """A benchmark's settings keep the plate calibration member only when it is on, so a run
+    made before it existed (this one: the leak-free strong effects of 2026-11-30, the family at
+    scale 1) reads the same settings and ``--resume`` goes on (``settings_differ`` is empty)."""
+    stored = Path(__file__).resolve().parents[1] / (
+        "benchmarks/withheld_mismatch/bundled_2_leakfree_strong/confusion.json"
+    )
+    old = json.loads(stored.read_text())["settings"]["realism"]
+    realism = dataclasses.replace(bench_truth.DEFAULT_REALISM, mismatch=mm.MismatchFamily())
+    assert (
+        withheld.settings_differ(
+            {"realism": old}, {"realism": json.loads(json.dumps(realism.settings()))}
+        )
+        == []
+    )
+    on = dataclasses.replace(realism, mismatch=mm.MismatchFamily(plate_gain=0.02))
+    assert on.settings()["mismatch"]["plate_gain"] == 0.02
 
 
 def test_the_seen_low_pass_keeps_slow_motion_and_removes_fast_motion():

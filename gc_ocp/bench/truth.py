@@ -82,11 +82,14 @@ class Realism:
     mismatch: MismatchFamily | None = None
 
     def settings(self) -> dict:
-        """The realism as plain data for a benchmark's settings (``mismatch`` only when set, so
-        that the settings of runs without one read as they always have)."""
+        """The realism as plain data for a benchmark's settings (``mismatch`` only when set, and
+        its plate calibration member only when on, so that the settings of runs without them
+        read as they always have: ``--resume`` of such a run goes on)."""
         out = dataclasses.asdict(self)
         if self.mismatch is None:
             del out["mismatch"]
+        elif not self.mismatch.plate_calibration:  # the opt-in member off: as before it existed
+            del out["mismatch"]["plate_offset"], out["mismatch"]["plate_gain"]
         return out
 
 
