@@ -7,7 +7,10 @@ of 2-5 mm in a random direction: a plate's position or origin calibration; Colli
 report centre-of-pressure errors of this size before calibration) and its force channels
 scaled by a gain error of up to +-2 % (per plate, per axis). Neither is a member of the family
 (``gc_ocp.diagnosis.mismatch``) nor a candidate effect. The same cases without the plate errors
-are the mismatch benchmark's own (`benchmarks/mismatch_none_leakfree/bundled`).
+are the mismatch benchmark's own (`benchmarks/mismatch_none_leakfree/bundled`). The plate
+errors are made here (:func:`misplaced`), not by the family's opt-in plate calibration member
+(``gc_ocp.diagnosis.mismatch.miscalibrated``, which ``--null-plate`` puts in the diagnosis's
+null): the truth's errors come from another parametrisation than the null's, as a lab's would.
 
     PYTHONPATH=. .venv/bin/python benchmarks/out_of_family.py --seeds 0-15 --workers 1 \
         > benchmarks/out_of_family_output.md

@@ -128,9 +128,10 @@ class MismatchFamily:
       millimetres and a percent or two are the errors in-situ calibration methods are made to
       correct (e.g. Collins et al. 2009, Gait Posture 29:59). Drawn from its own seed
       (:attr:`MismatchDraw.plate_seed`) so that, off, no member's random numbers change. Why it
-      is off: ``benchmarks/out_of_family_output.md`` (mm 2-5 and 2 %: the clock offset's p-value
-      on one "none" case went from 0.88 to 0.044, a false claim in 16 cases), the power
-      benchmarks have not been rerun with it.
+      exists: with plates 2-5 mm off and channels within 2 %, the documented family alone gave
+      1 false claim in 16 "none" cases (the clock offset, p 0.88 -> 0.044 on one), with this
+      member in the null 0 of 16 (``benchmarks/out_of_family_output.md``). Why it is off: it
+      moves every answer, and what it costs the test's power is not yet measured.
 
     ``scale`` >= 0 shrinks every member towards the model with the same random numbers: a
     width factor ``f`` becomes ``f ** scale``, sizes (threshold, hum, noise, drift, offsets) are
