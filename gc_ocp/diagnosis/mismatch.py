@@ -310,6 +310,11 @@ class MismatchDraw:
     plate_gain: float = 0.0
     plate_seed: int = 0
 
+    @property
+    def plate_calibration(self) -> bool:
+        """The plate calibration member is on in this draw (:func:`miscalibrated`)."""
+        return self.plate_offset[1] > 0 or self.plate_gain > 0
+
     def to_json(self) -> dict:
         """The draw as JSON-able plain data (lists for tuples); :meth:`from_json` reads it."""
         out = dataclasses.asdict(self)
@@ -548,7 +553,7 @@ def plate_processing(
     prng = np.random.default_rng(draw.plate_seed)
     out = []
     for st in stances:
-        if draw.plate_offset[1] > 0 or draw.plate_gain > 0:
+        if draw.plate_calibration:
             st = miscalibrated(st, draw, prng)
         if draw.hum_amplitude_n > 0:
             phase = rng.uniform(0.0, 2 * np.pi, 6)

@@ -170,6 +170,7 @@ def detect_stances(
             dists.append(dist)
         by_run = dict(zip(windows, sides, strict=True))
         dropouts = _dropouts(plate, runs, by_run, feet, markers, marker_time)
+        levels = zero_levels(plate) if windows else (0.0,)
         for (a, b, t_on, t_off), side, dist in zip(windows, sides, dists, strict=True):
             window = np.arange(a, b)
             if plate.name in ("grf_left", "grf_right") and side != plate.name[4:] and dist:
@@ -199,6 +200,7 @@ def detect_stances(
                 threshold,
                 notes,
                 travel,
+                levels,
             )
             if not reason.startswith("clipped"):
                 reason = _not_walking(t_on, t_off, motion) or reason
@@ -415,7 +417,15 @@ def _two_feet(along: float, side: str, plate, what: str) -> str:
     )
 
 
-def _zeroed_file_edge(fz: np.ndarray, a: int, b: int, thr: float, rate: float) -> str:
+def zero_levels(plate) -> tuple[float, ...]:
+    """The levels ``plate``'s zeroed vertical force may read: 0, and the small residue its longer
+    runs are held at where a lab removed an offset after its zeroing
+    (:func:`~gc_ocp.io.processing.held_level`); once per plate."""
+    level = held_level(plate.force[:, 2], fz_run_min(mean_rate(plate.time)))
+    return (0.0,) if level is None or level == 0.0 else (0.0, level)
+
+
+def _zeroed_file_edge(fz: np.ndarray, a: int, b: int, thr: float, levels: tuple) -> str:
     """The clipping a lab's zeroing hides (``""``: none). A plate zeroed below X > ``thr`` reads
     exactly 0 from the file's first sample up to a stance's first kept sample (>= X): those zeros
     say "below X", not "below ``thr``", so the force may already have been above ``thr`` at the
@@ -424,11 +434,9 @@ def _zeroed_file_edge(fz: np.ndarray, a: int, b: int, thr: float, rate: float) -
     to its first kept value at its rate there (a walking force passes 20-50 N in a few ms: a
     stance that starts from a longer zero run began inside the file). Same at the file's end.
     A lab that removed an offset after its zeroing holds its zeros at a small level instead of
-    0 (:func:`~gc_ocp.io.processing.held_level`, found on the plate's longer runs at ``rate``
-    [Hz]): the edge's run at that level is its zeros just the same."""
+    0 (``levels``, :func:`zero_levels`): the edge's run at that level is its zeros just the
+    same."""
     n = fz.size
-    level = held_level(fz, fz_run_min(rate))
-    levels = (0.0,) if level is None else (0.0, level)
 
     def zeroed(run: np.ndarray) -> float | None:
         """The zeroing level ``run`` is held at throughout, or None."""
@@ -455,14 +463,14 @@ def _zeroed_file_edge(fz: np.ndarray, a: int, b: int, thr: float, rate: float) -
 
 
 def _exclusion(
-    plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime, bw, thr, notes, travel
+    plate, a, b, t_on, t_off, side, cop, feet, names, markers, mtime, bw, thr, notes, travel, levels
 ):
     n = len(plate.time)
     if a == 0:
         return "clipped: force already above threshold at the first sample of the file"
     if b >= n:
         return "clipped: force still above threshold at the last sample of the file"
-    zeroed = _zeroed_file_edge(plate.force[:, 2], a, b, thr, mean_rate(plate.time))
+    zeroed = _zeroed_file_edge(plate.force[:, 2], a, b, thr, levels)
     if zeroed:
         return zeroed
     if t_on < mtime[0] or t_off > mtime[-1]:
