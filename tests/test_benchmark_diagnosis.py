@@ -260,3 +260,42 @@ def test_resume_names_the_settings_that_differ_instead_of_starting_again(tmp_pat
     (out / "confusion.json").write_text(json.dumps({"settings": {"n_boot": 5}, "cases": []}))
     with pytest.raises(InputError, match=r"--resume: .*confusion.json.*n_boot.*differ"):
         benchmark.run_benchmark(out, base="seed", effects=["none"], seeds=1, n_boot=7, resume=True)
+
+
+def test_the_null_s_family_reaches_the_diagnosis_and_the_settings(tmp_path, monkeypatch):
+    """``null_family`` (``--plate-calibration null``) is the family every case's diagnosis
+    draws its null from, and the run's settings record it, so a run with the default null
+    does not resume into it; the default leaves the settings as they were (no key) and
+    hands the diagnosis :data:`~gc_ocp.diagnosis.null.DEFAULT_FAMILY`. The diagnosis is
+    stopped at its call (what it was given is the point, not its answer)."""
+    from gc_ocp.diagnosis.null import DEFAULT_FAMILY
+
+    seen = []
+
+    class Given(Exception):
+        pass
+
+    def spy(*args, mismatch, **kw):
+        seen.append(mismatch)
+        raise Given
+
+    monkeypatch.setattr(benchmark, "diagnose_stances", spy)
+    plates = DEFAULT_FAMILY.with_plate_calibration()
+    for family, out in ((None, tmp_path / "default"), (plates, tmp_path / "plates")):
+        with pytest.raises(Given):
+            benchmark.run_benchmark(
+                out, base="seed", effects=["none"], seeds=1, n_boot=7, null_family=family
+            )
+    assert seen == [DEFAULT_FAMILY, plates] and plates.plate_calibration
+    (tmp_path / "default").mkdir()
+    (tmp_path / "default" / "confusion.json").write_text(json.dumps({"settings": {}, "cases": []}))
+    with pytest.raises(InputError, match=r"--resume: .*null_family.*differ"):
+        benchmark.run_benchmark(
+            tmp_path / "default",
+            base="seed",
+            effects=["none"],
+            seeds=1,
+            n_boot=7,
+            resume=True,
+            null_family=plates,
+        )

@@ -450,7 +450,8 @@ RANKING_KEYS = {
 def test_diagnose_cli_writes_json_report_and_figures(tmp_path, capsys):
     out = tmp_path / "diagnosis"
     argv = ["diagnose", "--effects", "damping", "--null-draws", "4", "--workers", "2"]
-    assert main([*argv, "--out", str(out)]) == 0
+    # with the mismatch family's opt-in plate member: recorded in diagnosis.json and the report
+    assert main([*argv, "--plate-calibration", "--out", str(out)]) == 0
     captured = capsys.readouterr()
     assert "fitting the base" in captured.err and "round 1" in captured.err  # progress
     assert "report.html" in captured.out and "ranking" in captured.out
@@ -472,6 +473,9 @@ def test_diagnose_cli_writes_json_report_and_figures(tmp_path, capsys):
     assert {"base", "final"} <= set(d["where"]) and d["folds"]["n"] >= 1 and d["seconds"] > 0
     cal = d["calibration"][0]  # --null-draws reached the null: its draws, kept or left out
     assert cal["mismatch_draws"] + cal["mismatch_draws_left_out"] == 4
+    from gc_ocp.diagnosis.null import DEFAULT_FAMILY
+
+    assert d["mismatch_family"] == DEFAULT_FAMILY.with_plate_calibration().to_json()
     prov = d["provenance"]
     assert prov["command"] == "gc-ocp diagnose" and prov["options"]["effects"] == "damping"
     assert len(prov["trials"][0]["files"][0]["sha256"]) == 64
@@ -486,6 +490,7 @@ def test_diagnose_cli_writes_json_report_and_figures(tmp_path, capsys):
     assert all((out / f).stat().st_size > 10_000 for f in figures)
     page = (out / "report.html").read_text(encoding="utf-8")
     assert "<b>damping</b>" in page and "http" not in page.split("<body>")[1].split("sha256")[0]
+    assert "every stance also recorded by a plate 2-5 mm off with its channels within" in page
     assert not list(tmp_path.glob(".diagnosis.*"))  # no staging folder left
 
 
@@ -499,6 +504,16 @@ def test_the_command_line_s_pose_width_is_the_diagnosis_s_default():
     parser = build_parser()
     for cmd in (["diagnose", "--out", "x"], ["benchmark-diagnosis", "--out", "x"]):
         assert parser.parse_args(cmd).pose_width == POSE_WIDTH
+
+
+def test_plates_in_the_truth_without_its_family_exit_2_before_any_work(tmp_path, capsys):
+    """``benchmark-diagnosis --plate-calibration truth`` puts the member in the truth's
+    mismatch family, which only ``--mismatch`` gives: refused with the fix, nothing written."""
+    out = tmp_path / "bench"
+    argv = ["benchmark-diagnosis", "--plate-calibration", "truth", "--out", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "give --mismatch too" in err and "Traceback" not in err and not out.exists()
 
 
 @pytest.mark.parametrize(

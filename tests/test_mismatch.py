@@ -411,7 +411,9 @@ def test_plate_calibration_is_what_it_says_and_off_by_default(bundled):
     member's random numbers are what they were."""
     stances, truth = bundled
     base = _clean(stances, truth)
-    on = mm.MismatchFamily(plate_offset=(2e-3, 5e-3), plate_gain=0.02)
+    on = mm.MismatchFamily().with_plate_calibration()
+    assert (on.plate_offset, on.plate_gain) == ((2e-3, 5e-3), 0.02)  # the documented sizes
+    assert mm.MismatchFamily.from_json(json.loads(json.dumps(on.to_json()))) == on
     draw = on.draw(np.random.default_rng(3))
     assert draw.plate_seed != 0 and draw.plate_offset == (2e-3, 5e-3)
     assert mm.MismatchDraw.from_json(json.loads(json.dumps(draw.to_json()))) == draw

@@ -107,6 +107,8 @@ from gc_ocp.bench.truth import (
     truth_model,
 )
 from gc_ocp.diagnosis.diagnose import POSE_WIDTH, candidate_names, diagnose_stances, resolve_base
+from gc_ocp.diagnosis.mismatch import MismatchFamily
+from gc_ocp.diagnosis.null import DEFAULT_FAMILY
 from gc_ocp.errors import GcOcpError, InputError
 from gc_ocp.estimation.components import REGISTRY
 from gc_ocp.outputs import atomic_savefig, atomic_write_text, check_writable
@@ -230,12 +232,14 @@ def run_case(
     pose_width: str = POSE_WIDTH,
     stop_early: bool = True,
     null_fits: str = "one-step",
+    null_family: MismatchFamily | None = None,
 ) -> dict:
     """Generate one case's data and diagnose it blind: the case with ``answer``, ``correct``,
     the ranking rows and timing. ``files``: trials of one subject whose motion the case uses
     (default: the bundled trial); ``stances_per_foot``: that many stances of each foot
     (:func:`~gc_ocp.bench.truth.per_foot`; None: the motion's own); ``pose_width``,
-    ``stop_early``, ``null_fits``: the diagnosis's."""
+    ``stop_early``, ``null_fits``: the diagnosis's; ``null_family``: the family its null
+    draws from (None: the diagnosis's default, :data:`~gc_ocp.diagnosis.null.DEFAULT_FAMILY`)."""
     t0 = time.perf_counter()
     truth_name, mag = case["truth"], case["magnitude"]
     data, draw, kin_err = case_data(case, base, realism, files, stances_per_foot)
@@ -255,6 +259,7 @@ def run_case(
             pose_width=pose_width,
             stop_early=stop_early,
             null_fits=null_fits,
+            mismatch=DEFAULT_FAMILY if null_family is None else null_family,
         )
     answer = d.selected[0] if d.selected else NONE
     rows = [{k: v for k, v in r.to_json().items() if k in CASE_ROW_KEYS} for r in d.ranking]
@@ -344,6 +349,7 @@ def run_benchmark(
     pose_width: str = POSE_WIDTH,
     stop_early: bool = True,
     null_fits: str = "one-step",
+    null_family: MismatchFamily | None = None,
 ) -> dict:
     """Run every case of :func:`plan`; ``DIR/confusion.json`` is rewritten atomically after each
     case (``resume``: keep the cases of an earlier run with the same settings), then
@@ -352,7 +358,7 @@ def run_benchmark(
     ``files``: trials of one subject whose real motion the cases use (default: the bundled
     trial; more stances per foot give the held-out score more folds); ``stances_per_foot``: that
     many stances of each foot (:func:`~gc_ocp.bench.truth.per_foot`); ``pose_width``,
-    ``stop_early``, ``null_fits``: the diagnosis's (:func:`~gc_ocp.diagnosis.diagnose.diagnose_stances`)."""
+    ``stop_early``, ``null_fits``, ``null_family``: the diagnosis's (:func:`run_case`)."""
     say = progress or (lambda s: None)
     out = check_writable(out)
     files = _resolved(files)
@@ -378,6 +384,8 @@ def run_benchmark(
         **({} if pose_width == "prior" else {"pose_width": pose_width}),
         **({} if stop_early else {"null": "every draw made (no early stop)"}),
         **({} if null_fits == "one-step" else {"null_fits": null_fits}),
+        # only when not the default (absent in the runs made before it could be chosen)
+        **({} if null_family is None else {"null_family": null_family.to_json()}),
     }
     done: list[dict] = []
     path = Path(out) / "confusion.json"
@@ -429,6 +437,7 @@ def run_benchmark(
                 pose_width=pose_width,
                 stop_early=stop_early,
                 null_fits=null_fits,
+                null_family=null_family,
             )
         except GcOcpError as e:
             # a case whose diagnosis cannot finish (the base's fit did not converge on its

@@ -218,6 +218,13 @@ def build_parser() -> argparse.ArgumentParser:
     _pose_width_argument(p)
     _null_fits_argument(p)
     p.add_argument(
+        "--plate-calibration",
+        action="store_true",
+        help="Let the null's mismatch family also draw plate calibration errors (each stance's "
+        "plate 2-5 mm off, its channels within +-2 %%): for plates not calibrated in situ "
+        "(docs/diagnosis.md, 'Mismatch family').",
+    )
+    p.add_argument(
         "--null-draws",
         type=int,
         default=None,
@@ -305,6 +312,14 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SCALE",
         help="Also make every truth differ from the model by a draw of the mismatch family at "
         "this scale (1: the documented family; default: none; docs/diagnosis.md).",
+    )
+    p.add_argument(
+        "--plate-calibration",
+        choices=("truth", "null", "both"),
+        default=None,
+        help="The mismatch family's plate calibration member (plates 2-5 mm off, channels "
+        "within +-2 %%) in every truth (with --mismatch), in the diagnosis's null, or both "
+        "(default: neither; docs/diagnosis.md, 'Mismatch family').",
     )
     _pose_width_argument(p)
     _null_fits_argument(p)

@@ -262,6 +262,10 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     pairs, skipped = _load_subject(args)
     prov = provenance(args, pairs, skipped)
     kw = {"pose_width": args.pose_width, "null_fits": args.null_fits}
+    if args.plate_calibration:
+        from gc_ocp.diagnosis.null import DEFAULT_FAMILY
+
+        kw["mismatch"] = DEFAULT_FAMILY.with_plate_calibration()
     if args.null_draws is not None:
         if args.null_draws < 0:
             raise InputError(f"--null-draws must be 0 or more, but got {args.null_draws}")
@@ -294,14 +298,25 @@ def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
     from gc_ocp.bench.truth import DEFAULT_MAGNITUDES, DEFAULT_REALISM
     from gc_ocp.bench.withheld import report, run_benchmark
     from gc_ocp.diagnosis.mismatch import MismatchFamily
+    from gc_ocp.diagnosis.null import DEFAULT_FAMILY
 
     realism = DEFAULT_REALISM
+    plates = args.plate_calibration
     if args.mismatch is not None:
         if not (args.mismatch >= 0):
             raise InputError(
                 f"--mismatch must be a scale >= 0 (1: the family), but got {args.mismatch}"
             )
-        realism = dataclasses.replace(realism, mismatch=MismatchFamily(scale=args.mismatch))
+        family = MismatchFamily(scale=args.mismatch)
+        if plates in ("truth", "both"):
+            family = family.with_plate_calibration()
+        realism = dataclasses.replace(realism, mismatch=family)
+    elif plates in ("truth", "both"):
+        raise InputError(
+            f"--plate-calibration {plates} puts the member in the truth's mismatch family: "
+            "give --mismatch too (e.g. --mismatch 1)."
+        )
+    null_family = DEFAULT_FAMILY.with_plate_calibration() if plates in ("null", "both") else None
     effects = [e.strip() for e in args.effects.split(",") if e.strip()] if args.effects else None
     candidates = None if args.candidates is None else _effect_list(args.candidates, "--candidates")
     res = run_benchmark(
@@ -320,6 +335,7 @@ def cmd_benchmark_diagnosis(args: argparse.Namespace) -> int:
         pose_width=args.pose_width,
         stop_early=not args.full_null,
         null_fits=args.null_fits,
+        null_family=null_family,
     )
     print(report(res))
     print(f"wrote {args.out / 'confusion.json'} and {args.out / 'confusion.png'}")

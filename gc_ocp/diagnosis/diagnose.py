@@ -375,6 +375,7 @@ def diagnose_stances(
         notes=notes,
         max_effects=max_effects,
         floor_pct=MIN_REDUCTION_PCT,
+        mismatch_family=None if mismatch is None else mismatch.to_json(),
     )
 
 

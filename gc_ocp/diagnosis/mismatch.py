@@ -64,6 +64,16 @@ FILTER_ORDER = 4
 second-order design, as :func:`gc_ocp.kinematics.filtering.lowpass` does)."""
 
 
+PLATE_OFFSET: tuple[float, float] = (2e-3, 5e-3)
+"""The plate calibration member's misplacement of a stance's plate [m] when it is on
+(:meth:`MismatchFamily.with_plate_calibration`): a few millimetres, what in-situ calibration
+methods are made to correct (Collins et al. 2009, Gait Posture 29:59)."""
+
+PLATE_GAIN = 0.02
+"""The plate calibration member's largest gain error of a channel [-] when it is on: a
+percent or two, the same source."""
+
+
 def _range(name: str, r: tuple[float, float], positive: bool = True) -> None:
     lo, hi = r
     if not (lo <= hi and (lo > 0 if positive else lo >= 0)):
@@ -164,6 +174,23 @@ class MismatchFamily:
     def plate_calibration(self) -> bool:
         """The plate calibration member is on (:attr:`plate_offset` or :attr:`plate_gain`)."""
         return self.plate_offset[1] > 0 or self.plate_gain > 0
+
+    def with_plate_calibration(self) -> MismatchFamily:
+        """This family with its plate calibration member on at the documented sizes
+        (:data:`PLATE_OFFSET`, :data:`PLATE_GAIN`)."""
+        return dataclasses.replace(self, plate_offset=PLATE_OFFSET, plate_gain=PLATE_GAIN)
+
+    def to_json(self) -> dict:
+        """The family as JSON-able plain data (lists for tuples; what ``diagnosis.json`` and a
+        benchmark's settings record); :meth:`from_json` reads it."""
+        return {
+            k: list(v) if isinstance(v, tuple) else v for k, v in dataclasses.asdict(self).items()
+        }
+
+    @classmethod
+    def from_json(cls, data: Mapping) -> MismatchFamily:
+        """The family written by :meth:`to_json` (fields it lacks keep their defaults)."""
+        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()})
 
     def __post_init__(self) -> None:
         if not self.scale >= 0:
@@ -605,6 +632,8 @@ __all__ = (
     "MEMBER_CANDIDATES",
     "MismatchDraw",
     "MismatchFamily",
+    "PLATE_GAIN",
+    "PLATE_OFFSET",
     "drift",
     "lowpassed",
     "plate_processing",

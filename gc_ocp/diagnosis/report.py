@@ -25,6 +25,7 @@ from pathlib import Path
 from gc_ocp.contact.channels import channel_name, channel_unit
 from gc_ocp.diagnosis import selection
 from gc_ocp.diagnosis.compare import BLOCK_SECONDS, MIN_CLUSTERS, resamples_stances
+from gc_ocp.diagnosis.mismatch import MismatchFamily
 from gc_ocp.diagnosis.null import DRAWS_PER_LOOK
 from gc_ocp.html import FIGURE_DPI, data_uri, environment, pngs, provenance_context
 from gc_ocp.html.fit_tables import (
@@ -217,6 +218,18 @@ def _draws(calibration: list) -> str:
     return str(calibration[0]["mismatch_draws"])
 
 
+def _plates(family: dict | None) -> str:
+    """The method's words on the family's opt-in plate calibration member, when it was on."""
+    f = None if family is None else MismatchFamily.from_json(family)
+    if f is None or not f.plate_calibration:
+        return ""
+    lo, hi = (1e3 * v for v in f.plate_offset)
+    return (
+        f", every stance also recorded by a plate {lo:g}-{hi:g} mm off with its channels within "
+        f"\u00b1{100 * f.plate_gain:g} %: the family's plate calibration member"
+    )
+
+
 def _stopped(calibration: list) -> str:
     """The method's sentence on the rounds whose null draws stopped early or were not made
     (none: empty)."""
@@ -254,7 +267,9 @@ def _method(d) -> dict:
         "replicates": d.calibration[0]["replicates"] if d.calibration else "–",
         "mismatch": (
             f", plus one of {_draws(d.calibration)} draws of the mismatch family "
-            "(the parent slightly changed in ways that are not candidates; "
+            "(the parent slightly changed in ways that are not candidates"
+            + _plates(d.mismatch_family)
+            + "; "
             + (
                 "each replicate is one draw's data with its own residual blocks)"
                 if refit

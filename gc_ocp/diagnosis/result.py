@@ -285,7 +285,10 @@ class Diagnosis:
     forward-selection round; selected: effects added, in order; waterfall: held-out RMS after each
     step; where: the residual map of the base (held-out stances) and of the final model;
     alpha, floor_pct: the rule's family-wise rate and effect-size floor [%] as this diagnosis
-    applied them; evaluations: ``{label: Evaluation}`` (fits; not written to JSON)."""
+    applied them; mismatch_family: the family the null drew from as plain data
+    (:meth:`~gc_ocp.diagnosis.mismatch.MismatchFamily.to_json`; None: none, or a diagnosis.json
+    written before it was recorded, 2026-12-01); evaluations: ``{label: Evaluation}`` (fits; not
+    written to JSON)."""
 
     base: str
     base_components: list[str]
@@ -304,6 +307,7 @@ class Diagnosis:
     notes: list[str] = dataclasses.field(default_factory=list)
     max_effects: int | None = None
     floor_pct: float = FORMER_FLOOR_PCT
+    mismatch_family: dict | None = None
 
     @property
     def inconclusive(self) -> list[str]:
@@ -345,6 +349,7 @@ class Diagnosis:
             "calibration": self.calibration,
             "measurement": self.measurement,
             "max_effects": self.max_effects,
+            "mismatch_family": self.mismatch_family,
             "score": SCORE_TEXT,
             "notes": self.notes,
             "seconds": self.seconds,
@@ -409,6 +414,7 @@ class Diagnosis:
             notes=list(d["notes"]),
             max_effects=d["max_effects"],
             floor_pct=d.get("floor_pct", FORMER_FLOOR_PCT),
+            mismatch_family=d.get("mismatch_family"),
         )
 
     @property
