@@ -127,16 +127,17 @@ def _jsonable(o):
     return o
 
 
-def confirm(stances, holdout: int, candidates, say) -> dict:
+def confirm(stances, holdout: int, candidates, say, null: dict | None = None) -> dict:
     """Diagnose ``stances`` without ``stances[holdout]``, then score base vs base + each cumulative
-    selection on that stance (trained on the others)."""
+    selection on that stance (trained on the others). ``null``: the diagnosis's keyword for its
+    null's family (``--plate-calibration``), or none (its default)."""
     from gc_ocp.diagnosis import confirm_stances, diagnose_stances
 
     held = stances[holdout]
     subset = [s for k, s in enumerate(stances) if k != holdout]
     say(f"confirmation: diagnosing without {held.label} ({len(subset)} stances)")
     d = diagnose_stances(
-        subset, candidates=candidates, max_effects=CONFIRM_MAX_EFFECTS, progress=say
+        subset, candidates=candidates, max_effects=CONFIRM_MAX_EFFECTS, progress=say, **(null or {})
     )
     c = confirm_stances(subset, [held], d.selected, progress=say)
     return {
@@ -162,7 +163,13 @@ def confirm(stances, holdout: int, candidates, say) -> dict:
 
 
 def run(
-    name: str, cache: Path, candidates, say, max_effects: int | None = None, nested: bool = True
+    name: str,
+    cache: Path,
+    candidates,
+    say,
+    max_effects: int | None = None,
+    nested: bool = True,
+    null: dict | None = None,
 ) -> dict:
     from gc_ocp.diagnosis import diagnose
     from gc_ocp.workflow.fitting import fit_data
@@ -178,7 +185,9 @@ def run(
             say(f"== {name}: diagnosis read from {path}")
         else:
             say(f"== {name}: diagnosis on all stances")
-            d = diagnose(tk, candidates=candidates, max_effects=max_effects, progress=say)
+            d = diagnose(
+                tk, candidates=candidates, max_effects=max_effects, progress=say, **(null or {})
+            )
             say(d.summary())
             out = {"trial": name, "description": DESCRIPTION[name], "diagnosis": d.to_json()}
             out["summary"] = d.summary()
@@ -200,7 +209,7 @@ def run(
             conf = []
             for i, s in enumerate(sides):
                 if sides.count(s) >= 2:
-                    conf.append(confirm(stances, i, candidates, say))
+                    conf.append(confirm(stances, i, candidates, say, null))
             out["confirmation"] = conf
     out["confirmation_seconds"] = time.perf_counter() - t0
     path.write_text(json.dumps(_jsonable(out), indent=1))
@@ -466,7 +475,18 @@ def main() -> None:
         default=None,
         help="a cache of an earlier run: also print what changed against it",
     )
+    ap.add_argument(
+        "--plate-calibration",
+        action="store_true",
+        help="the null's mismatch family with its plate calibration member (gc-ocp diagnose "
+        "--plate-calibration)",
+    )
     args = ap.parse_args()
+    null = None
+    if args.plate_calibration:
+        from gc_ocp.diagnosis.null import DEFAULT_FAMILY
+
+        null = {"mismatch": DEFAULT_FAMILY.with_plate_calibration()}
 
     def say(s):
         print(s, file=sys.stderr, flush=True)
@@ -481,7 +501,7 @@ def main() -> None:
         if args.fresh and path.exists():
             path.unlink()
         results.append(
-            run(name, args.cache, args.candidates, say, args.max_effects, not args.no_nested)
+            run(name, args.cache, args.candidates, say, args.max_effects, not args.no_nested, null)
         )
     print(markdown(results))
     if args.previous is not None:
