@@ -1120,3 +1120,22 @@ def test_the_ranking_figure_keeps_gains_readable_beside_a_large_loss():
     fig = Diagnosis.ranking_figure(SimpleNamespace(ranking=[_row("a", -160.0), _row("b", -3.0)]))
     assert fig.axes[0].get_xlim()[0] < -161.0 and not fig.axes[0].texts
     plt.close(fig)
+
+
+def test_a_claim_plate_errors_mimic_is_noted_unless_the_null_drew_them():
+    """A named effect that plates a few millimetres or percent off mimic (the components that
+    declare it, from the plate member's measurements: the clock offset, the ground offset, the
+    stiffness field) gets a note with the check to run, when the null's family did not draw
+    plate errors; with them in the null, or for an effect they do not mimic, no note."""
+    from gc_ocp.diagnosis.diagnose import plate_note
+    from gc_ocp.diagnosis.null import DEFAULT_FAMILY
+    from gc_ocp.estimation.components import REGISTRY
+
+    mimicked = {n for n, c in REGISTRY.items() if c.candidate and c.plate_mimicked}
+    assert mimicked == {"time_offset", "ground_offset", "contact_density"}
+    [note] = plate_note(["damping", "time_offset"], DEFAULT_FAMILY)
+    assert note.startswith("time_offset named under a null without plate calibration errors")
+    assert "--plate-calibration" in note
+    assert plate_note(["damping"], DEFAULT_FAMILY) == []
+    assert plate_note(["time_offset"], DEFAULT_FAMILY.with_plate_calibration()) == []
+    assert plate_note(["ground_offset"], None) != []  # noise only: no plate errors either

@@ -356,6 +356,7 @@ def diagnose_stances(
         "base": where(evaluations["base"].scored_fits, evaluations["base"].weights),
         "final": where(current.scored_fits, current.weights),
     }
+    notes += plate_note(selected, mismatch)
     notes += unconverged_notes(evaluations)
     return Diagnosis(
         base=base_label,
@@ -600,6 +601,24 @@ def _calibrated(
         "seconds": seconds,
     }
     return tests, info
+
+
+def plate_note(selected: Sequence[str], family: MismatchFamily | None) -> list[str]:
+    """A note on the named effects that plate calibration errors mimic
+    (:attr:`~gc_ocp.estimation.components.base.Component.plate_mimicked`) when the null's
+    family did not draw them: such a claim holds for calibrated plates; where they were not
+    calibrated in situ, the same diagnosis with them in the null checks it."""
+    if family is not None and family.plate_calibration:
+        return []
+    named = [n for n in selected if n in REGISTRY and REGISTRY[n].plate_mimicked]
+    if not named:
+        return []
+    return [
+        f"{', '.join(named)} named under a null without plate calibration errors; plates a "
+        f"few millimetres off or a percent or two mis-scaled give gains of this kind. If the "
+        "lab's plates were not calibrated in situ, check the claim with the plate errors in "
+        "the null (gc-ocp diagnose --plate-calibration; docs/diagnosis.md, 'Mismatch family')."
+    ]
 
 
 def unseen_gains(rows: Sequence[RankRow]) -> list[RankRow]:

@@ -143,6 +143,14 @@ class Component:
     response is so curved at its neutral value that one step from there misses most of what its
     refit gains. Default False (the neutral point is exact for the null and costs no refit)."""
 
+    plate_mimicked: ClassVar[bool] = False
+    """True when plates a few millimetres off or a percent or two mis-scaled (the mismatch
+    family's opt-in plate calibration member) give this effect gains of its kind: the diagnosis
+    then notes a claim of it made under a null without that member, with how to check it
+    (:func:`gc_ocp.diagnosis.diagnose.plate_note`). Measured, not guessed: with the member in
+    the null the effect's spread grew, or without it such plate errors alone had it named
+    (``benchmarks/plate_member_power/README.md``)."""
+
     relative_cost: ClassVar[float] = 1.0
     """About how many times a fit with this effect added costs a fit of the base: the order in
     which the diagnosis's first round hands its candidates to the workers, the dearest first, so
