@@ -140,8 +140,12 @@ class MismatchFamily:
       (:attr:`MismatchDraw.plate_seed`) so that, off, no member's random numbers change. Why it
       exists: with plates 2-5 mm off and channels within 2 %, the documented family alone gave
       1 false claim in 16 "none" cases (the clock offset, p 0.88 -> 0.044 on one), with this
-      member in the null 0 of 16 (``benchmarks/out_of_family_output.md``). Why it is off: it
-      moves every answer, and what it costs the test's power is not yet measured.
+      member in the null 0 of 16 (``benchmarks/out_of_family_output.md``). Why it is off: in
+      the null it makes the clock offset and the ground offset undecidable and triples the
+      steps the stiffness field needs on the bundled motion, and turns one of nine real-data
+      answers inconclusive (``benchmarks/plate_member_power/README.md``); the default null
+      takes the plates as calibrated, and a claim of an effect they mimic says so
+      (:func:`gc_ocp.diagnosis.diagnose.plate_note`). On: :meth:`with_plate_calibration`.
 
     ``scale`` >= 0 shrinks every member towards the model with the same random numbers: a
     width factor ``f`` becomes ``f ** scale``, sizes (threshold, hum, noise, drift, offsets) are
