@@ -615,7 +615,7 @@ def plate_note(selected: Sequence[str], family: MismatchFamily | None) -> list[s
         return []
     return [
         f"{', '.join(named)} named under a null without plate calibration errors; plates a "
-        f"few millimetres off or a percent or two mis-scaled give gains of this kind. If the "
+        "few millimetres off or a percent or two mis-scaled give gains of this kind. If the "
         "lab's plates were not calibrated in situ, check the claim with the plate errors in "
         "the null (gc-ocp diagnose --plate-calibration; docs/diagnosis.md, 'Mismatch family')."
     ]
