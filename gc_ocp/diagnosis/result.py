@@ -286,8 +286,8 @@ class Diagnosis:
     step; where: the residual map of the base (held-out stances) and of the final model;
     alpha, floor_pct: the rule's family-wise rate and effect-size floor [%] as this diagnosis
     applied them; mismatch_family: the family the null drew from as plain data
-    (:meth:`~gc_ocp.diagnosis.mismatch.MismatchFamily.to_json`; None: none, or a diagnosis.json
-    written before it was recorded, 2026-12-01); evaluations: ``{label: Evaluation}`` (fits; not
+    (:meth:`~gc_ocp.diagnosis.mismatch.MismatchFamily.to_json`; None, and absent from the
+    JSON: none, or a diagnosis.json written before it was recorded, 2026-12-01); evaluations: ``{label: Evaluation}`` (fits; not
     written to JSON)."""
 
     base: str
@@ -349,7 +349,8 @@ class Diagnosis:
             "calibration": self.calibration,
             "measurement": self.measurement,
             "max_effects": self.max_effects,
-            "mismatch_family": self.mismatch_family,
+            # absent when None (noise only), as in the files written before it was recorded
+            **({} if self.mismatch_family is None else {"mismatch_family": self.mismatch_family}),
             "score": SCORE_TEXT,
             "notes": self.notes,
             "seconds": self.seconds,
