@@ -74,6 +74,13 @@ PLATE_GAIN = 0.02
 percent or two, the same source."""
 
 
+def _plates_on(plate_offset: tuple[float, float], plate_gain: float) -> bool:
+    """The plate calibration member is on: a misplacement range or a gain error above 0 (the
+    one rule of :attr:`MismatchFamily.plate_calibration` and
+    :attr:`MismatchDraw.plate_calibration`)."""
+    return plate_offset[1] > 0 or plate_gain > 0
+
+
 def _range(name: str, r: tuple[float, float], positive: bool = True) -> None:
     lo, hi = r
     if not (lo <= hi and (lo > 0 if positive else lo >= 0)):
@@ -177,7 +184,7 @@ class MismatchFamily:
     @property
     def plate_calibration(self) -> bool:
         """The plate calibration member is on (:attr:`plate_offset` or :attr:`plate_gain`)."""
-        return self.plate_offset[1] > 0 or self.plate_gain > 0
+        return _plates_on(self.plate_offset, self.plate_gain)
 
     def with_plate_calibration(self) -> MismatchFamily:
         """This family with its plate calibration member on at the documented sizes
@@ -344,7 +351,7 @@ class MismatchDraw:
     @property
     def plate_calibration(self) -> bool:
         """The plate calibration member is on in this draw (:func:`miscalibrated`)."""
-        return self.plate_offset[1] > 0 or self.plate_gain > 0
+        return _plates_on(self.plate_offset, self.plate_gain)
 
     def to_json(self) -> dict:
         """The draw as JSON-able plain data (lists for tuples); :meth:`from_json` reads it."""
