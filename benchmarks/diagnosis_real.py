@@ -162,6 +162,23 @@ def confirm(stances, holdout: int, candidates, say, null: dict | None = None) ->
     }
 
 
+def _same_null(path: Path, diagnosis: dict, null: dict | None) -> None:
+    """Refuse a cached diagnosis whose null had the plate calibration member when this run's has
+    not, or the other way round (its ``mismatch_family``; absent: made without it), which would
+    mix the two nulls in one study."""
+    from gc_ocp.diagnosis.mismatch import MismatchFamily
+
+    fam = diagnosis.get("mismatch_family")
+    cached = fam is not None and MismatchFamily.from_json(fam).plate_calibration
+    wanted = null is not None and null["mismatch"].plate_calibration
+    if cached != wanted:
+        raise SystemExit(
+            f"{path}: its diagnosis's null was made {'with' if cached else 'without'} the plate "
+            f"calibration member, this run's is {'with' if wanted else 'without'} it: give "
+            "another --cache, or --fresh to rerun it."
+        )
+
+
 def run(
     name: str,
     cache: Path,
@@ -182,6 +199,7 @@ def run(
         tk = load(name)
         if path.exists():  # the diagnosis is reused; the confirmation is redone
             out = json.loads(path.read_text())
+            _same_null(path, out["diagnosis"], null)
             say(f"== {name}: diagnosis read from {path}")
         else:
             say(f"== {name}: diagnosis on all stances")

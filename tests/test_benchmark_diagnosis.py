@@ -299,3 +299,30 @@ def test_the_null_s_family_reaches_the_diagnosis_and_the_settings(tmp_path, monk
             resume=True,
             null_family=plates,
         )
+
+
+def test_the_default_null_family_leaves_the_settings_as_they_were(tmp_path, monkeypatch):
+    """No ``null_family``, or the default given explicitly: the settings a ``--resume`` compares
+    have no ``null_family`` key, as in every run made before it could be chosen (else no
+    earlier run resumes); the plate family's settings have it."""
+    from gc_ocp.diagnosis.null import DEFAULT_FAMILY
+
+    recorded = []
+    real = benchmark.settings_differ
+    monkeypatch.setattr(
+        benchmark, "settings_differ", lambda old, new: recorded.append(new) or real(old, new)
+    )
+    (tmp_path / "confusion.json").write_text(json.dumps({"settings": {}, "cases": []}))
+    plates = DEFAULT_FAMILY.with_plate_calibration()
+    for family in (None, DEFAULT_FAMILY, plates):
+        with pytest.raises(InputError, match="--resume"):
+            benchmark.run_benchmark(
+                tmp_path,
+                base="seed",
+                effects=["none"],
+                seeds=1,
+                n_boot=7,
+                resume=True,
+                null_family=family,
+            )
+    assert [("null_family" in r) for r in recorded] == [False, False, True]

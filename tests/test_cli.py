@@ -506,6 +506,23 @@ def test_the_command_line_s_pose_width_is_the_diagnosis_s_default():
         assert parser.parse_args(cmd).pose_width == POSE_WIDTH
 
 
+def test_the_plate_member_s_help_gives_its_sizes():
+    """The ``--plate-calibration`` help of ``diagnose`` and ``benchmark-diagnosis`` states the
+    member's sizes (the parser does not import the diagnosis, so they are written out; this
+    keeps them :data:`~gc_ocp.diagnosis.mismatch.PLATE_OFFSET` and ``PLATE_GAIN``)."""
+    from gc_ocp.cli import build_parser
+    from gc_ocp.diagnosis.mismatch import PLATE_GAIN, PLATE_OFFSET
+
+    lo, hi = (1e3 * v for v in PLATE_OFFSET)
+    sizes = f"{lo:g}-{hi:g} mm off", f"+-{100 * PLATE_GAIN:g} %"
+    parser = build_parser()
+    subs = next(a for a in parser._actions if a.choices and "diagnose" in a.choices).choices
+    for cmd in ("diagnose", "benchmark-diagnosis"):
+        [plate] = [a for a in subs[cmd]._actions if "--plate-calibration" in a.option_strings]
+        text = plate.help % {}  # argparse's %% as printed
+        assert all(s in text for s in sizes), (cmd, text)
+
+
 def test_plates_in_the_truth_without_its_family_exit_2_before_any_work(tmp_path, capsys):
     """``benchmark-diagnosis --plate-calibration truth`` puts the member in the truth's
     mismatch family, which only ``--mismatch`` gives: refused with the fix, nothing written."""
@@ -514,6 +531,17 @@ def test_plates_in_the_truth_without_its_family_exit_2_before_any_work(tmp_path,
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "give --mismatch too" in err and "Traceback" not in err and not out.exists()
+
+
+def test_plates_in_a_null_without_draws_exit_2_before_any_work(tmp_path, capsys):
+    """``diagnose --plate-calibration --null-draws 0``: a noise-only null draws no plate errors,
+    so the flag would be void (and the note on claims plate errors mimic withheld): refused
+    with the fix, nothing written."""
+    out = tmp_path / "diag"
+    argv = ["diagnose", "--plate-calibration", "--null-draws", "0", "--out", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--null-draws 0 makes none" in err and "Traceback" not in err and not out.exists()
 
 
 @pytest.mark.parametrize(

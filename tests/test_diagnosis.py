@@ -1139,3 +1139,12 @@ def test_a_claim_plate_errors_mimic_is_noted_unless_the_null_drew_them():
     assert plate_note(["damping"], DEFAULT_FAMILY) == []
     assert plate_note(["time_offset"], DEFAULT_FAMILY.with_plate_calibration()) == []
     assert plate_note(["ground_offset"], None) != []  # noise only: no plate errors either
+    # a null that made no draws drew no plate errors, whatever its family says: the note
+    # stays, and diagnosis.json records no family (diagnose_stances passes drawn_family's)
+    from gc_ocp.diagnosis.diagnose import drawn_family
+    from gc_ocp.diagnosis.mismatch import MismatchFamily
+
+    plates = DEFAULT_FAMILY.with_plate_calibration()
+    assert drawn_family(plates, 32) is plates and drawn_family(None, 32) is None
+    assert drawn_family(plates, 0) is None
+    assert drawn_family(MismatchFamily(scale=0.0).with_plate_calibration(), 32) is None

@@ -438,6 +438,17 @@ def test_plate_calibration_is_what_it_says_and_off_by_default(bundled):
     a, b = off.draw(np.random.default_rng(3)), draw
     assert a.plate_seed == 0 and a.plate_gain == 0.0
     assert dataclasses.replace(b, plate_offset=(0.0, 0.0), plate_gain=0.0, plate_seed=0) == a
+    # paired: a stream of draws, as the null makes them, keeps every other member with it on
+    # (the member's seed from a child generator; before, it took one number of the stream and
+    # redrew 30-31 of 32 draws' other members)
+    strip = dict(plate_offset=(0.0, 0.0), plate_gain=0.0, plate_seed=0)
+    on = off.with_plate_calibration()
+    r_off, r_on = np.random.default_rng(7), np.random.default_rng(7)
+    for _ in range(8):
+        d_on = on.draw(r_on)
+        assert d_on.plate_seed > 0
+        assert dataclasses.replace(d_on, **strip) == off.draw(r_off)
+    assert r_on.uniform() == r_off.uniform()
     same = mm.plate_processing(base, _only(), np.random.default_rng(0))  # every member off
     assert all(np.array_equal(x.measured, y.measured) for x, y in zip(same, base, strict=True))
     with pytest.raises(InputError, match="plate_gain"):

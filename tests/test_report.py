@@ -608,3 +608,18 @@ def test_waterfall_legend_hides_no_point(steps):
     ]
     plt.close(fig)
     assert not covered, covered
+
+
+def test_the_plate_member_s_sizes_in_the_method_are_those_drawn():
+    """The method's words on the plate calibration member give the sizes its draws have: the
+    family's ranges times its scale (a family at half scale draws plates 1-2.5 mm off and
+    channels within +-1 %, :meth:`~gc_ocp.diagnosis.mismatch.MismatchFamily.draw`)."""
+    from gc_ocp.diagnosis.mismatch import MismatchFamily
+    from gc_ocp.diagnosis.report import _plates
+
+    half = MismatchFamily(scale=0.5).with_plate_calibration()
+    drawn = half.draw(np.random.default_rng(0))
+    lo, hi = (1e3 * v for v in drawn.plate_offset)
+    text = _plates(half.to_json())
+    assert f"{lo:g}-{hi:g} mm off" in text and f"\u00b1{100 * drawn.plate_gain:g} %" in text
+    assert _plates(MismatchFamily().to_json()) == "" and _plates(None) == ""

@@ -360,6 +360,8 @@ def run_benchmark(
     many stances of each foot (:func:`~gc_ocp.bench.truth.per_foot`); ``pose_width``,
     ``stop_early``, ``null_fits``, ``null_family``: the diagnosis's (:func:`run_case`)."""
     say = progress or (lambda s: None)
+    if null_family == DEFAULT_FAMILY:
+        null_family = None  # the default however given: its settings as they always were
     out = check_writable(out)
     files = _resolved(files)
     cases = plan(base, effects, seeds, magnitudes, first_seed)

@@ -258,6 +258,12 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     from gc_ocp.outputs import OutputSet, atomic_write, check_writable
 
     check_writable(args.out, command="gc-ocp diagnose")  # before any computation
+    if args.plate_calibration and args.null_draws == 0:
+        raise InputError(
+            "--plate-calibration puts plate errors in the null's mismatch draws, but "
+            "--null-draws 0 makes none (a noise-only null): drop --null-draws 0 (32 draws by "
+            "default) or drop --plate-calibration."
+        )
     effects = _effects(args)
     pairs, skipped = _load_subject(args)
     prov = provenance(args, pairs, skipped)

@@ -356,7 +356,8 @@ def diagnose_stances(
         "base": where(evaluations["base"].scored_fits, evaluations["base"].weights),
         "final": where(current.scored_fits, current.weights),
     }
-    notes += plate_note(selected, mismatch)
+    drawn = drawn_family(mismatch, mismatch_draws)
+    notes += plate_note(selected, drawn)
     notes += unconverged_notes(evaluations)
     return Diagnosis(
         base=base_label,
@@ -376,7 +377,7 @@ def diagnose_stances(
         notes=notes,
         max_effects=max_effects,
         floor_pct=MIN_REDUCTION_PCT,
-        mismatch_family=None if mismatch is None else mismatch.to_json(),
+        mismatch_family=None if drawn is None else drawn.to_json(),
     )
 
 
@@ -400,7 +401,7 @@ def draws_made(family: MismatchFamily | None, null_fits: str) -> bool:
     family of non-zero scale, or with the refit null (one replicate per draw, noise only when no
     family). Otherwise the null is the noise-only one-step null, whose p-value counts its
     wild-bootstrap replicates."""
-    return null_fits == "refit" or (family is not None and family.scale > 0)
+    return null_fits == "refit" or drawn_family(family, 1) is not None
 
 
 def first_look_names(
@@ -601,6 +602,13 @@ def _calibrated(
         "seconds": seconds,
     }
     return tests, info
+
+
+def drawn_family(mismatch: MismatchFamily | None, draws: int) -> MismatchFamily | None:
+    """The family the null's draws came from: ``mismatch``, or None where it drew none (no
+    family, no draws, or a family at scale 0: a noise-only null, which draws no plate errors
+    either, whatever the family says)."""
+    return mismatch if mismatch is not None and mismatch.scale > 0 and draws > 0 else None
 
 
 def plate_note(selected: Sequence[str], family: MismatchFamily | None) -> list[str]:

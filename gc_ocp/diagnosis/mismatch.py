@@ -144,7 +144,8 @@ class MismatchFamily:
       axis, one plate per stance (overground stances are on different plates). A few
       millimetres and a percent or two are the errors in-situ calibration methods are made to
       correct (e.g. Collins et al. 2009, Gait Posture 29:59). Drawn from its own seed
-      (:attr:`MismatchDraw.plate_seed`) so that, off, no member's random numbers change. Why it
+      (:attr:`MismatchDraw.plate_seed`, from a child generator) so that, on or off, no other
+      member's random numbers change, in that draw or the draws after it (paired). Why it
       exists: with plates 2-5 mm off and channels within 2 %, the documented family alone gave
       1 false claim in 16 "none" cases (the clock offset, p 0.88 -> 0.044 on one), with this
       member in the null 0 of 16 (``benchmarks/out_of_family_output.md``). Why it is off: in
@@ -251,8 +252,10 @@ class MismatchFamily:
     def draw(self, rng: np.random.Generator, layout: SoleLayout = SEED_LAYOUT) -> MismatchDraw:
         """One member of the family: every member drawn, the units of ``layout`` moved on both
         feet. The random numbers used do not depend on ``scale`` (paired draws): 14 uniforms,
-        one or two per member in the order of the fields, then the offsets, then (only with
-        the plate calibration member on) one integer, the seed of the plates' errors."""
+        one or two per member in the order of the fields, then the offsets. With the plate
+        calibration member on, the seed of the plates' errors comes from a child of ``rng``
+        (``rng.spawn``), which leaves ``rng``'s stream as it is: on or off, every other member
+        of this draw and of the draws made after it from ``rng`` is the same (paired)."""
         u = iter(rng.uniform(size=14))
         z = rng.standard_normal((len(SIDES), layout.n, 3))
         s = self.scale
@@ -285,7 +288,8 @@ class MismatchFamily:
         drift_m = uniform(self.drift_translation)
         drift_deg = uniform(self.drift_rotation_deg)
         offsets = s * self.unit_offset_sd * z
-        plate_seed = int(rng.integers(2**62)) if self.plate_calibration else 0
+        # from a child generator: ``rng``'s own stream does not move (>= 1, 0 meaning "off")
+        plate_seed = int(rng.spawn(1)[0].integers(1, 2**62)) if self.plate_calibration else 0
         return MismatchDraw(
             scale=s,
             depth_factor=depth_factor,

@@ -223,10 +223,10 @@ def _plates(family: dict | None) -> str:
     f = None if family is None else MismatchFamily.from_json(family)
     if f is None or not f.plate_calibration:
         return ""
-    lo, hi = (1e3 * v for v in f.plate_offset)
+    lo, hi = (1e3 * f.scale * v for v in f.plate_offset)  # [mm], as drawn (MismatchFamily.draw)
     return (
         f", every stance also recorded by a plate {lo:g}-{hi:g} mm off with its channels within "
-        f"\u00b1{100 * f.plate_gain:g} %: the family's plate calibration member"
+        f"\u00b1{100 * f.scale * f.plate_gain:g} %: the family's plate calibration member"
     )
 
 

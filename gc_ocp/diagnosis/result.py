@@ -287,7 +287,8 @@ class Diagnosis:
     alpha, floor_pct: the rule's family-wise rate and effect-size floor [%] as this diagnosis
     applied them; mismatch_family: the family the null drew from as plain data
     (:meth:`~gc_ocp.diagnosis.mismatch.MismatchFamily.to_json`; None, and absent from the
-    JSON: none, or a diagnosis.json written before it was recorded, 2026-12-01); evaluations:
+    JSON: no mismatch draws (a noise-only null: no family, ``mismatch_draws=0`` or a family at
+    scale 0), or a diagnosis.json written before it was recorded, 2026-12-01); evaluations:
     ``{label: Evaluation}`` (fits; not written to JSON)."""
 
     base: str
