@@ -952,6 +952,29 @@ def test_the_floor_s_number_of_steps_is_where_the_interval_would_clear_zero(pct,
     assert floor_stances({**red, "insample_pct": 0.9 * MIN_REDUCTION_PCT}, n0) is None
 
 
+def test_an_in_sample_row_promises_no_steps():
+    """In the in-sample fallback (every foot has one stance: no stance held out) neither part of
+    the rule counts further steps: there is no held-out stance to count from, and one stance
+    more on a foot makes the diagnosis a held-out one, whose statistic and interval the
+    in-sample scores do not predict. The floor's number is 0 (not measured) unless the gain is
+    under the floor, the test's none (``null.more_stances``), and the verdict says why instead
+    of "more steps would not decide". The floor's number was counted from the in-sample
+    stances, the test's from one held-out stance that did not exist."""
+    from gc_ocp.diagnosis.selection import floor_stances
+
+    red = {"pct": 2.0, "ci": (-0.3, 4.3), "insample_pct": 2.0}
+    assert floor_stances(red, 2) > 0  # held out: a number
+    assert floor_stances(red, 0) == 0  # in sample: not measured
+    assert floor_stances({**red, "pct": 0.3}, 0) is None  # under the floor all the same
+    test = NullTest(1.2, 0.1, 0.6, 1.8, 0.12, 2.4, None, 0)
+    row = dataclasses.replace(_row("friction", 2.0), calibrated=test)
+    assert row.more_stances is None and not row.inconclusive
+    assert "scored in-sample" in row.verdict() and "would not decide" not in row.verdict()
+    # held out, a None is the bound: more steps would not decide
+    held = dataclasses.replace(row, calibrated=dataclasses.replace(test, n_heldout=2))
+    assert "more steps would not decide" in held.verdict()
+
+
 def test_a_held_out_solve_that_stops_short_is_solved_again_from_where_it_stopped(base_eval):
     """A held-out stance's frozen fit that hits Ipopt's iteration limit one iteration before it
     would have converged is solved once more from where it stopped, and then scores the optimum

@@ -763,3 +763,21 @@ def test_the_held_out_bootstrap_draws_every_frame_equally_often():
     # 10 % is over six of them (the ends' former 0.47 fails it)
     np.testing.assert_allclose(counts / B, 1.0, rtol=0.1)
     assert circular_blocks(5, 10, rng).size == 5  # a block longer than the stance: one block
+
+
+def test_the_in_sample_fallback_predicts_no_steps():
+    """With no stance held out (every foot has one stance) the test weighs the in-sample fit's
+    one step: there is no held-out stance to count the steps from, and one stance more on a
+    foot makes the diagnosis a held-out one, whose statistic these scores do not predict. The
+    row records 0 held-out stances and no number (it recorded 1 held-out stance, which did not
+    exist, and the steps that one would need)."""
+    rng = np.random.default_rng(4)
+    draws = np.repeat(np.arange(32), 16)
+    nulls = {e: 0.2 + 0.3 * rng.normal(size=draws.size) for e in "ab"}
+    observed = ({"a": 0.2 + 1.5 * 0.3, "b": 0.0}, {"a": None, "b": None})
+    kw = {"null": nulls, "observed": observed, "draws": draws, "n_final": 32}
+    held = null.calibrate(None, [], dict.fromkeys("ab"), [(0,)], **kw)["a"]
+    assert held.n_heldout == 1 and held.p_adjusted >= null.ALPHA and held.more_stances > 0
+    fallback = null.calibrate(None, [], dict.fromkeys("ab"), [], **kw)["a"]
+    assert fallback.p_adjusted == held.p_adjusted  # the test itself is unchanged
+    assert fallback.n_heldout == 0 and fallback.more_stances is None

@@ -534,7 +534,7 @@ def _calibrated(
         )
         looks = null_looks(observed[0], null, draw, n_draws, among)
     if refit:  # the statistic is the refit's: no one-step null stands in for it
-        n_held = max(len(held_out(plan)), 1)
+        n_held = len(held_out(plan))  # 0 in sample: no steps (null.more_stances)
         obs, sd = observed
         # a noise-only family (scale 0) has no spread between draws: each replicate is its own
         # draw, and none of the spread is a mismatch's that more stances would not shrink

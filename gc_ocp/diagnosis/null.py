@@ -332,8 +332,8 @@ def calibrate(
             parent, parent_fits, children, plan, occam, fold_means, n_replicates, seed, frame_rate
         )
         draws = None
-    n_held = max(len(held_out(plan)), 1)
-    return decide(observed, null, sd, n_held, alpha, draws, shares, n_final)
+    # 0 in the in-sample fallback (no fold): no held-out stance to count further ones from
+    return decide(observed, null, sd, len(held_out(plan)), alpha, draws, shares, n_final)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -341,7 +341,8 @@ class NullTest:
     """The calibrated decision of one candidate (module doc): observed reduction [%], the null's
     mean and spread [%], the studentised statistic, the family-wise adjusted p-value, the
     critical studentised value of the round, and the further held-out stances that would decide
-    it at 80 % power (0: decided; None: more steps of the same kind would not).
+    it at 80 % power (0: decided; None: more steps of the same kind would not, or, with
+    ``n_heldout`` 0, the in-sample fallback, no number is predicted).
     ``null_sd_mismatch_pct``: the part of the null's spread that lies between the mismatch
     draws (module doc; 0 for a noise-only null); of it, the part every held-out stance shares
     is what more stances do not shrink (:attr:`null_sd_systematic_pct`)."""
@@ -413,7 +414,9 @@ def decide(
     ``{candidate: held-out reduction [%]}``; ``null``: their null reductions (same replicates
     for all); ``per_stance_sd``: the spread of a candidate's per-stance reductions (the
     sampling error of the observed one is ``sd / sqrt(n_heldout)``; None: the null's spread is
-    used); ``draws``: the mismatch draw of each replicate (None: a noise-only null);
+    used); ``n_heldout``: the held-out stances (0: the in-sample fallback, which gives no
+    steps, :func:`more_stances`); ``draws``: the mismatch draw of each replicate (None: a
+    noise-only null);
     ``shares``: the draws' stance shares, which split the spread between draws into the part
     every stance shares and the stances' own (:func:`systematic_sd`; None: all of it shared);
     ``n_final``: the draws the full null makes, when these are the first of them (a null
@@ -774,7 +777,9 @@ def more_stances(
     held-out stance shares, :func:`systematic_sd`, or all of that spread when it is not split;
     the rest of ``s`` shrinks as ``1/sqrt(n)``), ``sd`` the spread of its per-stance reductions,
     ``n0`` its held-out stances, ``crit`` the round's critical studentised value. None: no
-    number decides it."""
+    number decides it, or none can be said: no held-out stance (``n0`` 0, the in-sample
+    fallback: a stance more on a foot makes the diagnosis a held-out one, whose statistic the
+    in-sample scores do not predict)."""
     if decided:
         return 0
     gap = t - m

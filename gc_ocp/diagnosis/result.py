@@ -197,7 +197,8 @@ class RankRow:
                 )
             if self.floor_stances is None:
                 return f"{head} ({p}), but {under}"
-            # floor_stances 0 on a row that does not pass: written before the floor's number
+            # floor_stances 0 on a row that does not pass: in sample (no number counted), or
+            # written before the floor's number
             return f"{head} ({p}), below the rule's effect-size floor"
         if self.inconclusive:
             if more is None and c.more_stances:
@@ -215,6 +216,12 @@ class RankRow:
                     f"at this gain, but {under}"
                 )
             return f"not named ({p}); {_about(more)} would decide at this gain"
+        if c.n_heldout == 0 and c.observed_pct > 0:
+            # the in-sample fallback: no held-out stance to count from (null.more_stances)
+            return (
+                f"not named ({p}); scored in-sample (no stance held out): no number of further "
+                "steps is predicted, a second stance on a foot makes the diagnosis a held-out one"
+            )
         if c.observed_pct > 0:
             return (
                 f"not named ({p}); its gain is within what noise and model mismatch give: "

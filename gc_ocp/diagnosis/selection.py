@@ -151,6 +151,8 @@ def rank(
         gain = (pd + pn) - (cd + cn)
         big = floor_holds(red)
         passes = bool(named and big)
+        # the floor's further stances: none counted in the in-sample fallback (no fold)
+        floor = floor_stances(red, len(red["per_stance"]) if ev.folds else 0)
         # the share is only meaningful for a gain that counts (near 0 it is a ratio of noise)
         from_nuisance = (pn - cn) / gain if passes and gain > 0 else None
         relieves = [
@@ -170,17 +172,13 @@ def rank(
                 passes=passes,
                 screened=False,
                 inconclusive=bool(
-                    red["pct"] > 0.0
-                    and (
-                        _inconclusive(passes, test, floor_stances(red, len(red["per_stance"])))
-                        or (named and not big)
-                    )
+                    red["pct"] > 0.0 and (_inconclusive(passes, test, floor) or (named and not big))
                 ),
                 gain_from_nuisance=None if from_nuisance is None else float(from_nuisance),
                 confounded_with=tuple(relieves),
                 flags=tuple(f["code"] for f in ev.full.flags),
                 calibrated=test,
-                floor_stances=floor_stances(red, len(red["per_stance"])),
+                floor_stances=floor,
             )
         )
     held = [r for r in rows if r.heldout_rms_reduction_pct is not None]
@@ -238,13 +236,15 @@ def floor_stances(red: Mapping, n_heldout: int) -> int | None:
     power as the test's steps (:data:`~gc_ocp.diagnosis.null.POWER_Z`), its expected value must
     clear 0 by ``0.84`` of that SD: the smallest ``n`` with ``h sqrt(n0 / n) (1.96 + 0.84) /
     1.96 < pct``, less ``n0`` (where the expected lower end merely reaches 0, half the reruns
-    would miss it)."""
+    would miss it). ``n_heldout`` 0 (the in-sample fallback, whose interval is the in-sample
+    fit's): 0, not measured, unless the floor rules the reduction out (None); one stance more
+    on a foot makes the diagnosis a held-out one, which these scores do not predict."""
     pct, lo = red["pct"], red["ci"][0]
     if pct < MIN_REDUCTION_PCT or red["insample_pct"] < MIN_REDUCTION_PCT:
         return None
-    if floor_holds(red):
+    if floor_holds(red) or n_heldout < 1:
         return 0
-    n0 = max(int(n_heldout), 1)
+    n0 = int(n_heldout)
     power = (Z_95 + POWER_Z) / Z_95
     n = math.floor(n0 * ((pct - lo) / pct * power) ** 2) + 1  # strictly above
     return max(n - n0, 1)
