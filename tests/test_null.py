@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -781,3 +782,23 @@ def test_the_in_sample_fallback_predicts_no_steps():
     fallback = null.calibrate(None, [], dict.fromkeys("ab"), [], **kw)["a"]
     assert fallback.p_adjusted == held.p_adjusted  # the test itself is unchanged
     assert fallback.n_heldout == 0 and fallback.more_stances is None
+
+
+def test_a_null_without_a_spread_predicts_no_steps():
+    """A null of one replicate (the refit null with one draw) has no spread: its SD, its
+    studentised statistics and its critical value are not numbers, and every comparison with
+    them false. The steps came out as the search's first value, "about 1 more step would
+    decide", for every candidate above the null; no number is given instead."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the SD of one value
+        tests = null.decide(
+            {"a": 2.0, "b": 0.5},
+            {"a": np.array([0.3]), "b": np.array([0.1])},
+            {"a": 0.5, "b": 0.4},
+            4,
+            draws=np.array([0]),
+            n_final=1,
+        )
+    assert all(t.more_stances is None for t in tests.values())
+    assert null.more_stances(2.0, 0.3, np.nan, 0.5, 4, np.nan, False) is None
+    assert null.more_stances(2.0, 0.3, 0.5, np.nan, 4, 2.4, False) is None

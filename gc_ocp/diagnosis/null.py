@@ -779,9 +779,12 @@ def more_stances(
     ``n0`` its held-out stances, ``crit`` the round's critical studentised value. None: no
     number decides it, or none can be said: no held-out stance (``n0`` 0, the in-sample
     fallback: a stance more on a foot makes the diagnosis a held-out one, whose statistic the
-    in-sample scores do not predict)."""
+    in-sample scores do not predict), or a null without a finite spread or critical value (a
+    null of one replicate: its SD is not a number, and every comparison with it false)."""
     if decided:
         return 0
+    if not all(math.isfinite(v) for v in (t, m, s, crit, s_between, 0.0 if sd is None else sd)):
+        return None
     gap = t - m
     s_between = min(max(s_between, 0.0), s)
     if gap <= 0 or n0 < 1 or gap <= crit * s_between:
