@@ -975,6 +975,36 @@ def test_an_in_sample_row_promises_no_steps():
     assert "more steps would not decide" in held.verdict()
 
 
+def test_a_row_the_test_names_says_a_number_beyond_one_session_as_an_order():
+    """A row the test names below the floor is inconclusive whatever the floor's number
+    (``selection.rank``); a verdict says a number as it is beyond ``SESSION_STEPS`` only for a
+    practical follow-up (``docs/diagnosis.md``: "an inconclusive row's number, within five
+    times its own data by definition"). A held-out +0.6 % [-6.0, +7.2] on 8 held-out stances
+    (the floor's 1970 further steps) was said as "about 1970 more steps"."""
+    from gc_ocp.diagnosis.selection import floor_stances
+
+    red = {"pct": 0.6, "ci": (-6.0, 7.2), "insample_pct": 2.0}
+    test = NullTest(2.2, 0.4, 0.6, 3.0, 0.039, 2.4, 0, 8)
+    row = dataclasses.replace(
+        _row("friction", 0.6),
+        heldout_rms_reduction_ci=red["ci"],
+        insample_rms_reduction_pct=red["insample_pct"],
+        calibrated=test,
+        inconclusive=True,
+        floor_stances=floor_stances(red, 8),
+    )
+    assert row.more_stances == 1970
+    assert row.verdict() == (
+        "inconclusive: named by the test (p = 0.039), but its held-out interval still reaches 0;"
+        " more than 1000 more steps (beyond one session) would decide"
+    )
+    # within a follow-up of five times its data: as it is
+    many = dataclasses.replace(
+        row, calibrated=dataclasses.replace(test, n_heldout=400), floor_stances=1200
+    )
+    assert "; about 1200 more steps would decide" in many.verdict()
+
+
 def test_a_held_out_solve_that_stops_short_is_solved_again_from_where_it_stopped(base_eval):
     """A held-out stance's frozen fit that hits Ipopt's iteration limit one iteration before it
     would have converged is solved once more from where it stopped, and then scores the optimum
