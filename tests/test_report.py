@@ -623,3 +623,21 @@ def test_the_plate_member_s_sizes_in_the_method_are_those_drawn():
     text = _plates(half.to_json())
     assert f"{lo:g}-{hi:g} mm off" in text and f"\u00b1{100 * drawn.plate_gain:g} %" in text
     assert _plates(MismatchFamily().to_json()) == "" and _plates(None) == ""
+
+
+def test_the_method_says_what_the_steps_are_computed_with():
+    """The method section's account of the further steps: of the null's spread between
+    mismatch draws only the part every held-out stance shares does not shrink with more
+    stances (``null.systematic_sd``, since 2026-11-28; the page said all of it does not), and a
+    candidate above its null is *inconclusive* only when a follow-up of at most
+    ``PRACTICAL_FACTOR + 1`` times its data would decide it (the page called every such
+    candidate so; the rows give the others "not named" with their number)."""
+    from gc_ocp.diagnosis.null import PRACTICAL_FACTOR
+    from gc_ocp.diagnosis.report import report_html
+
+    _, _, js, d, final = _fixture(CASES[0])
+    pngs = dict.fromkeys(("heatmap", "residuals", "ranking", "waterfall", "heatmap_final"), b"")
+    text = _Page(report_html(d, provenance=js["provenance"], pngs=pngs, final=final)).visible
+    assert "the part of its spread between mismatch draws that every held-out stance" in text
+    assert "its mean and its spread between mismatch draws" not in text
+    assert f"at most {PRACTICAL_FACTOR + 1} times the held-out stances it had" in text

@@ -26,7 +26,7 @@ from gc_ocp.contact.channels import channel_name, channel_unit
 from gc_ocp.diagnosis import selection
 from gc_ocp.diagnosis.compare import BLOCK_SECONDS, MIN_CLUSTERS, resamples_stances
 from gc_ocp.diagnosis.mismatch import MismatchFamily
-from gc_ocp.diagnosis.null import DRAWS_PER_LOOK
+from gc_ocp.diagnosis.null import DRAWS_PER_LOOK, PRACTICAL_FACTOR
 from gc_ocp.html import FIGURE_DPI, data_uri, environment, pngs, provenance_context
 from gc_ocp.html.fit_tables import (
     CHANNEL_KEYS,
@@ -290,6 +290,8 @@ def _method(d) -> dict:
         "comparable_pct": f"{100 * selection.COMPARABLE_FRACTION:.0f}",
         "non_additive_pct": f"{100 * selection.NON_ADDITIVE_FRACTION:.0f}",
         "nuisance_pct": f"{100 * selection.NUISANCE_SHARE:.0f}",
+        # a follow-up of at most this many times the data: inconclusive (null.PRACTICAL_FACTOR)
+        "follow_up": PRACTICAL_FACTOR + 1,
     }
 
 

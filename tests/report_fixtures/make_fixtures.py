@@ -39,6 +39,10 @@ column a word wide): the interval and the test kept on their lines (``td.nw``), 
 column at least 12em wide, the page 72em wide, the test's p-value to three significant digits
 as the decision gives it: both pages re-rendered, those cells, the style and that width the
 only change.
+The method text's steps (2026-12-01, a review): of the spread between mismatch draws only the
+part every held-out stance shares does not shrink (as the steps have been computed since
+2026-11-28), and *inconclusive* only within a follow-up of five times the data: both pages
+re-rendered (``--rerender``), that sentence the only change.
 """
 
 from __future__ import annotations
