@@ -322,10 +322,10 @@ class Diagnosis:
 
     @property
     def inconclusive(self) -> list[str]:
-        """Candidates of the last round that fail the rule yet whose one-step reduction is above
-        what the null gives on average: more stances would decide them (their rows say about
-        how many). When nothing is selected, "none" is then a weak answer, and the result says
-        so."""
+        """Candidates of the last round that fail the rule yet a follow-up of a few times their
+        data would decide (their rows say about how many), or that the test names below the
+        effect-size floor (:func:`~gc_ocp.diagnosis.selection.rank`). When nothing is
+        selected, "none" is then a weak answer, and the result says so."""
         return [r.effect for r in (self.rounds[-1] if self.rounds else []) if r.inconclusive]
 
     @property
