@@ -214,6 +214,42 @@ def test_zeroed_then_filtered_plate_shows_the_filter_tail():
     assert p.lowpass_basis != "unloaded noise" and p.noise_std is None
 
 
+def test_exact_zeros_inside_a_load_are_not_a_threshold_of_hundreds_of_newtons():
+    """A raw plate that lost its signal for 20 ms mid-stance (all six channels exactly 0, the
+    "plate dropout" of the stance rules): the run's edges read ~560 N, but the plate keeps
+    samples of ~0 N all along, so it was not zeroed below 560 N (before, the smallest edge was
+    the threshold: every stance on the plate was censored below 562 N). On a zeroed plate the
+    same dropout leaves the lab's threshold."""
+    t, fz, noise = _plate_signal()
+    drop = (t >= 2.0) & (t < 2.02)
+    raw, other = fz + noise[:, 2], noise.copy()
+    raw[drop], other[drop] = 0.0, 0.0
+    p = detect_plate_processing(_plate(t, raw, other))
+    assert p.zero_threshold is not None and p.zero_threshold < SIGMA
+    assert censor_threshold(p) < SIGMA
+    z, o = _zeroed(fz + noise[:, 2], noise)
+    z[drop], o[drop] = 0.0, 0.0
+    p = detect_plate_processing(_plate(t, z, o))
+    assert THRESHOLD <= p.zero_threshold <= THRESHOLD + _crossing_rise(fz + noise[:, 2])
+
+
+@pytest.mark.parametrize("gap", ["ends", "inside a zero run"])
+def test_missing_samples_next_to_the_zero_runs_leave_the_threshold(gap):
+    """A zeroed plate whose recording is padded with NaN (a MOT's blank cells) or misses samples
+    inside an unloaded stretch: a run bordered by a missing sample has no edge there (before,
+    the NaN was taken as an edge: the threshold read NaN, and the fit refused the censoring, or
+    the extra non-step edge turned the verdict "continuous" and nothing was censored)."""
+    t, fz, noise = _plate_signal()
+    raw = fz + noise[:, 2]
+    z, other = _zeroed(raw, noise)
+    gone = (t < 0.1) | (t > 3.9) if gap == "ends" else (t >= 1.4) & (t < 1.45)
+    z[gone], other[gone] = np.nan, np.nan
+    p = detect_plate_processing(_plate(t, z, other))
+    assert p.zero_edges == "step"
+    assert THRESHOLD <= p.zero_threshold <= THRESHOLD + _crossing_rise(raw)
+    assert censor_threshold(p) == p.zero_threshold
+
+
 def test_plate_zeroed_on_its_vertical_channel_only_gives_the_threshold():
     """A lab that sets only Fz to 0 below the threshold and keeps the other five channels: Fz is
     censored all the same, so the threshold is found as for a six-channel zeroing (before, no

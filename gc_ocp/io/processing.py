@@ -10,7 +10,7 @@ Rules (conventions and signal properties only, never a file or lab name; ``docs/
 * **zeroed below a threshold**: runs of samples where all six wrench channels are exactly 0 (a
   plate's electronics are never exactly 0 on six channels at once), or longer runs where Fz
   alone is (a threshold applied to the vertical channel only); the threshold is the smallest
-  |Fz| next to such a run.
+  |Fz| of the samples kept (the first kept one next to a run is within one sample's rise of it).
 * **low-passed**: a raw sensor has a white noise floor up to Nyquist; a filter makes the spectrum
   fall by orders of magnitude above its cutoff, or leaves only the rounding of the stored numbers.
   The cutoff is read on the plate's unloaded noise when there is some (exact for a zero-lag
@@ -106,8 +106,8 @@ class PlateProcessing:
 
     name, rate_hz: the plate and its sampling rate [Hz] (samples over duration).
     zero_threshold: [N] the wrench was set to exactly 0 where |Fz| was below this (the smallest
-        |Fz| next to an exact-zero run; an upper bound, within one sample's rise of the lab's
-        value); ``None`` when the plate has no exact-zero run of :data:`ZERO_RUN_MIN` samples
+        |Fz| of the samples kept outside the exact-zero runs; an upper bound, within one sample's
+        rise of the lab's value); ``None`` when the plate has no exact-zero run of :data:`ZERO_RUN_MIN` samples
         (:data:`FZ_ZERO_RUN_MIN` and :data:`FZ_ZERO_RUN_TIME` of Fz alone:
         :func:`exact_zero_runs`).
     zero_edges: ``"step"`` (the first non-zero samples jump from 0: a threshold),
@@ -359,22 +359,31 @@ def zero_threshold(fz: np.ndarray, zero: np.ndarray) -> tuple[float | None, str]
     resolution (:data:`PLATE_NOISE_MIN`: only a recursive filter's response decaying into the
     zeroed stretches makes such numbers; a single one is round-off), else ``"step"`` when most
     edges jump from 0 by more than twice the next sample's change (a lone sample between zero
-    runs counts as a step), else ``"continuous"``."""
-    edge, step, tail = [], [], []
+    runs counts as a step), else ``"continuous"``.
+
+    The threshold is the smallest |fz| of the samples kept (finite, outside the zero runs): a
+    threshold keeps no sample below it, and the first kept sample next to a run is within one
+    sample's rise of it. Not the smallest edge alone: exact zeros inside a load (the plate lost
+    its signal for a moment) have edges of hundreds of N, and a raw plate with such a dropout
+    read as "zeroed below 562 N" was censored there. An edge next to a missing (non-finite)
+    sample is no edge (a NaN there made the threshold NaN)."""
+    fz = np.asarray(fz, dtype=float)
+    kept = ~np.asarray(zero, dtype=bool) & np.isfinite(fz)
+    step, tail = [], []
     for a, b in _runs(zero):
         for i, j in ((a - 1, a - 2), (b, b + 1)):  # the non-zero sample next to the run, its next
-            if 0 <= i < fz.size and not zero[i]:
-                edge.append(abs(fz[i]))
-                if 0 <= j < fz.size and not zero[j]:
-                    step.append(abs(fz[i]) > 2.0 * abs(fz[i] - fz[j]))
-                    # a tail decays over many samples: the next one is below 1 mN too
-                    tail.append(max(abs(fz[i]), abs(fz[j])) < PLATE_NOISE_MIN)
-                else:
-                    step.append(True)  # one sample between zeros: above the threshold alone
-                    tail.append(False)
-    if not edge:
+            if not (0 <= i < fz.size and kept[i]):
+                continue  # the file's end, or a missing sample
+            if 0 <= j < fz.size and kept[j]:
+                step.append(abs(fz[i]) > 2.0 * abs(fz[i] - fz[j]))
+                # a tail decays over many samples: the next one is below 1 mN too
+                tail.append(max(abs(fz[i]), abs(fz[j])) < PLATE_NOISE_MIN)
+            elif not (0 <= j < fz.size) or zero[j]:
+                step.append(True)  # one sample between zeros: above the threshold alone
+                tail.append(False)
+    if not step:
         return None, ""
-    low = float(min(edge))
+    low = float(np.min(np.abs(fz[kept])))
     if np.mean(tail) >= TAIL_SHARE:
         return low, "filter tail"
     return low, "step" if np.mean(step) >= 0.5 else "continuous"
@@ -584,7 +593,7 @@ def stance_censor_threshold(plate_wrench: np.ndarray | None) -> float:
     """:func:`censor_threshold` of a stance's own plate signal (``StanceData.plate_wrench``: the
     stance and 0.1 s around it at the plate's rate): for stances not cut from a trial here (e.g.
     simulated), where no whole plate recording is at hand. Two edges instead of every edge of the
-    plate: the estimate is the smaller of the two edge values (an upper bound of the lab's
+    plate: the estimate is the smallest value the window keeps (an upper bound of the lab's
     threshold, within one sample's rise)."""
     if plate_wrench is None or len(plate_wrench) == 0:
         return 0.0
