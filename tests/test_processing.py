@@ -359,9 +359,14 @@ def test_interpolated_plate_gives_its_native_rate(kind):
 
 
 def test_raw_plate_at_marker_rate_is_flagged():
+    """A plate stored at the cameras' rate below 500 Hz was down-sampled (plates sample at
+    >= 500 Hz); at 1000 Hz beside 1000 Hz cameras it may be at its own rate (before, it was
+    reported "down-sampled" and ``resampled``)."""
     t, fz, noise = _plate_signal()
     plate = _plate(t, fz + noise[:, 2], noise)
-    assert detect_plate_processing(plate, marker_rate=RATE).at_marker_rate
+    low = _plate(t[::5], (fz + noise[:, 2])[::5], noise[::5])  # 200 Hz
+    assert detect_plate_processing(low, marker_rate=200.0).at_marker_rate
+    assert not detect_plate_processing(plate, marker_rate=RATE).resampled
     assert not detect_plate_processing(plate, marker_rate=100.0).resampled
 
 

@@ -92,6 +92,10 @@ loads a plate with hundreds of N)."""
 OFFSET_TOL = 2.0
 """[N] An unloaded window whose mean Fz is farther than this from 0 (and than 3 standard errors
 of its mean) still reads an offset (plate noise is < 2 N; ``gc_ocp.io.stances``)."""
+PLATE_RATE_MIN = 500.0
+"""[Hz] Force plates sample at this rate or faster: a plate stored at the marker rate below it
+was down-sampled to the cameras' rate (:attr:`PlateProcessing.at_marker_rate`); at or above it
+(cameras at 500-2000 Hz) the plate may be at its own rate."""
 COP_NOISE_FACTOR = 10.0
 """The COP is ``moment / Fz``: above 10 x the Fz noise, Fz is known to 10 %, so the COP to 10 % of
 its distance from the plate's reference point (a few cm on a 0.5 m plate)."""
@@ -130,8 +134,8 @@ class PlateProcessing:
     native_rate_hz: rate [Hz] the samples were interpolated from, with ``interpolation`` the
         polynomial degree's name (``"hold"``, ``"linear"``, ``"quadratic"``, ``"cubic"``);
         ``None`` when every sample carries its own information.
-    at_marker_rate: the plate is stored at the marker rate (plates sample at >= 500 Hz; a
-        plate at the cameras' rate was down-sampled to it).
+    at_marker_rate: the plate is stored at the marker rate, below :data:`PLATE_RATE_MIN`
+        (plates sample at >= 500 Hz; a plate at the cameras' rate was down-sampled to it).
     zero_offset: the unloaded offset gc_ocp removed on load (``Plate.zero_offset``, 6 values,
         force [N] then moment [N·m]); ``None``: none removed.
     unloaded_offsets: ``(t_start, t_end, mean Fz)`` [s, s, N] of the unloaded stretches that
@@ -511,7 +515,9 @@ def detect_plate_processing(plate: Plate, marker_rate: float | None = None) -> P
         noise_std=noise_std,
         native_rate_hz=None if interp is None else rate / interp[0],
         interpolation="" if interp is None else DEGREES[interp[1]],
-        at_marker_rate=marker_rate is not None and abs(rate / marker_rate - 1.0) < 0.01,
+        at_marker_rate=marker_rate is not None
+        and rate < PLATE_RATE_MIN
+        and abs(rate / marker_rate - 1.0) < 0.01,
         zero_offset=None if off is None else tuple(float(v) for v in off),
         unloaded_offsets=_offsets(fz, rate, unloaded),
         cop_held_below=held,
