@@ -122,6 +122,37 @@ def test_unzeroed_plate_is_reported(walk):
     assert any("while unloaded" in n and p0.name in n for n in notes)
 
 
+def _with_missing_plate_samples(t, n=40, offset=0.0):
+    """``t`` with its plates' first ``n`` samples missing (NaN, as a MOT's blank cells load) and
+    ``offset`` [N] added to their vertical force."""
+    plates = []
+    for p in t.plates:
+        f, m = p.force + np.array([0.0, 0.0, offset]), p.moment.copy()
+        f[:n], m[:n] = np.nan, np.nan
+        plates.append(dataclasses.replace(p, force=f, moment=m))
+    return dataclasses.replace(t, plates=tuple(plates))
+
+
+def test_missing_plate_samples_leave_the_body_weight_and_drift_checks():
+    """20 ms of missing plate samples at the start of a MOT: the stride-long windows without
+    them still check the mass (before, the NaN ran through the cumulative sum into every window,
+    the check read NaN and a mass 76 % off passed silently), and the unloaded samples left still
+    show an unzeroed plate (before, the median of a slice holding a NaN was NaN: no note)."""
+    from gc_ocp.errors import MassError
+    from gc_ocp.io.checks import stride_body_weight
+    from gc_ocp.io.consistency import body_weight, plate_drift
+
+    t = _with_missing_plate_samples(rajagopal_trial())
+    value, t0, t1 = stride_body_weight(t)
+    assert value == pytest.approx(t.body_weight, rel=0.05) and t0 >= t.plates[0].time[40]
+    with pytest.raises(MassError, match="check the mass"):
+        body_weight(dataclasses.replace(t, mass=150.0))
+    notes = plate_drift(_with_missing_plate_samples(rajagopal_trial(), offset=30.0))
+    assert [p.name for p in t.plates] == [
+        p.name for p in t.plates if any(f"plate {p.name} reads 30 N" in n for n in notes)
+    ]
+
+
 def test_stance_partly_off_its_plate_is_excluded(walk):
     """The plate of the first stance moved forward (its corners, not its forces) so that its rear
     edge lies 135 mm in front of the heel at loading response: the heel stands off the plate;

@@ -222,7 +222,9 @@ def stride_body_weight(trial: Trial) -> tuple[float, float, float] | None:
     T-long windows of the mean summed plate Fz: windows in which every contact is measured all
     give the same (largest) value, windows missing a contact give less. Returns
     ``(value, t_start, t_end)`` or ``None`` without two contacts of one foot. A check only: the
-    mass used is always the given/file one.
+    mass used is always the given/file one. A window holding a missing (non-finite) plate sample
+    is not used (before, one NaN made every later window NaN and the check silently passed);
+    ``None`` when every window holds one.
     """
     ons: dict[str, list[float]] = {}
     for s in list(trial.stances) + list(trial.excluded_stances):
@@ -239,7 +241,14 @@ def stride_body_weight(trial: Trial) -> tuple[float, float, float] | None:
     n = int(round(min(periods) / dt))
     if n < 2 or n >= len(t):
         return None
+    missing = ~np.isfinite(fz)
+    fz = np.where(missing, 0.0, fz)
     c = np.concatenate([[0.0], np.cumsum(0.5 * (fz[1:] + fz[:-1]) * np.diff(t))])
     mean = (c[n:] - c[:-n]) / (t[n:] - t[:-n])
-    k = int(np.argmax(mean))
+    # missing samples among samples i..i+n of the window starting at sample i
+    gaps = np.concatenate([[0], np.cumsum(missing)])
+    mean[gaps[n + 1 :] - gaps[: -n - 1] > 0] = np.nan
+    if not np.isfinite(mean).any():
+        return None
+    k = int(np.nanargmax(mean))
     return float(mean[k]), float(t[k]), float(t[k + n])

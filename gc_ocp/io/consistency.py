@@ -187,6 +187,7 @@ def plate_drift(trial: Trial) -> list[str]:
         for s in list(trial.stances) + list(trial.excluded_stances):
             if s.plate == i:
                 free &= ~((p.time >= s.t_on - 0.05) & (p.time <= s.t_off + 0.05))
+        free &= np.isfinite(p.force[:, 2])  # a missing sample is no reading (its NaN hid it)
         if free.sum() < 10:
             continue
         level = float(np.median(np.abs(p.force[free, 2])))
