@@ -59,10 +59,14 @@ NOISE_MIN_WINDOWS = 4
 """Unloaded noise stretches must hold this many Welch windows to be read instead of the loaded
 spectrum."""
 STOP_BAND_FALL = 1.5
-"""Decades the PSD must fall across the top of the spectrum (:data:`gc_ocp.io._spectra.TOP_BAND`,
-0.28 decade wide) to be a filter's stop band: a slope below -5.4. Raw noise floors are white or
-gently coloured (slopes down to -4 on the raw marker data of ``../shared/data``); the stop band of
-a zero-lag Butterworth of order n falls with slope -4n, on top of the signal's own fall."""
+"""Decades the PSD must fall across the top of the spectrum (:data:`gc_ocp.io._spectra.TOP_BAND`)
+to be a filter's stop band, measured between the centres of the top's bands
+(:meth:`~gc_ocp.io._spectra.BandSpectrum.top_fall`: 2 or 3 bands of 1/8 decade, whose centres
+lie 0.125-0.25 decade apart with the rate and window, not the top's 0.28 decade): a slope
+steeper than -6 (3 bands) to -12 (2 bands). Raw noise floors are white or gently coloured (falls
+up to 1.2, slopes down to -4.9, on the raw marker data of ``../shared/data``); the stop band of a
+zero-lag Butterworth of order n falls with slope -4n, on top of the signal's own fall, and a
+digital one's faster still towards Nyquist, where its response vanishes."""
 PLATE_NOISE_MIN = 1e-3
 """[N] A plate's electronics are noisier than this (a 16-bit converter on a ~5 kN range alone
 gives 0.04 N): a lower white floor is rounding of the stored numbers after a filter."""
