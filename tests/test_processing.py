@@ -160,7 +160,7 @@ def test_zeroed_plate_gives_the_threshold():
 
 def test_zeros_without_a_threshold_step_are_continuous():
     """Zeroed at 0 N: exact zeros where unloaded, the force leaves them at its own rate. The
-    reported value is the smallest edge sample, below one sample's rise, and the edges are not
+    reported value is the smallest kept sample, below one sample's rise, and the edges are not
     steps (documented choice: a small value, flagged "continuous", not None)."""
     t, fz, noise = _plate_signal(strike=False)
     other = np.where(fz[:, None] > 0, noise, 0.0)

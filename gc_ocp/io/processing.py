@@ -188,7 +188,7 @@ class PlateProcessing:
                     "step": f"zeroed below {thr} ({zeros} where unloaded: a threshold, as "
                     f"OpenSim exports and some C3D exporters apply)",
                     "continuous": f"{zeros} where unloaded, the force leaving them at its "
-                    f"own rate (the smallest edge is {thr}: zeroed below at most that, which one "
+                    f"own rate (the smallest kept |Fz| is {thr}: zeroed below at most that, which one "
                     "sample's rise cannot tell from ~0 N; not censored)",
                     "filter tail": f"{zeros} where unloaded, with edges decaying to "
                     f"{self.zero_threshold:.1g} N: zeroed, then low-passed (a recursive "
