@@ -198,6 +198,7 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
     assert _verdict(lost) == "inconclusive (p = 0.12)"
     within = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=None))
     assert "within what noise and model mismatch give" in _verdict(within)
+
     # the test's one-step statistic has no gain, the refit has: both figures are said
     flat = dataclasses.replace(
         within, calibrated=dataclasses.replace(within.calibrated, observed_pct=-0.1)
@@ -223,6 +224,28 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
     )
     assert _verdict(inert).startswith("no gain: these stances do not move it")
     assert RankRow.from_json(inert.to_json()) == inert
+
+
+def test_inconclusive_rows_of_a_round_that_selected_say_so(diagnosis):
+    """When the selection stops on a round that selected an effect (max_effects reached), that
+    round's inconclusive rows and their steps were measured before the effect was added: the
+    summary and the page say so, and say nothing of it when the last round selected nothing."""
+    from gc_ocp.diagnosis.null import NullTest
+    from gc_ocp.diagnosis.report import report_html
+
+    r = diagnosis.ranking[0]
+    test = NullTest(1.2, 0.1, 0.6, 1.8, 0.12, 2.4, 14, 6)
+    weak = dataclasses.replace(_unnamed_row(r, test, 1.5, (-0.1, 3.1), 6.0, 1), effect="friction")
+    chosen = dataclasses.replace(r, passes=True, inconclusive=False)
+    stopped = dataclasses.replace(
+        diagnosis, ranking=[chosen, weak], rounds=[[chosen, weak]], selected=[r.effect]
+    )
+    assert stopped.inconclusive == ["friction"] and stopped.inconclusive_before == r.effect
+    said = f"measured before {r.effect} was added"
+    assert said in stopped.summary()
+    assert f"Measured before <b>{r.effect}</b> was added" in report_html(stopped)
+    ended = dataclasses.replace(stopped, rounds=[[chosen, weak], [weak]])
+    assert ended.inconclusive_before is None and said not in ended.summary()
 
 
 def test_a_row_the_floor_stops_says_whether_more_steps_would_clear_it(diagnosis):

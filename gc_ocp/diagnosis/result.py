@@ -329,6 +329,16 @@ class Diagnosis:
         return [r.effect for r in (self.rounds[-1] if self.rounds else []) if r.inconclusive]
 
     @property
+    def inconclusive_before(self) -> str | None:
+        """The effect the last round selected when the selection stopped there (``max_effects``
+        reached, or no candidate left): its rows, and so :attr:`inconclusive` and their steps,
+        were measured on the model before that effect was added, not on the final one (no
+        round ran on top of it). None when the last round selected nothing (the usual end)."""
+        if self.selected and len(self.rounds) == len(self.selected):
+            return self.selected[-1]
+        return None
+
+    @property
     def base_evaluation(self) -> Evaluation:
         return self.evaluations["base"]
 
@@ -468,6 +478,11 @@ class Diagnosis:
         last = {r.effect: r for r in (self.rounds[-1] if self.rounds else [])}
         for e in self.inconclusive:
             lines.append(f"{e}: {last[e].verdict()}")
+        if self.inconclusive and self.inconclusive_before:
+            lines.append(
+                f"(measured before {self.inconclusive_before} was added: the selection stopped "
+                "there, no round ran on top of it)"
+            )
         if any(c.get("null_fits") == "refit" for c in self.calibration):
             lines.append(
                 "the calibrated null refitted every fold of every model on each replicate "
