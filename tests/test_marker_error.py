@@ -206,6 +206,47 @@ def test_a_noisy_marker_is_named_and_every_trial_reports_its_markers_noise():
     assert mm == pytest.approx(3.0, rel=0.15)
 
 
+def test_a_noisy_marker_is_named_in_a_class_of_one_or_two():
+    """The marker itself is left out of the median it is compared with: a Davis / Helen Hayes
+    foot's two markers, or a segment's only marker, could never exceed three times a median
+    they make half or all of (the check never fired there)."""
+    from gc_ocp.kinematics.marker_error import MarkerError
+
+    classes = {"LHEE": "hindfoot_l", "LTOE": "hindfoot_l", "LTIB": "shank_l"}
+    classes |= {f"P{i}": "pelvis" for i in range(4)}
+    quiet = {n: 0.1 for n in classes}
+    assert MarkerError(quiet, classes, 20.0).outliers() == []
+    for loose in ("LHEE", "LTIB"):  # one of a foot's two markers; a segment's only marker
+        err = MarkerError(quiet | {loose: 3.0}, classes, 20.0)
+        [named] = err.outliers()
+        assert named.startswith(f"marker {loose} (") and "white noise 3.00 mm, 30.0x" in named
+    # below OUTLIER_MM nothing is named, whatever the ratio; a class of two both loose is named
+    # by neither (each is the other's reference) but shows in its class's figure
+    assert MarkerError(quiet | {"LHEE": 0.9}, classes, 20.0).outliers() == []
+    both = MarkerError(quiet | {"LHEE": 3.0, "LTOE": 3.0}, classes, 20.0)
+    assert both.outliers() == [] and both.per_class()["hindfoot_l"] == 3.0
+
+
+def test_a_helen_hayes_foots_noisy_marker_is_named():
+    """On a real Helen Hayes trial (two markers on each foot, the ankle on the shank) a loose
+    heel marker is named by the kinematics (``marker_error``, in ``fit.json``)."""
+    from conftest import DATA, _need_data
+
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+
+    _need_data()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = load_trial(DATA / "c3dorg_helenhayes_types/type-2a.c3d", mass=55.0)
+        j = t.marker_names.index("LHEE")
+        m = np.array(t.markers, float)
+        m[:, j] += np.random.default_rng(5).normal(0, 3e-3, m[:, j].shape)
+        err = compute_kinematics(dataclasses.replace(t, markers=m)).info["marker_error"]
+    assert [o.split(" (")[0] for o in err["outliers"]] == ["marker LHEE"]
+    assert "hindfoot_l" in err["outliers"][0]
+
+
 def test_the_report_names_the_band_the_noise_was_read_in():
     """At a 50 Hz camera the noise is read above 15 Hz (0.3 of the rate, so the band keeps some
     width below Nyquist), and the kinematics' info (fit.json) says 15 Hz, not the 20 Hz of a
