@@ -247,6 +247,37 @@ def test_a_helen_hayes_foots_noisy_marker_is_named():
     assert "hindfoot_l" in err["outliers"][0]
 
 
+def test_a_foot_marker_missing_from_the_stances_does_not_fix_the_pose_noise():
+    """The pose noise is that of the rigid fit of the foot markers seen where the foot is
+    fitted: the BTS trials lose both metatarsal markers in every right stance, and a foot
+    posed there from two landmarks has no modelled noise (``_foot_noise``'s rule), not the
+    four-marker fit's. Here the bundled trial's LTOE is taken out of its left stance (the left
+    foot keeps LHEE and LANK there); a short dropout of it keeps the noise modelled."""
+    from gc_ocp.io import load_trial
+    from gc_ocp.kinematics import compute_kinematics
+    from gc_ocp.workflow.fitting import marker_notes
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t = load_trial()
+        [left] = [s for s in t.stances if s.side == "left"]
+        tt = np.asarray(t.marker_time)
+        stance = (tt >= left.t_on) & (tt <= left.t_off)
+        j = t.marker_names.index("LTOE")
+        m = np.array(t.markers, float)
+        m[stance, j] = np.nan
+        kin = compute_kinematics(dataclasses.replace(t, markers=m))
+        short = np.array(t.markers, float)
+        short[np.flatnonzero(stance)[:20], j] = np.nan  # 20 of the stance's 68 frames
+        kin_short = compute_kinematics(dataclasses.replace(t, markers=short))
+    assert kin.feet["left"].pose_noise is None and kin.info["foot_pose_noise"]["left"] is None
+    assert kin.feet["right"].pose_noise is not None
+    assert (
+        "left: not (fewer than 3 foot markers seen in its stances" in marker_notes(t.source, kin)[0]
+    )
+    assert kin_short.feet["left"].pose_noise is not None
+
+
 def test_the_report_names_the_band_the_noise_was_read_in():
     """At a 50 Hz camera the noise is read above 15 Hz (0.3 of the rate, so the band keeps some
     width below Nyquist), and the kinematics' info (fit.json) says 15 Hz, not the 20 Hz of a

@@ -314,12 +314,24 @@ def _levelled(body, mm: MarkerModel, q: np.ndarray, side: str, pair) -> dict[str
     return level_roll(foot_poses(body, q, side), pos[:, 0], pos[:, 1])
 
 
-def _foot_noise(mm, markerset, names, white, q, foot, side, rate, cutoff_hz):
+SEEN_SHARE = 0.5
+"""A foot marker fixes the foot's pose in :func:`_foot_noise` when the trial shows it (before
+any gap fill) on at least this share of the frames of the foot's stances: a marker missing
+from most of them (the BTS trials' metatarsal markers in every right stance) does not pose the
+foot where it is fitted, and a marker filled from the others adds nothing to their rigid fit."""
+
+
+def _foot_noise(mm, markerset, names, white, q, foot, side, rate, cutoff_hz, seen=None):
     """The :class:`~gc_ocp.foot.PoseNoise` of ``side``'s foot: its markers' median white noise,
     their positions in the hindfoot frame (from the model at the trial's middle frame: the foot's
     segments are welded), the pipeline's low-pass. None when fewer than three foot markers fix
-    it (the foot is then posed through the shank and ankle; its noise is not modelled yet)."""
+    it (the foot is then posed through the shank and ankle; its noise is not modelled yet).
+    seen: ``(n_frames, len(names))``, whether each marker is seen on the frames where the foot
+    is fitted (its stances; the whole trial when it has none); the markers seen on fewer than
+    :data:`SEEN_SHARE` of them do not fix it (None: every marker counts)."""
     idx = [names.index(n) for n in _foot_marker_names(markerset, names, side)]
+    if seen is not None and len(seen):
+        idx = [i for i in idx if np.mean(seen[:, i]) >= SEEN_SHARE]
     if len(idx) < 3:
         return None
     sig = white[idx][np.isfinite(white[idx])]
@@ -594,11 +606,22 @@ def compute_kinematics(
     )
     for f in merr.outliers():
         say(f)
+    seen = np.isfinite(np.asarray(trial.markers)[:, idx]).all(axis=2)  # before gap fills
     for side in ("left", "right"):
+        frames = [i for i, _ in _stance_frames(trial, t, side, (0.0, 1.0))]
         feet[side] = replace(
             feet[side],
             pose_noise=_foot_noise(
-                mm, markerset, names, white, q, feet[side], side, trial.marker_rate, cutoff_hz
+                mm,
+                markerset,
+                names,
+                white,
+                q,
+                feet[side],
+                side,
+                trial.marker_rate,
+                cutoff_hz,
+                seen[np.concatenate(frames)] if frames else seen,
             ),
         )
     info = {

@@ -283,7 +283,9 @@ def marker_notes(source, kin: TrialKinematics) -> list[str]:
     modelled = []
     for side, foot in kin.feet.items():
         if foot.pose_noise is None:
-            modelled.append(f"{side}: not (fewer than 3 foot markers, or none measured)")
+            modelled.append(
+                f"{side}: not (fewer than 3 foot markers seen in its stances, or none measured)"
+            )
             continue
         points = foot.points_in_hindfoot()
         sd = unit_noise_sd(foot.pose_noise, points) * 1e3
