@@ -155,6 +155,10 @@ class Trial:
     load_notes: what the loader decided (offsets removed, rotation, GRF column sides...).
     contact_threshold: [N] the vertical force above which a plate counted as loaded when the
         stances were detected (below it the foot is off by that definition).
+    marker_filled: ``(n_frames, n_markers)`` bool, the samples of ``markers`` the loader
+        interpolated (gaps of at most :data:`gc_ocp.gaps.MAX_GAP_FILL`; not seen by the
+        cameras: the markers' noise is measured without them); None: not known (also when
+        ``markers`` is replaced by an array of another shape).
     """
 
     source: Path
@@ -173,11 +177,18 @@ class Trial:
     height_source: str = ""
     load_notes: tuple[str, ...] = ()
     contact_threshold: float = 20.0
+    marker_filled: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "load_notes", tuple(self.load_notes))
         for attr in ("markers", "marker_time", "belt_velocity", "lab_rotation"):
             object.__setattr__(self, attr, _readonly(getattr(self, attr)))
+        filled = self.marker_filled
+        if filled is not None:
+            filled = np.array(filled, dtype=bool, copy=True)
+            filled.setflags(write=False)
+            ok = filled.shape == np.shape(self.markers)[:2]
+            object.__setattr__(self, "marker_filled", filled if ok else None)
         object.__setattr__(self, "marker_names", tuple(self.marker_names))
 
     def __repr__(self) -> str:  # a notebook's view: what it is, not every array

@@ -153,7 +153,9 @@ def load_trial(
             f"{MAX_MARKER_SPEED:.0f} m/s and come back (a ghost or mislabelled point): removed "
             f"as a gap"
         )
+    seen = np.isfinite(markers).all(axis=2)
     markers, _gaps = fill_short_gaps(markers, raw.marker_time)
+    filled = ~seen & np.isfinite(markers).all(axis=2)  # not seen: no noise measured there
 
     if raw.mass is None:
         raw.mass, raw.mass_source = _estimate_mass(raw, plates, markers, threshold, path)
@@ -193,6 +195,7 @@ def load_trial(
         height_source=raw.height_source,
         load_notes=tuple(raw.notes),
         contact_threshold=threshold,
+        marker_filled=filled,
     )
     return apply_stance_gaps(trial)
 

@@ -598,7 +598,12 @@ def compute_kinematics(
         if lm:
             say(f"{side} foot: two landmarks ({lm[0]}, {lm[1]}); its roll about them levelled")
     # ---- the markers' error, measured (white noise per marker; what it leaves in each foot)
-    white = white_noise(np.asarray(trial.markers)[:, idx], trial.marker_rate)  # before gap fills
+    # before any gap fill: the loader's interpolated samples (trial.marker_filled) are no
+    # camera's, and their smooth stretches would lower the noise's MAD
+    seen_xyz = np.array(trial.markers, float)[:, idx]
+    if trial.marker_filled is not None:
+        seen_xyz[trial.marker_filled[:, idx]] = np.nan
+    white = white_noise(seen_xyz, trial.marker_rate)
     merr = MarkerError(
         {n: float(v) * 1e3 for n, v in zip(names, white, strict=True)},
         {n: markerset.markers[n].segment for n in names},
@@ -606,7 +611,7 @@ def compute_kinematics(
     )
     for f in merr.outliers():
         say(f)
-    seen = np.isfinite(np.asarray(trial.markers)[:, idx]).all(axis=2)  # before gap fills
+    seen = np.isfinite(seen_xyz).all(axis=2)
     for side in ("left", "right"):
         frames = [i for i, _ in _stance_frames(trial, t, side, (0.0, 1.0))]
         feet[side] = replace(
