@@ -42,8 +42,12 @@ def test_walking_trial_as_static_is_refused():
     with pytest.raises(InputError, match="foot markers 2\\d\\d mm"):
         load_static(tm / "subject01_walk1.trc", walk2)
     # real static trials pass
-    assert load_static(RAJ / "static_walk_1.trc", walk).stances == ()
+    static = load_static(RAJ / "static_walk_1.trc", walk)
+    assert static.stances == ()
     assert load_static(tm / "subject01_static.trc", walk2).stances == ()
+    # the static trial says which of its own samples were filled, not the walking trial's
+    assert static.marker_filled is not None
+    assert static.marker_filled.shape == static.markers.shape[:2]
 
 
 # 2. a long foot-marker gap inside a stance ----------------------------------------------------

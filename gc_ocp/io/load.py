@@ -42,6 +42,15 @@ def bundled_example_path() -> Path:
     return Path(str(resources.files("gc_ocp") / "data" / "test_small.c3d"))
 
 
+def _filled_markers(markers: np.ndarray, time: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~gc_ocp.gaps.fill_short_gaps` of ``(n, m, 3)`` markers, and ``(n, m)`` the samples
+    it interpolated (:attr:`~gc_ocp.trial.Trial.marker_filled`: not seen by the cameras, so no
+    noise is measured there)."""
+    seen = np.isfinite(markers).all(axis=2)
+    out, _ = fill_short_gaps(markers, time)
+    return out, ~seen & np.isfinite(out).all(axis=2)
+
+
 def load_trial(
     path: str | Path | None = None,
     grf: str | Path | None = None,
@@ -153,9 +162,7 @@ def load_trial(
             f"{MAX_MARKER_SPEED:.0f} m/s and come back (a ghost or mislabelled point): removed "
             f"as a gap"
         )
-    seen = np.isfinite(markers).all(axis=2)
-    markers, _gaps = fill_short_gaps(markers, raw.marker_time)
-    filled = ~seen & np.isfinite(markers).all(axis=2)  # not seen: no noise measured there
+    markers, filled = _filled_markers(markers, raw.marker_time)
 
     if raw.mass is None:
         raw.mass, raw.mass_source = _estimate_mass(raw, plates, markers, threshold, path)
@@ -316,13 +323,14 @@ def load_static(path: str | Path, walking: Trial) -> Trial:
         )
     check_static(path, names, markers)
     rot = walking.lab_rotation @ np.linalg.inv(file_rot)
-    markers, _ = fill_short_gaps(markers @ rot.T, time)
+    markers, filled = _filled_markers(markers @ rot.T, time)
     return dataclasses.replace(
         walking,
         source=path,
         marker_names=tuple(names),
         markers=markers,
         marker_time=time,
+        marker_filled=filled,
         plates=(),
         stances=(),
         excluded_stances=(),
