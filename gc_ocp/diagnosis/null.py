@@ -336,6 +336,12 @@ def calibrate(
     return decide(observed, null, sd, len(held_out(plan)), alpha, draws, shares, n_final)
 
 
+def practical(more: int | None, n_heldout: int) -> bool:
+    """``more`` further stances (None or 0: no number, or decided) are a practical follow-up:
+    at most :data:`PRACTICAL_FACTOR` times the ``n_heldout`` held-out stances the data had."""
+    return bool(more) and more <= PRACTICAL_FACTOR * max(n_heldout, 1)
+
+
 @dataclasses.dataclass(frozen=True)
 class NullTest:
     """The calibrated decision of one candidate (module doc): observed reduction [%], the null's
@@ -371,11 +377,8 @@ class NullTest:
 
     @property
     def practical(self) -> bool:
-        """The further stances that would decide it are within :data:`PRACTICAL_FACTOR` times
-        the held-out stances it had."""
-        return bool(self.more_stances) and self.more_stances <= PRACTICAL_FACTOR * max(
-            self.n_heldout, 1
-        )
+        """The further stances that would decide it are a practical follow-up (:func:`practical`)."""
+        return practical(self.more_stances, self.n_heldout)
 
     def to_json(self) -> dict:
         out = dataclasses.asdict(self)

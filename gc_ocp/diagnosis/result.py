@@ -18,7 +18,7 @@ import numpy as np
 
 from gc_ocp.contact.channels import TABLE_KEYS, channel_name
 from gc_ocp.diagnosis.compare import Evaluation, heldout_quality, score, superior_rms
-from gc_ocp.diagnosis.null import PRACTICAL_FACTOR, RESOLUTION_PCT, NullTest
+from gc_ocp.diagnosis.null import RESOLUTION_PCT, NullTest, practical
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
 from gc_ocp.errors import InputError, names_of, read_document
 from gc_ocp.text import read_json_file
@@ -193,7 +193,7 @@ class RankRow:
             if more:
                 # said as it is only when a practical follow-up: a row the test names is
                 # inconclusive whatever the floor's number (selection.rank)
-                exact = self.inconclusive and more <= PRACTICAL_FACTOR * max(c.n_heldout, 1)
+                exact = self.inconclusive and practical(more, c.n_heldout)
                 return (
                     f"{head} ({p}), but its held-out interval still "
                     f"reaches 0; {_about(more, exact)} would decide"

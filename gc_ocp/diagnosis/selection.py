@@ -60,7 +60,7 @@ from gc_ocp.diagnosis.compare import (
     weighted_residuals,
 )
 from gc_ocp.diagnosis.execution import NotEvaluable
-from gc_ocp.diagnosis.null import ALPHA, POWER_Z, PRACTICAL_FACTOR, NullTest
+from gc_ocp.diagnosis.null import ALPHA, POWER_Z, NullTest, practical
 from gc_ocp.diagnosis.result import RankRow
 from gc_ocp.estimation.components import REGISTRY
 
@@ -311,7 +311,7 @@ def _inconclusive(passes: bool, test: NullTest | None, floor: int | None = 0) ->
     if passes or test is None:
         return False
     rule = RankRow.rule_stances(test.more_stances, floor)
-    return bool(rule) and rule <= PRACTICAL_FACTOR * max(test.n_heldout, 1)
+    return practical(rule, test.n_heldout)
 
 
 def _screened_row(
