@@ -180,6 +180,22 @@ def test_a_subject_that_now_fails_leaves_no_earlier_results_beside_its_error(tmp
     assert sorted(p.name for p in folder.iterdir()) == ["error.json", "notes.txt"]
 
 
+def test_a_subject_whose_file_is_gone_is_a_failed_subject_with_its_error_json(tmp_path):
+    """A subject (the Python API's, or a file deleted after the manifest was read) whose trial
+    does not exist: its key could not be computed, and the task raised FileNotFoundError out of
+    process_subject, which the study recorded as "the worker running it died (memory?)" with no
+    error.json. It is the subject's failure: error.json, and a fix that names the file."""
+    from gc_ocp.batch.subject import process_subject
+
+    gone = tmp_path / "in" / "walk.c3d"
+    outcome = process_subject(Subject("S1", (TrialSpec(gone),)), tmp_path / "out", FAST)
+    assert outcome["status"] == "failed"
+    assert outcome["error"]["type"] == "FileNotFoundError"
+    assert str(gone) in outcome["error"]["fix"] and "memory" not in outcome["error"]["fix"]
+    err = json.loads((tmp_path / "out" / "S1" / "error.json").read_text())
+    assert err["type"] == "FileNotFoundError" and str(gone) in err["message"]
+
+
 def test_a_study_folder_whose_subject_keeps_its_trials_one_level_down_says_so(tmp_path):
     """Subject B's trials in B/session1/: refused naming the folder (B vanished from the study
     without a word). A subfolder with no trial anywhere (an output folder) is still passed."""

@@ -218,6 +218,11 @@ def _one_thread() -> bool:
 
 def _fix(error: BaseException) -> str:
     """What the user can do about a subject's error, by its kind."""
+    if isinstance(error, FileNotFoundError):
+        return (
+            f"{error.filename} does not exist: fix the subject's path (or restore the file), "
+            "then rerun (finished subjects are kept)"
+        )
     if isinstance(error, InputError):
         return "fix the input as the message says, then rerun (finished subjects are kept)"
     if isinstance(error, SolveError):
@@ -253,8 +258,12 @@ def _process(subject: Subject, out_root: Path, settings: Settings) -> dict:
     matplotlib.use("Agg")
     folder = out_root / subject.id
     t0 = time.perf_counter()
-    key = subject_key(subject, settings)
-    done = completed(folder, key)
+    try:  # an input file gone or unreadable: the subject's error, not the task's (module doc)
+        key = subject_key(subject, settings)
+        error = None
+    except Exception as e:
+        key, error = None, (e, traceback.format_exc())
+    done = completed(folder, key) if key is not None else None
     if done is not None:
         return {
             "subject": subject.id,
@@ -268,14 +277,15 @@ def _process(subject: Subject, out_root: Path, settings: Settings) -> dict:
     # in fit.json (its checks and provenance). Only where this task is the process's one
     # thread of work: catch_warnings swaps a process-wide hook, which tasks on other threads
     # would share. The filters stay as they are (an "error" filter still raises).
-    with (
-        warnings.catch_warnings(record=True) if _one_thread() else contextlib.nullcontext([])
-    ) as caught:
-        try:
-            rows, files = _fit_subject(subject, folder, out_root / KINEMATICS_CACHE, settings)
-            error = None
-        except Exception as e:  # every error of one subject is its result (module doc)
-            error = e, traceback.format_exc()
+    caught: list = []
+    if error is None:
+        with (
+            warnings.catch_warnings(record=True) if _one_thread() else contextlib.nullcontext([])
+        ) as caught:
+            try:
+                rows, files = _fit_subject(subject, folder, out_root / KINEMATICS_CACHE, settings)
+            except Exception as e:  # every error of one subject is its result (module doc)
+                error = e, traceback.format_exc()
     said = list(dict.fromkeys(str(w.message) for w in caught))
     if error is not None:
         e, trace = error
