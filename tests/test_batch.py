@@ -255,6 +255,21 @@ def test_a_trc_without_its_grf_in_the_manifest_is_paired_as_fit_pairs_it(tmp_pat
         subject_files(subject)
 
 
+def test_the_grf_file_found_beside_a_trc_is_part_of_the_results_key(tmp_path):
+    """A TRC whose ground reactions the manifest does not give is fitted with the MOT beside it;
+    that file's content was not in the subject's key (only a manifest's grf was): a corrected
+    MOT left the subject "complete", and a rerun skipped it with the old forces' results."""
+    from gc_ocp.batch.subject import subject_key
+
+    (tmp_path / "walk.trc").write_text("x")
+    mot = tmp_path / "walk_grf.mot"
+    mot.write_text("forces")
+    subject = Subject("S1", (TrialSpec(tmp_path / "walk.trc"),))
+    key = subject_key(subject, Settings())
+    mot.write_text("forces, corrected")
+    assert subject_key(subject, Settings()) != key
+
+
 @pytest.mark.skipif(not DATA.is_dir(), reason="needs ../shared/data")
 def test_a_study_folder_finds_the_static_trial_by_its_markers_standing_still(tmp_path):
     # every static file of the shared data stands still, every walking file moves: the rule is

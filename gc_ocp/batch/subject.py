@@ -87,7 +87,9 @@ def subject_key(subject: Subject, settings: Settings) -> str:
         for f in dataclasses.fields(subject)
         if f.name not in ("trials", "static", "id")
     }
-    files = [[sha256(t.path), sha256(t.grf) if t.grf else None] for t in subject.trials]
+    # the ground reactions a TRC is paired with when the manifest gives none (the file beside
+    # it): its content is an input as the manifest's are
+    files = [[sha256(f.trial), sha256(f.grf) if f.grf else None] for f in subject_files(subject)]
     static = sha256(subject.static) if subject.static else None
     return _digest(
         {
