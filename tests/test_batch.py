@@ -196,6 +196,47 @@ def test_a_subject_whose_file_is_gone_is_a_failed_subject_with_its_error_json(tm
     assert err["type"] == "FileNotFoundError" and str(gone) in err["message"]
 
 
+def test_an_interrupt_after_the_new_files_are_in_leaves_no_earlier_done_json(tmp_path, monkeypatch):
+    """A subject done with settings A, redone with settings B: B's files were moved in
+    (OutputSet.commit; a Ctrl-C during it is raised at its end) and the task stopped before
+    B's done.json, so A's done.json sat beside B's files. A later run with settings A took
+    B's files for A's results (skipped, A's rows in the summary). The earlier done.json goes
+    before the new files come in."""
+    import types
+
+    subject_mod = sys.modules["gc_ocp.batch.subject"]
+    from gc_ocp.batch.subject import completed, process_subject, subject_key
+
+    shutil.copy(EXAMPLE, tmp_path / "w.c3d")
+    subject = Subject("S1", (TrialSpec(tmp_path / "w.c3d"),))
+    folder = tmp_path / "out" / "S1"
+    folder.mkdir(parents=True)
+    key_a = subject_key(subject, Settings())
+    (folder / "fit.json").write_text("A")
+    done_a = {"key": key_a, "subject": "S1", "files": ["fit.json"], "rows": [], "seconds": 1}
+    (folder / "done.json").write_text(json.dumps(done_a))
+
+    def write_fit(out, report, prov, extra):
+        out.text("fit.json", "B")
+        return {}
+
+    class Interrupted(subject_mod.OutputSet):
+        def commit(self):
+            super().commit()
+            raise KeyboardInterrupt  # a Ctrl-C deferred during the commit
+
+    monkeypatch.setattr(subject_mod, "load_subject", lambda *a, **k: ([], []))
+    monkeypatch.setattr(subject_mod, "subject_rows", lambda *a: [])
+    monkeypatch.setattr(subject_mod, "OutputSet", Interrupted)
+    monkeypatch.setattr("gc_ocp.workflow.provenance.provenance", lambda *a: {})
+    monkeypatch.setattr("gc_ocp.workflow.fitting.fit", lambda *a, **k: types.SimpleNamespace())
+    monkeypatch.setattr("gc_ocp.workflow.fit_files.write_fit", write_fit)
+    with pytest.raises(KeyboardInterrupt):
+        process_subject(subject, tmp_path / "out", FAST)
+    assert (folder / "fit.json").read_text() == "B"
+    assert completed(folder, key_a) is None  # B's files are not A's results
+
+
 def test_a_study_folder_whose_subject_keeps_its_trials_one_level_down_says_so(tmp_path):
     """Subject B's trials in B/session1/: refused naming the folder (B vanished from the study
     without a word). A subfolder with no trial anywhere (an output folder) is still passed."""

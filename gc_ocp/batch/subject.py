@@ -382,6 +382,10 @@ def _fit_subject(
             diagnosis = d.to_json()
             out.text("diagnosis.json", json.dumps({**diagnosis, "provenance": prov}, indent=2))
             out.text("diagnosis_report.html", report_html(d, provenance=prov))
+        # an earlier done.json (other inputs or settings) must not stand beside the new files:
+        # an interrupt between the commit and this run's done.json left it there, and a run
+        # with the earlier settings took these files for its results
+        (folder / DONE).unlink(missing_ok=True)
         written = [p.name for p in out.commit()]
     finally:
         out.discard()
