@@ -151,6 +151,17 @@ def test_a_study_of_subjects_that_are_not_subjects_is_refused_before_any_work(
     assert not out.exists()
 
 
+def test_two_subject_ids_that_differ_only_in_case_are_refused(tmp_path):
+    """P01 and p01 (two rows of a spreadsheet, typed twice): two subjects whose output folders
+    are one on a case-insensitive file system (macOS, Windows), where each overwrote the other's
+    files and done.json (two subjects' results crossing, and a rerun redid both for ever)."""
+    out = tmp_path / "out"
+    subjects = [Subject("P01", (TrialSpec(EXAMPLE),)), Subject("p01", (TrialSpec(EXAMPLE),))]
+    with pytest.raises(InputError, match="P01.*p01"):
+        run(subjects, out, progress=None)
+    assert not out.exists()
+
+
 def test_the_study_page_draws_when_no_subject_was_fitted():
     """Every subject failed: the summary figures have nothing to put on their log axis (it
     raised, and the run ended with status 3 before its summary page)."""

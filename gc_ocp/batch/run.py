@@ -251,6 +251,18 @@ def run(
     dup = sorted({i for i in ids if ids.count(i) > 1})
     if dup:
         raise InputError(f"Subject id(s) {', '.join(dup)} appear twice; give each subject once.")
+    # one output folder on a case-insensitive file system (macOS, Windows): the two subjects'
+    # files would overwrite each other
+    folders: dict[str, list[str]] = {}
+    for i in ids:
+        folders.setdefault(i.casefold(), []).append(i)
+    same = [names for names in folders.values() if len(names) > 1]
+    if same:
+        raise InputError(
+            f"Subject ids {' and '.join(same[0])} differ only in case: their output folders are "
+            "one on a case-insensitive file system (macOS, Windows); rename one, or give each "
+            "subject once."
+        )
     if out is None:
         raise InputError("Give the study's output folder (out=..., --out DIR).")
     out = check_writable(out, command=BATCH)
