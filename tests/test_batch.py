@@ -86,12 +86,17 @@ def _refused(manifest: Path, text: str, words: list[str]) -> None:
         ('[[subject]]\nid = "S1"\ntrials = "x.c3d"\n', ["trials is a list", "not 'x.c3d'"]),
         ('[[subject]]\nid = "S1"\ntrials = [{trial = 5}]\n', ["a trial is a path or a table"]),
         ('[[subject]]\nid = "S1"\ntrials = ["x.c3d"]\nmass = true\n', ["mass True", "kg"]),
+        (
+            '[[subject]]\nid = "S1"\ntrials = [{trial = "x.c3d", forces = "x.mot"}]\n',
+            ["unknown key", "forces", "grf"],
+        ),
     ],
 )
 def test_a_toml_value_of_the_wrong_type_names_the_key(tmp_path, text, words):
     """A list written as a string (it was iterated letter by letter: "t does not exist"), a
     trial path that is a number (an AttributeError, status 3), a mass that is a boolean (read
-    as 1 kg)."""
+    as 1 kg), a trial table's misspelt grf key (ignored: the trial took the file beside it,
+    or failed asking for the grf the table gave)."""
     _refused(tmp_path / "m.toml", text, words)
 
 

@@ -267,6 +267,14 @@ def _from_toml(path: Path) -> list[Subject]:
                 f'not {t["trials"]!r}; write trials = ["walk1.c3d", ...].'
             )
         for item in t["trials"]:
+            extra = (
+                [k for k in item if k not in ("trial", "grf")] if isinstance(item, Mapping) else []
+            )
+            if extra:  # a misspelt grf: the file beside the TRC was taken silently
+                raise InputError(
+                    f"{where}: unknown key(s) {', '.join(extra)} in the trial table {item!r}; "
+                    "a trial table has trial and, for a TRC, grf."
+                )
             if isinstance(item, str):
                 trials.append(TrialSpec(_resolve(base, item)))
             elif (
