@@ -138,6 +138,7 @@ def test_a_manifest_s_marker_set_file_is_its_folder_s_and_part_of_the_results_ke
         ("x.c3d", ["Subject objects", "not str"]),
         (Subject("../evil", (TrialSpec(EXAMPLE),)), ["'../evil'", "folder name"]),
         (Subject("summary.csv", (TrialSpec(EXAMPLE),)), ["study's own files"]),
+        (Subject("S1\n", (TrialSpec(EXAMPLE),)), ["'S1\\n'", "spaces around it"]),
         (Subject("S1", ("x.c3d",)), ["TrialSpec", "not str"]),
     ],
 )
@@ -146,8 +147,9 @@ def test_a_study_of_subjects_that_are_not_subjects_is_refused_before_any_work(
 ):
     """The Python API given what a manifest cannot hold: a path for a subject, an id that
     leaves the study's folder (its files were written to ../evil) or is the study's own
-    summary.csv (the run crashed after fitting), a path for a trial. Each an InputError before
-    the output folder is made."""
+    summary.csv (the run crashed after fitting), a path for a trial, an id with white space
+    around it (read from a text file: its folder was "S1\\n", and "S1 " was another subject than
+    "S1"). Each an InputError before the output folder is made."""
     out = tmp_path / "out"
     with pytest.raises(InputError) as e:
         run([subject], out, progress=None)

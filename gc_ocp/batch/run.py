@@ -123,7 +123,11 @@ def _subjects(manifest) -> list:
                 f"folder), not {type(s).__name__} {s!r:.60}; e.g. "
                 "Subject('S1', (TrialSpec(Path('walk.c3d')),))."
             )
-        check_id(s.id, f"Subject {s.id!r}")
+        if check_id(s.id, f"Subject {s.id!r}") != s.id:  # (a manifest's ids are stripped)
+            raise InputError(
+                f"Subject id {s.id!r} has spaces around it (its folder's name would too); give "
+                f"{s.id.strip()!r}."
+            )
         if s.id in ROOT_OUTPUTS:
             raise InputError(
                 f"Subject id {s.id!r} is the name of one of the study's own files "
