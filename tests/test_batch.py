@@ -169,6 +169,43 @@ def test_two_subject_ids_that_differ_only_in_case_are_refused(tmp_path):
     assert not out.exists()
 
 
+def test_a_flag_is_counted_on_the_foot_it_names_and_a_subject_s_on_both():
+    """The summary's flags per foot: a poor fit of the left foot (``what`` "left") and the
+    held-out right stance's flag (its label, no "/") were counted on both feet, a stance of a
+    trial named "Bright_walk" on the right foot whatever its side, and the shared friction at
+    its bound ("contact/mu") on neither, though params_at_bound names it on both rows."""
+    from gc_ocp.batch.summary import subject_rows
+
+    doc = {
+        "provenance": {"trials": [{"mass_kg": 70.0, "height_m": 1.7}]},
+        "params": {},
+        "rms": {"left": {}, "right": {}},
+        "solver": {"status": "Solve_Succeeded", "iterations": 10},
+        "flags": [
+            {"code": "poor_fit", "what": "left", "message": "-"},
+            {"code": "at_bound", "what": "contact/mu", "message": "-"},
+            {
+                "code": "prior_exceeded",
+                "what": "pose/Bright_walk:left@0.941s/trans",
+                "message": "-",
+            },
+            {"code": "unit_not_identified", "what": "right/PM", "message": "-"},
+            {"code": "bias_correction_failed", "what": "bias correction", "message": "-"},
+        ],
+        "heldout_flags": [
+            {"code": "heldout_not_converged", "what": "Bright_walk:right@1.494s", "message": "-"}
+        ],
+    }
+    rows = {r["foot"]: r for r in subject_rows(Subject("S1", ()), doc, None)}
+    assert rows["left"]["flag_codes"] == (
+        "at_bound; bias_correction_failed; poor_fit; prior_exceeded"
+    )
+    assert rows["right"]["flag_codes"] == (
+        "at_bound; bias_correction_failed; heldout_not_converged; unit_not_identified"
+    )
+    assert rows["left"]["flags"] == rows["right"]["flags"] == 4
+
+
 def test_the_study_page_draws_when_no_subject_was_fitted():
     """Every subject failed: the summary figures have nothing to put on their log axis (it
     raised, and the run ended with status 3 before its summary page)."""

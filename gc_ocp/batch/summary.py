@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -91,6 +92,23 @@ def _row(**values) -> dict:
     return row
 
 
+_STANCE_SIDE = re.compile(r"(?:^|:)(left|right)@[-+0-9.e]+s$")
+"""A stance's label (``right@0.407s``, ``walk2:right@1.200s``) and its foot."""
+
+
+def _feet_of(what: str) -> set[str]:
+    """The feet a flag's ``what`` names: a part of it that is a foot (``contact/k/left/PM``,
+    ``left``) or a stance's label (``pose/walk:right@0.407s/trans``); none (the shared
+    parameters, the bias correction): a flag of the subject, both feet's."""
+    feet = set()
+    for part in what.split("/"):
+        if part in ("left", "right"):
+            feet.add(part)
+        elif m := _STANCE_SIDE.search(part):
+            feet.add(m.group(1))
+    return feet
+
+
 def subject_rows(subject, fit_doc: dict, diagnosis: dict | None) -> list[dict]:
     """The rows of a fitted subject: ``fit_doc`` is its ``fit.json``, ``diagnosis`` its
     ``diagnosis.json`` (None: not diagnosed)."""
@@ -107,7 +125,7 @@ def subject_rows(subject, fit_doc: dict, diagnosis: dict | None) -> list[dict]:
         flags = [
             f
             for f in [*fit_doc.get("flags", []), *fit_doc.get("heldout_flags", [])]
-            if foot in str(f.get("what", "")) or "/" not in str(f.get("what", ""))
+            if foot in _feet_of(str(f.get("what", ""))) or not _feet_of(str(f.get("what", "")))
         ]
         values = {
             "subject": subject.id,
