@@ -218,6 +218,27 @@ def test_the_study_page_draws_when_no_subject_was_fitted():
         fig.savefig(io.BytesIO(), format="png")
 
 
+def test_the_study_page_s_median_leaves_out_units_not_identified():
+    """The summary's columns say to leave a not-identified unit's f_ref out of a group's
+    statistics; the page's median bar took it in (here a free PM at 1e5 N moved the left foot's
+    PM median from 400 to 1e5 N). It is drawn hollow and left out of the median."""
+    from gc_ocp.batch.page import summary_figures
+    from gc_ocp.batch.summary import COLUMNS
+
+    def row(subject, pm, free):  # a summary row as the study writes it (every column)
+        r = dict.fromkeys(COLUMNS) | {"subject": subject, "status": "done", "foot": "left"}
+        r.update({f"f_ref_{u}_N": 300.0 for u in ("PL", "PM", "AL", "AM", "TT")})
+        return {**r, "f_ref_PM_N": pm, "units_not_identified": "PM; AM" if free else ""}
+
+    rows = [row("S1", 400.0, False), row("S2", 1e5, True), row("S3", 1e5, True)]
+    fig = summary_figures(rows)["units"]
+    bars = [ln for ln in fig.axes[0].lines if ln.get_marker() == "None"]  # median bars
+    pm = [ln for ln in bars if abs(np.mean(ln.get_xdata()) - (1 - 0.15)) < 1e-9]  # PM, left
+    assert len(pm) == 1 and list(pm[0].get_ydata()) == [400.0, 400.0]
+    hollow = [ln for ln in fig.axes[0].lines if ln.get_markerfacecolor() == "none"]
+    assert sorted(y for ln in hollow for y in ln.get_ydata()) == [300.0, 300.0, 1e5, 1e5]
+
+
 def test_a_subject_that_now_fails_leaves_no_earlier_results_beside_its_error(tmp_path):
     """A subject fitted before whose inputs changed and whose fit now fails: its earlier
     fit.json and report.html are removed with its done.json (they stayed beside the new

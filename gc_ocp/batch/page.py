@@ -28,6 +28,15 @@ def _finite(values) -> list[float]:
     return [float(v) for v in values if v is not None and math.isfinite(float(v))]
 
 
+def _positive(values) -> list[float]:
+    return [x for x in _finite(values) if x > 0]
+
+
+def _not_identified(row: dict, unit: str) -> bool:
+    """The summary row names ``unit`` among its ``units_not_identified`` (``"PM; AM"``)."""
+    return unit in str(row.get("units_not_identified") or "").split("; ")
+
+
 def summary_figures(rows: Sequence[dict]) -> dict:
     """The page's figures (matplotlib; the caller closes them): ``units`` (each unit's force at
     the reference depth across subjects, per foot), ``rms`` (in-sample and held-out RMS per
@@ -41,11 +50,17 @@ def summary_figures(rows: Sequence[dict]) -> dict:
     plotted = False
     for j, foot in enumerate(("left", "right")):
         for i, u in enumerate(UNITS):
-            v = [x for x in _finite(r[f"f_ref_{u}_N"] for r in ok if r["foot"] == foot) if x > 0]
+            feet = [r for r in ok if r["foot"] == foot]
+            # a unit the fit calls not identified: its f_ref means nothing beside its SE, so it
+            # is drawn (hollow) but kept out of the median, as the summary's columns advise
+            free = [_not_identified(r, u) for r in feet]
+            v = _positive(r[f"f_ref_{u}_N"] for r, f in zip(feet, free, strict=True) if not f)
+            w = _positive(r[f"f_ref_{u}_N"] for r, f in zip(feet, free, strict=True) if f)
             x = i + (j - 0.5) * 0.3
             ax.plot([x] * len(v), v, "o", alpha=0.6, color=f"C{j}", label=foot if i == 0 else None)
+            ax.plot([x] * len(w), w, "o", mfc="none", color=f"C{j}", alpha=0.6)
+            plotted = plotted or bool(v or w)
             if v:
-                plotted = True
                 ax.plot([x - 0.12, x + 0.12], [sorted(v)[len(v) // 2]] * 2, color="k", lw=2)
     ax.set_xticks(range(len(UNITS)), UNITS)
     if plotted:  # (no subject fitted: nothing to put on a log axis, which refuses to draw)
@@ -54,7 +69,8 @@ def summary_figures(rows: Sequence[dict]) -> dict:
         ax.text(0.5, 0.5, "no subject fitted", ha="center", va="center", transform=ax.transAxes)
     ax.set_ylabel("force at the reference depth [N]")
     ax.set_title(
-        "contact units across subjects (bar: median" + ("; log scale)" if plotted else ")")
+        "contact units across subjects (bar: median of the identified; hollow: not identified"
+        + ("; log scale)" if plotted else ")")
     )
     ax.legend()
     fig.tight_layout()
