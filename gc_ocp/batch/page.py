@@ -68,9 +68,8 @@ def summary_figures(rows: Sequence[dict]) -> dict:
     else:
         ax.text(0.5, 0.5, "no subject fitted", ha="center", va="center", transform=ax.transAxes)
     ax.set_ylabel("force at the reference depth [N]")
-    ax.set_title(
-        "contact units across subjects (bar: median of the identified; hollow: not identified"
-        + ("; log scale)" if plotted else ")")
+    ax.set_title(  # (the caption says what the bar and the hollow points are)
+        "contact units across subjects" + (" (log scale)" if plotted else "")
     )
     ax.legend()
     fig.tight_layout()
