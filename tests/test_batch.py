@@ -263,12 +263,18 @@ def test_a_subject_whose_file_is_gone_is_a_failed_subject_with_its_error_json(tm
     error.json. It is the subject's failure: error.json, and a fix that names the file."""
     from gc_ocp.batch.subject import process_subject
 
-    gone = tmp_path / "in" / "walk.c3d"
+    gone = tmp_path / "in" / "walk.c3d"  # the one trial: nothing left to fit, the subject fails
     outcome = process_subject(Subject("S1", (TrialSpec(gone),)), tmp_path / "out", FAST)
-    assert outcome["status"] == "failed"
-    assert outcome["error"]["type"] == "FileNotFoundError"
-    assert str(gone) in outcome["error"]["fix"] and "memory" not in outcome["error"]["fix"]
+    assert outcome["status"] == "failed" and outcome["error"]["type"] == "InputError"
     err = json.loads((tmp_path / "out" / "S1" / "error.json").read_text())
+    assert err["type"] == "InputError" and f"{gone} does not exist" in err["message"]
+    # a static trial not there: the key reads it first
+    shutil.copy(EXAMPLE, tmp_path / "w.c3d")
+    subject = Subject("S2", (TrialSpec(tmp_path / "w.c3d"),), static=gone)
+    outcome = process_subject(subject, tmp_path / "out", FAST)
+    assert outcome["status"] == "failed" and outcome["error"]["type"] == "FileNotFoundError"
+    assert str(gone) in outcome["error"]["fix"] and "memory" not in outcome["error"]["fix"]
+    err = json.loads((tmp_path / "out" / "S2" / "error.json").read_text())
     assert err["type"] == "FileNotFoundError" and str(gone) in err["message"]
 
 
@@ -369,7 +375,31 @@ def test_a_trc_without_its_grf_in_the_manifest_is_paired_as_fit_pairs_it(tmp_pat
     ]
     (tmp_path / "w2" / "walk_grf.mot").unlink()
     with pytest.raises(InputError, match="w2/walk.trc.*--grf"):
-        subject_files(subject)
+        subject_files(subject, keep_going=False)
+    # as gc-ocp fit: the trial carries its error, raised when it is loaded (the others go on)
+    with pytest.raises(InputError, match="w2/walk.trc.*--grf"):
+        subject_files(subject)[1].require()
+
+
+def test_a_trial_with_no_ground_reactions_or_no_file_is_skipped_as_fit_skips_it(tmp_path):
+    """A subject's TRC with no ground reactions beside it, or a trial file not there, among
+    other trials: skipped with its reason, the subject fitted on the rest, as ``gc-ocp fit``
+    does (``workflow.trials``). The study failed the whole subject (its pairing raised), and a
+    missing file made its key raise."""
+    from gc_ocp.batch.subject import load_subject, subject_key
+
+    good = tmp_path / "good.c3d"
+    shutil.copy(EXAMPLE, good)
+    (tmp_path / "lone.trc").write_text("x")
+    gone = tmp_path / "gone.c3d"
+    subject = Subject("S1", (TrialSpec(good), TrialSpec(tmp_path / "lone.trc"), TrialSpec(gone)))
+    key = subject_key(subject, FAST)
+    pairs, skipped = load_subject(subject, tmp_path / "cache")
+    assert len(pairs) == 1 and pairs[0][0].name == "good"
+    assert [Path(s.files[0]).name for s in skipped] == ["lone.trc", "gone.c3d"]
+    assert "--grf" in skipped[0].message and "does not exist" in skipped[1].message
+    shutil.copy(EXAMPLE, gone)  # the file is there now: the results made without it are stale
+    assert subject_key(subject, FAST) != key
 
 
 def test_the_grf_file_found_beside_a_trc_is_part_of_the_results_key(tmp_path):

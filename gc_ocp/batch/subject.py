@@ -88,8 +88,10 @@ def subject_key(subject: Subject, settings: Settings) -> str:
         if f.name not in ("trials", "static", "id")
     }
     # the ground reactions a TRC is paired with when the manifest gives none (the file beside
-    # it): its content is an input as the manifest's are
-    files = [[sha256(f.trial), sha256(f.grf) if f.grf else None] for f in subject_files(subject)]
+    # it): its content is an input as the manifest's are. A file that is not there keys as
+    # None (the trial is skipped with its reason, or fails a one-trial subject, when loaded):
+    # once it is there, the key is another
+    files = [[_content(f.trial), _content(f.grf)] for f in subject_files(subject)]
     static = sha256(subject.static) if subject.static else None
     return _digest(
         {
@@ -101,6 +103,11 @@ def subject_key(subject: Subject, settings: Settings) -> str:
             "markerset": _markerset_content(subject),
         }
     )
+
+
+def _content(path: Path | None) -> str | None:
+    """The digest of a file's content; None where there is no file (not given or not there)."""
+    return sha256(path) if path is not None and Path(path).is_file() else None
 
 
 def _markerset_content(subject: Subject) -> str | None:
@@ -165,14 +172,17 @@ def _kinematics(trial, subject: Subject, spec, cache_root: Path):
     return kin
 
 
-def subject_files(subject: Subject) -> list:
+def subject_files(subject: Subject, *, keep_going: bool = True) -> list:
     """Each trial's files (:class:`~gc_ocp.io.pairing.TrialFiles`): a TRC whose GRF file the
     manifest gives keeps it; the others are paired as ``gc-ocp fit`` pairs them (the file beside
-    the TRC); a C3D carries its plates."""
+    the TRC); a C3D carries its plates. A TRC that is not there or has no ground reactions
+    carries its error (:meth:`~gc_ocp.io.pairing.TrialFiles.require`, raised when it is loaded,
+    so that the subject's other trials go on, as in ``gc-ocp fit``); ``keep_going=False``
+    raises it here."""
     from gc_ocp.io.pairing import TrialFiles, pair_trials
 
     unpaired = [t.path for t in subject.trials if t.grf is None]
-    found = iter(pair_trials(unpaired) if unpaired else [])
+    found = iter(pair_trials(unpaired, keep_going=keep_going) if unpaired else [])
     return [
         TrialFiles(t.path, t.grf, "manifest") if t.grf is not None else next(found)
         for t in subject.trials
@@ -191,7 +201,7 @@ def load_subject(subject: Subject, cache_root: Path, *, strict: bool = False) ->
 
     def load(f):
         return load_trial(
-            f.trial,
+            f.require().trial,
             grf=f.grf,
             mass=subject.mass,
             height=subject.height,
