@@ -575,3 +575,21 @@ def test_an_export_does_not_reload_a_trial_that_changed_since_the_fit(tmp_path, 
         f.write(b"\0" * 512)
     with pytest.raises(InputError, match="have changed since the fit"):
         fit_pairs(cal)
+
+
+def test_a_trial_whose_name_has_a_space_exports_to_opensim(tmp_path, bundled, hertz_fit):
+    """A trial file named as labs name them ('walk 01.c3d'): the model was named after it, and
+    OpenSim refuses a component name with a space (or '+', '*', '/', '\\'): its worker crashed
+    (a segmentation fault, reported as 'no output') and nothing was exported. The model's name
+    is the trial's with those characters replaced."""
+    _opensim_installed()
+    from gc_ocp.export.calibrated import fit_document
+    from gc_ocp.export.opensim_export import export_opensim
+
+    trial, kin = bundled
+    doc = json.loads(json.dumps(fit_document(hertz_fit)).replace(f'"{trial.name}', '"walk 01'))
+    spaced = dataclasses.replace(trial, source=Path(trial.source).with_name("walk 01.c3d"))
+    ex = export_opensim(doc, tmp_path / "out", pairs=[(spaced, kin)], compare_forces=False)
+    text = (tmp_path / "out" / "model.osim").read_text()
+    assert '<Model name="gc_ocp_walk_01">' in text
+    assert len(ex.mapping) == 10

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 import subprocess
 import sys
 import tempfile
@@ -212,7 +213,11 @@ def run_worker(job: dict) -> dict:
     lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("{")]
     reply = json.loads(lines[-1]) if lines else {}
     if proc.returncode != 0 or "error" in reply:
-        why = reply.get("error") or proc.stderr.strip().splitlines()[-1:] or ["no output"]
+        why = (
+            reply.get("error")
+            or proc.stderr.strip().splitlines()[-1:]
+            or [f"no message; the OpenSim process ended with status {proc.returncode}"]
+        )
         raise ModelError(f"OpenSim could not carry out the export: {why}")
     return reply
 
@@ -223,14 +228,26 @@ def _sphere_json(s: worker.SphereUnit) -> dict:
     return d
 
 
+OSIM_NAME_FORBIDDEN = re.compile(r"[\\*+/\s]")
+"""Characters OpenSim refuses in a component's name (its ``InvalidComponentName``: back and
+forward slash, '*', '+', white space); a model named after a trial file 'walk 01.c3d' crashed
+the worker."""
+
+
+def osim_name(name: str) -> str:
+    """``name`` as an OpenSim component may be named: each character OpenSim refuses
+    (:data:`OSIM_NAME_FORBIDDEN`) replaced by '_'."""
+    return OSIM_NAME_FORBIDDEN.sub("_", name)
+
+
 def model_job(cal: CalibratedContact, kin, spheres, radius: float, name: str, model=None) -> dict:
     """The worker's job that builds the OpenSim model: the package's body (the URDF ``kin``
     was computed with, with its registered markers) or the user's ``model`` file, and the
-    ``spheres`` on the floor."""
+    ``spheres`` on the floor; ``name``: the model's (:func:`osim_name` of it)."""
     return {
         "urdf": kin.info["body"].urdf,
         "model": None if model is None else str(Path(model).resolve()),
-        "name": name,
+        "name": osim_name(name),
         "floor_height": cal.ground_height,
         "radius": radius,
         "spheres": [_sphere_json(s) for s in spheres],
