@@ -593,3 +593,30 @@ def test_a_trial_whose_name_has_a_space_exports_to_opensim(tmp_path, bundled, he
     text = (tmp_path / "out" / "model.osim").read_text()
     assert '<Model name="gc_ocp_walk_01">' in text
     assert len(ex.mapping) == 10
+
+
+def test_an_export_reloads_the_trials_with_the_fit_s_foot_roll(monkeypatch, hertz_fit):
+    """A fit with ``--foot-roll level`` (a foot with two landmarks, its roll levelled: 12-16 deg
+    off the chain's on the BTS subject) was reloaded for the export with the default 'chain':
+    the fitted unit points and pose corrections went onto a foot rolled otherwise, and the
+    exported model's forces were not the fit's, without a word. The export's kinematics are
+    computed with the fit's options, the foot roll among them."""
+    import gc_ocp.batch.subject as subject_module
+    from gc_ocp.export.calibrated import fit_document
+    from gc_ocp.export.opensim_export import fit_pairs
+    from gc_ocp.io.load import bundled_example_path
+    from gc_ocp.workflow.provenance import sha256
+
+    src = bundled_example_path()
+    prov = {
+        "options": {"foot_roll": "level", "cutoff": 8.0},
+        "trials": [{"files": [{"path": str(src), "sha256": sha256(src)}], "mass_kg": 63.6}],
+    }
+    cal = CalibratedContact.from_fit(fit_document(hertz_fit), provenance=prov)
+    seen = []
+    monkeypatch.setattr(
+        subject_module, "load_subject", lambda subject, *a, **k: (seen.append(subject), ([], []))[1]
+    )
+    fit_pairs(cal)
+    [subject] = seen
+    assert subject.foot_roll == "level" and subject.cutoff == 8.0

@@ -689,7 +689,7 @@ def hertz_refit(
 
 def fit_pairs(cal: CalibratedContact, say=lambda s: None) -> list:
     """The fit's trials and kinematics, loaded again from its provenance (files, mass, height,
-    belt speed, static trial, marker set and cutoff as the fit used them)."""
+    belt speed, static trial, marker set, cutoff and foot roll as the fit used them)."""
     from gc_ocp.batch.manifest import Subject, TrialSpec
     from gc_ocp.batch.subject import load_subject
 
@@ -732,6 +732,8 @@ def fit_pairs(cal: CalibratedContact, say=lambda s: None) -> list:
         belt_speed=opts.get("belt_speed"),
         markerset=opts.get("markerset"),
         cutoff=opts.get("cutoff"),
+        # a foot with two landmarks is levelled or posed by the chain as the fit's was
+        foot_roll=opts.get("foot_roll") or "chain",
     )
     say("loading the fit's trials and computing their kinematics")
     with tempfile.TemporaryDirectory(prefix="gc_ocp_export_") as tmp:
