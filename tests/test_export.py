@@ -620,3 +620,29 @@ def test_an_export_reloads_the_trials_with_the_fit_s_foot_roll(monkeypatch, hert
     fit_pairs(cal)
     [subject] = seen
     assert subject.foot_roll == "level" and subject.cutoff == 8.0
+
+
+def test_a_fit_of_one_foot_exports_that_foot(tmp_path, bundled, hertz_fit):
+    """A trial whose plates only one foot struck gives a fit of that foot alone (its contact
+    block and stance fits have no other side). The OpenSim export raised KeyError('right')
+    (a traceback); it exports the fitted foot's spheres and forces, compares on that foot's
+    stances, and says the other foot has no contact."""
+    _opensim_installed()
+    from gc_ocp.export.calibrated import fit_document
+    from gc_ocp.export.opensim_export import export_opensim
+
+    doc = fit_document(hertz_fit)
+    doc = json.loads(json.dumps(doc))  # what a fit of the left foot's stances writes:
+    doc["stance_fits"] = [sf for sf in doc["stance_fits"] if sf["side"] == "left"]
+    del doc["blocks"]["contact"]["right"]
+    doc["blocks"]["pose"]["stances"] = {
+        k: v for k, v in doc["blocks"]["pose"]["stances"].items() if "left@" in k
+    }
+    assert sorted(CalibratedContact.from_fit(doc).points) == ["left"]
+    ex = export_opensim(doc, tmp_path / "out", pairs=[bundled])
+    assert {m.sphere.side for m in ex.mapping} == {"left"} and len(ex.mapping) == 5
+    assert set(ex.rms) == {"all", "left"}
+    assert ex.rms["left"]["superior_force_pct_bw"] < 100 * BW_FRACTION_VERTICAL
+    assert any("right foot" in n for n in ex.notes)
+    text = (tmp_path / "out" / "model.osim").read_text()
+    assert "contact_PL_l" in text and "contact_PL_r" not in text

@@ -72,8 +72,13 @@ class CalibratedContact:
         return (self.law,)
 
     def feet(self, kin: TrialKinematics) -> TrialKinematics:
-        """``kin`` with each foot's units at the fitted points."""
-        feet = {s: f.with_points(np.asarray(self.points[s])) for s, f in kin.feet.items()}
+        """``kin`` with each foot's units at the fitted points; a foot the fit has no stance of
+        (no calibrated contact) is left out."""
+        feet = {
+            s: f.with_points(np.asarray(self.points[s]))
+            for s, f in kin.feet.items()
+            if s in self.points
+        }
         return dataclasses.replace(kin, feet=feet)
 
     # --- from a fit ------------------------------------------------------------------------

@@ -140,9 +140,11 @@ def fitted_kinematics(
         frames[side] = frames.get(side, 0) + idx.size
     if not frames:
         return FittedKinematics(kin, {}, 0.0, 0.0)
-    feet = {
+    feet = {  # a foot the fit has no points of (no stance) keeps its own: its leg did not move
         side: foot_kinematics(body, q, kin.time, side, np.asarray(points[side], float))
-        for side in kin.feet
+        if side in points
+        else foot
+        for side, foot in kin.feet.items()
     }
     new = dataclasses.replace(kin, q=q, feet=feet)
     return FittedKinematics(new, frames, worst_mm, worst_deg)

@@ -395,6 +395,8 @@ def compare(trial, time, ours: dict, theirs: dict, cal: CalibratedContact) -> di
     (``superior_force_pct_bw``)."""
     a, b, sides = [], [], []
     for side, idx, ref in _stance_frames(trial, time):
+        if side not in ours:  # a foot the fit has no contact of
+            continue
         for w, acc in ((ours[side][idx], a), (theirs[side][idx], b)):
             acc.append(transport_wrench(w, np.zeros(3), ref))
         sides += [side] * idx.size
@@ -601,6 +603,12 @@ def export_opensim(
             rms = compare(trial, time, ours, theirs, cal)
             outset.figure("opensim_vs_gc_ocp.png", plot_comparison(time, ours, theirs, plates, cal))
         notes = _notes(cal, doc)
+        notes += [
+            f"the fit has no {side} stance: the {side} foot has no contact spheres and no "
+            "model forces (its plates' forces are written)"
+            for side in sorted(kin.feet)
+            if side not in cal.points
+        ]
         export_doc = {
             "trial": str(trial.source),
             "radius_m": radius,
