@@ -646,3 +646,26 @@ def test_a_fit_of_one_foot_exports_that_foot(tmp_path, bundled, hertz_fit):
     assert any("right foot" in n for n in ex.notes)
     text = (tmp_path / "out" / "model.osim").read_text()
     assert "contact_PL_l" in text and "contact_PL_r" not in text
+
+
+def test_a_marker_label_with_a_space_does_not_break_the_opensim_model(tmp_path, bundled):
+    """The exported body carries the registered markers under the trial's labels; a label
+    OpenSim refuses as a component name ('L HEE', 'R+ASI') crashed the worker as a model's name
+    did. Such a marker is named with those characters replaced."""
+    _opensim_installed()
+    from gc_ocp.export.opensim_export import model_job, run_worker
+
+    trial, kin = bundled
+    mm = kin.info["marker_model"]
+    names = ("L HEE", *mm.names[1:])
+    kin2 = dataclasses.replace(
+        kin, info={**kin.info, "marker_model": dataclasses.replace(mm, names=names)}
+    )
+    cal = CalibratedContact(
+        law=None, points={}, parents={}, ground_height=0.0, belt_speed=0.0,
+        body_weight=600.0, height=1.7, mass=61.0,
+    )  # fmt: skip
+    job = model_job(cal, kin2, [], 0.005, "t")
+    job["osim"] = str(tmp_path / "model.osim")
+    run_worker(job)
+    assert '<Marker name="L_HEE">' in (tmp_path / "model.osim").read_text()

@@ -323,8 +323,9 @@ def register_feet(path: Path, kin, mapping: Sequence[UnitMapping]) -> tuple[list
     for side, foot in sorted(kin.feet.items()):
         suffix = side[0]
         to_hind = np.linalg.inv(foot.hindfoot_pose[0]) @ foot.toes_pose[0]  # welded: constant
-        ours = {}
-        for name, seg, loc in zip(mm.names, mm.segments, mm.local, strict=True):
+        ours = {}  # by the names the exported models give them (osim_name)
+        for label, seg, loc in zip(mm.names, mm.segments, mm.local, strict=True):
+            name = osim_name(label)
             if seg == f"hindfoot_{suffix}":
                 ours[name] = np.asarray(loc, float)
             elif seg == f"toes_{suffix}":
@@ -369,8 +370,8 @@ def _marker_set(kin) -> list[dict]:
     mm = kin.info.get("marker_model")
     if mm is None:
         return []
-    return [
-        {"name": n, "body": seg, "location": [float(v) for v in loc]}
+    return [  # named as OpenSim may name them (a label 'L HEE' crashed OpenSim)
+        {"name": osim_name(n), "body": seg, "location": [float(v) for v in loc]}
         for n, seg, loc in zip(mm.names, mm.segments, mm.local, strict=True)
     ]
 
