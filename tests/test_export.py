@@ -669,3 +669,32 @@ def test_a_marker_label_with_a_space_does_not_break_the_opensim_model(tmp_path, 
     job["osim"] = str(tmp_path / "model.osim")
     run_worker(job)
     assert '<Marker name="L_HEE">' in (tmp_path / "model.osim").read_text()
+
+
+def test_an_export_names_its_trial_and_refuses_options_of_the_other_target(
+    tmp_path, bundled, hertz_fit, capsys
+):
+    """``gc-ocp export casadi`` with ``--radius``, ``--hertz``, ``--model`` or ``--no-compare``
+    (OpenSim's) ignored them without a word; a trial the fit does not have is refused by name
+    (``--trial``: a fit of several trials has each trial's own unit points; the exports took
+    the first, with no way to choose)."""
+    from gc_ocp.cli import main
+    from gc_ocp.errors import InputError
+    from gc_ocp.export.calibrated import fit_document
+    from gc_ocp.export.opensim_export import export_opensim
+
+    fit_json = tmp_path / "fit.json"
+    fit_json.write_text(json.dumps(fit_document(hertz_fit)))
+    out = tmp_path / "f.casadi"
+    for extra in (["--radius", "0.01"], ["--hertz"], ["--no-compare"]):
+        assert main(["export", "casadi", str(fit_json), "--out", str(out), *extra]) == 2
+        assert f"{extra[0]} is for the OpenSim export" in capsys.readouterr().err
+    assert main(["export", "casadi", str(fit_json), "--out", str(out), "--trial", "nosuch"]) == 2
+    assert "no trial 'nosuch'" in capsys.readouterr().err
+    assert not out.exists()
+    (name,) = {sf["trial"] for sf in fit_document(hertz_fit)["stance_fits"]}
+    assert main(["export", "casadi", str(fit_json), "--out", str(out), "--trial", name]) == 0
+    assert out.is_file()
+    with pytest.raises(InputError, match="no trial 'nosuch' to export"):
+        export_opensim(hertz_fit, tmp_path / "osim", pairs=[bundled], trial="nosuch")
+    assert not (tmp_path / "osim").exists()

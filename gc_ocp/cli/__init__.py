@@ -401,6 +401,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="Output folder (opensim) or .casadi file (casadi).",
     )
     p.add_argument(
+        "--trial",
+        default=None,
+        metavar="NAME",
+        help="The fit's trial exported (a fit of several trials: each has its own kinematics, "
+        "which place the unit points; its name as in the fit's stance labels, e.g. walk2; "
+        "default the first).",
+    )
+    p.add_argument(
         "--radius",
         type=float,
         default=None,

@@ -378,18 +378,39 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
 def cmd_export(args: argparse.Namespace) -> int:
     if args.target == "casadi":
+        from gc_ocp.export.calibrated import fit_document
         from gc_ocp.export.casadi_export import casadi_function, write_casadi
         from gc_ocp.outputs import check_writable, claim
 
+        given = {
+            "--radius": args.radius is not None,
+            "--hertz": args.hertz,
+            "--model": args.model is not None,
+            "--no-compare": args.no_compare,
+        }
+        wrong = [k for k, v in given.items() if v]
+        if wrong:  # they would be ignored: the function has no spheres, no body, no refit
+            raise InputError(
+                f"{', '.join(wrong)} {'is' if len(wrong) == 1 else 'are'} for the OpenSim export; "
+                "the CasADi function is the fitted law itself: leave them out, or export opensim"
+            )
         if args.out.suffix == ".casadi":  # the file itself
             check_writable(args.out.parent)
             path = args.out
         else:  # a folder, perhaps another command's
             path = check_writable(args.out, command="gc-ocp export") / "contact.casadi"
-        write_casadi(args.fit_json, path)
+        write_casadi(args.fit_json, path, trial=args.trial)
         if path != args.out:
             claim(args.out, "gc-ocp export")
-        print(casadi_function(args.fit_json))
+        print(casadi_function(args.fit_json, trial=args.trial))
+        trials = list(
+            dict.fromkeys(sf["trial"] for sf in fit_document(args.fit_json)["stance_fits"])
+        )
+        if len(trials) > 1:  # each trial's kinematics place the points: say whose they are
+            print(
+                f"unit points of trial {args.trial or trials[0]} (the fit's trials: "
+                f"{', '.join(trials)}; --trial NAME for another)"
+            )
         print(f"wrote {path}")
         return 0
     from gc_ocp.export.calibrated import CalibratedContact
@@ -414,6 +435,7 @@ def cmd_export(args: argparse.Namespace) -> int:
         compare_forces=not args.no_compare,
         model=args.model,
         progress=_progress,
+        trial=args.trial,
     )
     print(ex.summary())
     return 0

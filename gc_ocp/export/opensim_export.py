@@ -519,6 +519,7 @@ def export_opensim(
     fitted: bool = True,
     model: str | Path | None = None,
     progress: Callable[[str], None] | None = None,
+    trial: str | None = None,
 ) -> OpenSimExport:
     """Write the OpenSim files of ``fit`` (module doc) into ``out``.
 
@@ -531,7 +532,8 @@ def export_opensim(
     model: the user's own ``.osim``: the spheres are attached to its foot bodies, placed by the
     foot markers it shares with the trial (:func:`register_feet`), and written into a copy of it
     as ``model.osim``; the coordinates and the comparison (which need the package's body) are
-    then not written."""
+    then not written; trial: the fit's name of the trial exported (a fit of several trials:
+    each has its own kinematics and unit points; default the first)."""
     say = progress or (lambda s: None)
     radius = number(radius, "radius", "m")
     if not 0.0 < radius <= MAX_RADIUS:
@@ -542,13 +544,18 @@ def export_opensim(
     doc = fit_document(fit)
     if pairs is None:
         pairs = fit_pairs(CalibratedContact.from_fit(doc), say)
-    trial, ik = pairs[0]
+    # the fit's name of the exported trial: several trials of one subject each have their own
+    # kinematics (their points, their stances)
+    names = trial_names([t.source for t, _ in pairs])
+    if trial is not None and trial not in names:
+        raise InputError(
+            f"the fit has no trial {trial!r} to export; its trials are {names} (--trial NAME)"
+        )
+    pick = 0 if trial is None else names.index(trial)
+    (trial, ik), name = pairs[pick], names[pick]
     body = ik.info.get("body")
     if body is None:
         raise InputError("the kinematics carry no body model; compute them with gc_ocp")
-    # the fit's name of the exported trial: several trials of one subject each have their own
-    # kinematics (their points, their stances)
-    name = trial_names([t.source for t, _ in pairs])[0]
     cal = CalibratedContact.from_fit(doc, trial=name)
     fk = fitted_kinematics(doc, ik, cal.points, name)
     kin = fk.kin if fitted else ik
