@@ -394,6 +394,18 @@ def test_the_calibrated_belt_is_the_fitted_one(hertz_fit):
     }
     assert CalibratedContact.from_fit(doc).belt_speed == pytest.approx(1.17)
     assert CalibratedContact.from_fit(doc, trial=name).belt_speed == pytest.approx(1.17)
+    # no fitted belt: the exported trial's nominal one (a treadmill trial and a floor trial of
+    # one fit; the first trial's belt was given to every trial exported)
+    del doc["blocks"]["belt"]
+    doc["stance_fits"] += [{**sf, "trial": "floor"} for sf in doc["stance_fits"]]
+    doc["provenance"] = {  # as a fit.json's provenance lists its trials
+        "trials": [
+            {"name": name, "belt_velocity_m_s": [1.2, 0.0, 0.0]},
+            {"name": "floor", "belt_velocity_m_s": [0.0, 0.0, 0.0]},
+        ]
+    }
+    assert CalibratedContact.from_fit(doc).belt_speed == pytest.approx(1.2)
+    assert CalibratedContact.from_fit(doc, trial="floor").belt_speed == 0.0
 
 
 def test_a_fit_whose_exponent_is_not_hertz_s_says_how_to_export_it(hertz_fit):

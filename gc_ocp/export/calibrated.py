@@ -202,8 +202,9 @@ class CalibratedContact:
         ]
         if fitted:
             speed = float(fitted[0])
-        else:
-            v = np.asarray(trials[0].get("belt_velocity_m_s", [0.0, 0.0, 0.0]), float)
+        else:  # the exported trial's nominal belt (a fit may mix treadmill and floor trials)
+            own = [t for t in trials if t.get("name") == first["trial"]] or trials
+            v = np.asarray(own[0].get("belt_velocity_m_s", [0.0, 0.0, 0.0]), float)
             speed = float(np.linalg.norm(v))
         return cls(
             law=law,
