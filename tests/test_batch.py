@@ -50,6 +50,9 @@ def test_csv_manifest_groups_trials_by_subject_and_types_the_values(tmp_path):
     assert [t.path for t in subs[0].trials] == [tmp_path / "a/w1.c3d", tmp_path / "a/w2.c3d"]
     assert subs[0].mass == 70.0 and subs[0].height == 1.8  # a value may stand on any row
     assert subs[1].mass is None and subs[1].holdout == "auto"
+    # "none" holds no stance out (it was looked up as a stance's name and refused)
+    m.write_text("subject,trial,holdout\nS1,a/w1.c3d,None\nS2,b.c3d,right@0.4\n")
+    assert [s.holdout for s in read_manifest(m)] == [None, "right@0.4"]
 
 
 @pytest.mark.parametrize(

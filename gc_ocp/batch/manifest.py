@@ -171,6 +171,8 @@ def _settings(raw: Mapping, base: Path, where: str) -> dict:
                     f"{where}: foot_roll {v!r} is not one of {', '.join(FOOT_ROLLS)}; give "
                     "chain (default) or level (docs/data_formats.md, rule 5)."
                 )
+        elif key == "holdout" and str(v).strip().lower() == "none":
+            out[key] = None  # every stance fitted (an empty value is the default, auto)
         else:
             out[key] = str(v).strip()
     return out
