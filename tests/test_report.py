@@ -664,3 +664,37 @@ def test_the_method_says_what_the_steps_are_computed_with():
     assert "the part of its spread between mismatch draws that every held-out stance" in text
     assert "its mean and its spread between mismatch draws" not in text
     assert f"at most {PRACTICAL_FACTOR + 1} times the held-out stances it had" in text
+
+
+def test_a_sole_correction_at_its_bound_shows_no_standard_error():
+    """The bundled trial's fit (``gc-ocp fit --holdout auto``) left right TT's sole correction on
+    its 25 mm bound and flagged it ``at_bound`` ("its SE is not meaningful"), while the page's
+    sole table showed "-25.0 ± 6.7". A unit whose correction the fit flags ``at_bound`` is shown
+    without its SEs, saying so, on the fit's page and the diagnosis's; the others as before."""
+    from gc_ocp.values import BOUND_TEXT
+    from gc_ocp.workflow.fit_report import fit_report_html
+    from gc_ocp.workflow.fitting import FitReport
+
+    _, _, _, _, final = _fixture(CASES[0])
+    flagged = dataclasses.replace(
+        final,
+        flags=[
+            *final.flags,
+            {"code": "at_bound", "what": "sole/right/TT", "message": "on its bound"},
+        ],
+    )
+    figures = dict.fromkeys(("fit_wrench.png", "fit_sole.png", "fit_pose_corrections.png"), b"")
+
+    def sole_rows(result):
+        page = fit_report_html(FitReport(result=result), None, figures)
+        table = page.split("Sole-point corrections")[1].split("</table>")[0]
+        rows = re.findall(r"<tr><td class=l>(\w+)</td><td class=l>(.*?)</td>(.*?)</tr>", table)
+        return {(side, unit.split()[0]): (unit, cells) for side, unit, cells in rows}
+
+    before, after = sole_rows(final), sole_rows(flagged)
+    unit, cells = after[("right", "TT")]
+    assert "±" not in cells and BOUND_TEXT in unit
+    assert before[("right", "TT")][1].count("±") == 3
+    assert {k: v for k, v in after.items() if k != ("right", "TT")} == {
+        k: v for k, v in before.items() if k != ("right", "TT")
+    }

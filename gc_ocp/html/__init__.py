@@ -16,6 +16,7 @@ import io
 import jinja2
 
 from gc_ocp.html.fit_tables import fmt_num, pm_value
+from gc_ocp.values import BOUND_TEXT
 
 FIGURE_DPI = 100
 
@@ -24,7 +25,8 @@ def environment(*packages: str) -> jinja2.Environment:
     """The jinja2 environment of a page whose templates are in ``<package>/templates`` (each
     of ``packages``, first match wins) and in ``gc_ocp/html/templates``; made per call (no
     module state). Autoescaping is on; ``num`` formats a number (:func:`fmt_num`: "–" when
-    missing), ``fmt`` is :func:`format`."""
+    missing), ``fmt`` is :func:`format`; ``bound_text`` is
+    :data:`~gc_ocp.values.BOUND_TEXT`."""
     loaders = [jinja2.PackageLoader(p, "templates") for p in (*packages, "gc_ocp.html")]
     env = jinja2.Environment(
         loader=jinja2.ChoiceLoader(loaders),
@@ -37,6 +39,7 @@ def environment(*packages: str) -> jinja2.Environment:
     env.filters["num"] = fmt_num
     env.filters["pm"] = pm_value  # value | pm(se): "value ± SE" as every table shows it
     env.filters["fmt"] = format
+    env.globals["bound_text"] = BOUND_TEXT  # in place of a parameter's SE at its bound
     return env
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_name, channel_unit
 from gc_ocp.estimation.components.base import per_axis
-from gc_ocp.estimation.flags import k_at_bound, law_at_bound
+from gc_ocp.estimation.flags import k_at_bound, law_at_bound, variable_key
 from gc_ocp.values import BOUND_TEXT, se_text
 
 CORE_BLOCKS = ("contact", "sole", "pose", "belt")
@@ -112,18 +112,21 @@ def contact_tables(params: dict, at_bound: frozenset[str] = frozenset()) -> dict
     }
 
 
-def sole_table(sole: dict) -> list[dict]:
-    """Sole-point corrections per foot and unit: ``[(offset, SE) x, y, z]`` [mm]."""
+def sole_table(sole: dict, at_bound: frozenset[str] = frozenset()) -> list[dict]:
+    """Sole-point corrections per foot and unit: ``[(offset, SE) x, y, z]`` [mm]; a unit whose
+    correction is among ``at_bound`` (the fit's
+    :attr:`~gc_ocp.estimation.result.EstimationResult.at_bound`, ``"sole/right/TT"``) has no SEs
+    (None: they assume an interior optimum) and ``"bound"`` True."""
     off, se = sole.get("offsets_mm", {}), sole.get("se_mm", {})
-    return [
-        {
-            "side": side,
-            "unit": unit,
-            "xyz": list(zip(v, se.get(side, {}).get(unit, [float("nan")] * 3), strict=True)),
-        }
-        for side, units in off.items()
-        for unit, v in units.items()
-    ]
+    rows = []
+    for side, units in off.items():
+        for unit, v in units.items():
+            bound = variable_key("sole", side, unit) in at_bound
+            errs = [None] * 3 if bound else se.get(side, {}).get(unit, [float("nan")] * 3)
+            rows.append(
+                {"side": side, "unit": unit, "bound": bound, "xyz": list(zip(v, errs, strict=True))}
+            )
+    return rows
 
 
 def axes_text(values, default, unit: str) -> str:

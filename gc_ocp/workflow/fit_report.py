@@ -61,7 +61,7 @@ def fit_report_html(
         "bias_skipped": report.bias_skipped,
         "flags": _flags(report),
         "contact": contact_tables(res.params, res.at_bound),
-        "sole": sole_table(res.blocks.get("sole", {})),
+        "sole": sole_table(res.blocks.get("sole", {}), res.at_bound),
         "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
         "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),
         "held_pose_prior": None if held is None else pose_prior_text(held.blocks.get("pose") or {}),
