@@ -698,3 +698,42 @@ def test_a_sole_correction_at_its_bound_shows_no_standard_error():
     assert {k: v for k, v in after.items() if k != ("right", "TT")} == {
         k: v for k, v in before.items() if k != ("right", "TT")
     }
+
+
+def test_the_sole_figure_gives_no_number_for_a_unit_not_identified():
+    """The fixture's left AM is not identified (14669 N at 5 mm, 24 BW): the summary and the
+    flags say so, yet the sole figure labelled it "14669 N" and drew it the largest, every
+    identified unit shrunk beside it. A unit not identified is drawn with no force and says so;
+    the identified units keep theirs."""
+    from gc_ocp.estimation.plots import plot_sole_fit
+    from gc_ocp.foot import SEED_LAYOUT
+
+    _, _, _, _, final = _fixture(CASES[0])  # its stance fits are not stored: two made here
+    assert final.params["left"]["AM"]["identified"] is False
+    pts = np.array(
+        [[-0.03, 0.03, 0], [-0.03, -0.03, 0], [0.1, 0.04, 0], [0.1, -0.04, 0], [0.05, 0, 0]]
+    )
+    fits = [
+        {
+            "side": side,
+            "units": list(SEED_LAYOUT.units),
+            "parents": list(SEED_LAYOUT.parents),
+            "points_local": pts,
+            "nominal_points": pts,
+            "toes_offset": np.array([0.13, 0.0, 0.0]),
+        }
+        for side in ("right", "left")
+    ]
+    fig = plot_sole_fit(dataclasses.replace(final, stance_fits=fits))
+    texts = {
+        ax.get_title(): {t.get_text().split("\n")[0]: t.get_text() for t in ax.texts}
+        for ax in fig.axes
+    }
+    assert texts["left"]["AM"] == "AM\nnot identified"
+    pl = final.params["left"]["PL"]["f_ref"]
+    assert texts["left"]["PL"] == f"PL\n{pl:.0f} N"
+    sizes = {
+        ax.get_title(): [c.get_sizes()[0] for c in ax.collections if len(c.get_sizes())]
+        for ax in fig.axes
+    }
+    assert max(sizes["left"][:5]) == 300  # the largest identified unit sets the scale

@@ -28,7 +28,8 @@ def plot_fit(result, title: str = "measured (solid) vs fitted (dashed)") -> Figu
 def plot_sole_fit(result) -> Figure:
     """Each sole from above: corrected units (filled, sized and labelled by their force at the
     law's reference depth, the quantity the fit identifies: k [N/m^n] alone means nothing
-    across exponents) and nominal ones (x); ``result`` as for :func:`plot_fit`."""
+    across exponents; a unit not identified is labelled so, unscaled) and nominal ones (x);
+    ``result`` as for :func:`plot_fit`."""
     result = as_result(result)
     pts, nominal, toes, units = {}, {}, {}, {}
     for fit in result.stance_fits:
@@ -38,8 +39,14 @@ def plot_sole_fit(result) -> Figure:
         nominal[fit["side"]] = np.asarray(fit["nominal_points"])
         toes[fit["side"]] = np.asarray(fit["toes_offset"])
         units[fit["side"]] = fit["units"]
+    # a unit not identified (ContactLaw.flags) has no force to show: drawn unscaled, saying so
+    # (its absurd force, 24 BW at 5 mm, was the largest label and shrank every other unit)
+    unknown = {
+        s: {u for u in units[s] if not result.params.get(s, {}).get(u, {}).get("identified", True)}
+        for s in pts
+    }
     f_ref = {
-        s: {u: result.params[s][u].get("f_ref") for u in units[s]}
+        s: {u: None if u in unknown[s] else result.params[s][u].get("f_ref") for u in units[s]}
         for s in pts
         if s in result.params
     }
@@ -55,6 +62,9 @@ def plot_sole_fit(result) -> Figure:
         label=lambda f: f"{f:.0f} N",
     )
     for ax, side in zip(fig.axes, pts, strict=False):
+        for text in ax.texts:
+            if text.get_text() in unknown[side]:
+                text.set_text(f"{text.get_text()}\nnot identified")
         nom = nominal[side].copy()
         nom[list(layout.on("toes"))] += toes[side]
         ax.scatter(nom[:, 1] * 100, nom[:, 0] * 100, marker="x", color="C3", zorder=4)
