@@ -737,3 +737,38 @@ def test_the_sole_figure_gives_no_number_for_a_unit_not_identified():
         for ax in fig.axes
     }
     assert max(sizes["left"][:5]) == 300  # the largest identified unit sets the scale
+
+
+def test_a_unit_stiffness_at_its_bound_shows_no_standard_error_in_the_summary():
+    """The page's table said "at its bound" for a unit's k flagged ``at_bound``, but the
+    summary (the CLI's output, ``.summary()``) printed it, and its force at 5 mm (k times a
+    power of the depth: pinned by that bound as well), with an SE; the table also gave that
+    force an SE. Both now say so in place of the SE; the other units as before."""
+    from gc_ocp.html.fit_tables import contact_tables
+    from gc_ocp.values import BOUND_TEXT
+
+    _, _, _, _, final = _fixture(CASES[0])
+    flagged = dataclasses.replace(
+        final,
+        flags=[
+            *final.flags,
+            {"code": "at_bound", "what": "contact/k/left/PL", "message": "k at its bound"},
+        ],
+    )
+    lines = {ln.split(":")[0].strip(): ln for ln in flagged.summary().splitlines()}
+    k_line, f_line = (
+        lines["left k [N/m^n]"],
+        next(v for k, v in lines.items() if k.startswith("left force")),
+    )
+    pl_k = k_line.split(": ", 1)[1].split(", ")[0]
+    pl_f = f_line.split(": ", 1)[1].split(", ")[0]
+    assert pl_k.startswith("PL ") and "±" not in pl_k and BOUND_TEXT in pl_k
+    assert "±" not in pl_f and BOUND_TEXT in pl_f
+    before = {ln.split(":")[0].strip(): ln for ln in final.summary().splitlines()}
+    assert k_line.split(", ")[1:] == before["left k [N/m^n]"].split(", ")[1:]
+    pl = next(
+        u
+        for u in contact_tables(flagged.params, flagged.at_bound)["units"]
+        if u["unit"] == "PL" and u["side"] == "left"
+    )
+    assert pl["f_ref"].endswith(BOUND_TEXT) and "±" not in pl["f_ref"]

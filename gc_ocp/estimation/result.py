@@ -21,7 +21,7 @@ from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
 from gc_ocp.errors import InputError, read_document
 from gc_ocp.estimation.components import describe_block
 from gc_ocp.estimation.components.contact import ContactLaw
-from gc_ocp.estimation.flags import at_bound_names, law_at_bound
+from gc_ocp.estimation.flags import at_bound_names, k_at_bound, law_at_bound
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
 from gc_ocp.text import read_json_file
@@ -144,12 +144,14 @@ class EstimationResult:
             p = self.params.get(side, {})
             units = [u for u, e in p.items() if isinstance(e, dict)]
             if units:
+                bound = {u for u in units if k_at_bound(self.at_bound, side, u)}
                 lines.append(
-                    f"{side:>5} k [N/m^n]: " + ", ".join(_shown(p, u, "k", ".3g") for u in units)
+                    f"{side:>5} k [N/m^n]: "
+                    + ", ".join(_shown(p, u, "k", ".3g", u in bound) for u in units)
                 )
                 lines.append(
                     f"{side:>5} force at the {1e3 * ContactLaw.reference_depth:g} mm reference depth [N]: "
-                    + ", ".join(_shown(p, u, "f_ref", ".0f") for u in units)
+                    + ", ".join(_shown(p, u, "f_ref", ".0f", u in bound) for u in units)
                 )
             r = self.rms[side]
             lines.append(
@@ -299,10 +301,14 @@ def as_result(fit) -> EstimationResult:
     )
 
 
-def _shown(p: dict, unit: str, key: str, fmt: str) -> str:
+def _shown(p: dict, unit: str, key: str, fmt: str, bound: bool = False) -> str:
+    """``unit``'s ``key`` with its SE; ``bound``: its k is flagged ``at_bound`` (k and the
+    force at the reference depth, a function of it, are then no estimates: no SE)."""
     e = p[unit]
     if not e.get("identified", True):
         return f"{unit} not identified"
+    if bound:
+        return f"{unit} {e[key]:{fmt}} {BOUND_TEXT}"
     se = e.get(key + "_se")
     if not se:  # fixed (a held-out stance's frozen law): no uncertainty of its own here
         return f"{unit} {e[key]:{fmt}} (fixed)"

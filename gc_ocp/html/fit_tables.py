@@ -81,12 +81,13 @@ def contact_tables(params: dict, at_bound: frozenset[str] = frozenset()) -> dict
             continue
         for unit, e in per.items():
             if isinstance(e, dict) and "k" in e:
+                bound = k_at_bound(at_bound, side, unit)  # f_ref = k d^n: pinned by it too
                 units.append(
                     {
                         "side": side,
                         "unit": unit,
-                        "k": pm(e, "k", ".4g", k_at_bound(at_bound, side, unit)),
-                        "f_ref": pm(e, "f_ref", ".0f"),
+                        "k": pm(e, "k", ".4g", bound),
+                        "f_ref": pm(e, "f_ref", ".0f", bound),
                         "identified": e.get("identified", True),
                     }
                 )
