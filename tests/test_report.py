@@ -772,3 +772,14 @@ def test_a_unit_stiffness_at_its_bound_shows_no_standard_error_in_the_summary():
         if u["unit"] == "PL" and u["side"] == "left"
     )
     assert pl["f_ref"].endswith(BOUND_TEXT) and "±" not in pl["f_ref"]
+
+
+def test_an_option_given_as_zero_is_in_the_page_s_provenance():
+    """The page's provenance line leaves out the options not given (None, False, []); a zero
+    compares equal to False and was left out with them: ``--belt-speed 0`` (overground, said
+    by the user) read as an option not given (the belt speed found from the markers)."""
+    from gc_ocp.html import provenance_context
+
+    opts = {"belt_speed": 0.0, "bias_correction": 0, "holdout": None, "sensitivity": False}
+    line = provenance_context({"options": {**opts, "effects": [], "cutoff": 6.0}})["options"]
+    assert line == "belt_speed=0.0, bias_correction=0, cutoff=6.0"

@@ -83,8 +83,10 @@ def provenance_context(prov: dict | None) -> dict:
         }
         for t in prov.get("trials", [])
     ]
-    opts = ", ".join(
-        f"{k}={v}" for k, v in prov.get("options", {}).items() if v not in (None, [], False)
+    opts = ", ".join(  # the options given: not None, False or [] (a 0 is given: 0 == False)
+        f"{k}={v}"
+        for k, v in prov.get("options", {}).items()
+        if v is not None and v is not False and v != []
     )
     return {"cli": True, "record": prov, "trials": trials, "options": opts}
 
