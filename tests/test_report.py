@@ -783,3 +783,22 @@ def test_an_option_given_as_zero_is_in_the_page_s_provenance():
     opts = {"belt_speed": 0.0, "bias_correction": 0, "holdout": None, "sensitivity": False}
     line = provenance_context({"options": {**opts, "effects": [], "cutoff": 6.0}})["options"]
     assert line == "belt_speed=0.0, bias_correction=0, cutoff=6.0"
+
+
+def test_the_fit_page_shows_the_fitted_belt_speed():
+    """A treadmill fit estimates each trial's belt speed (``fit.json``'s ``belt_speed_m_s``, the
+    summary, the diagnosis page), but the fit's page left it out of its parameters: a reader
+    of ``report.html`` could not see the speed the friction was fitted against."""
+    import html
+
+    from gc_ocp.workflow.fit_report import fit_report_html
+    from gc_ocp.workflow.fitting import FitReport
+
+    _, _, _, _, final = _fixture(CASES[0])
+    belt = {"walk<1>": {"value": 1.1834, "se": 0.0031, "nominal": 1.1, "correction": 0.0834}}
+    res = dataclasses.replace(final, blocks={**final.blocks, "belt": belt})
+    figures = dict.fromkeys(("fit_wrench.png", "fit_sole.png", "fit_pose_corrections.png"), b"")
+    page = fit_report_html(FitReport(result=res), None, figures)
+    text = _Page(page).visible
+    assert "Belt speed (walk<1>): 1.183 ± 0.0031 m/s (from 1.100 m/s" in text
+    assert "walk<1>" not in page and html.escape("walk<1>") in page
