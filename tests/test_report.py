@@ -802,3 +802,17 @@ def test_the_fit_page_shows_the_fitted_belt_speed():
     text = _Page(page).visible
     assert "Belt speed (walk<1>): 1.183 ± 0.0031 m/s (from 1.100 m/s" in text
     assert "walk<1>" not in page and html.escape("walk<1>") in page
+    # the diagnosis page shows it by the same definition (html.fit_tables.belt_rows): it looked
+    # for a "value_se" the block does not have and showed the speed without its SE
+    from gc_ocp.diagnosis.report import report_html
+
+    folder, _, js, d, _ = _fixture(CASES[0])
+    pngs = dict.fromkeys(("heatmap", "residuals", "ranking", "waterfall"), b"\x89PNG")
+    pngs.update({"heatmap_final": b"\x89PNG"} if d.selected else {})
+    diag = _Page(report_html(d, provenance=js["provenance"], pngs=pngs, final=res)).visible
+    assert "Belt speed (walk<1>): 1.183 ± 0.0031 m/s (from 1.100 m/s" in diag
+    # at its bound: no SE, on both pages
+    flag = {"code": "at_bound", "what": "belt/walk<1>", "message": "at its bound"}
+    res = dataclasses.replace(res, flags=[*res.flags, flag])
+    page = _Page(fit_report_html(FitReport(result=res), None, figures)).visible
+    assert "Belt speed (walk<1>): 1.183 (at its bound: not an estimate) m/s" in page

@@ -30,10 +30,10 @@ from gc_ocp.diagnosis.null import DRAWS_PER_LOOK, PRACTICAL_FACTOR
 from gc_ocp.html import FIGURE_DPI, data_uri, environment, pngs, provenance_context
 from gc_ocp.html.fit_tables import (
     CHANNEL_KEYS,
+    belt_rows,
     contact_tables,
     effect_blocks,
     fmt_num,
-    pm,
     pose_prior_text,
     rms_table,
     sole_prior_text,
@@ -329,9 +329,7 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         "sole": sole_table(res.blocks.get("sole", {}), res.at_bound),
         "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
         "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),
-        "belt": [
-            (trial, pm(v, "value", ".3f"), v.get("nominal")) for trial, v in res.belt_speed.items()
-        ],
+        "belt": belt_rows(res),
         "effects": effect_blocks(res),
         "method": _method(d),
         "provenance": provenance_context(provenance),

@@ -6,19 +6,18 @@ what it shows."""
 
 from __future__ import annotations
 
-from gc_ocp.estimation.flags import law_at_bound, variable_key
+from gc_ocp.estimation.flags import law_at_bound
 from gc_ocp.html import data_uri, environment, provenance_context
 from gc_ocp.html.fit_tables import (
+    belt_rows,
     contact_tables,
     effect_blocks,
     pm,
-    pm_value,
     pose_prior_text,
     rms_table,
     sole_prior_text,
     sole_table,
 )
-from gc_ocp.values import BOUND_TEXT
 from gc_ocp.workflow.fitting import FitReport
 
 TEMPLATE = "fit_report.html.j2"
@@ -67,16 +66,7 @@ def fit_report_html(
         "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
         "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),
         "held_pose_prior": None if held is None else pose_prior_text(held.blocks.get("pose") or {}),
-        "belt": [
-            (
-                trial,
-                f"{v['value']:.3f} {BOUND_TEXT}"  # its correction at its bound
-                if variable_key("belt", trial) in res.at_bound
-                else pm_value(v["value"], v["se"], ".3f"),
-                v,
-            )
-            for trial, v in res.belt_speed.items()
-        ],
+        "belt": belt_rows(res),
         "effects": effect_blocks(res),
         "rms": rms_table(res, None if held is None else held.rms | _cop(held)),
         "figures": {name: data_uri(png) for name, png in pngs.items()},
