@@ -90,6 +90,23 @@ def test_every_trial_unusable_is_one_error_naming_each_file_and_reason():
     assert "/lab/standing.c3d: " in msg and "no usable stance" in msg
 
 
+def test_no_trial_loaded_is_that_error_not_the_command_s_argument_check():
+    """With no trial loaded, a --holdout check on the (empty) stances blamed the holdout
+    ('matches 0 stances; choose one of []') instead of naming each file's problem."""
+    from gc_ocp.workflow.fitting import check_holdout
+
+    with pytest.raises(InputError) as e:
+        usable_trials(
+            _files("unreadable.c3d", "unreadable2.c3d"),
+            _load,
+            _pose,
+            check_loaded=lambda trials: check_holdout("right@0.4", trials),
+        )
+    msg = str(e.value)
+    assert msg.startswith("none of the 2 trials can be used"), msg
+    assert "/lab/unreadable.c3d: " in msg and "corners are all zero" in msg
+
+
 def test_fit_names_the_usual_slips_of_its_first_argument():
     """``fit([trial])``, ``fit((trial, kin))`` and the like: one message with the call to
     make, not a TypeError from deep inside (the diagnosis takes the same pairs)."""

@@ -102,6 +102,8 @@ def usable_trials(
             loaded.append((f, load(f)))
         except InputError as e:
             skip(f, e)
+    if not loaded:  # raised here, not by a check of the command's arguments on no stances
+        _none_usable(files, skipped)
     # one person's one mass before each trial's checks, so that a trial is checked with the
     # mass the fit will use (trials of two people: raised, not skipped)
     trials, _ = one_subject([t for _, t in loaded])
@@ -120,11 +122,15 @@ def usable_trials(
             continue
         pairs.append(pair)
     if not pairs:
-        raise InputError(
-            f"none of the {len(files)} trials can be used: "
-            + "; ".join(f"{' + '.join(s.files)}: {s.reason}" for s in skipped)
-        )
+        _none_usable(files, skipped)
     return pairs, skipped
+
+
+def _none_usable(files: Sequence, skipped: list[SkippedTrial]) -> None:
+    raise InputError(
+        f"none of the {len(files)} trials can be used: "
+        + "; ".join(f"{' + '.join(s.files)}: {s.reason}" for s in skipped)
+    )
 
 
 def _names(f) -> tuple[str, ...]:
