@@ -627,6 +627,32 @@ def test_fit_with_a_bias_correction_reports_what_it_removed(tmp_path, capsys):
     assert b["drift"] is False and "drew the markers&#39; noise only" in page
 
 
+def test_fit_sensitivity_refits_with_the_fit_s_own_options(tmp_path, capsys, monkeypatch):
+    """``--sensitivity`` refits as the fit was made: its cutoff is the reference and its
+    options (here a fixed pose width and a held-out stance) are every refit's; they were
+    dropped (the refits estimated the width the user fixed, around a 6 Hz cutoff)."""
+    import importlib
+
+    from gc_ocp.workflow.sensitivity import SensitivityReport
+
+    # (the package's attribute of that name is the function)
+    sensitivity_module = importlib.import_module("gc_ocp.workflow.sensitivity")
+    got = {}
+
+    def recorded(trials, **kw):
+        got.update(kw)
+        return SensitivityReport(["8 Hz, 30 ms"], {"n": [1.0]}, {"n": 0.1}, "8 Hz, 30 ms")
+
+    monkeypatch.setattr(sensitivity_module, "sensitivity", recorded)
+    argv = ["fit", "--sensitivity", "--cutoff", "8", "--fixed-pose-width", "--holdout", "auto"]
+    assert main([*argv, "--out", str(tmp_path / "fit")]) == 0
+    assert got["reference_cutoff"] == 8.0
+    options = got["fit_options"]
+    assert options["holdout"] == "auto" and options["pose_scale"] is False
+    assert options["sole_scale"] is None and options["pose_correlation"] is False
+    assert (tmp_path / "fit" / "sensitivity.json").exists()
+
+
 def test_every_option_with_a_default_states_it_in_its_help():
     """``--help`` of every command says the default of each option that has one (a value the
     user gets without asking), so that no default is found only by reading the code."""

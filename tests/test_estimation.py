@@ -541,6 +541,43 @@ def test_sensitivity_to_processing_choices(bundled, tmp_path):
     assert "Sensitivity to processing choices" in page and "<b>5.0</b>" in page
 
 
+def test_sensitivity_refits_are_the_reported_fit_but_for_their_choice(monkeypatch):
+    """Every refit gets the reported fit's options (a fixed pose width, a held-out stance, ...)
+    and the reference is the fit's own cutoff: the refits estimated the pose width the user had
+    fixed, and with --cutoff 10 the reference was a 6 Hz refit the user never ran."""
+    import importlib
+    import types
+
+    # (the package's attribute of that name is the function)
+    sensitivity_module = importlib.import_module("gc_ocp.workflow.sensitivity")
+    calls = []
+
+    def fake_fit(pairs, **kw):
+        calls.append(kw)
+        cut = pairs[0][1]
+        shared = {"n": 1.0 + cut / 100 + kw["margin"], "n_se": 0.01 * cut}
+        return types.SimpleNamespace(result=types.SimpleNamespace(params={"shared": shared}))
+
+    monkeypatch.setattr(sensitivity_module, "fit", fake_fit)
+    options = {"holdout": "auto", "pose_scale": False, "sole_scale": False}
+    rep = sensitivity_module.sensitivity(
+        ["trial"],
+        compute_kinematics=lambda t, cutoff_hz: cutoff_hz,
+        reference_cutoff=10.0,
+        fit_options=options,
+    )
+    assert rep.choices == [
+        "4 Hz, 30 ms",
+        "6 Hz, 30 ms",
+        "8 Hz, 30 ms",
+        "10 Hz, 30 ms",
+        "10 Hz, 60 ms",
+    ]
+    assert rep.reference == "10 Hz, 30 ms" and rep.se["n"] == pytest.approx(0.1)
+    assert all(all(c[k] == v for k, v in options.items()) for c in calls)
+    assert all(c["bias_correction"] == 0 for c in calls)
+
+
 def test_extended_model_started_from_the_base_never_ends_higher():
     """base + time_offset contains the base (zero delay); started also from the base's solution
     it ends at or below the base's objective (without that start, gait2392 ended at 380 vs 361).

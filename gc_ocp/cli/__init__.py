@@ -132,7 +132,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--sensitivity",
         action="store_true",
-        help="Also refit with other marker cutoffs (4, 8 Hz) and stance margins (60 ms) and report how "
+        help="Also refit with other marker cutoffs (4, 6, 8 Hz beside the fit's own --cutoff) "
+        "and stance margins (60 ms), each refit with the fit's other options, and report how "
         "far the headline parameters move, in units of their SE (sensitivity.json/.md).",
     )
     p.add_argument(

@@ -160,17 +160,19 @@ def cmd_fit(args: argparse.Namespace) -> int:
         try:
             # the problem is not convex: with effects, the full model's optimum is one more
             # start, so that adding effects cannot end above the model without them
-            extends = None if model is None else full_model()
+            options = {  # the fit's options, each sensitivity refit's too
+                "holdout": args.holdout,
+                "extends": None if model is None else full_model(),
+                "pose_scale": not args.fixed_pose_width,
+                "sole_scale": False if args.fixed_sole_width else None,
+                "pose_correlation": args.pose_correlation,
+            }
             report = fit(
                 pairs,
                 model=model,
-                holdout=args.holdout,
                 progress=_progress,
-                extends=extends,
-                pose_scale=not args.fixed_pose_width,
-                sole_scale=False if args.fixed_sole_width else None,
                 bias_correction=args.bias_correction,
-                pose_correlation=args.pose_correlation,
+                **options,
             )
         except SolveError as e:
             if e.result is not None:
@@ -202,8 +204,17 @@ def cmd_fit(args: argparse.Namespace) -> int:
                     foot_roll=args.foot_roll,
                 )
 
+            from gc_ocp.kinematics.filtering import DEFAULT_CUTOFF_HZ
+
+            # the refits as the fit reported (its cutoff the reference, its options), each
+            # differing from it by one processing choice
             sens = sensitivity(
-                [t for t, _ in pairs], model=model, compute_kinematics=kin, progress=_progress
+                [t for t, _ in pairs],
+                model=model,
+                compute_kinematics=kin,
+                progress=_progress,
+                reference_cutoff=DEFAULT_CUTOFF_HZ if args.cutoff is None else args.cutoff,
+                fit_options=options,
             ).with_se(report.result)  # spreads in the reported fit's SEs, which the flag judges
             print(
                 "sensitivity of the headline parameters to processing choices:\n" + sens.summary()

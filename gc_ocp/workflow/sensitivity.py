@@ -16,6 +16,7 @@ from collections.abc import Callable
 import numpy as np
 
 from gc_ocp.kinematics import compute_kinematics as default_kin
+from gc_ocp.kinematics.filtering import DEFAULT_CUTOFF_HZ
 from gc_ocp.workflow.fitting import MARGIN, fit
 
 DEFAULT_CUTOFFS = (4.0, 6.0, 8.0)
@@ -110,19 +111,32 @@ def sensitivity(
     compute_kinematics: Callable | None = None,
     progress: Callable[[str], None] | None = None,
     bias_correction: int | None = 0,
+    reference_cutoff: float = DEFAULT_CUTOFF_HZ,
+    fit_options: dict | None = None,
 ) -> SensitivityReport:
     """Refit ``trials`` (a list of :class:`~gc_ocp.trial.Trial`) once per marker cutoff [Hz] and
-    once per stance margin [s]; the reference choice is the default (6 Hz, 0.03 s).
+    once per stance margin [s] (the margins at the reference cutoff); the reference choice is
+    ``reference_cutoff`` (the default 6 Hz; added to ``cutoffs`` when not among them) with the
+    default margin (0.03 s). ``fit_options``: the reported fit's other options
+    (:func:`~gc_ocp.workflow.fitting.fit`'s ``holdout``, ``pose_scale``, ``sole_scale``,
+    ``pose_correlation``, ``extends``, ...), given to every refit, so that the reference refit is
+    the fit reported and the others differ from it by their choice alone.
     ``bias_correction``: as :func:`~gc_ocp.workflow.fitting.fit`'s; by default none, so that the
     differences are the choices' own (the correction's replicates would add their Monte Carlo
     spread, and the markers' noise at the units, which decides it by default, changes with the
     cutoff)."""
     kin_fn = compute_kinematics or default_kin
     say = progress or (lambda s: None)
+    fit_options = dict(fit_options or {})
+    ref_cut = float(reference_cutoff)
+    cuts = [float(c) for c in cutoffs]
+    if ref_cut not in cuts:
+        cuts = sorted({*cuts, ref_cut})
+    ref_label = f"{ref_cut:g} Hz, {MARGIN * 1e3:.0f} ms"
     runs: list[tuple[str, dict, dict]] = []
     kin_cache: dict = {}
-    for cut in cutoffs:
-        for margin in margins if cut == 6.0 else (MARGIN,):
+    for cut in cuts:
+        for margin in margins if cut == ref_cut else (MARGIN,):
             label = f"{cut:g} Hz, {margin * 1e3:.0f} ms"
             say(f"sensitivity: {label}")
             if cut not in kin_cache:
@@ -132,10 +146,11 @@ def sensitivity(
                 model=model,
                 margin=margin,
                 bias_correction=bias_correction,
+                **fit_options,
             )
             vals, ses = _headline(rep.result)
             runs.append((label, vals, ses))
-    ref = next((r for r in runs if r[0].startswith("6 Hz, 30 ms")), runs[0])
+    ref = next((r for r in runs if r[0] == ref_label), runs[0])
     keys = list(ref[1])
     return SensitivityReport(
         choices=[r[0] for r in runs],
