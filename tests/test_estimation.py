@@ -282,6 +282,22 @@ def test_a_held_out_solve_that_fails_keeps_the_fit_and_flags_the_score(bundled, 
     assert rep.heldout_label in flag["what"] and "Maximum_Iterations_Exceeded" in flag["message"]
 
 
+def test_holdout_auto_that_finds_no_stance_to_hold_out_says_so(bundled):
+    """``holdout="auto"`` with one stance per foot holds none out (a foot needs one left to
+    fit): the report says so among its checks, where it said nothing (no held-out score, and
+    no word why)."""
+    import dataclasses
+
+    from gc_ocp.workflow import fit
+
+    trial, kin = bundled
+    one_each = dataclasses.replace(trial, stances=trial.stances[:2])  # right, left
+    assert sorted(s.side for s in one_each.stances) == ["left", "right"]
+    rep = fit([(one_each, kin)], holdout="auto", pose_scale=False)
+    assert rep.heldout is None
+    assert any("holdout auto" in c and "no stance held out" in c for c in rep.checks), rep.checks
+
+
 def test_an_exact_holdout_label_wins_over_the_labels_that_contain_it():
     from gc_ocp.workflow.fitting import _holdout_index
 

@@ -408,6 +408,17 @@ def fit(
     held = None
     if holdout == "auto":
         holdout = auto_holdout(data)
+        if holdout is None:  # asked for, so said: no held-out score, and why
+            counts = ", ".join(
+                f"{side} {sum(d.side == side for d in data)}" for side in ("right", "left")
+            )
+            note = (
+                f"holdout auto: no stance held out (no held-out score): no foot has two "
+                f"stances to keep one to fit (stances: {counts}); give more trials of the "
+                "subject for a held-out evaluation"
+            )
+            notes.append(note)
+            say(f"check: {note}")
     if holdout is not None:
         held = data[_holdout_index(holdout, [d.label for d in data])]
         data = [d for d in data if d is not held]
