@@ -80,6 +80,18 @@ def test_info_describes_every_readable_trial_and_names_the_unreadable_one(tmp_pa
     assert "Traceback" not in printed.err
 
 
+def test_info_refuses_a_mass_the_plates_contradict(capsys):
+    """``info --mass 140`` (the bundled subject's 63.6 kg in pounds) printed a -55 % check and
+    exit status 0, while a fit refuses that mass: it is bad input, said with its fix (after the
+    description, which is still printed)."""
+    assert main(["info", "--mass", "140"]) == 2
+    printed = capsys.readouterr()
+    assert "stance right" in printed.out  # described
+    assert "gc-ocp info: error:" in printed.err and "check the mass (--mass KG" in printed.err
+    assert "the plates suggest 62." in printed.err and "Traceback" not in printed.err
+    assert main(["info", "--mass", "62"]) == 0  # within the fit's tolerance
+
+
 def test_info_goes_on_past_a_trc_it_cannot_pair(tmp_path, capsys):
     """A missing TRC and one without ground reactions are named; the C3D is still described
     (the pairing used to stop the whole run at the first of them)."""

@@ -30,11 +30,14 @@ def _print_skipped(skipped) -> None:
 
 def cmd_info(args: argparse.Namespace) -> int:
     """Describe every trial; one that cannot be read is reported and the others described
-    (exit status 2 at the end if any failed: a lab's folder is checked in one run)."""
+    (exit status 2 at the end if any failed: a lab's folder is checked in one run), as is a
+    mass the plates contradict beyond what a fit accepts (described, then refused)."""
+    from gc_ocp.errors import MassError
     from gc_ocp.io import describe_trial
+    from gc_ocp.io.consistency import body_weight
 
     files = _trial_files(args)
-    failed = 0
+    failed = refused = 0
     for f in files:
         try:
             trial = _load_one(args, f)
@@ -46,14 +49,18 @@ def cmd_info(args: argparse.Namespace) -> int:
             continue
         print(describe_trial(trial))
         print()
+        try:  # the mass a fit refuses (e.g. --mass in pounds): bad input, said as the fit says it
+            body_weight(trial)
+        except MassError as e:
+            refused += 1
+            print(f"gc-ocp info: error: {' '.join(str(e).split())}", file=sys.stderr)
     if failed:
         print(
             f"gc-ocp info: {failed} of {len(files)} trials could not be read (above); the "
             "others are described.",
             file=sys.stderr,
         )
-        return 2
-    return 0
+    return 2 if failed or refused else 0
 
 
 KINEMATICS_OUTPUTS = (
