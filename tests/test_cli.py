@@ -571,6 +571,33 @@ def test_diagnose_bad_effects_exit_2_before_any_work(tmp_path, capsys, argv, nee
     assert "choose" in err and "solving" not in err and not out.exists()
 
 
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["fit", "--bias-correction", "-1"], "bias_correction=-1: give the number"),
+        (["fit", "--bias-correction", "1"], "bias_correction=1: give the number"),
+        (["fit", "--fixed-pose-width", "--pose-correlation"], "keep pose_scale=True"),
+        (["diagnose", "--null-draws", "-3"], "--null-draws must be 0 or more"),
+        (["diagnose", "--workers", "0"], "--workers must be 1 or more"),
+    ],
+)
+def test_bad_numbers_and_option_clashes_exit_2_before_the_kinematics(
+    monkeypatch, capsys, tmp_path, argv, needle
+):
+    """These were refused only after every trial's inverse kinematics (seconds to minutes a
+    trial): the values are known from the command line."""
+    import gc_ocp.cli.common as common
+
+    def no_kinematics(*_):
+        raise AssertionError("the kinematics were computed before the options were checked")
+
+    monkeypatch.setattr(common, "_kinematics", no_kinematics)
+    assert main([*argv, "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and "Traceback" not in err, err
+    assert not (tmp_path / "o").exists()
+
+
 def test_trc_is_paired_with_the_only_mot_in_its_folder(capsys):
     """The Rajagopal folder holds one .mot (grf_walk.mot, not named after the TRC) and a static
     TRC; the Gait2392 folder's .mot is named after its TRC. Several trials, one command."""

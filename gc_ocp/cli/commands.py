@@ -155,25 +155,31 @@ def cmd_fit(args: argparse.Namespace) -> int:
     from gc_ocp.estimation.components import full_model
     from gc_ocp.outputs import OutputSet, check_writable
     from gc_ocp.workflow.fit_files import FIT_OUTPUTS, write_fit
-    from gc_ocp.workflow.fitting import check_holdout, fit
+    from gc_ocp.workflow.fitting import check_holdout, check_options, fit
 
     check_writable(args.out, command="gc-ocp fit")  # before any computation
     model = fit_model(None if args.effects is None else _effect_list(args.effects))
+    # the problem is not convex: with effects, the full model's optimum is one more start, so
+    # that adding effects cannot end above the model without them
+    options = {  # the fit's options, each sensitivity refit's too
+        "holdout": args.holdout,
+        "extends": None if model is None else full_model(),
+        "pose_scale": not args.fixed_pose_width,
+        "sole_scale": False if args.fixed_sole_width else None,
+        "pose_correlation": args.pose_correlation,
+    }
+    check_options(  # before the kinematics, as the fit would raise it after them
+        options["pose_scale"],
+        options["sole_scale"],
+        options["pose_correlation"],
+        args.bias_correction,
+    )
     pairs, skipped = _load_subject(args, lambda trials: check_holdout(args.holdout, trials))
     prov = provenance(args, pairs, skipped)
     out = OutputSet(args.out, FIT_OUTPUTS, "gc-ocp fit")
     landmarks = {"trials": [kin.info.get("landmarks") for _, kin in pairs]}
     try:
         try:
-            # the problem is not convex: with effects, the full model's optimum is one more
-            # start, so that adding effects cannot end above the model without them
-            options = {  # the fit's options, each sensitivity refit's too
-                "holdout": args.holdout,
-                "extends": None if model is None else full_model(),
-                "pose_scale": not args.fixed_pose_width,
-                "sole_scale": False if args.fixed_sole_width else None,
-                "pose_correlation": args.pose_correlation,
-            }
             report = fit(
                 pairs,
                 model=model,
@@ -283,6 +289,10 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
             "default) or drop --plate-calibration."
         )
     effects = _effects(args)
+    if args.null_draws is not None and args.null_draws < 0:  # before the kinematics
+        raise InputError(f"--null-draws must be 0 or more, but got {args.null_draws}")
+    if args.workers is not None and args.workers < 1:
+        raise InputError(f"--workers must be 1 or more, but got {args.workers}")
     pairs, skipped = _load_subject(args)
     prov = provenance(args, pairs, skipped)
     kw = {"pose_width": args.pose_width, "null_fits": args.null_fits}
@@ -291,12 +301,8 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
 
         kw["mismatch"] = DEFAULT_FAMILY.with_plate_calibration()
     if args.null_draws is not None:
-        if args.null_draws < 0:
-            raise InputError(f"--null-draws must be 0 or more, but got {args.null_draws}")
         kw["mismatch_draws"] = args.null_draws
     if args.workers is not None:
-        if args.workers < 1:
-            raise InputError(f"--workers must be 1 or more, but got {args.workers}")
         kw["workers"] = args.workers
     d = diagnose(pairs, base=args.base, candidates=effects, progress=_progress, **kw)
     print(d.summary())

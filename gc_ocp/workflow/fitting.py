@@ -337,6 +337,30 @@ def bias_replicates(bias_correction: int | None, data: list[StanceData]) -> tupl
     return n, notes
 
 
+def check_options(
+    pose_scale: bool = True,
+    sole_scale: bool | None = None,
+    pose_correlation: bool = False,
+    bias_correction: int | None = None,
+) -> bool:
+    """:func:`fit`'s options checked together (:class:`InputError` with the fix; the command
+    line checks them before the kinematics); the sole width's estimation they ask for."""
+    if pose_correlation and not pose_scale:
+        raise InputError(
+            "The pose correction's knot correlation is estimated in the pose width's rounds: "
+            "keep pose_scale=True (drop --fixed-pose-width) to estimate it."
+        )
+    if sole_scale is None:
+        sole_scale = pose_scale
+    if sole_scale and not pose_scale:
+        raise InputError(
+            "The sole correction's width is estimated in the pose width's rounds: keep "
+            "pose_scale=True (drop --fixed-pose-width) to estimate it."
+        )
+    check_replicates(bias_correction)
+    return bool(sole_scale)
+
+
 def fit(
     trials: list[tuple[Trial, TrialKinematics]],
     model: tuple | None = None,
@@ -390,19 +414,7 @@ def fit(
             f"holdout={holdout!r}: give a stance's label or a part of it, e.g. "
             '"right@0.407" (gc-ocp info lists them), or "auto".'
         )
-    if pose_correlation and not pose_scale:
-        raise InputError(
-            "The pose correction's knot correlation is estimated in the pose width's rounds: "
-            "keep pose_scale=True (drop --fixed-pose-width) to estimate it."
-        )
-    if sole_scale is None:
-        sole_scale = pose_scale
-    if sole_scale and not pose_scale:
-        raise InputError(
-            "The sole correction's width is estimated in the pose width's rounds: keep "
-            "pose_scale=True (drop --fixed-pose-width) to estimate it."
-        )
-    check_replicates(bias_correction)
+    sole_scale = check_options(pose_scale, sole_scale, pose_correlation, bias_correction)
     model = model or full_model()
     trials, data, notes = fit_data(trials, margin, say)
     held = None
@@ -560,6 +572,7 @@ __all__ = [
     "auto_holdout",
     "bias_replicates",
     "check_holdout",
+    "check_options",
     "fit",
     "fit_data",
 ]
