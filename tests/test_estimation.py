@@ -594,6 +594,36 @@ def test_sensitivity_refits_are_the_reported_fit_but_for_their_choice(monkeypatc
     assert all(c["bias_correction"] == 0 for c in calls)
 
 
+def test_a_sensitivity_refit_that_fails_is_recorded_not_the_end_of_the_fit(monkeypatch):
+    """A refit at another choice that does not converge (or whose checks refuse it) raised out
+    of ``gc-ocp fit --sensitivity``: the fit itself, converged and printed, was discarded and
+    the run said 'solve failed'. The choice is recorded as failed (its values NaN) and flagged."""
+    import importlib
+    import math
+    import types
+
+    from gc_ocp.errors import SolveError
+
+    sensitivity_module = importlib.import_module("gc_ocp.workflow.sensitivity")
+
+    def fake_fit(pairs, **kw):
+        if pairs[0][1] == 8.0:
+            raise SolveError("Ipopt did not converge: Maximum_Iterations_Exceeded")
+        shared = {"n": 1.0 + pairs[0][1] / 100 + kw["margin"], "n_se": 0.01}
+        return types.SimpleNamespace(result=types.SimpleNamespace(params={"shared": shared}))
+
+    monkeypatch.setattr(sensitivity_module, "fit", fake_fit)
+    rep = sensitivity_module.sensitivity(
+        ["trial"], compute_kinematics=lambda t, cutoff_hz: cutoff_hz
+    )
+    assert rep.choices == ["4 Hz, 30 ms", "6 Hz, 30 ms", "6 Hz, 60 ms", "8 Hz, 30 ms"]
+    assert rep.reference == "6 Hz, 30 ms" and math.isnan(rep.values["n"][3])
+    assert rep.spread("n") == pytest.approx(0.05)  # over the refits made
+    assert "Maximum_Iterations_Exceeded" in rep.failed["8 Hz, 30 ms"]
+    [flag] = [f for f in rep.flags() if f["code"] == "sensitivity_refit_failed"]
+    assert flag["what"] == "8 Hz, 30 ms" and "8 Hz, 30 ms" in rep.summary()
+
+
 def test_extended_model_started_from_the_base_never_ends_higher():
     """base + time_offset contains the base (zero delay); started also from the base's solution
     it ends at or below the base's objective (without that start, gait2392 ended at 380 vs 361).

@@ -15,6 +15,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from gc_ocp.errors import InputError, SolveError
 from gc_ocp.kinematics import compute_kinematics as default_kin
 from gc_ocp.kinematics.filtering import DEFAULT_CUTOFF_HZ
 from gc_ocp.workflow.fitting import MARGIN, fit
@@ -30,12 +31,14 @@ not noise, and at twice the SE the choices, not the noise, set how well it is kn
 @dataclasses.dataclass
 class SensitivityReport:
     """choices: labels; values: ``{parameter: [value per choice]}``; se: ``{parameter: SE of the
-    reference choice}``; reference: the label of the default choice."""
+    reference choice}``; reference: the label of the default choice; failed: ``{choice: why}``
+    of the refits that did not converge or were refused (their values NaN)."""
 
     choices: list
     values: dict
     se: dict
     reference: str
+    failed: dict = dataclasses.field(default_factory=dict)
 
     def spread(self, p: str) -> float:
         v = np.asarray(self.values[p], float)
@@ -51,8 +54,18 @@ class SensitivityReport:
         return [(p, list(v), self.spread(p), self.ratio(p)) for p, v in self.values.items()]
 
     def flags(self) -> list[dict]:
-        """A ``processing_sensitive`` flag per parameter beyond :data:`SENSITIVE_RATIO`."""
-        return [
+        """A ``processing_sensitive`` flag per parameter beyond :data:`SENSITIVE_RATIO`; a
+        ``sensitivity_refit_failed`` flag per choice whose refit failed."""
+        failed = [
+            {
+                "code": "sensitivity_refit_failed",
+                "what": c,
+                "message": f"the refit at {c} failed ({why}): the spreads are over the other "
+                "settings only",
+            }
+            for c, why in self.failed.items()
+        ]
+        return failed + [
             {
                 "code": "processing_sensitive",
                 "what": p,
@@ -134,29 +147,38 @@ def sensitivity(
         cuts = sorted({*cuts, ref_cut})
     ref_label = f"{ref_cut:g} Hz, {MARGIN * 1e3:.0f} ms"
     runs: list[tuple[str, dict, dict]] = []
+    failed: dict = {}
     kin_cache: dict = {}
     for cut in cuts:
         for margin in margins if cut == ref_cut else (MARGIN,):
             label = f"{cut:g} Hz, {margin * 1e3:.0f} ms"
             say(f"sensitivity: {label}")
-            if cut not in kin_cache:
-                kin_cache[cut] = [kin_fn(t, cutoff_hz=cut) for t in trials]
-            rep = fit(
-                list(zip(trials, kin_cache[cut], strict=True)),
-                model=model,
-                margin=margin,
-                bias_correction=bias_correction,
-                **fit_options,
-            )
+            try:  # a choice that fails is recorded: the fit reported stands without it
+                if cut not in kin_cache:
+                    kin_cache[cut] = [kin_fn(t, cutoff_hz=cut) for t in trials]
+                rep = fit(
+                    list(zip(trials, kin_cache[cut], strict=True)),
+                    model=model,
+                    margin=margin,
+                    bias_correction=bias_correction,
+                    **fit_options,
+                )
+            except (InputError, SolveError) as e:
+                failed[label] = " ".join(str(e).split())
+                say(f"sensitivity: {label}: failed ({failed[label]})")
+                runs.append((label, {}, {}))
+                continue
             vals, ses = _headline(rep.result)
             runs.append((label, vals, ses))
-    ref = next((r for r in runs if r[0] == ref_label), runs[0])
-    keys = list(ref[1])
+    made = [r for r in runs if r[0] not in failed] or runs
+    ref = next((r for r in made if r[0] == ref_label), made[0])
+    keys = list(dict.fromkeys(k for r in made for k in r[1]))
     return SensitivityReport(
         choices=[r[0] for r in runs],
         values={k: [r[1].get(k, float("nan")) for r in runs] for k in keys},
         se={k: ref[2].get(k, float("nan")) for k in keys},
         reference=ref[0],
+        failed=failed,
     )
 
 
