@@ -78,3 +78,8 @@ def test_belt_speed_not_informed_and_poor_fit():
     assert [f["code"] for f in belt.flags(prior_only, [])] == ["belt_not_informed"]
     rms = {"left": {"superior_force_pct_bw": 61.0}, "right": {"superior_force_pct_bw": 1.8}}
     assert [f["what"] for f in fit_flags(rms, {"left": 600.0, "right": 9.0})] == ["left", "left"]
+    # an RMS that is not a number is no good fit (nan > 10 is False: it passed unflagged); a
+    # COP RMS is NaN where no frame carries 10 % BW, which says nothing of the fit
+    rms = {"left": {"superior_force_pct_bw": float("nan")}, "right": {"superior_force_pct_bw": 1.8}}
+    [bad] = fit_flags(rms, {"left": float("nan"), "right": 9.0})
+    assert bad["what"] == "left" and "not a number" in bad["message"]

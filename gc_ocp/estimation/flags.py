@@ -119,12 +119,15 @@ def fit_flags(rms: dict, cop_rms_mm: dict) -> list[dict]:
     out = []
     for side, r in rms.items():
         sup = r.get("superior_force_pct_bw", 0.0)
-        if sup > POOR_SUPERIOR_PCT_BW:
+        if not sup <= POOR_SUPERIOR_PCT_BW:  # (a NaN RMS, a model or data not a number, too)
             out.append(
                 flag(
                     "poor_fit",
                     side,
-                    f"{side} superior-force RMS {sup:.1f} % BW > {POOR_SUPERIOR_PCT_BW:g} % BW",
+                    f"{side} superior-force RMS {sup:.1f} % BW > {POOR_SUPERIOR_PCT_BW:g} % BW"
+                    if np.isfinite(sup)
+                    else f"{side} superior-force RMS is not a number: the model or the plate "
+                    "data are not finite on a fitted frame",
                 )
             )
         cop = cop_rms_mm.get(side, 0.0)
