@@ -816,3 +816,19 @@ def test_the_fit_page_shows_the_fitted_belt_speed():
     res = dataclasses.replace(res, flags=[*res.flags, flag])
     page = _Page(fit_report_html(FitReport(result=res), None, figures)).visible
     assert "Belt speed (walk<1>): 1.183 (at its bound: not an estimate) m/s" in page
+
+
+def test_a_diagnosis_read_back_from_its_json_renders_its_page():
+    """``Diagnosis.from_json`` promises the report page (given the final fit), but
+    ``report_html`` drew the residual-over-time figure, which needs the fits the file does not
+    keep: KeyError 'base', a traceback. The page is made without that figure and says why; the
+    figure asked for alone is an error that names the fix."""
+    from gc_ocp.diagnosis.report import report_html
+    from gc_ocp.errors import InputError
+
+    _, _, js, d, final = _fixture(CASES[0])
+    page = _Page(report_html(d, provenance=js["provenance"], final=final)).visible
+    assert "needs the diagnosis's fits, which diagnosis.json does not keep" in page
+    assert "Held-out residual of the base model" in page  # the figures that need no fit
+    with pytest.raises(InputError, match="diagnosis.json does not keep them"):
+        d.residual_figure("base")

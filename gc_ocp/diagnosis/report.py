@@ -50,13 +50,16 @@ TEMPLATE = "report.html.j2"
 def report_figures(diagnosis) -> dict:
     """The report's figures as matplotlib figures: ``heatmap`` (base, held-out), ``residuals``
     (base, held-out, over time), ``ranking``, ``waterfall`` and, when an effect was selected,
-    ``heatmap_final``. The caller closes them."""
+    ``heatmap_final``. The caller closes them. A diagnosis read back from ``diagnosis.json``
+    (:meth:`~gc_ocp.diagnosis.result.Diagnosis.from_json`) has no fits: no ``residuals``
+    (the page says so)."""
     figs = {
         "heatmap": diagnosis.heatmap("base"),
-        "residuals": diagnosis.residual_figure("base"),
         "ranking": diagnosis.ranking_figure(),
         "waterfall": diagnosis.waterfall_figure(),
     }
+    if "base" in diagnosis.evaluations:
+        figs["residuals"] = diagnosis.residual_figure("base")
     if diagnosis.selected:
         figs["heatmap_final"] = diagnosis.heatmap("final")
     return figs

@@ -338,13 +338,22 @@ class Diagnosis:
             return self.selected[-1]
         return None
 
+    def _evaluation(self, label: str) -> Evaluation:
+        if label not in self.evaluations:
+            raise InputError(
+                f"this diagnosis has no fits ({label!r}'s evaluation): diagnosis.json does not "
+                "keep them (Diagnosis.from_json); use the Diagnosis diagnose() returned, or "
+                "rerun gc-ocp diagnose"
+            )
+        return self.evaluations[label]
+
     @property
     def base_evaluation(self) -> Evaluation:
-        return self.evaluations["base"]
+        return self._evaluation("base")
 
     @property
     def final_evaluation(self) -> Evaluation:
-        return self.evaluations[self.waterfall[-1].label]
+        return self._evaluation(self.waterfall[-1].label)
 
     def to_json(self) -> dict:
         """``diagnosis.json`` (schema in ``docs/diagnosis.md``)."""
