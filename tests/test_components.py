@@ -261,8 +261,14 @@ def test_describe_shows_the_block_in_the_summary_and_after_json(stances, name):
         assert isinstance(r, SummaryRow) and isinstance(r.label, str) and isinstance(r.unit, str)
         assert np.isfinite(r.value) and (np.isnan(r.se) or r.se >= 0), r
     assert res.block_rows()[own] == rows
+    # a row's key names one of the component's variables, as the flags name it (so a value at
+    # its bound is shown without its SE)
+    from gc_ocp.estimation.flags import row_at_bound, variable_key
+
+    declared = {variable_key(*s.key) for s in pb.variables.specs}
+    assert all(variable_key(own, *r.key) in declared for r in rows if r.key), (rows, declared)
     text = res.summary()
-    assert all(f"{own} {r.text()}" in text for r in rows), text
+    assert all(f"{own} {r.text(row_at_bound(res.at_bound, own, r))}" in text for r in rows), text
     back = EstimationResult.from_json(json.loads(json.dumps(res.to_json())))
     assert back.block_rows() == res.block_rows()
 
@@ -272,7 +278,7 @@ def test_describe_reads_the_values_of_the_block():
     offset's dz in mm and tilts in degrees from the block's SI values)."""
     from gc_ocp.estimation.components import Damping, GroundOffset
 
-    assert Damping.describe({"c": 0.7, "c_se": 0.05}) == [("c", 0.7, 0.05, "s/m")]
+    assert Damping.describe({"c": 0.7, "c_se": 0.05}) == [("c", 0.7, 0.05, "s/m", ("c",))]
     block = {
         "s1": {
             "dz": 0.002, "dz_se": 0.001, "tilt_x": 0.01, "tilt_x_se": 0.002, "tilt_y": -0.01,
@@ -282,7 +288,7 @@ def test_describe_reads_the_values_of_the_block():
     }  # fmt: skip
     rows = GroundOffset.describe(block)
     assert [r.label for r in rows] == ["s1 dz", "s1 tilt_x", "s1 tilt_y"]
-    assert rows[0][1:] == (2.0, 1.0, "mm")
+    assert rows[0][1:] == (2.0, 1.0, "mm", ())  # (a prior correction: no one variable)
     assert rows[2].value == pytest.approx(-0.5729578, rel=1e-6)  # -0.01 rad in deg
     assert rows[2].se == pytest.approx(0.2291831, rel=1e-6)  # 0.004 rad in deg
 

@@ -832,3 +832,27 @@ def test_a_diagnosis_read_back_from_its_json_renders_its_page():
     assert "Held-out residual of the base model" in page  # the figures that need no fit
     with pytest.raises(InputError, match="diagnosis.json does not keep them"):
         d.residual_figure("base")
+
+
+def test_an_effect_at_its_bound_shows_no_standard_error():
+    """An effect's parameter the fit flags at its bound (damping's c, a trial's clock offset)
+    was shown with its SE on the pages and in the summary, beside the flag saying its SE means
+    nothing; it is shown as the contact law's and the sole's are: at its bound, no SE."""
+    from gc_ocp.diagnosis.report import report_html
+    from gc_ocp.values import BOUND_TEXT
+
+    _, _, js, d, final = _fixture(CASES[0])
+    rows = final.block_rows()
+    name, r = next((n, r) for n, rs in rows.items() for r in rs if r.key)
+    flag = {"code": "at_bound", "what": "/".join((name, *r.key)), "message": "at its bound"}
+    res = dataclasses.replace(final, flags=[*final.flags, flag])
+    assert f"{name} {r.label} = {r.value:.4g}" in res.summary()
+    assert (
+        f"{r.label} = {r.value:.4g}"
+        + (f" {r.unit}" if r.unit not in ("", "-") else "")
+        + (f" {BOUND_TEXT}")
+        in res.summary()
+    )
+    pngs = dict.fromkeys(("heatmap", "residuals", "ranking", "waterfall", "heatmap_final"), b"")
+    page = _Page(report_html(d, provenance=js["provenance"], pngs=pngs, final=res)).visible
+    assert f"{r.label}\n" in page and BOUND_TEXT in page.split(f"{r.label}\n", 1)[1][:80]

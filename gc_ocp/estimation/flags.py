@@ -51,6 +51,12 @@ def law_at_bound(bound, param: str, side: str | None = None) -> bool:
     return bool(keys & bound)
 
 
+def row_at_bound(bound, block: str, row) -> bool:
+    """A component's row of its block ``block`` (a ``SummaryRow``, :meth:`Component.describe`)
+    is one variable among ``bound`` (:func:`at_bound_names`): its value is not an estimate."""
+    return bool(row.key) and variable_key(block, *row.key) in bound
+
+
 def k_at_bound(bound, side: str, unit: str) -> bool:
     """The stiffness of ``side``'s ``unit`` is among ``bound`` (:func:`at_bound_names`): its own
     ``k``, or a ``k`` of a wider scope (the foot's, or one for all units)."""

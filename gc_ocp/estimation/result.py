@@ -21,7 +21,7 @@ from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
 from gc_ocp.errors import InputError, read_document
 from gc_ocp.estimation.components import describe_block
 from gc_ocp.estimation.components.contact import ContactLaw
-from gc_ocp.estimation.flags import at_bound_names, k_at_bound, law_at_bound
+from gc_ocp.estimation.flags import at_bound_names, k_at_bound, law_at_bound, row_at_bound
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
 from gc_ocp.text import read_json_file
@@ -183,8 +183,9 @@ class EstimationResult:
                         else f"± {se_text(se, f'{v:.4g}')}"
                     )
                 )
+        bound = self.at_bound
         for name, rows in self.block_rows().items():
-            lines += [f"{name} {r.text()}" for r in rows]
+            lines += [f"{name} {r.text(row_at_bound(bound, name, r))}" for r in rows]
         if self.flags:
             lines.append(f"FLAGS ({len(self.flags)}): what not to take at face value")
             lines += [f"  ! {f['message']}" for f in self.flags]

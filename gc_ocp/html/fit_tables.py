@@ -13,7 +13,7 @@ import numpy as np
 
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_name, channel_unit
 from gc_ocp.estimation.components.base import per_axis
-from gc_ocp.estimation.flags import k_at_bound, law_at_bound, variable_key
+from gc_ocp.estimation.flags import k_at_bound, law_at_bound, row_at_bound, variable_key
 from gc_ocp.values import BOUND_TEXT, se_text
 
 CORE_BLOCKS = ("contact", "sole", "pose", "belt")
@@ -207,11 +207,20 @@ def effect_blocks(res) -> list[dict]:
     of its block (``Component.describe``: label, value ± SE with its unit), or, for a component
     that gives none, the block's scalar leaves."""
     described = res.block_rows()
+    bound = res.at_bound
     out = []
     for name, block in res.blocks.items():
         if name in CORE_BLOCKS:
             continue
-        rows = [(r.label, pm_value(r.value, r.se, unit=r.unit)) for r in described.get(name, [])]
+        rows = [  # a value at its bound: no SE (it assumes an interior optimum)
+            (
+                r.label,
+                pm_value(r.value, None, unit=r.unit) + f" {BOUND_TEXT}"
+                if row_at_bound(bound, name, r)
+                else pm_value(r.value, r.se, unit=r.unit),
+            )
+            for r in described.get(name, [])
+        ]
         out.append(
             {
                 "name": name,

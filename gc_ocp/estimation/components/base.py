@@ -44,7 +44,7 @@ import numpy as np
 
 from gc_ocp.errors import ModelError
 from gc_ocp.estimation.variables import block_values
-from gc_ocp.values import se_text
+from gc_ocp.values import BOUND_TEXT, se_text
 
 if TYPE_CHECKING:  # pragma: no cover
     from gc_ocp.estimation.frame import Frame
@@ -60,17 +60,23 @@ class SummaryRow(NamedTuple):
 
     label: what it is (``"c"``, ``"left onset"``, ``"test_small:right@0.407s dz"``); value and
     se: in ``unit`` (se 0 for a fixed value, NaN when unknown); unit: ``"s/m"``, ``"mm"``,
-    ``"deg"``, ``"-"`` (dimensionless)."""
+    ``"deg"``, ``"-"`` (dimensionless); key: the row's variable after its block's name
+    (``("c",)``, ``("onset", "left")``), as the fit's flags name it (``"damping/c"``), so that a
+    value at its bound is shown as one; ``()``: not one variable."""
 
     label: str
     value: float
     se: float
     unit: str
+    key: tuple = ()
 
-    def text(self) -> str:
-        """``"label = value ± se unit"`` (4 and 2 significant digits)."""
+    def text(self, bound: bool = False) -> str:
+        """``"label = value ± se unit"`` (4 and 2 significant digits); ``bound``: the variable is
+        flagged at its bound (:data:`~gc_ocp.values.BOUND_TEXT` in place of the SE)."""
         unit = "" if self.unit in ("", "-") else f" {self.unit}"
         value = f"{self.value:.4g}"
+        if bound:
+            return f"{self.label} = {value}{unit} {BOUND_TEXT}"
         return f"{self.label} = {value} ± {se_text(self.se, value)}{unit}"
 
 

@@ -122,9 +122,10 @@ class Damping(Component):
         """``c`` [s/m] (per foot: one row per side)."""
         if isinstance(block["c"], dict):
             return [
-                SummaryRow(f"c ({s})", v, block["c_se"][s], "s/m") for s, v in block["c"].items()
+                SummaryRow(f"c ({s})", v, block["c_se"][s], "s/m", ("c", s))
+                for s, v in block["c"].items()
             ]
-        return [SummaryRow("c", block["c"], block["c_se"], "s/m")]
+        return [SummaryRow("c", block["c"], block["c_se"], "s/m", ("c",))]
 
     def frozen(self, block: dict) -> Damping:
         c = block["c"]

@@ -129,8 +129,14 @@ class StribeckFriction(Component):
     @classmethod
     def describe(cls, block: dict) -> list[SummaryRow]:
         return [
-            SummaryRow("mu_s - mu_d", block["static_excess"], block["static_excess_se"], "-"),
-            SummaryRow("b", block["viscous"], block["viscous_se"], "s/m"),
+            SummaryRow(
+                "mu_s - mu_d",
+                block["static_excess"],
+                block["static_excess_se"],
+                "-",
+                ("static_excess",),
+            ),
+            SummaryRow("b", block["viscous"], block["viscous_se"], "s/m", ("viscous",)),
         ]
 
     def frozen(self, block: dict) -> StribeckFriction:

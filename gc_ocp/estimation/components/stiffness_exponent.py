@@ -119,7 +119,7 @@ class StiffnessExponent(Component):
 
     @classmethod
     def describe(cls, block: dict) -> list[SummaryRow]:
-        return [SummaryRow("n", block["n"], block["n_se"], "-")]
+        return [SummaryRow("n", block["n"], block["n_se"], "-", ("n",))]
 
     def frozen(self, block: dict) -> StiffnessExponent:
         return replace(self, fixed=float(block["n"]))

@@ -137,7 +137,8 @@ class TimeOffset(Component):
     def describe(cls, block: dict) -> list[SummaryRow]:
         """Per trial: the plate's delay [ms] (positive: plate late)."""
         return [
-            SummaryRow(f"{trial} delay", v["ms"], v["ms_se"], "ms") for trial, v in block.items()
+            SummaryRow(f"{trial} delay", v["ms"], v["ms_se"], "ms", (trial,))
+            for trial, v in block.items()
         ]
 
     @property

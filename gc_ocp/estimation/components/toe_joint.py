@@ -402,9 +402,13 @@ class ToeJoint(Component):
         """Pitch drive: ``gain`` [-] and the onset per side [deg above the stance's foot flat].
         Spline drive: each stance's largest toe angle [deg] (its SE is in the block, per frame)."""
         if block["drive"] == "pitch":
-            rows = [SummaryRow("gain", block["gain"], block["gain_se"], "-")]
+            rows = [SummaryRow("gain", block["gain"], block["gain_se"], "-", ("gain",))]
             for side, v in block["onset_deg"].items():
-                rows.append(SummaryRow(f"{side} onset", v, block["onset_se_deg"][side], "deg"))
+                rows.append(
+                    SummaryRow(
+                        f"{side} onset", v, block["onset_se_deg"][side], "deg", ("onset", side)
+                    )
+                )
             return rows
         return [
             SummaryRow(f"{label} largest angle", v, float("nan"), "deg")
