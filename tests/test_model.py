@@ -159,6 +159,12 @@ def test_markerset_unknown_name_lists_choices():
         (lambda t: "# caf\u00e9\n" + t, ["not UTF-8"]),
         (lambda t: t.replace('"hindfoot_l"', '"heel_l"', 1), ["heel_l", "not a segment"]),
         (lambda t: t.replace('"thigh_l"', '"knee_l"', 1), ["knee_l", "not a segment"]),
+        (  # one marker's position in mm: the IK pulled the foot 70 m off, silently
+            lambda t: t.replace(
+                "position = [-0.070, 0.000, -0.035]", "position = [-70, 0, -35]", 1
+            ),
+            ["LHEE", "metres"],
+        ),
     ],
 )
 def test_a_marker_set_file_with_a_wrong_value_names_it(tmp_path, change, words):

@@ -94,14 +94,32 @@ def load_markerset(name_or_path: str | Path) -> MarkerSet:
                 f'Marker "{label}" in {p}: {e}; position is three numbers [m] in the segment\'s '
                 "frame, weight a number (format: docs/markersets.md)."
             ) from None
-        if pos.shape != (3,):
+        if pos.shape != (3,) or not np.isfinite(pos).all():
             raise MarkerError(
-                f'Marker "{label}" in {p}: position must have 3 values, but got {pos.shape}'
+                f'Marker "{label}" in {p}: position must be 3 finite numbers [m], but got '
+                f"{d['position']!r:.60}"
             )
+        markers[label] = (seg, pos, weight, d)
+    try:
+        height = number(data.get("reference_height", 1.70), "reference_height", "m", text=False)
+    except InputError as e:
+        raise MarkerError(f"Marker set file {p}: {e}.") from None
+    if not 0.5 <= height <= 2.5:
+        raise MarkerError(
+            f"Marker set file {p}: reference_height {height:g} is not a height in metres "
+            "(0.5-2.5): the marker positions are scaled from it; give it in metres."
+        )
+    for label, (seg, pos, weight, d) in markers.items():
         if seg not in MARKER_SEGMENTS:
             raise MarkerError(
                 f'Marker "{label}" in {p}: segment "{seg}" is not a segment of the model; '
                 f"choose one of {', '.join(MARKER_SEGMENTS)} (docs/markersets.md)."
+            )
+        if np.linalg.norm(pos) > height:
+            raise MarkerError(
+                f'Marker "{label}" in {p}: position {pos.tolist()} is {np.linalg.norm(pos):g} m '
+                f"from the origin of {seg}, farther than the subject is tall (reference_height "
+                f"{height:g} m): give positions in metres (a file in mm: divide by 1000)."
             )
         pos.setflags(write=False)
         markers[label] = MarkerDef(
@@ -111,15 +129,6 @@ def load_markerset(name_or_path: str | Path) -> MarkerSet:
             weight,
             str(d.get("role", "")),
             bool(d.get("cluster", False)),
-        )
-    try:
-        height = number(data.get("reference_height", 1.70), "reference_height", "m", text=False)
-    except InputError as e:
-        raise MarkerError(f"Marker set file {p}: {e}.") from None
-    if not 0.5 <= height <= 2.5:
-        raise MarkerError(
-            f"Marker set file {p}: reference_height {height:g} is not a height in metres "
-            "(0.5-2.5): the marker positions are scaled from it; give it in metres."
         )
     return MarkerSet(str(data.get("name", p.stem)), p, height, markers)
 
