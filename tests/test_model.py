@@ -165,6 +165,10 @@ def test_markerset_unknown_name_lists_choices():
             ),
             ["LHEE", "metres"],
         ),
+        (  # a negative weight made the IK's sqrt(weight) NaN: no frame moved, silently
+            lambda t: t.replace("weight = 5.0", "weight = -5.0", 1),
+            ["weight", "-5", ">= 0"],
+        ),
     ],
 )
 def test_a_marker_set_file_with_a_wrong_value_names_it(tmp_path, change, words):

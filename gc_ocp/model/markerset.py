@@ -99,6 +99,11 @@ def load_markerset(name_or_path: str | Path) -> MarkerSet:
                 f'Marker "{label}" in {p}: position must be 3 finite numbers [m], but got '
                 f"{d['position']!r:.60}"
             )
+        if weight < 0:
+            raise MarkerError(
+                f'Marker "{label}" in {p}: weight {weight:g} must be >= 0 (a relative IK weight; '
+                "0 leaves the marker out of the IK)."
+            )
         markers[label] = (seg, pos, weight, d)
     try:
         height = number(data.get("reference_height", 1.70), "reference_height", "m", text=False)
