@@ -187,3 +187,26 @@ def test_io_height_estimate_is_the_pipelines():
     assert trial.height is None  # so the pipeline estimated it
     height, how = estimate_height_from_markers(trial)
     assert height == kin.info["height"] and "pelvis" in how
+
+
+def test_frames_without_any_marker_pose_nothing():
+    """Frames in which no marker is seen (the subject outside the capture volume: the c3d.org
+    Helen Hayes files have markers in 130 of 360 frames) had finite feet made up by the IK (the
+    pelvis at the lab origin, the feet 0.8 m under the floor, or the last pose held), and the
+    first frame with markers a foot speed of 30 m/s from the central difference across the edge.
+    They are NaN now (dropped by the stance cut, as a marker gap), and the frames with markers
+    keep the velocities they have without the empty frames."""
+    from dataclasses import replace
+
+    trial, kin = _kin("plugingait")
+    k0 = 25  # before the first stance (0.406 s at 100 Hz)
+    markers = np.array(trial.markers, float, copy=True)
+    markers[:k0] = np.nan
+    kin2 = compute_kinematics(replace(trial, markers=markers))
+    assert np.all(np.isnan(kin2.q[:k0])) and np.all(np.isfinite(kin2.q[k0:]))
+    for side in ("left", "right"):
+        f, g = kin.feet[side], kin2.feet[side]
+        assert not np.isfinite(g.positions[:k0]).any() and not np.isfinite(g.velocities[:k0]).any()
+        assert np.isfinite(g.velocities[k0:]).all()
+        # the first seen frames: a one-sided difference, not one across the empty frames
+        np.testing.assert_allclose(g.velocities[k0 : k0 + 3], f.velocities[k0 : k0 + 3], atol=0.3)

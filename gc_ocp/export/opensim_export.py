@@ -322,7 +322,8 @@ def register_feet(path: Path, kin, mapping: Sequence[UnitMapping]) -> tuple[list
     spheres, report = [], {}
     for side, foot in sorted(kin.feet.items()):
         suffix = side[0]
-        to_hind = np.linalg.inv(foot.hindfoot_pose[0]) @ foot.toes_pose[0]  # welded: constant
+        k = int(np.argmax(np.isfinite(foot.hindfoot_pose).all(axis=(1, 2))))  # a posed frame
+        to_hind = np.linalg.inv(foot.hindfoot_pose[k]) @ foot.toes_pose[k]  # welded: constant
         ours = {}  # by the names the exported models give them (osim_name)
         for label, seg, loc in zip(mm.names, mm.segments, mm.local, strict=True):
             name = osim_name(label)

@@ -179,7 +179,8 @@ def solve_ik(
     progress: Callable[[int, int], None] | None = None,
     q_guess: np.ndarray | None = None,
 ) -> IKResult:
-    """IK over all frames.
+    """IK over all frames; a frame without any marker seen has no pose (its ``q`` is NaN) and
+    the warm start carries over it from the last frame solved.
 
     mm: marker model; markers: ``(n, m, 3)`` lab positions [m] in ``mm.names`` order, NaN = missing;
     q0: start of the first frame (default :func:`initial_q`); max_iter/first_iter: iterations per
@@ -192,22 +193,27 @@ def solve_ik(
     s = _Solver(mm)
     Q = np.empty((n, mm.model.nq))
     its = np.zeros(n, int)
-    q = initial_q(mm, markers[0]) if q0 is None else np.asarray(q0, float).copy()
+    seen = ~np.isnan(markers).any(axis=2)  # (n, m)
+    first_seen = int(np.argmax(seen.any(axis=1)))  # (0 when no frame has a marker)
+    q = initial_q(mm, markers[first_seen]) if q0 is None else np.asarray(q0, float).copy()
     qprev = None
     for k in range(n):
-        valid = ~np.isnan(markers[k]).any(1)
-        if q_guess is not None:
-            guess = q_guess[k]
-        elif k > 0 and qprev is not None:
-            guess = np.clip(
-                q + 0.5 * (q - qprev), s.lo, s.hi
-            )  # damped constant-velocity prediction
+        valid = seen[k]
+        if not valid.any():  # no marker seen (outside the capture volume): no pose
+            Q[k] = np.nan
         else:
-            guess = q
-        qprev = q
-        first = k == 0 and q_guess is None
-        q, its[k] = s.solve(guess, markers[k], valid, first_iter if first else max_iter)
-        Q[k] = q
+            if q_guess is not None:
+                guess = q_guess[k]
+            elif k > first_seen and qprev is not None:
+                guess = np.clip(
+                    q + 0.5 * (q - qprev), s.lo, s.hi
+                )  # damped constant-velocity prediction
+            else:
+                guess = q
+            qprev = q
+            first = k == first_seen and q_guess is None
+            q, its[k] = s.solve(guess, markers[k], valid, first_iter if first else max_iter)
+            Q[k] = q
         if progress is not None and (k % 50 == 0 or k == n - 1):
             progress(k + 1, n)
     model_pos = mm.positions(Q, s.data)

@@ -240,11 +240,25 @@ def level_roll(poses: dict[str, np.ndarray], a: np.ndarray, b: np.ndarray) -> di
     return out
 
 
+def gradient_runs(x: np.ndarray, time: np.ndarray) -> np.ndarray:
+    """``np.gradient(x, time, axis=0)`` over each run of frames whose values are all finite (a
+    frame without a pose, NaN, breaks the run: one-sided differences at a run's ends, none
+    across it); NaN on the NaN frames and on runs of a single frame."""
+    x = np.asarray(x, float)
+    ok = np.isfinite(x.reshape(len(x), -1)).all(axis=1)
+    out = np.full_like(x, np.nan)
+    d = np.diff(np.r_[0, ok.astype(int), 0])
+    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True):
+        if b - a >= 2:
+            out[a:b] = np.gradient(x[a:b], time[a:b], axis=0)
+    return out
+
+
 def _twists(poses: np.ndarray, time: np.ndarray) -> np.ndarray:
     """``(n, 6)`` twists (``LOCAL_WORLD_ALIGNED``: origin velocity, angular velocity, both in
     ``lab``) of the placements ``poses`` ``(n, 4, 4)`` by central differences in ``time``."""
-    dp = np.gradient(poses[:, :3, 3], time, axis=0)
-    dR = np.gradient(poses[:, :3, :3], time, axis=0)
+    dp = gradient_runs(poses[:, :3, 3], time)
+    dR = gradient_runs(poses[:, :3, :3], time)
     W = dR @ poses[:, :3, :3].transpose(0, 2, 1)  # skew(omega)
     w = 0.5 * np.stack(
         [W[:, 2, 1] - W[:, 1, 2], W[:, 0, 2] - W[:, 2, 0], W[:, 1, 0] - W[:, 0, 1]], 1
@@ -262,14 +276,16 @@ def foot_kinematics(
 ) -> FootKinematics:
     """Hindfoot/toes placements and twists (``LOCAL_WORLD_ALIGNED``) over ``q`` ``(n, nq)``.
 
-    q-dot is ``np.gradient(q, time)`` (q comes from low-pass filtered markers, so it is smooth).
+    q-dot is ``np.gradient(q, time)`` (q comes from low-pass filtered markers, so it is smooth)
+    over each run of frames with a pose (:func:`gradient_runs`; NaN ``q``: a frame without
+    markers, whose feet are NaN).
     ``poses``: the segments' placements when they are not the model's at ``q`` (a levelled
     roll, :func:`level_roll`); their twists are then their central differences.
     """
     if poses is not None:
         H, Tp = poses["hindfoot"], poses["toes"]
         return FootKinematics(side, time, H, Tp, _twists(H, time), _twists(Tp, time), points_local)
-    v = np.gradient(q, time, axis=0)
+    v = gradient_runs(q, time)
     data = body.create_data()
     ids = body.foot_frames(side)
     n = len(time)
@@ -337,7 +353,10 @@ def _foot_noise(mm, markerset, names, white, q, foot, side, rate, cutoff_hz, see
     sig = white[idx][np.isfinite(white[idx])]
     if not sig.size:
         return None
-    k = len(q) // 2
+    posed = np.flatnonzero(np.isfinite(q).all(axis=1))
+    if not posed.size:
+        return None
+    k = posed[np.argmin(np.abs(posed - len(q) // 2))]  # the middle frame with a pose
     x = mm.positions(q[k])[idx]
     H = foot.hindfoot_pose[k]
     local = (x - H[:3, 3]) @ H[:3, :3]
@@ -586,6 +605,14 @@ def compute_kinematics(
                 )
             qs = np.concatenate([q[i] for i, _ in frames])
             floors = np.concatenate([np.full(len(i), h) for i, h in frames])
+        posed = np.isfinite(qs).all(axis=1)  # frames without any marker have no pose
+        if not posed.any():
+            raise InputError(
+                f"No {side} foot-flat frame with markers in {static.source if static is not None else trial.source} "
+                "to calibrate the sole height (the markers are missing there); give a static "
+                "trial or a trial whose markers cover the stances."
+            )
+        qs, floors = qs[posed], floors[posed]
         lm = _two_landmarks(markerset, names, side) if foot_roll == "level" else None
         n_foot = len(_foot_marker_names(markerset, names, side))
         rolls[side] = "level" if lm else "markers" if n_foot >= 3 else "chain"

@@ -111,7 +111,7 @@ def register_markers(
     res = None
     for it in range(n_iter + 1):
         res = solve_ik(cur, markers, max_iter=60, q_guess=q_guess)
-        history.append(float(np.median(res.marker_rms)))
+        history.append(float(np.nanmedian(res.marker_rms)))  # (NaN: a frame without markers)
         if progress:
             progress(f"registration pass {it}: median marker RMS {1e3 * history[-1]:.1f} mm")
         if it == n_iter:
