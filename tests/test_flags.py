@@ -83,3 +83,18 @@ def test_belt_speed_not_informed_and_poor_fit():
     rms = {"left": {"superior_force_pct_bw": float("nan")}, "right": {"superior_force_pct_bw": 1.8}}
     [bad] = fit_flags(rms, {"left": float("nan"), "right": 9.0})
     assert bad["what"] == "left" and "not a number" in bad["message"]
+
+
+def test_a_law_parameter_a_component_gives_is_at_its_bound_as_the_law_s():
+    """Damping gives the law its c and the exponent its n: their variables at a bound
+    (``damping/c``, ``stiffness_exponent/n/left``) are the law's parameter at its bound, which the
+    law's table showed with its SE (it looked for ``contact/c`` only)."""
+    from gc_ocp.estimation.flags import law_at_bound
+
+    assert law_at_bound(frozenset({"damping/c"}), "c")
+    assert law_at_bound(frozenset({"damping/c"}), "c", "left")  # a shared c is each foot's
+    assert law_at_bound(frozenset({"stiffness_exponent/n/left"}), "n", "left")
+    assert not law_at_bound(frozenset({"stiffness_exponent/n/left"}), "n", "right")
+    assert not law_at_bound(frozenset({"stiffness_exponent/n/left"}), "n")
+    assert law_at_bound(frozenset({"contact/mu"}), "mu") and not law_at_bound(frozenset(), "mu")
+    assert not law_at_bound(frozenset({"friction/viscous", "time_offset/walk"}), "c")

@@ -44,11 +44,13 @@ def at_bound_names(flags) -> frozenset[str]:
 
 def law_at_bound(bound, param: str, side: str | None = None) -> bool:
     """The contact law's ``param`` (``"n"``, ``"mu"``) is among ``bound``
-    (:func:`at_bound_names`), shared or, with ``side``, that foot's own."""
-    keys = {variable_key("contact", param)}
-    if side is not None:
-        keys.add(variable_key("contact", param, side))
-    return bool(keys & bound)
+    (:func:`at_bound_names`), shared or, with ``side``, that foot's own: the law's own variable
+    (``"contact/n"``) or the one of a component that gives the law that parameter (damping's
+    ``"damping/c"``, the exponent's ``"stiffness_exponent/n"``: their values are the law's).
+    (A trial named exactly like a law parameter, ``c.c3d``, would have its clock offset's or
+    belt's key read as one: a display of the SE only.)"""
+    tails = {(param,)} | ({(param, side)} if side is not None else set())
+    return any(tuple(b.split("/")[1:]) in tails for b in bound)
 
 
 def row_at_bound(bound, block: str, row) -> bool:
