@@ -815,7 +815,7 @@ def test_the_fit_page_shows_the_fitted_belt_speed():
     flag = {"code": "at_bound", "what": "belt/walk<1>", "message": "at its bound"}
     res = dataclasses.replace(res, flags=[*res.flags, flag])
     page = _Page(fit_report_html(FitReport(result=res), None, figures)).visible
-    assert "Belt speed (walk<1>): 1.183 (at its bound: not an estimate) m/s" in page
+    assert "Belt speed (walk<1>): 1.183 m/s (at its bound: not an estimate)" in page
 
 
 def test_a_diagnosis_read_back_from_its_json_renders_its_page():

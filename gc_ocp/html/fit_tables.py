@@ -114,15 +114,15 @@ def contact_tables(params: dict, at_bound: frozenset[str] = frozenset()) -> dict
 
 
 def belt_rows(res) -> list[tuple[str, str, float | None]]:
-    """``[(trial, "value ± SE", nominal)]`` of each treadmill trial's fitted belt speed [m/s]
-    (``res.belt_speed``: ``{trial: {"value", "se", "nominal"}}``); a speed flagged at its bound
-    has :data:`~gc_ocp.values.BOUND_TEXT` in place of its SE."""
+    """``[(trial, "value ± SE m/s", nominal)]`` of each treadmill trial's fitted belt speed
+    (``res.belt_speed``: ``{trial: {"value", "se", "nominal"}}``, [m/s]); a speed flagged at its
+    bound has :data:`~gc_ocp.values.BOUND_TEXT` in place of its SE."""
     return [
         (
             trial,
-            pm_value(v["value"], None, ".3f") + f" {BOUND_TEXT}"
+            pm_value(v["value"], None, ".3f", unit="m/s") + f" {BOUND_TEXT}"
             if variable_key("belt", trial) in res.at_bound
-            else pm_value(v["value"], v.get("se"), ".3f"),
+            else pm_value(v["value"], v.get("se"), ".3f", unit="m/s"),
             v.get("nominal"),
         )
         for trial, v in res.belt_speed.items()
