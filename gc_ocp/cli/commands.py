@@ -423,13 +423,12 @@ def cmd_export(args: argparse.Namespace) -> int:
             path = args.out
         else:  # a folder, perhaps another command's
             path = check_writable(args.out, command="gc-ocp export") / "contact.casadi"
-        write_casadi(args.fit_json, path, trial=args.trial)
+        doc = fit_document(args.fit_json)  # read once, for the file and what is printed
+        write_casadi(doc, path, trial=args.trial)
         if path != args.out:
             claim(args.out, "gc-ocp export")
-        print(casadi_function(args.fit_json, trial=args.trial))
-        trials = list(
-            dict.fromkeys(sf["trial"] for sf in fit_document(args.fit_json)["stance_fits"])
-        )
+        print(casadi_function(doc, trial=args.trial))
+        trials = list(dict.fromkeys(sf["trial"] for sf in doc["stance_fits"]))
         if len(trials) > 1:  # each trial's kinematics place the points: say whose they are
             print(
                 f"unit points of trial {args.trial or trials[0]} (the fit's trials: "

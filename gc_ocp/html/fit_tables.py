@@ -52,15 +52,18 @@ def pm(d: dict, key: str, fmt: str = ".4g", bound: bool = False) -> str:
     """``value ± SE`` of ``d[key]`` (``d[key + "_se"]``); a zero SE marks a fixed value;
     ``bound``: the parameter is flagged at its bound (:data:`~gc_ocp.values.BOUND_TEXT` in place
     of the SE)."""
-    if bound:
-        return f"{fmt_num(d[key], fmt)} {BOUND_TEXT}"
-    return pm_value(d[key], d.get(key + "_se"), fmt)
+    return pm_value(d[key], d.get(key + "_se"), fmt, bound=bound)
 
 
-def pm_value(value: float, se: float | None, fmt: str = ".4g", unit: str = "") -> str:
+def pm_value(
+    value: float, se: float | None, fmt: str = ".4g", unit: str = "", bound: bool = False
+) -> str:
     """``value ± SE unit``; no SE: the value alone; a zero SE marks a fixed value; no value
-    (a failed fit's empty cell): "–"."""
+    (a failed fit's empty cell): "–"; ``bound``: the parameter is flagged at its bound
+    (:data:`~gc_ocp.values.BOUND_TEXT` in place of the SE, which assumes an interior optimum)."""
     unit = "" if unit in ("", "-") else f" {unit}"
+    if bound:
+        return f"{fmt_num(value, fmt)}{unit} {BOUND_TEXT}"
     if fmt_num(value) == "–":
         return "–"
     if se is None:
@@ -120,9 +123,9 @@ def belt_rows(res) -> list[tuple[str, str, float | None]]:
     return [
         (
             trial,
-            pm_value(v["value"], None, ".3f", unit="m/s") + f" {BOUND_TEXT}"
-            if variable_key("belt", trial) in res.at_bound
-            else pm_value(v["value"], v.get("se"), ".3f", unit="m/s"),
+            pm_value(
+                v["value"], v.get("se"), ".3f", "m/s", variable_key("belt", trial) in res.at_bound
+            ),
             v.get("nominal"),
         )
         for trial, v in res.belt_speed.items()
@@ -212,13 +215,8 @@ def effect_blocks(res) -> list[dict]:
     for name, block in res.blocks.items():
         if name in CORE_BLOCKS:
             continue
-        rows = [  # a value at its bound: no SE (it assumes an interior optimum)
-            (
-                r.label,
-                pm_value(r.value, None, unit=r.unit) + f" {BOUND_TEXT}"
-                if row_at_bound(bound, name, r)
-                else pm_value(r.value, r.se, unit=r.unit),
-            )
+        rows = [
+            (r.label, pm_value(r.value, r.se, unit=r.unit, bound=row_at_bound(bound, name, r)))
             for r in described.get(name, [])
         ]
         out.append(

@@ -1,8 +1,8 @@
 """A fit as one self-contained HTML page (``report.html`` beside ``fit.json``), in the style of
 the diagnosis report: the inputs and the checks, the flags, the parameters with their standard
-errors (and each treadmill trial's belt speed), the fit channel by channel (RMS table and figures), the held-out stance and the
-provenance. The markup is ``gc_ocp/html/templates/fit_report.html.j2``; this module prepares
-what it shows."""
+errors (and each treadmill trial's belt speed), the fit channel by channel (RMS table and
+figures), the held-out stance and the provenance. The markup is
+``gc_ocp/html/templates/fit_report.html.j2``; this module prepares what it shows."""
 
 from __future__ import annotations
 
