@@ -1,10 +1,15 @@
 """Reading the text files a user gives (manifests, marker sets, the JSON documents the package
-wrote: fit.json, diagnosis.json): one encoding rule, one reader of a JSON file."""
+wrote: fit.json, diagnosis.json): one encoding rule, one reader of a JSON file; and the one
+writer of the JSON documents the package writes (:func:`json_text`: strict JSON, no NaN)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 from pathlib import Path
+
+import numpy as np
 
 from gc_ocp.errors import InputError, require_file
 
@@ -32,3 +37,53 @@ def read_json_file(path: str | Path, what: str, document: str, fix: str):
         return json.loads(read_utf8(path, what))
     except json.JSONDecodeError as e:
         raise InputError(f"{path} is not {document} ({e}); {fix}") from None
+
+
+def json_text(obj, indent: int | None = 2, default=None) -> str:
+    """``obj`` as strict JSON (RFC 8259), the text of every JSON file the package writes.
+
+    JSON has no NaN or infinity; Python's ``json`` writes them as the bare words ``NaN`` and
+    ``Infinity``, which JavaScript's ``JSON.parse``, ``jq`` and R's ``jsonlite`` refuse. A number
+    that is not finite (the standard error of a unit that is not identified, the RMS of a foot
+    with no sample) is written ``null``, JSON's "no value", which MATLAB's ``jsondecode`` reads as
+    NaN in a numeric array; the package's readers take it back as NaN where a number belongs
+    (:func:`nan_for_null`). numpy scalars and arrays are written as numbers and lists.
+    ``default``: as :func:`json.dumps`'s, for other objects."""
+    return json.dumps(_finite_or_null(obj), indent=indent, allow_nan=False, default=default)
+
+
+def _finite_or_null(obj):
+    if isinstance(obj, bool | np.bool_):
+        return bool(obj)
+    if isinstance(obj, float | np.floating):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.ndarray):
+        return _finite_or_null(obj.tolist())
+    if isinstance(obj, dict):
+        return {k: _finite_or_null(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_finite_or_null(v) for v in obj]
+    return obj
+
+
+def nan_for_null(obj):
+    """The part of a document :func:`json_text` wrote whose leaves are all numbers (or text), with
+    each ``null`` back as NaN: what was not finite when written. Only for such parts: elsewhere a
+    ``null`` may mean "not given" (an option, a covariance not kept)."""
+    if obj is None:
+        return math.nan
+    if isinstance(obj, dict):
+        return {k: nan_for_null(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [nan_for_null(v) for v in obj]
+    return obj
+
+
+def float_fields(cls, d: dict) -> dict:
+    """``d``, the JSON of the dataclass ``cls``, with each field typed ``float`` (not
+    ``float | None``, whose ``null`` means "no value") that :func:`json_text` wrote ``null``
+    back as NaN."""
+    floats = {f.name for f in dataclasses.fields(cls) if f.type in ("float", float)}
+    return {k: math.nan if v is None and k in floats else v for k, v in d.items()}

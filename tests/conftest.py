@@ -6,6 +6,7 @@ estimate. Tests needing these data are skipped with a reason when ``../shared/da
 from __future__ import annotations
 
 import functools
+import json
 import warnings
 from pathlib import Path
 
@@ -146,3 +147,13 @@ def synthetic_stances(rng, marker_noise: float, per_foot: int = 3):
         for j in range(per_foot)
     ]
     return sts, truth
+
+
+def strict_json(text: str):
+    """``json.loads`` that refuses the words ``NaN``/``Infinity`` Python's own writer uses and
+    strict JSON (JavaScript, jq, R's jsonlite) has not: what the package's documents must be."""
+
+    def refuse(word):
+        raise ValueError(f"not strict JSON: {word}")
+
+    return json.loads(text, parse_constant=refuse)

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 import pytest
+from conftest import strict_json  # noqa: E402
 
 from gc_ocp.cli import main
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS
@@ -273,7 +274,7 @@ def test_fit_outputs_are_one_consistent_set(tmp_path, capsys):
         "plugingait"
     )
     assert stat.S_IMODE((out / "fit.json").stat().st_mode) == 0o644
-    d = json.loads((out / "fit.json").read_text())
+    d = strict_json((out / "fit.json").read_text())
     trial = d["provenance"]["trials"][0]
     assert len(trial["files"][0]["sha256"]) == 64 and trial["mass_source"]
     assert d["provenance"]["gc_ocp_version"] and isinstance(d["flags"], list)
@@ -298,11 +299,10 @@ def _check_fit_report(out):
     """``report.html`` of a fit: self-contained (no link, no script; every figure embedded), and
     it says what fit.json says: each shared parameter with its SE, every flag's code, the
     held-out stance and its superior-force RMS."""
-    import json
     import re
 
     page = (out / "report.html").read_text(encoding="utf-8")
-    d = json.loads((out / "fit.json").read_text())
+    d = strict_json((out / "fit.json").read_text())
     assert "<script" not in page and not re.search(r"(src|href)=\"(?!data:)", page)
     assert page.count('src="data:image/png;base64,') == 4  # wrench, sole, pose, held-out
     for p in ("n", "c", "mu"):
@@ -352,14 +352,13 @@ def test_the_pose_prior_text_names_estimated_widths():
 def test_fit_with_an_effect_shows_its_block(tmp_path, capsys):
     """``fit --effects friction``: the full model plus the Stribeck friction; its block is in
     fit.json, its parameters in the printed summary, the option in the provenance."""
-    import json
 
     from gc_ocp.cli import main
 
     out = tmp_path / "fit"
     assert main(["fit", "--effects", "friction", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
-    d = json.loads((out / "fit.json").read_text())
+    d = strict_json((out / "fit.json").read_text())
     assert d["components"]["friction"] == "StribeckFriction"
     assert d["provenance"]["options"]["effects"] == "friction"
     b = d["blocks"]["friction"]
@@ -468,7 +467,7 @@ def test_diagnose_cli_writes_json_report_and_figures(tmp_path, capsys):
     assert "fitting the base" in captured.err and "round 1" in captured.err  # progress
     assert "report.html" in captured.out and "ranking" in captured.out
 
-    d = json.loads((out / "diagnosis.json").read_text())
+    d = strict_json((out / "diagnosis.json").read_text())
     assert d["base"]["model"] == ["contact", "sole", "pose", "belt"]
     assert d["base"]["heldout_rms"]
     for side, chans in d["base"]["heldout_rms"].items():
@@ -646,7 +645,7 @@ def test_fit_with_a_bias_correction_reports_what_it_removed(tmp_path, capsys):
     out = tmp_path / "fit"
     assert main(["fit", "--bias-correction", "2", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
-    d = json.loads((out / "fit.json").read_text())
+    d = strict_json((out / "fit.json").read_text())
     b = d["bias_correction"]
     assert b["replicates"] + b["failed"] == 2 and b["replicates"] >= 2
     shared = d["blocks"]["contact"]["shared"]

@@ -288,7 +288,14 @@ def test_describe_reads_the_values_of_the_block():
     }  # fmt: skip
     rows = GroundOffset.describe(block)
     assert [r.label for r in rows] == ["s1 dz", "s1 tilt_x", "s1 tilt_y"]
-    assert rows[0][1:] == (2.0, 1.0, "mm", ())  # (a prior correction: no one variable)
+    # keyed by the stance's block (its three entries are one variable the flags name)
+    assert rows[0][1:] == (2.0, 1.0, "mm", ("s1",))
+    from gc_ocp.estimation.flags import row_at_bound
+
+    bound = frozenset({"ground_offset/s1"})  # the flag of a correction on its bound
+    assert all(row_at_bound(bound, "ground_offset", r) for r in rows)
+    assert "at its bound" in rows[1].text(True) and "±" not in rows[1].text(True)
+    assert not any(row_at_bound(frozenset({"ground_offset/s2"}), "ground_offset", r) for r in rows)
     assert rows[2].value == pytest.approx(-0.5729578, rel=1e-6)  # -0.01 rad in deg
     assert rows[2].se == pytest.approx(0.2291831, rel=1e-6)  # 0.004 rad in deg
 

@@ -40,6 +40,7 @@ from gc_ocp.batch.summary import error_rows, subject_rows
 from gc_ocp.errors import GcOcpError, InputError, SolveError
 from gc_ocp.estimation.bias import check_replicates
 from gc_ocp.outputs import OutputSet, atomic_write, atomic_write_text, owner_of
+from gc_ocp.text import json_text
 from gc_ocp.workflow.provenance import sha256
 
 DONE = "done.json"
@@ -317,7 +318,7 @@ def _process(subject: Subject, out_root: Path, settings: Settings) -> dict:
             # failure as if they were its subject's results: removed with its done.json
             for name in (DONE, *FIT_OUTPUTS, *DIAGNOSIS_OUTPUTS):
                 (folder / name).unlink(missing_ok=True)
-            atomic_write_text(folder / ERROR, json.dumps({"key": key, **err}, indent=2))
+            atomic_write_text(folder / ERROR, json_text({"key": key, **err}, indent=2))
         return {
             "subject": subject.id,
             "status": "failed",
@@ -336,7 +337,7 @@ def _process(subject: Subject, out_root: Path, settings: Settings) -> dict:
         "seconds": seconds,
         "warnings": said,
     }
-    atomic_write_text(folder / DONE, json.dumps(doc, indent=2))
+    atomic_write_text(folder / DONE, json_text(doc, indent=2))
     stale = folder / ERROR
     if stale.exists():
         stale.unlink()
@@ -390,7 +391,7 @@ def _fit_subject(
 
             d = _diagnose(pairs)
             diagnosis = d.to_json()
-            out.text("diagnosis.json", json.dumps({**diagnosis, "provenance": prov}, indent=2))
+            out.text("diagnosis.json", json_text({**diagnosis, "provenance": prov}, indent=2))
             out.text("diagnosis_report.html", report_html(d, provenance=prov))
         # an earlier done.json (other inputs or settings) must not stand beside the new files:
         # an interrupt between the commit and this run's done.json left it there, and a run

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import sys
 
 from gc_ocp.cli.common import (
@@ -19,6 +18,7 @@ from gc_ocp.cli.common import (
     _trial_files,
 )
 from gc_ocp.errors import InputError, SolveError
+from gc_ocp.text import json_text
 from gc_ocp.workflow.provenance import provenance
 
 
@@ -191,7 +191,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
             if e.result is not None:
                 out.text(
                     "fit_failed.json",
-                    json.dumps({**e.result.to_json(), "provenance": prov}, indent=2),
+                    json_text({**e.result.to_json(), "provenance": prov}, indent=2),
                 )
                 out.commit()
                 print(
@@ -234,7 +234,7 @@ def cmd_fit(args: argparse.Namespace) -> int:
             )
             for f in sens.flags():  # also among fit.json's flags and the page's
                 print(f"  ! {f['message']}")
-            out.text("sensitivity.json", json.dumps(sens.to_json(), indent=2))
+            out.text("sensitivity.json", json_text(sens.to_json(), indent=2))
             out.text("sensitivity.md", sens.summary() + "\n")
         doc = write_fit(out, report, prov, landmarks, sens)
         written = out.commit()
@@ -310,9 +310,9 @@ def cmd_diagnose(args: argparse.Namespace) -> int:
     pngs = report_pngs(d)
     out = OutputSet(args.out, DIAGNOSE_OUTPUTS, "gc-ocp diagnose")
     try:
-        out.text("diagnosis.json", json.dumps({**d.to_json(), "provenance": prov}, indent=2))
+        out.text("diagnosis.json", json_text({**d.to_json(), "provenance": prov}, indent=2))
         final = d.final_evaluation.full  # the selected model on all stances, as fit.json has it
-        out.text("final_fit.json", json.dumps({**final.to_json(), "provenance": prov}, indent=2))
+        out.text("final_fit.json", json_text({**final.to_json(), "provenance": prov}, indent=2))
         out.text("report.html", report_html(d, provenance=prov, pngs=pngs))
         for key, png in pngs.items():
             atomic_write(out.path(DIAGNOSE_FIGURES[key]), lambda tmp, png=png: tmp.write_bytes(png))

@@ -16,7 +16,6 @@ Outputs are written atomically (temporary file in the same directory, then ``os.
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -44,6 +43,7 @@ from gc_ocp.errors import InputError
 from gc_ocp.foot import UNITS
 from gc_ocp.outputs import atomic_write_text  # noqa: F401  (re-exported)
 from gc_ocp.stance import StanceData
+from gc_ocp.text import json_text
 
 TABLE1_CASES: tuple[str, ...] = (*SYNTHETIC_CASES, "experimental")
 TABLE1_KEYS: tuple[str, ...] = ("case", "k_rms_pct", *(TABLE_KEYS[c] for c in CHANNELS))
@@ -220,11 +220,11 @@ def _check_table1(rows: list[dict]) -> None:
 
 def table1_json(rows: list[dict]) -> str:
     _check_table1(rows)
-    return json.dumps(rows, indent=2) + "\n"
+    return json_text(rows, indent=2) + "\n"
 
 
 def table2_json(table2: dict) -> str:
-    return json.dumps(table2, indent=2) + "\n"
+    return json_text(table2, indent=2) + "\n"
 
 
 def _fmt(v) -> str:

@@ -21,7 +21,7 @@ from gc_ocp.diagnosis.compare import Evaluation, heldout_quality, score, superio
 from gc_ocp.diagnosis.null import RESOLUTION_PCT, NullTest, practical
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
 from gc_ocp.errors import InputError, names_of, read_document
-from gc_ocp.text import read_json_file
+from gc_ocp.text import float_fields, nan_for_null, read_json_file
 
 SCORE_TEXT = (
     "held-out combined score: sqrt(2 E / n), E = data cost + nuisance prior cost + "
@@ -143,14 +143,17 @@ class RankRow:
 
     @classmethod
     def from_json(cls, d: Mapping) -> RankRow:
+        calibrated = d.get("calibrated")
         return cls(
             **{
-                **d,
+                **float_fields(cls, d),
                 "heldout_rms_reduction_ci": tuple(d["heldout_rms_reduction_ci"]),
-                "per_stance_reduction_pct": dict(d["per_stance_reduction_pct"]),
+                "per_stance_reduction_pct": nan_for_null(dict(d["per_stance_reduction_pct"])),
                 "confounded_with": tuple(d["confounded_with"]),
                 "flags": tuple(d["flags"]),
-                "calibrated": None if d.get("calibrated") is None else NullTest(**d["calibrated"]),
+                "calibrated": None
+                if calibrated is None
+                else NullTest(**float_fields(NullTest, calibrated)),
             }
         )
 
@@ -425,7 +428,10 @@ class Diagnosis:
             )
         selected = names_of(d["selected"], "selected")
         waterfall = [
-            WaterfallStep(**w, label="+".join(["base", *selected[:k]]))
+            WaterfallStep(
+                **{**float_fields(WaterfallStep, w), "heldout_rms": nan_for_null(w["heldout_rms"])},
+                label="+".join(["base", *selected[:k]]),
+            )
             for k, w in enumerate(d["waterfall"])
         ]
         return cls(

@@ -24,7 +24,7 @@ from gc_ocp.estimation.components.contact import ContactLaw
 from gc_ocp.estimation.flags import at_bound_names, k_at_bound, law_at_bound, row_at_bound
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
-from gc_ocp.text import read_json_file
+from gc_ocp.text import nan_for_null, read_json_file
 from gc_ocp.trial import SIDES
 from gc_ocp.values import BOUND_TEXT, se_text
 from gc_ocp.wrench import cop_from_wrench
@@ -256,9 +256,11 @@ class EstimationResult:
     @classmethod
     def _from_document(cls, d: Mapping) -> EstimationResult:
         """:meth:`from_json` of a parsed document (what it reads, unchecked)."""
+        # every leaf of these parts (and of the stance fits) is a number or text: a null in them
+        # was a NaN (json_text)
         fits = []
         for f in d["stance_fits"]:
-            f = dict(f)
+            f = nan_for_null(dict(f))
             for k in _ARRAY_FIT_KEYS:
                 if k in f:
                     f[k] = np.asarray(f[k], bool if k == "in_contact" else float)
@@ -276,10 +278,10 @@ class EstimationResult:
             n_data=int(d["counts"]["data"]),
             n_free=int(d["counts"]["free"]),
             n_param=int(d["counts"]["param"]),
-            blocks=d["blocks"],
+            blocks=nan_for_null(d["blocks"]),
             components=d["components"],
-            rms=d["rms"],
-            cop_rms_mm=d["cop_rms_mm"],
+            rms=nan_for_null(d["rms"]),
+            cop_rms_mm=nan_for_null(d["cop_rms_mm"]),
             stance_fits=fits,
             variables=[VariableSpec.from_json(v) for v in d["variables"]],
             covariance=None if d.get("covariance") is None else np.asarray(d["covariance"], float),

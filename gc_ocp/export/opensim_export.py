@@ -52,6 +52,7 @@ from gc_ocp.export.opensim_worker import DEFAULT_RADIUS
 from gc_ocp.io._common import Y_UP_TO_LAB
 from gc_ocp.outputs import OutputSet
 from gc_ocp.stance import trial_names
+from gc_ocp.text import json_text
 from gc_ocp.values import number
 from gc_ocp.workflow.provenance import sha256
 from gc_ocp.wrench import transport_wrench
@@ -647,7 +648,7 @@ def export_opensim(
             },
             "notes": notes,
         }
-        outset.text("export.json", json.dumps(export_doc, indent=2))
+        outset.text("export.json", json_text(export_doc, indent=2))
         files = outset.commit()
     finally:
         outset.discard()

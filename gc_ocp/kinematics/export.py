@@ -16,7 +16,6 @@ Files written into ``out_dir`` (each atomically: complete or absent):
 from __future__ import annotations
 
 import io
-import json
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +23,7 @@ import numpy as np
 from gc_ocp.errors import InputError
 from gc_ocp.foot import UNITS, TrialKinematics
 from gc_ocp.outputs import atomic_savefig, atomic_write, atomic_write_text
+from gc_ocp.text import json_text
 from gc_ocp.trial import Trial
 
 
@@ -130,13 +130,13 @@ def write_kinematics(
     paths.append(
         atomic_write_text(
             out_dir / "kinematics_summary.json",
-            json.dumps(kinematics_summary(trial, kin), indent=2),
+            json_text(kinematics_summary(trial, kin), indent=2),
         )
     )
     if "landmarks" in kin.info:
         paths.append(
             atomic_write_text(
-                out_dir / "landmarks.json", json.dumps(kin.info["landmarks"], indent=2)
+                out_dir / "landmarks.json", json_text(kin.info["landmarks"], indent=2)
             )
         )
     fig = plot_kinematics(trial, kin)

@@ -6,10 +6,10 @@ and for every subject of ``gc-ocp batch``."""
 from __future__ import annotations
 
 import dataclasses
-import json
 
 from gc_ocp.html import FIGURE_DPI, pngs
 from gc_ocp.outputs import OutputSet, atomic_write
+from gc_ocp.text import json_text
 from gc_ocp.workflow.fitting import FitReport
 
 FIT_OUTPUTS = (
@@ -62,8 +62,8 @@ def write_fit(
     doc = {**report.to_json(), "provenance": provenance}
     if sensitivity is not None:
         doc["sensitivity"] = sensitivity.to_json()
-    out.text("fit.json", json.dumps(doc, indent=2))
-    out.text("landmarks.json", json.dumps(landmarks, indent=2))
+    out.text("fit.json", json_text(doc, indent=2))
+    out.text("landmarks.json", json_text(landmarks, indent=2))
     images = pngs(fit_figures(report), FIGURE_DPI)
     for name, png in images.items():
         atomic_write(out.path(name), lambda tmp, png=png: tmp.write_bytes(png))

@@ -155,16 +155,16 @@ class GroundOffset(Component):
 
     @classmethod
     def describe(cls, block: dict) -> list[SummaryRow]:
-        """Per stance: ``dz`` [mm], ``tilt_x``, ``tilt_y`` [deg]."""
+        """Per stance: ``dz`` [mm], ``tilt_x``, ``tilt_y`` [deg]; each row keyed by its stance's
+        block (``ground_offset/<stance>``, the one variable of three entries the fit's flags
+        name: a stance's correction on its bound shows no SE on any of its rows, as the flag
+        says)."""
         rows = []
         for label, e in block.items():
-            rows.append(SummaryRow(f"{label} dz", e["dz_mm"], e["dz_se"] * 1e3, "mm"))
+            rows.append(SummaryRow(f"{label} dz", e["dz_mm"], e["dz_se"] * 1e3, "mm", (label,)))
             for k in ("tilt_x", "tilt_y"):
-                rows.append(
-                    SummaryRow(
-                        f"{label} {k}", e[k + "_deg"], float(np.rad2deg(e[k + "_se"])), "deg"
-                    )
-                )
+                se = float(np.rad2deg(e[k + "_se"]))
+                rows.append(SummaryRow(f"{label} {k}", e[k + "_deg"], se, "deg", (label,)))
         return rows
 
     def frozen(self, block: dict) -> GroundOffset:
