@@ -98,3 +98,19 @@ def test_a_law_parameter_a_component_gives_is_at_its_bound_as_the_law_s():
     assert not law_at_bound(frozenset({"stiffness_exponent/n/left"}), "n")
     assert law_at_bound(frozenset({"contact/mu"}), "mu") and not law_at_bound(frozenset(), "mu")
     assert not law_at_bound(frozenset({"friction/viscous", "time_offset/walk"}), "c")
+
+
+def test_a_trial_named_like_a_law_parameter_is_not_the_law_s_parameter():
+    """A trial ``c.c3d`` (or ``k``, ``n``, ``mu``) keys its belt or clock offset ``belt/c``,
+    ``time_offset/k``: such a block at its bound is not the law's ``c`` or every unit's ``k``
+    (law_at_bound matched a key by its end and showed those as not estimates)."""
+    from gc_ocp.estimation.flags import k_at_bound, law_at_bound
+
+    for p in ("c", "n", "mu", "k"):
+        bound = frozenset({f"belt/{p}", f"time_offset/{p}", f"ground_offset/{p}"})
+        assert not law_at_bound(bound, p) and not law_at_bound(bound, p, "left"), p
+    assert not k_at_bound(frozenset({"belt/k"}), "left", "PM")
+    assert not law_at_bound(frozenset({"damping/n"}), "n")  # damping gives c only
+    assert not law_at_bound(frozenset({"stiffness_exponent/c"}), "c")
+    assert law_at_bound(frozenset({"contact/k/left"}), "k", "left")
+    assert k_at_bound(frozenset({"contact/k"}), "right", "PL")

@@ -30,6 +30,11 @@ POOR_SUPERIOR_PCT_BW = 10.0
 POOR_COP_MM = 50.0
 
 
+LAW_GIVERS = {"damping": "c", "stiffness_exponent": "n"}
+"""The components that give the contact law one of its parameters, by block name: the law's
+own variable of that parameter is then fixed, and theirs is the law's."""
+
+
 def variable_key(*parts) -> str:
     """A variable block's name in the flags and the tables that look them up: its key's parts
     joined by "/" (``"contact/n"``, ``"contact/k/left/PM"``, ``"contact/mu/right"``)."""
@@ -47,10 +52,11 @@ def law_at_bound(bound, param: str, side: str | None = None) -> bool:
     (:func:`at_bound_names`), shared or, with ``side``, that foot's own: the law's own variable
     (``"contact/n"``) or the one of a component that gives the law that parameter (damping's
     ``"damping/c"``, the exponent's ``"stiffness_exponent/n"``: their values are the law's).
-    (A trial named exactly like a law parameter, ``c.c3d``, would have its clock offset's or
-    belt's key read as one: a display of the SE only.)"""
+    Only those blocks: a trial named like a law parameter (``c.c3d``) keys its clock offset or
+    belt ``"time_offset/c"``, which is not the law's ``c``."""
     tails = {(param,)} | ({(param, side)} if side is not None else set())
-    return any(tuple(b.split("/")[1:]) in tails for b in bound)
+    blocks = {"contact"} | {b for b, p in LAW_GIVERS.items() if p == param}
+    return any(b.split("/")[0] in blocks and tuple(b.split("/")[1:]) in tails for b in bound)
 
 
 def row_at_bound(bound, block: str, row) -> bool:
