@@ -204,6 +204,15 @@ def test_smooth_variant_is_positive_and_converges_to_exact():
     assert fs[0] <= K0 * sm.eps_x**2 / (4 * 5e-3) * 1.01
 
 
+def test_no_point_gives_no_force():
+    """``normal_forces`` of empty arrays is empty, as ``unit_forces``'s is (it mapped one
+    placeholder point and could not reshape its force to the empty shape)."""
+    assert normal_forces(np.zeros(0), 0.0, K0).shape == (0,)
+    assert normal_forces(np.zeros((0, 5)), 0.0, K0, 1.5, 0.5, smooth=True).shape == (0, 5)
+    assert unit_forces(np.zeros((0, 3)), np.zeros((0, 3)), K0).shape == (0, 3)
+    assert normal_forces(0.002, 0.0, K0).shape == ()  # a scalar stays one
+
+
 @pytest.mark.parametrize("smooth", [False, True])
 def test_numeric_symbolic_and_reference_agree(smooth):
     rng = np.random.default_rng(1)

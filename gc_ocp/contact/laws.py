@@ -327,7 +327,8 @@ def normal_forces(
         *(np.asarray(a, dtype=float) for a in (x, xdot, k, n, c))
     )
     shape = x.shape
-    m = max(int(np.prod(shape)), 1)
-    args = [a.reshape(1, -1) if a.size else np.zeros((1, 1)) for a in (x, xdot, k, n, c)]
-    out = _mapped("normal_force", smooth, m)(*args, smoothing.eps_x, smoothing.eps_damping)
+    if x.size == 0:  # as unit_forces: no point, no force (a mapped Function needs one)
+        return np.zeros(shape)
+    args = [a.reshape(1, -1) for a in (x, xdot, k, n, c)]
+    out = _mapped("normal_force", smooth, x.size)(*args, smoothing.eps_x, smoothing.eps_damping)
     return np.asarray(out).reshape(shape)
