@@ -114,3 +114,40 @@ def test_a_trial_named_like_a_law_parameter_is_not_the_law_s_parameter():
     assert not law_at_bound(frozenset({"stiffness_exponent/c"}), "c")
     assert law_at_bound(frozenset({"contact/k/left"}), "k", "left")
     assert k_at_bound(frozenset({"contact/k"}), "right", "PL")
+
+
+def _bare_result(blocks: dict, flags: list):
+    """An :class:`EstimationResult` holding only ``blocks`` and ``flags`` (no stance, no side)."""
+    from gc_ocp.estimation.result import EstimationResult
+
+    return EstimationResult(
+        x=np.zeros(1),
+        status="Solve_Succeeded",
+        success=True,
+        iterations=1,
+        seconds=0.0,
+        objective=0.0,
+        data_cost=0.0,
+        prior_cost=0.0,
+        n_data=0,
+        n_free=1,
+        n_param=0,
+        blocks=blocks,
+        components={},
+        rms={},
+        cop_rms_mm={},
+        flags=flags,
+    )
+
+
+def test_the_summary_shows_a_belt_speed_at_its_bound_without_its_se():
+    """The summary printed a belt speed flagged ``at_bound`` as "1.600 ± 0.000 m/s" while the
+    fit's page and the law's parameters say "at its bound" in place of the SE."""
+    from gc_ocp.values import BOUND_TEXT
+
+    belt = {"walk": {"value": 1.6, "se": 1e-5, "nominal": 1.1, "correction": 0.5}}
+    at = {"code": "at_bound", "what": "belt/walk", "message": "belt/walk: on its bound"}
+    line = next(s for s in _bare_result({"belt": belt}, [at]).summary().splitlines() if "belt" in s)
+    assert line.startswith(f"belt speed (walk): 1.600 m/s {BOUND_TEXT}") and "±" not in line
+    free = _bare_result({"belt": belt}, []).summary()
+    assert "belt speed (walk): 1.600 ± 0.000 m/s (from 1.100 m/s" in free

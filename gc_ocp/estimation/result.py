@@ -21,7 +21,13 @@ from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
 from gc_ocp.errors import InputError, read_document
 from gc_ocp.estimation.components import describe_block
 from gc_ocp.estimation.components.contact import ContactLaw
-from gc_ocp.estimation.flags import at_bound_names, k_at_bound, law_at_bound, row_at_bound
+from gc_ocp.estimation.flags import (
+    at_bound_names,
+    k_at_bound,
+    law_at_bound,
+    row_at_bound,
+    variable_key,
+)
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
 from gc_ocp.text import nan_for_null, read_json_file
@@ -167,9 +173,11 @@ class EstimationResult:
                     + ("" if rho is None else f"; {rho:.0%} of it shared by the foot's stances")
                 )
         for trial, v in self.belt_speed.items():
+            at = variable_key("belt", trial) in self.at_bound  # its SE means nothing there
             lines.append(
-                f"belt speed ({trial}): {v['value']:.3f} ± {v['se']:.3f} m/s (from "
-                f"{v['nominal']:.3f} m/s: given, or measured from the stance feet)"
+                f"belt speed ({trial}): {v['value']:.3f} "
+                + (f"m/s {BOUND_TEXT}" if at else f"± {v['se']:.3f} m/s")
+                + f" (from {v['nominal']:.3f} m/s: given, or measured from the stance feet)"
             )
         shared = self.params.get("shared", {})
         for k, v in shared.items():
