@@ -201,3 +201,21 @@ def test_exponent_is_recovered_on_real_motion():
     for ch in ("anteroposterior_torque_pct_bwh", "mediolateral_torque_pct_bwh"):
         (b, noise_t), (e, _) = rms_b[ch], rms_e[ch]
         assert min(b) > 5 * noise_t and min(b) > 2 * max(e), ch
+
+
+def test_the_lls_start_is_in_the_units_of_the_law_the_exponent_configures():
+    """With the exponent, the law's n is fixed at 1 and its stiffness variable is k_1 [N/m]
+    (the force at 5 mm per metre). The one start path converted the LLS stiffness to the
+    exponent the law was *given* (``full_model``'s 1.5): a start 0.005**-0.5 = 14 times too
+    stiff, and the weak log-k prior centred there (on synthetic stances the fit then ended at
+    J = 81 against 24, one unit's f_ref at 2.2 kN). Same numbers, so exact equality."""
+    from conftest import synthetic_stances
+
+    from gc_ocp.estimation.starts import with_lls_start
+
+    stances, _ = synthetic_stances(np.random.default_rng(0), 0.0, per_foot=1)
+    for base in (full_model(), base_model()):
+        model = with_lls_start(model_from_names(["stiffness_exponent"], base=base), stances)
+        assert model[0].k.value == lls_k0(stances, 1.0)
+    # without the exponent the law's own n (1.5) is the one the start converts to
+    assert with_lls_start(full_model(), stances)[0].k.value == lls_k0(stances, 1.5)

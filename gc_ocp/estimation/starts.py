@@ -63,11 +63,17 @@ def lls_k0(stances: list, n0: float, quiet: bool = False) -> dict | None:
 
 def with_lls_start(model: tuple, stances: list, quiet: bool = False) -> tuple:
     """``model`` with its contact law (the component with ``with_initial_k``) started at the
-    seed's linear least squares on ``stances`` (:func:`lls_k0`)."""
+    seed's linear least squares on ``stances`` (:func:`lls_k0`), converted to the exponent the
+    law has once the model is configured (a stiffness exponent fixes the law's own at 1: its
+    stiffness variable is then in N/m, whatever the law's ``n`` was given as)."""
     law = next((c for c in model if hasattr(c, "with_initial_k")), None)
     if law is None:
         return model
-    k0 = lls_k0(stances, float(law.n.value_for(SIDES[0])), quiet)
+    configured = tuple(model)
+    for comp in tuple(model):  # as problem.declare does
+        configured = tuple(comp.configure(configured))
+    n0 = next(c for c in configured if hasattr(c, "with_initial_k")).n.value_for(SIDES[0])
+    k0 = lls_k0(stances, float(n0), quiet)
     return tuple(c.with_initial_k(k0) if c is law else c for c in model)
 
 
