@@ -856,3 +856,29 @@ def test_an_effect_at_its_bound_shows_no_standard_error():
     pngs = dict.fromkeys(("heatmap", "residuals", "ranking", "waterfall", "heatmap_final"), b"")
     page = _Page(report_html(d, provenance=js["provenance"], pngs=pngs, final=res)).visible
     assert f"{r.label}\n" in page and BOUND_TEXT in page.split(f"{r.label}\n", 1)[1][:80]
+
+
+def test_a_ranking_only_diagnosis_does_not_say_no_effect_passes():
+    """With ``max_effects=0`` (rank only) a row that passes the rule is not selected; the
+    summary said "selected: none (no effect passes)" and the page "No candidate effect passes
+    the decision rule" beside that row's PASS. They now say it passes and was not selected."""
+    from gc_ocp.diagnosis.report import report_html
+
+    _, _, js, d, final = _fixture(CASES[0])
+    ranked = dataclasses.replace(
+        d, selected=[], rounds=[d.ranking], waterfall=d.waterfall[:1], max_effects=0
+    )
+    passing = [r.effect for r in ranked.ranking if r.passes]
+    assert passing  # the fixture's round 1 names an effect
+    text = ranked.summary()
+    assert "no effect passes" not in text
+    assert f"selected: none (max_effects=0: ranked only, not selected; {passing[0]}" in text
+    pngs = dict.fromkeys(("heatmap", "residuals", "ranking", "waterfall"), b"")
+    page = _Page(report_html(ranked, provenance=js["provenance"], pngs=pngs, final=final))
+    assert "No candidate effect passes" not in page.visible
+    assert "No effect was selected (max_effects=0: the ranking only)" in page.visible
+    # nothing passing: "none" as before
+    none = dataclasses.replace(
+        ranked, rounds=[[dataclasses.replace(r, passes=False) for r in ranked.ranking]]
+    )
+    assert "selected: none (no effect passes)" in none.summary()

@@ -454,6 +454,18 @@ class Diagnosis:
             mismatch_family=d.get("mismatch_family"),
         )
 
+    def _none_why(self) -> str:
+        """Why nothing is selected, in the summary's words: no effect passes, or some do but the
+        selection was stopped before it (``max_effects=0``: rank only)."""
+        last = self.rounds[-1] if self.rounds else []
+        passing = [r.effect for r in last if r.passes]
+        if not passing:
+            return "none (no effect passes)"
+        return (
+            f"none (max_effects={self.max_effects}: ranked only, not selected; "
+            f"{', '.join(passing)} pass{'es' if len(passing) == 1 else ''} the rule)"
+        )
+
     @property
     def scored(self) -> str:
         """ "held-out", or "in-sample" when no stance could be held out (the JSON keys keep
@@ -486,10 +498,7 @@ class Diagnosis:
                 f"round {k} (on top of {' + '.join(['base', *self.selected[: k - 1]])}): "
                 + "; ".join(r.line() for r in rows)
             )
-        lines.append(
-            "selected: "
-            + (", ".join(self.selected) if self.selected else "none (no effect passes)")
-        )
+        lines.append("selected: " + (", ".join(self.selected) or self._none_why()))
         last = {r.effect: r for r in (self.rounds[-1] if self.rounds else [])}
         for e in self.inconclusive:
             lines.append(f"{e}: {last[e].verdict()}")
