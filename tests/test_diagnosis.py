@@ -1201,3 +1201,26 @@ def test_a_claim_plate_errors_mimic_is_noted_unless_the_null_drew_them():
     assert drawn_family(plates, 32) is plates and drawn_family(None, 32) is None
     assert drawn_family(plates, 0) is None
     assert drawn_family(MismatchFamily(scale=0.0).with_plate_calibration(), 32) is None
+
+
+@pytest.mark.parametrize(
+    "option", [{"alpha": 0}, {"alpha": 1.5}, {"n_boot": 0}, {"n_replicates": 0}]
+)
+def test_an_option_given_as_zero_is_refused_before_any_fit(bundled_stances, option, monkeypatch):
+    """``alpha=0`` divided by zero (``fewest_draws``), ``n_boot=0`` raised an IndexError from
+    the interval of no bootstrap draws after the round's fits, ``n_replicates=0`` made a
+    noise-only null of no replicates whose rows read NaN and "more steps would not decide". Each
+    is an input error, said before the base is fitted."""
+    import importlib
+
+    from gc_ocp.errors import InputError
+
+    module = importlib.import_module("gc_ocp.diagnosis.diagnose")  # the package's is a function
+
+    def no_fit(*a, **k):
+        raise AssertionError("fitted before checking the options")
+
+    monkeypatch.setattr(module, "evaluate_base", no_fit)
+    monkeypatch.setattr(module, "sized_base", no_fit)
+    with pytest.raises(InputError, match=next(iter(option))):
+        diagnose_stances(list(bundled_stances), candidates=["damping"], mismatch=None, **option)

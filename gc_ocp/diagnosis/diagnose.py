@@ -16,6 +16,7 @@ Confirmation on new stances is :mod:`.confirm`; the HTML page, :mod:`.report`.
 from __future__ import annotations
 
 import dataclasses
+import numbers
 import time
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Executor
@@ -201,6 +202,19 @@ def diagnose_stances(
         raise InputError(
             f"mismatch_draws must be a whole number, 0 or more ({MISMATCH_DRAWS} is the default), "
             f"but got {mismatch_draws!r}"
+        )
+    # checked before any fit: each was an error deep inside the first round (n_boot 0: the
+    # interval of no draws; alpha 0: a division by it) or a null of no replicates (NaN)
+    if not (is_count(n_boot) and n_boot >= 1):
+        raise InputError(f"n_boot must be 1 or more (2000 is the default), but got {n_boot!r}")
+    if not (is_count(n_replicates) and n_replicates >= 1):
+        raise InputError(
+            f"n_replicates must be 1 or more ({N_REPLICATES} is the default), but got "
+            f"{n_replicates!r}"
+        )
+    if not (isinstance(alpha, numbers.Real) and 0.0 < alpha < 1.0):
+        raise InputError(
+            f"alpha must be between 0 and 1 ({ALPHA} is the default), but got {alpha!r}"
         )
     if null_fits == "refit" and mismatch_draws < 1:
         raise InputError(
