@@ -1224,3 +1224,12 @@ def test_an_option_given_as_zero_is_refused_before_any_fit(bundled_stances, opti
     monkeypatch.setattr(module, "sized_base", no_fit)
     with pytest.raises(InputError, match=next(iter(option))):
         diagnose_stances(list(bundled_stances), candidates=["damping"], mismatch=None, **option)
+
+
+def test_no_stances_is_an_input_error():
+    """``diagnose_stances([])`` raised an IndexError (the frame rate of the first stance); as
+    ``diagnose([])`` does, it now says what to give."""
+    from gc_ocp.errors import InputError
+
+    with pytest.raises(InputError, match="no stances"):
+        diagnose_stances([])

@@ -194,6 +194,8 @@ def diagnose_stances(
     mismatch draw one replicate: :mod:`.refits`; tens of times the null's cost, for few
     stances, where the one step misses gains the refit shows; every round then holds out every
     candidate)."""
+    if not stances:  # was an IndexError (the frame rate of the first stance)
+        raise InputError("no stances to diagnose: give the StanceData of one subject's trials")
     if null_fits not in NULL_FITS:
         raise InputError(f"null_fits must be one of {', '.join(NULL_FITS)}, but got {null_fits!r}")
     if workers is not None and not (is_count(workers) and workers >= 1):
