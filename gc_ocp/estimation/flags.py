@@ -30,11 +30,6 @@ POOR_SUPERIOR_PCT_BW = 10.0
 POOR_COP_MM = 50.0
 
 
-LAW_GIVERS = {"damping": "c", "stiffness_exponent": "n"}
-"""The components that give the contact law one of its parameters, by block name: the law's
-own variable of that parameter is then fixed, and theirs is the law's."""
-
-
 def variable_key(*parts) -> str:
     """A variable block's name in the flags and the tables that look them up: its key's parts
     joined by "/" (``"contact/n"``, ``"contact/k/left/PM"``, ``"contact/mu/right"``)."""
@@ -55,7 +50,9 @@ def law_at_bound(bound, param: str, side: str | None = None) -> bool:
     Only those blocks: a trial named like a law parameter (``c.c3d``) keys its clock offset or
     belt ``"time_offset/c"``, which is not the law's ``c``."""
     tails = {(param,)} | ({(param, side)} if side is not None else set())
-    blocks = {"contact"} | {b for b, p in LAW_GIVERS.items() if p == param}
+    from gc_ocp.estimation.components import REGISTRY  # (the components import the flags)
+
+    blocks = {"contact"} | {c.name for c in REGISTRY.values() if c.law_parameter == param}
     return any(b.split("/")[0] in blocks and tuple(b.split("/")[1:]) in tails for b in bound)
 
 

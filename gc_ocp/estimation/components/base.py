@@ -149,6 +149,11 @@ class Component:
     response is so curved at its neutral value that one step from there misses most of what its
     refit gains. Default False (the neutral point is exact for the null and costs no refit)."""
 
+    law_parameter: ClassVar[str | None] = None
+    """The contact law's parameter this component gives (damping's ``"c"``, the exponent's
+    ``"n"``): the law's own variable of it is then fixed and this component's value is the
+    law's, so a flag of this component's variable at its bound is the law's
+    (:func:`~gc_ocp.estimation.flags.law_at_bound`)."""
     plate_mimicked: ClassVar[bool] = False
     """True when plates a few millimetres off or a percent or two mis-scaled (the mismatch
     family's opt-in plate calibration member) give this effect gains of its kind: the diagnosis

@@ -53,6 +53,7 @@ class Damping(Component):
     fixed: float | dict | None = None
     name: str = "damping"
     candidate = True
+    law_parameter = "c"
     benchmark_values = {"small": 0.25, "moderate": 0.5, "strong": 1.0}  # c [s/m]
 
     @classmethod

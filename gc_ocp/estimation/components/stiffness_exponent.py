@@ -58,6 +58,7 @@ class StiffnessExponent(Component):
     pivot_depth: float = 0.005
     name: str = "stiffness_exponent"
     candidate = True
+    law_parameter = "n"
     benchmark_values = {"small": 1.125, "moderate": 1.25, "strong": 1.5}  # n [-]
 
     @classmethod
