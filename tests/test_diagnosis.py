@@ -1204,13 +1204,16 @@ def test_a_claim_plate_errors_mimic_is_noted_unless_the_null_drew_them():
 
 
 @pytest.mark.parametrize(
-    "option", [{"alpha": 0}, {"alpha": 1.5}, {"n_boot": 0}, {"n_replicates": 0}]
+    "option",
+    [{"alpha": 0}, {"alpha": 1.5}, {"n_boot": 0}, {"n_replicates": 0}, {"n_replicates": 19}],
 )
 def test_an_option_given_as_zero_is_refused_before_any_fit(bundled_stances, option, monkeypatch):
     """``alpha=0`` divided by zero (``fewest_draws``), ``n_boot=0`` raised an IndexError from
     the interval of no bootstrap draws after the round's fits, ``n_replicates=0`` made a
-    noise-only null of no replicates whose rows read NaN and "more steps would not decide". Each
-    is an input error, said before the base is fitted."""
+    noise-only null of no replicates whose rows read NaN and "more steps would not decide"; one
+    of 19 replicates could not name anything at 5 % (its smallest p-value 1/20) and said "more
+    steps would not decide" of every candidate. Each is an input error, said before the base is
+    fitted."""
     import importlib
 
     from gc_ocp.errors import InputError

@@ -218,6 +218,18 @@ def diagnose_stances(
         raise InputError(
             f"alpha must be between 0 and 1 ({ALPHA} is the default), but got {alpha!r}"
         )
+    noise_only = null_fits == "one-step" and (
+        mismatch_draws == 0 or not draws_made(mismatch, null_fits)
+    )
+    if noise_only and n_replicates < fewest_draws(alpha):
+        # its p-value counts the replicates: 1 / (B + 1) at the least, which must be under
+        # alpha (the mismatch null's critical value is that of at least 32 draws)
+        raise InputError(
+            f"a noise-only null (no mismatch draws) of {n_replicates} replicates cannot name "
+            f"any effect: its smallest p-value is 1/{n_replicates + 1}, not under alpha "
+            f"{alpha:g}; give n_replicates {fewest_draws(alpha)} or more ({N_REPLICATES} is the "
+            "default)"
+        )
     if null_fits == "refit" and mismatch_draws < 1:
         raise InputError(
             f"null_fits='refit' makes one replicate per mismatch draw, but mismatch_draws is "
