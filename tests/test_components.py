@@ -351,3 +351,23 @@ def test_components_change_others_through_their_hooks():
     assert dense_sole.for_layout(layout, W) is dense_sole  # already dense
     assert type(SoleCorrection().for_layout(layout, W)) is DenseSoleCorrection
     assert PoseCorrection().for_layout(layout, W) == PoseCorrection()
+
+
+@pytest.mark.parametrize(
+    "name, field",
+    [
+        ("kinematic_correction", "sigma_mm"),
+        ("kinematic_correction", "sigma_deg"),
+        ("ground_offset", "sigma_mm"),
+        ("sole_geometry", "sigma"),
+    ],
+)
+def test_a_prior_width_of_zero_is_refused_naming_the_block(stances, name, field):
+    """A correction's prior width of 0 made its bounds 0/0 = NaN, which Ipopt met with an
+    assertion (``PoseCorrection(sigma_mm=0)``); it is an input error naming the block."""
+    from gc_ocp.errors import InputError
+
+    law, comp = _model(name)
+    zero = dataclasses.replace(comp, **{field: 0.0})
+    with pytest.raises(InputError, match=f"prior width of {comp.name}.* must be a number > 0"):
+        build_estimation(stances, (law, zero), compile=False)

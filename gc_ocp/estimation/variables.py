@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from gc_ocp.errors import ModelError
+from gc_ocp.errors import InputError, ModelError
 
 
 @dataclass(frozen=True)
@@ -141,6 +141,12 @@ class Variables:
         """A vector with Gaussian prior N(0, sigma^2), stored in units of sigma, bounded by +-bound.
         ``sigma`` and ``bound``: scalars, or arrays of length ``size`` (one per entry)."""
         sig = np.broadcast_to(np.asarray(sigma, float), size)
+        if not np.all(np.isfinite(sig) & (sig > 0)):  # its bounds were 0/0: Ipopt's assertion
+            raise InputError(
+                f"the prior width of {'/'.join(map(str, key))} must be a number > 0, but got "
+                f"{np.asarray(sigma).tolist()} [SI]: a correction of width 0 is none; leave its "
+                "component out of the model instead"
+            )
         b = np.broadcast_to(np.asarray(bound, float), size) / sig
         self._add(key, size, 0.0, -b, b, "prior", sig, False, 1.0, 0.0)
 
