@@ -371,3 +371,36 @@ def test_a_prior_width_of_zero_is_refused_naming_the_block(stances, name, field)
     zero = dataclasses.replace(comp, **{field: 0.0})
     with pytest.raises(InputError, match=f"prior width of {comp.name}.* must be a number > 0"):
         build_estimation(stances, (law, zero), compile=False)
+
+
+def test_a_fit_records_its_law_s_settings_and_the_export_uses_them(stances):
+    """A law of other settings (smoothings, their forms, the reference depth) than the defaults:
+    the fit records them (``contact_law``), its summary names its reference depth, and the fit
+    read back from JSON gives the export that law. Before, ``fit.json`` had no settings and the
+    export rebuilt the default law (0.5 mm hyperbola, 0.05 m/s algebraic): a simulator would run
+    another contact than the one fitted, silently."""
+    import json
+
+    from gc_ocp.estimation import EstimationResult
+    from gc_ocp.export.calibrated import CalibratedContact
+
+    own = dict(
+        depth_smoothing=1e-3,
+        slip_smoothing=0.02,
+        reference_depth=0.004,
+        depth_form="softplus",
+        slip_form="tanh",
+    )
+    law = dataclasses.replace(_model("contact")[0], **own)
+    pb = build_estimation(stances, (law,))
+    res = result_at(pb, pb.x0)
+    assert res.contact_law == own and res.law.settings() == own
+    assert "force at the 4 mm reference depth" in res.summary()
+    back = EstimationResult.from_json(json.loads(json.dumps(res.to_json())))
+    assert back.contact_law == own
+    cal = CalibratedContact.from_fit(back)
+    assert cal.law.settings() == own
+    # a fit.json written before the settings were recorded: the defaults, as it was fitted with
+    old = res.to_json()
+    del old["contact_law"]
+    assert EstimationResult.from_json(old).law.settings() == ContactLaw().settings()

@@ -6,7 +6,6 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from gc_ocp.contact.plots import plot_sole, plot_wrench_fit
-from gc_ocp.estimation.components.contact import ContactLaw
 from gc_ocp.estimation.result import as_result
 from gc_ocp.foot import SoleLayout
 
@@ -57,7 +56,7 @@ def plot_sole_fit(result) -> Figure:
         pts,
         k=f_ref,
         toes_offset=toes,
-        title=f"sole units: nominal (x) and corrected (o); force at {1e3 * ContactLaw.reference_depth:g} mm",
+        title=f"sole units: nominal (x) and corrected (o); force at {1e3 * result.law.reference_depth:g} mm",
         layout=layout,
         label=lambda f: f"{f:.0f} N",
     )

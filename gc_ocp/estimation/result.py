@@ -90,6 +90,16 @@ class EstimationResult:
     variables: list = field(default_factory=list)
     covariance: np.ndarray | None = None
     flags: list = field(default_factory=list)
+    contact_law: dict = field(default_factory=dict)
+    """The contact law's fixed settings (:meth:`ContactLaw.settings`: smoothings, their forms,
+    the reference depth); ``{}``: a ``fit.json`` written before they were recorded (2026-12-02),
+    whose law had the defaults (the only law those versions could write back)."""
+
+    @property
+    def law(self) -> ContactLaw:
+        """A contact law of the fit's settings (its parameters the class's defaults: the fitted
+        ones are in :attr:`params`)."""
+        return ContactLaw.of_settings(self.contact_law)
 
     # --- views of the usual blocks ------------------------------------------------------------
     @property
@@ -156,7 +166,7 @@ class EstimationResult:
                     + ", ".join(_shown(p, u, "k", ".3g", u in bound) for u in units)
                 )
                 lines.append(
-                    f"{side:>5} force at the {1e3 * ContactLaw.reference_depth:g} mm reference depth [N]: "
+                    f"{side:>5} force at the {1e3 * self.law.reference_depth:g} mm reference depth [N]: "
                     + ", ".join(_shown(p, u, "f_ref", ".0f", u in bound) for u in units)
                 )
             r = self.rms[side]
@@ -235,6 +245,7 @@ class EstimationResult:
             },
             "counts": {"data": self.n_data, "free": self.n_free, "param": self.n_param},
             "components": self.components,
+            "contact_law": self.contact_law,
             "blocks": self.blocks,
             "x": self.x.tolist(),
             "variables": [s.to_json() for s in self.variables],
@@ -294,6 +305,7 @@ class EstimationResult:
             variables=[VariableSpec.from_json(v) for v in d["variables"]],
             covariance=None if d.get("covariance") is None else np.asarray(d["covariance"], float),
             flags=list(d.get("flags", [])),
+            contact_law=dict(d.get("contact_law", {})),
         )
 
 

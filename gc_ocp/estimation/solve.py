@@ -11,6 +11,7 @@ import numpy as np
 from gc_ocp import signals
 from gc_ocp.errors import ModelError, SolveError
 from gc_ocp.estimation.components.base import DecodeContext
+from gc_ocp.estimation.components.contact import ContactLaw
 from gc_ocp.estimation.flags import fit_flags, variable_flags
 from gc_ocp.estimation.problem import EstimationProblem
 from gc_ocp.estimation.result import EstimationResult, fit_quality
@@ -356,6 +357,7 @@ def result_at(
         n_param=int(sum(s.size for s in specs if s.kind == "param")),
         blocks=blocks,
         components={c.name: type(c).__name__ for c in problem.model},
+        contact_law=next((c.settings() for c in problem.model if isinstance(c, ContactLaw)), {}),
         rms=rms,
         cop_rms_mm=cop,
         stance_fits=fits,

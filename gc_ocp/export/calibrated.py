@@ -160,7 +160,9 @@ class CalibratedContact:
                 kw[p] = Param("fixed", float(shared[p]))
             else:
                 kw[p] = Param("fixed", {s: float(block[s][p]) for s in sides})
-        law = dataclasses.replace(ContactLaw(), **kw)
+        # the law's settings the fit had (smoothings, their forms; the defaults in a fit.json
+        # written before they were recorded), its parameters the fit's
+        law = dataclasses.replace(ContactLaw.of_settings(doc.get("contact_law", {})), **kw)
         points, parents, heights = {}, {}, set()
         fits = doc["stance_fits"]
         if not fits:

@@ -8,7 +8,9 @@ definition shared with the seed study. Stiffness is estimated as ``log k`` so th
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from typing import ClassVar
 
 import casadi as ca
 import numpy as np
@@ -104,6 +106,27 @@ class ContactLaw(Component):
     depth_form: str = PENETRATION_FORMS[0]
     slip_form: str = SLIP_FORMS[0]
     name: str = "contact"
+
+    SETTINGS: ClassVar[tuple[str, ...]] = (
+        "depth_smoothing",
+        "slip_smoothing",
+        "reference_depth",
+        "depth_form",
+        "slip_form",
+    )
+    """The law's fixed settings (not estimated): a fit records them (``fit.json``'s
+    ``contact_law``, :meth:`settings`), so that the fit read back (an export, a page) has the law
+    it was fitted with, not this class's defaults."""
+
+    def settings(self) -> dict:
+        """``{setting: value}`` of :data:`SETTINGS`."""
+        return {s: getattr(self, s) for s in self.SETTINGS}
+
+    @classmethod
+    def of_settings(cls, settings: Mapping) -> ContactLaw:
+        """The law of ``settings`` (:meth:`settings`; a setting not given: the default), its
+        parameters the defaults."""
+        return cls(**{s: settings[s] for s in cls.SETTINGS if s in settings})
 
     @classmethod
     def seed(cls, mu: float = 0.0) -> ContactLaw:
