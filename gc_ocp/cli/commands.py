@@ -424,10 +424,11 @@ def cmd_export(args: argparse.Namespace) -> int:
         else:  # a folder, perhaps another command's
             path = check_writable(args.out, command="gc-ocp export") / "contact.casadi"
         doc = fit_document(args.fit_json)  # read once, for the file and what is printed
-        write_casadi(doc, path, trial=args.trial)
+        f = casadi_function(doc, trial=args.trial)  # built once, saved and printed
+        write_casadi(f, path)
         if path != args.out:
             claim(args.out, "gc-ocp export")
-        print(casadi_function(doc, trial=args.trial))
+        print(f)
         trials = list(dict.fromkeys(sf["trial"] for sf in doc["stance_fits"]))
         if len(trials) > 1:  # each trial's kinematics place the points: say whose they are
             print(

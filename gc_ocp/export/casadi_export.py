@@ -137,10 +137,11 @@ def write_casadi(
     fit, path: str | Path, sides: tuple[str, ...] | None = None, trial: str | None = None
 ) -> Path:
     """Save :func:`casadi_function` of ``fit`` to ``path`` (``.casadi``; complete or absent):
-    ``casadi.Function.load(path)`` gives it back, in any CasADi of the same major version."""
+    ``casadi.Function.load(path)`` gives it back, in any CasADi of the same major version.
+    ``fit`` may also be that function, made already (``sides`` and ``trial`` are then its)."""
     from gc_ocp.outputs import atomic_write
 
-    f = casadi_function(fit, sides, trial=trial)
+    f = fit if isinstance(fit, ca.Function) else casadi_function(fit, sides, trial=trial)
     # the file mode follows the umask, as every other output's (mkstemp alone gives 0600)
     return atomic_write(path, lambda tmp: f.save(str(tmp)))
 
