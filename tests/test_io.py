@@ -849,3 +849,19 @@ def test_a_label_the_file_uses_twice_is_shown_as_the_fit_names_it():
         text = describe_trial(load_trial(DATA / "c3dorg_helenhayes_types" / "type-2a.c3d"))
     assert "'LANK#2'] (the file labels two markers LANK)" in text
     assert "missing within a stance (gaps > 0.1 s, not filled): ['RANK#2', 'LANK#2']" in text
+
+
+@pytest.mark.parametrize("stored, unit", [(1580.0, "mm"), (158.0, "cm"), (1.58, "m")])
+def test_c3d_subject_height_in_mm_cm_or_m(tmp_path, stored, unit):
+    """PROCESSING:Height in cm (158) was divided by 1000 as if in mm: 0.158 m, then an
+    implausible-height error blaming the user. A person is 0.5-2.6 m tall, so 3-300 can only be
+    cm (the rule the subject JSON and OpenSim set-ups use). Tolerance: float32 storage."""
+    import ezc3d
+
+    from gc_ocp.io.c3d import read_c3d
+
+    c = ezc3d.c3d(str(bundled_example_path()))
+    c["parameters"]["PROCESSING"]["Height"]["value"] = np.array([stored])
+    path = tmp_path / f"height_{unit}.c3d"
+    c.write(str(path))
+    assert read_c3d(path).height == pytest.approx(1.58, abs=1e-6)

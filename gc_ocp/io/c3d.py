@@ -46,6 +46,7 @@ from gc_ocp.io._common import (
     without_subject_prefix,
 )
 from gc_ocp.io.plates import N_CHANNELS, SUPPORTED_TYPES, plate_axes, plate_wrench
+from gc_ocp.io.subject import _height_m
 from gc_ocp.trial import Plate
 from gc_ocp.wrench import transport_moment
 
@@ -594,8 +595,7 @@ def read_c3d(path: Path, strict: bool = True) -> RawTrial:
             if height is None and key.upper() in ("HEIGHT", "BODYHEIGHT"):
                 v = _first_number(g[key]["value"])
                 if v is not None and v > 0:
-                    h = v
-                    height = h / 1000.0 if h > 3.0 else h  # Vicon stores mm
+                    height = _height_m(v)  # Vicon stores mm, other writers cm or m
                     height_source = f"{group}:{key} in {path.name}"
     return RawTrial(
         source=path,
