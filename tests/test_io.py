@@ -865,3 +865,44 @@ def test_c3d_subject_height_in_mm_cm_or_m(tmp_path, stored, unit):
     path = tmp_path / f"height_{unit}.c3d"
     c.write(str(path))
     assert read_c3d(path).height == pytest.approx(1.58, abs=1e-6)
+
+
+def test_mot_cop_in_millimetres_is_refused_though_most_samples_are_zero(tmp_path):
+    """A MOT of several plates, each stepped on once, is zero (thresholded) in most samples: the
+    unit check took the median over all COP values, 0, and a COP in mm passed as metres (the
+    stances were then excluded as 'two feet on one force set', 160 m of COP travel). The check
+    now reads the horizontal COP while loaded (here 1000-1200 mm: far above the 50 m limit)."""
+    from gc_ocp.io.opensim import read_opensim
+
+    t = np.arange(200) / 100.0
+    trc = tmp_path / "walk.trc"
+    rows = [f"{i + 1}\t{ti:.2f}\t0\t100\t0\t0\t1000\t0\t300\t900\t100" for i, ti in enumerate(t)]
+    trc.write_text(
+        "PathFileType\t4\t(X/Y/Z)\twalk.trc\n"
+        "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\n"
+        "100\t100\t200\t3\tmm\n"
+        "Frame#\tTime\tRHEE\t\t\tC7\t\t\tLHEE\n"
+        "\t\tX1\tY1\tZ1\tX2\tY2\tZ2\tX3\tY3\tZ3\n" + "\n".join(rows) + "\n"
+    )
+    cols = ["time"]
+    for k in (1, 2, 3):
+        cols += [f"ground_force_{k}_v{a}" for a in "xyz"] + [
+            f"ground_force_{k}_p{a}" for a in "xyz"
+        ]
+        cols += [f"ground_torque_{k}_{a}" for a in "xyz"]
+    data = np.zeros((len(t), len(cols)))
+    data[:, 0] = t
+    on = (t > 0.5) & (t < 1.1)
+    data[on, 2] = 600 * np.sin(np.pi * (t[on] - 0.5) / 0.6)  # plate 1, vertical (Y) [N]
+    data[on, 4] = np.interp(t[on], [0.5, 1.1], [1000.0, 1200.0])  # COP x [mm]
+    data[on, 6] = 300.0  # COP z [mm]
+    mot = tmp_path / "walk_grf.mot"
+    mot.write_text(
+        "walk_grf.mot\nversion=1\nnRows=200\nnColumns=28\ninDegrees=no\nendheader\n"
+        + "\t".join(cols)
+        + "\n"
+        + "\n".join("\t".join(f"{v:.6f}" for v in row) for row in data)
+        + "\n"
+    )
+    with pytest.raises(UnitsError, match=r"COP columns in .*walk_grf\.mot .* millimetres"):
+        read_opensim(trc, mot)

@@ -275,8 +275,11 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
     for s in sets:
         f = data[:, s["force"]] @ Y_UP_TO_LAB.T
         p = data[:, s["point"]] @ Y_UP_TO_LAB.T
+        # the horizontal COP while loaded: a thresholded file holds zeros in swing (most of
+        # the samples of a plate stepped on once), whose median says nothing of the unit
+        loaded = f[:, 2] > threshold
         check_metres(
-            p,
+            p[loaded][:, :2] if loaded.any() else p,
             grf,
             "COP columns",
             "m",
