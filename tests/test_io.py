@@ -906,3 +906,29 @@ def test_mot_cop_in_millimetres_is_refused_though_most_samples_are_zero(tmp_path
     )
     with pytest.raises(UnitsError, match=r"COP columns in .*walk_grf\.mot .* millimetres"):
         read_opensim(trc, mot)
+
+
+def test_a_static_c3d_recorded_without_force_plates_loads(tmp_path):
+    """A static trial needs no plates (load_static reads its markers only), but a C3D without
+    any (FORCE_PLATFORM:USED = 0, as labs record standing trials) raised "has no force plates".
+    Its markers, in file axes, take the walking trial's lab rotation: the walking trial's frame
+    50 held still comes back as that frame (exactly: same numbers, same rotation)."""
+    import ezc3d
+
+    from gc_ocp.io.load import load_static
+
+    c = ezc3d.c3d(str(bundled_example_path()))
+    pts = c["data"]["points"]
+    pts[:, :, :] = pts[:, :, 50:51]
+    c["data"]["points"] = pts
+    fp = c["parameters"]["FORCE_PLATFORM"]
+    fp["USED"]["value"] = np.array([0])
+    fp["TYPE"]["value"] = np.array([], dtype=int)
+    path = tmp_path / "static_no_plates.c3d"
+    c.write(str(path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        walking = load_trial()
+    static = load_static(path, walking)
+    assert static.marker_names == walking.marker_names
+    np.testing.assert_allclose(static.markers[0], walking.markers[50], atol=1e-12)

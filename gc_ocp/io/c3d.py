@@ -575,7 +575,7 @@ def read_c3d(path: Path, strict: bool = True) -> RawTrial:
                 zero_offset=base if removed else None,
             )
         )
-    if not plates:
+    if not plates and strict:  # a static trial needs none (its vertical axis: Z kept)
         raise PlateError(
             f"{path} has no force plates (FORCE_PLATFORM group empty or unusable): the contact "
             f"model is estimated from measured ground reactions, so give a trial recorded with "
