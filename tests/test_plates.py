@@ -1152,3 +1152,54 @@ def test_stance_clipped_by_the_file_start_stays_clipped_on_a_zeroed_plate(
     first = [s for s in trial.excluded_stances if s.side == "left" and s.t_on < 0.1]
     reads = "reads 0" if offset == 0.0 else f"reads {offset:g} N throughout (its zeroing level)"
     assert len(first) == 1 and first[0].reason.startswith(f"clipped: the plate {reads}")
+
+
+def test_type3_sensor_channels_follow_their_force_unit(tmp_path):
+    """A Kistler (type 3) plate whose eight sensor channels are in kN (ANALOG:UNITS 'kN') was
+    read as newtons, 1000x too light, while types 1 and 2 followed the unit. Plate 1 of the
+    bundled file as type 3 in N and the same in kN give one wrench (float32 storage of a value
+    divided by 1000: ~1e-7 relative, checked at 1e-5 of the peak)."""
+    import ezc3d
+
+    from gc_ocp.io.c3d import read_c3d
+    from gc_ocp.io.plates import plate_axes
+
+    src = _bundled_c3d()
+    pf = ezc3d.c3d(str(src), extract_forceplat_data=True)["data"]["platform"][0]
+    axes = plate_axes(pf["corners"].T)
+    f, m = pf["force"].T @ axes, pf["moment"].T @ axes  # plate axes; m about the centre [N mm]
+    a, b, az0 = 120.0, 200.0, -45.0
+    ms = m + np.cross(np.broadcast_to([0.0, 0.0, az0], f.shape), f)
+    eqs = np.array([[1, 1, 1, 1], [b, b, -b, -b], [-a, a, a, -a], [1, -1, 1, -1]], float)
+    rhs = np.column_stack([f[:, 2], ms[:, 0], ms[:, 1], np.zeros(len(f))])
+    fz = np.linalg.solve(eqs, rhs.T).T
+    fx34 = (f[:, 0] + ms[:, 2] / b) / 2
+    sensors = np.column_stack([f[:, 0] - fx34, fx34, f[:, 1] / 2, f[:, 1] / 2, fz])
+    plates = {}
+    for unit, per in (("N", 1.0), ("kN", 1000.0)):
+        c = ezc3d.c3d(str(src))
+        analogs = c["data"]["analogs"]
+        analogs[0, :6] = sensors[:, :6].T / per
+        analogs[0, 12:14] = sensors[:, 6:].T / per  # channels of plate 3, unused (USED = 2)
+        c["data"]["analogs"] = analogs
+        units = list(c["parameters"]["ANALOG"]["UNITS"]["value"])
+        for j in (0, 1, 2, 3, 4, 5, 12, 13):
+            units[j] = unit
+        c["parameters"]["ANALOG"]["UNITS"]["value"] = units
+        fp = c["parameters"]["FORCE_PLATFORM"]
+        chan = np.asarray(fp["CHANNEL"]["value"])
+        chan8 = np.vstack([chan, chan[:2]])
+        chan8[:, 0] = [1, 2, 3, 4, 5, 6, 13, 14]
+        fp["CHANNEL"]["value"] = chan8
+        fp["TYPE"]["value"] = np.array([3, 2, 2, 2])
+        fp["USED"]["value"] = np.array([2])
+        origin = np.asarray(fp["ORIGIN"]["value"], float).copy()
+        origin[:, 0] = [a, b, az0]
+        fp["ORIGIN"]["value"] = origin
+        out = tmp_path / f"type3_{unit}.c3d"
+        c.write(str(out))
+        plates[unit] = read_c3d(out).plates[0]
+    n, k = plates["N"], plates["kN"]
+    assert n.plate_type == k.plate_type == "C3D type 3"
+    np.testing.assert_allclose(k.force, n.force, atol=1e-5 * np.abs(n.force).max())
+    np.testing.assert_allclose(k.moment, n.moment, atol=1e-5 * np.abs(n.moment).max())
