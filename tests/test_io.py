@@ -867,15 +867,13 @@ def test_c3d_subject_height_in_mm_cm_or_m(tmp_path, stored, unit):
     assert read_c3d(path).height == pytest.approx(1.58, abs=1e-6)
 
 
-def test_mot_cop_in_millimetres_is_refused_though_most_samples_are_zero(tmp_path):
-    """A MOT of several plates, each stepped on once, is zero (thresholded) in most samples: the
-    unit check took the median over all COP values, 0, and a COP in mm passed as metres (the
-    stances were then excluded as 'two feet on one force set', 160 m of COP travel). The check
-    now reads the horizontal COP while loaded (here 1000-1200 mm: far above the 50 m limit)."""
-    from gc_ocp.io.opensim import read_opensim
-
+def _trc_and_mot(folder: Path, cop_unit: float = 1.0, force_sign: float = 1.0):
+    """A 2 s TRC (three markers, mm) and a MOT of three plates, plate 1 loaded 0.5-1.1 s
+    (600 N peak, COP 1.0-1.2 m forward, 0.3 m across, free moment 2 N m) and zero elsewhere, as
+    a thresholded export is: COP multiplied by ``cop_unit``, force and torque by
+    ``force_sign``."""
     t = np.arange(200) / 100.0
-    trc = tmp_path / "walk.trc"
+    trc = folder / "walk.trc"
     rows = [f"{i + 1}\t{ti:.2f}\t0\t100\t0\t0\t1000\t0\t300\t900\t100" for i, ti in enumerate(t)]
     trc.write_text(
         "PathFileType\t4\t(X/Y/Z)\twalk.trc\n"
@@ -893,10 +891,12 @@ def test_mot_cop_in_millimetres_is_refused_though_most_samples_are_zero(tmp_path
     data = np.zeros((len(t), len(cols)))
     data[:, 0] = t
     on = (t > 0.5) & (t < 1.1)
-    data[on, 2] = 600 * np.sin(np.pi * (t[on] - 0.5) / 0.6)  # plate 1, vertical (Y) [N]
-    data[on, 4] = np.interp(t[on], [0.5, 1.1], [1000.0, 1200.0])  # COP x [mm]
-    data[on, 6] = 300.0  # COP z [mm]
-    mot = tmp_path / "walk_grf.mot"
+    data[on, 1] = force_sign * 100 * np.sin(np.pi * (t[on] - 0.5) / 0.6)  # plate 1 Fx [N]
+    data[on, 2] = force_sign * 600 * np.sin(np.pi * (t[on] - 0.5) / 0.6)  # vertical (Y) [N]
+    data[on, 4] = cop_unit * np.interp(t[on], [0.5, 1.1], [1.0, 1.2])  # COP x
+    data[on, 6] = cop_unit * 0.3  # COP z
+    data[on, 8] = force_sign * 2.0  # free moment about Y [N m]
+    mot = folder / "walk_grf.mot"
     mot.write_text(
         "walk_grf.mot\nversion=1\nnRows=200\nnColumns=28\ninDegrees=no\nendheader\n"
         + "\t".join(cols)
@@ -904,8 +904,37 @@ def test_mot_cop_in_millimetres_is_refused_though_most_samples_are_zero(tmp_path
         + "\n".join("\t".join(f"{v:.6f}" for v in row) for row in data)
         + "\n"
     )
+    return trc, mot
+
+
+def test_mot_cop_in_millimetres_is_refused_though_most_samples_are_zero(tmp_path):
+    """A MOT of several plates, each stepped on once, is zero (thresholded) in most samples: the
+    unit check took the median over all COP values, 0, and a COP in mm passed as metres (the
+    stances were then excluded as 'two feet on one force set', 160 m of COP travel). The check
+    now reads the horizontal COP while loaded (here 1000-1200 mm: far above the 50 m limit)."""
+    from gc_ocp.io.opensim import read_opensim
+
+    trc, mot = _trc_and_mot(tmp_path, cop_unit=1000.0)
     with pytest.raises(UnitsError, match=r"COP columns in .*walk_grf\.mot .* millimetres"):
         read_opensim(trc, mot)
+
+
+def test_mot_storing_the_force_on_the_plate_is_negated_with_a_note(tmp_path):
+    """A MOT whose force sets all read a negative vertical force while loaded stores the force
+    on the plate (as some C3D writers do, which the C3D reader negates with a note): it read
+    as no contact at all ('no plate is loaded above the contact threshold', or no mass
+    estimate). Negated, it gives the wrench of the same file written as ground reactions
+    (exactly: the same numbers with the opposite sign)."""
+    from gc_ocp.io.opensim import read_opensim
+
+    (tmp_path / "neg").mkdir()
+    ref = read_opensim(*_trc_and_mot(tmp_path))
+    neg = read_opensim(*_trc_and_mot(tmp_path / "neg", force_sign=-1.0))
+    for p, q in zip(ref.plates, neg.plates, strict=True):
+        np.testing.assert_array_equal(q.force, p.force)
+        np.testing.assert_array_equal(q.moment, p.moment)
+    assert neg.plates[0].force[:, 2].max() == pytest.approx(600.0, rel=0.01)
+    assert any("force on the plate" in n and "negated" in n for n in neg.notes)
 
 
 def test_a_static_c3d_recorded_without_force_plates_loads(tmp_path):

@@ -36,6 +36,7 @@ from gc_ocp.io._common import (
     unit_scale,
     without_subject_prefix,
 )
+from gc_ocp.io.c3d import _negative_plates
 from gc_ocp.trial import Plate
 
 COP_MIN_FORCE = 20.0
@@ -272,8 +273,17 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
     _check_y_up(grf, data, sets)
     plates = []
     notes = [prefix_note] if prefix_note else []
+    # every set negative while loaded: the force on the plate, as some writers store (C3D too)
+    flip = _negative_plates(
+        {s["name"]: (data[:, s["force"]] @ Y_UP_TO_LAB.T)[:, 2] for s in sets}, grf, strict=False
+    )
+    if flip:
+        notes.append(
+            f"the force sets of {grf.name} store the force on the plate (vertical force negative "
+            f"while loaded): negated to the ground reaction on the subject"
+        )
     for s in sets:
-        f = data[:, s["force"]] @ Y_UP_TO_LAB.T
+        f = data[:, s["force"]] @ Y_UP_TO_LAB.T * (-1.0 if flip else 1.0)
         p = data[:, s["point"]] @ Y_UP_TO_LAB.T
         # the horizontal COP while loaded: a thresholded file holds zeros in swing (most of
         # the samples of a plate stepped on once), whose median says nothing of the unit
@@ -287,6 +297,8 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
             "by 1000 (or export the forces again in metres).",
         )
         tq = data[:, s["torque"]] @ Y_UP_TO_LAB.T if s["torque"] else np.zeros_like(f)
+        if flip:
+            tq = -tq
         good = (f[:, 2] > threshold) & np.all(np.isfinite(p), axis=1)
         if good.any():
             k = np.flatnonzero(good)
