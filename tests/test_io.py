@@ -961,3 +961,46 @@ def test_a_static_c3d_recorded_without_force_plates_loads(tmp_path):
     static = load_static(path, walking)
     assert static.marker_names == walking.marker_names
     np.testing.assert_allclose(static.markers[0], walking.markers[50], atol=1e-12)
+
+
+@pytest.mark.parametrize("up", ["+Y", "+Z", "-Y"])
+def test_a_trc_not_written_y_up_is_refused_naming_its_axis(tmp_path, up):
+    """OpenSim TRC files are Y-up; one written Z-up (or upside down) was read with the body
+    lying on its side and its stances kept (a Y-up MOT beside it gave three). The feet lie
+    below the other markers: 0.95 m here along the file's up axis, 0.1 m at most along the
+    others (FEET_BELOW = 0.3 m between them)."""
+    from gc_ocp.io.opensim import read_trc
+
+    y_up = {  # [mm], Y up: heels on the floor, the pelvis and C7 above them
+        "RHEE": (0, 50, 100),
+        "LHEE": (200, 50, -100),
+        "RASI": (100, 1000, 120),
+        "LASI": (100, 1000, -120),
+        "C7": (50, 1400, 0),
+    }
+    to_file = {"+Y": lambda x, y, z: (x, y, z), "+Z": lambda x, y, z: (x, -z, y)}
+    to_file["-Y"] = lambda x, y, z: (x, -y, -z)
+    rows = []
+    for i in range(20):
+        xyz = [c for p in y_up.values() for c in to_file[up](p[0] + 12 * i, p[1], p[2])]
+        rows.append("\t".join([str(i + 1), f"{i / 100:.2f}", *map(str, xyz)]))
+    trc = tmp_path / "walk.trc"
+    trc.write_text(
+        "PathFileType\t4\t(X/Y/Z)\twalk.trc\n"
+        "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\n"
+        "100\t100\t20\t5\tmm\n"
+        "Frame#\tTime\t" + "\t\t\t".join(y_up) + "\n"
+        "\t\t"
+        + "\t".join(f"{a}{k + 1}" for k in range(5) for a in "XYZ")
+        + "\n"
+        + "\n".join(rows)
+        + "\n"
+    )
+    if up == "+Y":
+        _, xyz, _ = read_trc(trc)
+        assert np.all(xyz[:, 4, 2] > xyz[:, 0, 2])  # C7 above the heel in the lab (Z up)
+    else:
+        with pytest.raises(
+            InputError, match=rf"walk\.trc: the foot markers lie 0\.95 m below .* along \{up}"
+        ):
+            read_trc(trc)

@@ -22,6 +22,7 @@ replaced by the nearest valid COP (files often hold garbage COPs at zero force).
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +33,7 @@ from gc_ocp.io._common import (
     RawTrial,
     check_body_span,
     check_metres,
+    foot_markers,
     missing_as_nan,
     unit_scale,
     without_subject_prefix,
@@ -87,7 +89,43 @@ def read_trc(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
         check_metres(xyz, path, "Marker coordinates", unit)
     xyz = xyz * scale
     check_body_span(xyz, path, unit, "TRC Units")
+    _check_trc_y_up(path, names, xyz)
     return names, xyz @ Y_UP_TO_LAB.T, time
+
+
+FEET_BELOW = 0.3
+"""[m] How far the other markers lie above the foot markers (median over the frames of the
+difference of their medians) for that axis to be up: 0.7-1.0 m along the up axis in the shared
+TRC files (walking and static; 0.5 m for a lower-body set), under 0.06 m along the others (the
+feet are under the body)."""
+
+
+def _check_trc_y_up(path: Path, names: list[str], xyz: np.ndarray) -> None:
+    """OpenSim's TRC files are Y-up: refuse one whose foot markers lie below the others along
+    another axis (a TRC written Z-up was read with the body lying on its side, silently: its
+    stances were kept), naming the axis. No conclusion without foot markers and other markers,
+    or with the others less than :data:`FEET_BELOW` above the feet along every axis."""
+    bare = [n.rpartition(":")[2] for n in names]
+    feet = sorted(set(foot_markers(bare, "left") + foot_markers(bare, "right")))
+    body = [j for j in range(len(names)) if j not in feet]
+    if not feet or not body:
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # frames or markers without data
+        d = np.nanmedian(
+            np.nanmedian(xyz[:, body], axis=1) - np.nanmedian(xyz[:, feet], axis=1), axis=0
+        )
+    if not np.all(np.isfinite(d)):
+        return
+    k = int(np.argmax(np.abs(d)))
+    if abs(d[k]) < FEET_BELOW or (k == 1 and d[k] > 0):
+        return
+    up = f"{'+' if d[k] > 0 else '-'}{'XYZ'[k]}"
+    raise InputError(
+        f"{path}: the foot markers lie {abs(d[k]):.2f} m below the other markers along {up} "
+        f"(median), not along +Y: OpenSim's TRC files are Y-up, and this one is written "
+        f"{up}-up. Export it Y-up (X forward, Y up), as its MOT."
+    )
 
 
 def read_mot(path: Path) -> tuple[list[str], np.ndarray, dict[str, str]]:
