@@ -1004,3 +1004,16 @@ def test_a_trc_not_written_y_up_is_refused_naming_its_axis(tmp_path, up):
             InputError, match=rf"walk\.trc: the foot markers lie 0\.95 m below .* along \{up}"
         ):
             read_trc(trc)
+
+
+@pytest.mark.parametrize(
+    "unit, metres",
+    [("millimetres", 1e-3), ("millimeter", 1e-3), ("centimetres", 1e-2), ("metre", 1.0)],
+)
+def test_a_length_unit_spelt_out_is_read(unit, metres):
+    """'meters', 'metres' and 'millimeters' were read but 'millimetres', 'millimeter',
+    'centimetres' or 'metre' (TRC Units, C3D POINT:UNITS) stopped the load as an unknown
+    unit."""
+    from gc_ocp.io._common import unit_scale
+
+    assert unit_scale(unit, Path("walk.trc"), "TRC Units") == metres

@@ -18,7 +18,13 @@ from gc_ocp.trial import Plate
 Y_UP_TO_LAB = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 """OpenSim (X forward, Y up, Z right) -> lab (X forward, Y left, Z up): (x, y, z) -> (x, -z, y)."""
 
-_TO_METRE = {"mm": 1e-3, "cm": 1e-2, "m": 1.0, "meters": 1.0, "metres": 1.0, "millimeters": 1e-3}
+_TO_METRE = {"mm": 1e-3, "cm": 1e-2, "m": 1.0}
+_TO_METRE |= {  # the unit spelt out, singular or plural, US or UK spelling
+    f"{prefix}{stem}{plural}": v
+    for prefix, v in (("milli", 1e-3), ("centi", 1e-2), ("", 1.0))
+    for stem in ("meter", "metre")
+    for plural in ("", "s")
+}
 
 
 _TO_NEWTON = {
