@@ -1156,9 +1156,10 @@ def test_stance_clipped_by_the_file_start_stays_clipped_on_a_zeroed_plate(
 
 def test_type3_sensor_channels_follow_their_force_unit(tmp_path):
     """A Kistler (type 3) plate whose eight sensor channels are in kN (ANALOG:UNITS 'kN') was
-    read as newtons, 1000x too light, while types 1 and 2 followed the unit. Plate 1 of the
-    bundled file as type 3 in N and the same in kN give one wrench (float32 storage of a value
-    divided by 1000: ~1e-7 relative, checked at 1e-5 of the peak)."""
+    read as newtons, 1000x too light, while types 1 and 2 followed the unit (a unit that is no
+    force unit is still read as N, as before). Plate 1 of the bundled file as type 3 in N and
+    the same in kN give one wrench (float32 storage of a value divided by 1000: ~1e-7 relative,
+    checked at 1e-5 of the peak)."""
     import ezc3d
 
     from gc_ocp.io.c3d import read_c3d

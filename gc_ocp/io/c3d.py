@@ -332,9 +332,12 @@ def _analog_reading(
         kind_eff = 2
     else:
         kind_eff = kind
-    if kind in (1, 2, 3):  # the forces as recorded (type 4: the calibration matrix makes them)
-        for j in range(8) if kind == 3 else (0, 1, 2):  # type 3: eight sensor forces
+    if kind in (1, 2):  # the forces as recorded (type 4: the calibration matrix makes them)
+        for j in (0, 1, 2):
             ch[:, j] *= _force_scale(unit_of(j), path, i + 1)
+    elif kind == 3:  # eight sensor forces: in a force unit when one is named, else N (as before)
+        for j in range(8):
+            ch[:, j] *= force_unit_scale(unit_of(j)) or 1.0
     if kind_eff == 1:
         for j in (3, 4):  # COP [m], each in its own unit
             ch[:, j] *= _length_scale(unit_of(j), pos)
