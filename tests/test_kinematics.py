@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import warnings
 
 import numpy as np
 import pinocchio as pin
@@ -210,3 +211,48 @@ def test_frames_without_any_marker_pose_nothing():
         assert np.isfinite(g.velocities[k0:]).all()
         # the first seen frames: a one-sided difference, not one across the empty frames
         np.testing.assert_allclose(g.velocities[k0 : k0 + 3], f.velocities[k0 : k0 + 3], atol=0.3)
+
+
+def _static_without(marker, keep_frames=()):
+    """The Rajagopal static trial with ``marker``'s column emptied except ``keep_frames``."""
+    import dataclasses
+
+    st = rajagopal_static()
+    m = np.array(st.markers)
+    j = st.marker_names.index(marker)
+    keep = m[list(keep_frames), j]
+    m[:, j] = np.nan
+    m[list(keep_frames), j] = keep
+    return dataclasses.replace(st, markers=m)
+
+
+def test_a_foot_marker_the_static_hardly_shows_is_registered_on_the_walking_trial():
+    # A static trial's foot marker seen on few or none of its frames (an empty column; the BTS
+    # static's RIMH: a ghost 7 mm from the lateral malleolus in 1 frame of 107) was registered
+    # from those frames (none: its nominal position) and then held there for the whole trial.
+    # It is registered on the walking frames instead, as a marker the static lacks.
+    trial = rajagopal_trial()
+    walk = _kin("rajagopal")[1].info["marker_local"]["R.Heel"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # no All-NaN slice from the foot check
+        kin = compute_kinematics(trial, static=_static_without("R.Heel"))
+    # The full static's registration of R.Heel is 5.9 mm from the walking one's (skin over the
+    # heel pad moves between standing and walking); the old nominal position was 20.9 mm off.
+    assert np.linalg.norm(kin.info["marker_local"]["R.Heel"] - walk) < 0.010
+
+
+def test_the_bts_static_ghost_of_a_metatarsal_marker_is_not_registered():
+    from conftest import DATA, _quiet
+
+    from gc_ocp.io import load_static, load_trial
+
+    bts = DATA / "bts_unipd_5trials"
+    if not bts.is_dir():
+        pytest.skip(f"{bts} not found")
+    trial = _quiet(load_trial, bts / "Walking1.c3d")
+    static = _quiet(load_static, bts / "Static1.c3d", trial)
+    walk = compute_kinematics(trial).info["marker_local"]["RIMH"]
+    got = compute_kinematics(trial, static=static).info["marker_local"]["RIMH"]
+    # 9.6 mm from the walking trial's registration (which rests on the 16 % of the walking
+    # frames that show RIMH); the ghost frame put it 45 mm away (33 mm short of the MTP line).
+    assert np.linalg.norm(got - walk) < 0.015

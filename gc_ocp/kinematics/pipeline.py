@@ -55,6 +55,13 @@ FOOT_FLAT = (0.20, 0.45)
 N_REGISTRATION_FRAMES = 40
 """Walking frames (evenly spaced) used for marker registration when there is no static trial."""
 N_STATIC_FRAMES = 20
+STATIC_SEEN_SHARE = 0.5
+"""A static trial's marker is registered there when the static shows it on at least this share
+of its frames: a standing subject is in view throughout, and a label seen on a few frames is a
+ghost or another marker mislabelled (the BTS static's RIMH: one frame of 107, 7 mm from the
+lateral malleolus). One below is registered on the walking frames, as a marker the static
+lacks; it was registered from those few frames (an empty one: left at its nominal position)
+and, on a foot, then held there for the whole trial."""
 STATIC_PRIOR_FRAMES = 2.0
 """Prior strength (in walking-frame equivalents, out of ``N_REGISTRATION_FRAMES``) of the
 static-trial marker positions when they are refined on the walking trial."""
@@ -420,9 +427,12 @@ def check_static_feet(static: Trial, walking: Trial, markerset: MarkerSet) -> No
         ]
         for i, a in enumerate(names):
             for b in names[i + 1 :]:
+                dist = [
+                    np.linalg.norm(t.marker(a) - t.marker(b), axis=1) for t in (static, walking)
+                ]
                 d = [
-                    float(np.nanmedian(np.linalg.norm(t.marker(a) - t.marker(b), axis=1)))
-                    for t in (static, walking)
+                    float(np.median(x[np.isfinite(x)])) if np.isfinite(x).any() else np.nan
+                    for x in dist
                 ]
                 if all(np.isfinite(d)) and min(d) > 0:
                     pairs.append((abs(d[0] - d[1]) / d[1], a, b, d))
@@ -499,7 +509,15 @@ def compute_kinematics(
 
     st_markers = None
     if static is not None:
-        st_names = [n for n in names if n in static.marker_names]
+        shown = np.isfinite(np.asarray(static.markers)).all(axis=2).mean(axis=0)
+        share = {n: shown[static.marker_names.index(n)] for n in static.marker_names}
+        unseen = {n for n in markerset.markers if share.get(n, 1.0) < STATIC_SEEN_SHARE}
+        for n in sorted(unseen):
+            say(
+                f"static trial: {n} seen on {share[n]:.0%} of its frames: registered on the "
+                "walking trial instead"
+            )
+        st_names = [n for n in names if n in static.marker_names and n not in unseen]
         missing = [
             m.name
             for s in ("left", "right")
@@ -517,7 +535,7 @@ def compute_kinematics(
             0, len(static.marker_time) - 1, min(N_STATIC_FRAMES, len(static.marker_time))
         )
         st_markers = np.asarray(static.markers)[k.astype(int)][:, sidx]
-        static_all = [n for n in markerset.markers if n in static.marker_names]
+        static_all = [n for n in markerset.markers if n in static.marker_names and n not in unseen]
     height = trial.height if model is None or model.height is None else model.height
     if height is None:
         if st_markers is not None:
@@ -554,11 +572,12 @@ def compute_kinematics(
         # Refine on walking frames: the static pose cannot place markers whose segment moves
         # differently in walking (arms: no humeral rotation in the model; skin over muscles).
         # Foot markers stay where the static put them (the sole calibration uses them);
-        # others are pulled towards their static positions by STATIC_PRIOR_FRAMES.
+        # others are pulled towards their static positions by STATIC_PRIOR_FRAMES; markers
+        # the static lacks (or hardly shows, STATIC_SEEN_SHARE) are registered here.
         k = np.linspace(0, len(markers) - 1, min(N_REGISTRATION_FRAMES, len(markers))).astype(int)
         foot = np.array([markerset.markers[n].is_foot for n in names])
         in_static = np.array([n in loc for n in names])
-        prior = np.where(foot, 1e9, np.where(in_static, STATIC_PRIOR_FRAMES, 0.0))
+        prior = np.where(foot & in_static, 1e9, np.where(in_static, STATIC_PRIOR_FRAMES, 0.0))
         mm, _, h2 = register_markers(
             mm,
             markers[k],
