@@ -256,3 +256,18 @@ def test_the_bts_static_ghost_of_a_metatarsal_marker_is_not_registered():
     # 9.6 mm from the walking trial's registration (which rests on the 16 % of the walking
     # frames that show RIMH); the ghost frame put it 45 mm away (33 mm short of the MTP line).
     assert np.linalg.norm(got - walk) < 0.015
+
+
+def test_a_given_marker_sets_foot_marker_with_an_empty_column_is_an_error():
+    # --markerset plugingait on a file whose LTOE column is empty (labelled, never seen) posed
+    # the left foot from LHEE and LANK alone, its roll about them free, and reported it as
+    # "posed by its markers"; detection refuses the same file (recognition: one foot landmark)
+    import dataclasses
+
+    from gc_ocp.errors import MarkerError
+
+    t = c3d_trial()
+    m = np.array(t.markers)
+    m[:, t.marker_names.index("LTOE")] = np.nan
+    with pytest.raises(MarkerError, match='"LTOE" of marker set "plugingait".*no position in any'):
+        compute_kinematics(dataclasses.replace(t, markers=m), markerset="plugingait")

@@ -499,7 +499,7 @@ def compute_kinematics(
         markerset = detect_markerset(trial.marker_names, trial.markers, trial.source)
     elif not isinstance(markerset, MarkerSet):
         markerset = load_markerset(markerset)
-    names, idx = markerset.select_columns(trial.marker_names, trial.source)
+    names, idx = markerset.select_columns(trial.marker_names, trial.source, trial.markers)
     raw = np.asarray(trial.markers)[:, idx]
     raw, fills = fill_foot_gaps(raw, names, markerset, trial.marker_time)
     for f in fills:

@@ -119,13 +119,30 @@ class MarkerSet:
         return [n for n in self.markers if n in set(marker_names)]
 
     def select_columns(
-        self, marker_names, source: str | Path = "the trial"
+        self, marker_names, source: str | Path = "the trial", markers=None
     ) -> tuple[list[str], list[int]]:
         """Marker keys of the set in the trial and their columns in ``marker_names`` (the
         ``columns`` of a recognised set; else the first column with the label). Checks the feet
-        as :meth:`select`."""
+        as :meth:`select`; with the trial's ``markers`` ``(n, m, 3)``, also that no foot marker's
+        column is empty (no position in any frame: the foot would be posed without it)."""
         names = list(marker_names)
         self.select(names, source)
+        if markers is not None and self.columns is None:
+            seen = np.isfinite(np.asarray(markers, dtype=float)).all(axis=2).any(axis=0)
+            empty = [
+                m.name
+                for side in ("left", "right")
+                for m in self.foot_markers(side)
+                if m.name in names and not seen[names.index(m.name)]
+            ]
+            if empty:
+                raise MarkerError(
+                    f'Foot marker "{empty[0]}" of marker set "{self.name}" ({self.source}) has no '
+                    f"position in any frame of {source} (empty columns: {empty}): the foot would "
+                    "be posed without it. Check its labelling in the file, or pass a marker set "
+                    f"without it (copy {self.source} and remove the line), keeping >= 3 "
+                    "non-collinear hindfoot markers per foot (or 2 and a malleolus on the shank)."
+                )
         if self.columns is None:
             keys = [n for n in self.markers if n in set(names)]
             return keys, [names.index(n) for n in keys]
