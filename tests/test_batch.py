@@ -639,3 +639,20 @@ def test_a_second_run_on_the_same_folder_is_refused_while_the_first_runs(tmp_pat
         with pytest.raises(InputError, match="another gc-ocp batch is running"):
             run(subjects, out, settings=FAST, workers=1, progress=None)
     assert staging.is_dir() and not (out / "S1").exists()
+
+
+def test_a_number_that_is_not_finite_is_null_in_the_table_as_after_a_resume():
+    """A fresh run's row may hold NaN (an SE not identified); the same row read back from
+    ``done.json`` on a resume holds null there (strict JSON). Both are one missing value: an
+    empty CSV cell, and a null (not a NaN) in the parquet table, so a resumed study's table is
+    the fresh one's."""
+    from gc_ocp.batch.summary import NUMERIC, to_arrow, to_csv
+    from gc_ocp.text import json_text
+
+    col = sorted(NUMERIC)[0]
+    fresh = [{"subject": "S1", "foot": "left", col: float("nan")}]
+    resumed = json.loads(json_text(fresh))
+    assert resumed[0][col] is None
+    for rows in (fresh, resumed):
+        assert to_arrow(rows).column(col).to_pylist() == [None]
+    assert to_csv(fresh) == to_csv(resumed)

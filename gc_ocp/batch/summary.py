@@ -204,14 +204,20 @@ def to_csv(rows: Sequence[dict]) -> str:
 
 
 def to_arrow(rows: Sequence[dict]):
-    """The rows as a ``pyarrow.Table`` (numbers as float64, text as string; None as null)."""
+    """The rows as a ``pyarrow.Table`` (numbers as float64, text as string; None, and a number
+    that is not finite, as null: a resumed study's rows come from ``done.json``, which writes
+    NaN as null (:func:`~gc_ocp.text.json_text`), so a fresh and a resumed run give one table,
+    as their CSV's empty cell is one)."""
     import pyarrow as pa
 
     arrays = {}
     for c in COLUMNS:
         vals = [r.get(c) for r in rows]
         if c in NUMERIC:
-            arrays[c] = pa.array([None if v is None else float(v) for v in vals], pa.float64())
+            nums = [None if v is None else float(v) for v in vals]
+            arrays[c] = pa.array(
+                [v if v is not None and math.isfinite(v) else None for v in nums], pa.float64()
+            )
         else:
             arrays[c] = pa.array([None if v is None else str(v) for v in vals], pa.string())
     return pa.table(arrays)
