@@ -124,6 +124,21 @@ def test_effect_names_and_diagnosis_settings_are_checked(bundled_stances):
             diagnose_stances(data, candidates=["damping"], **kw)
 
 
+def test_model_from_names_refuses_a_base_that_is_not_components():
+    """A base named as diagnose() names it ("registered") was read letter by letter into the
+    model (('r', 'e', 'g', ..., Damping(...))), and a preset not called raised a TypeError; each
+    is an InputError saying what to give."""
+    from gc_ocp.errors import InputError
+    from gc_ocp.estimation.components import base_model, full_model, model_from_names
+
+    for base in ("registered", full_model, (base_model(), "damping")):
+        with pytest.raises(InputError, match="tuple of components"):
+            model_from_names(["damping"], base=base)
+    assert model_from_names(["damping"], base=list(base_model())) == model_from_names(
+        ["damping"], base=base_model()
+    )
+
+
 def test_a_static_trial_of_another_subject_is_refused():
     """The Rajagopal static trial scaled 1.3 times (another, larger subject): its foot markers
     are 30 % off the walking trial's distances, refused (it was used: height 2.34 m, the

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import importlib
 
-from gc_ocp.errors import ModelError, UnknownNameError, names_of
+from gc_ocp.errors import InputError, ModelError, UnknownNameError, names_of
 from gc_ocp.estimation.components.base import Component, DecodeContext, Scope, SummaryRow
 from gc_ocp.estimation.components.belt import BeltSpeed
 from gc_ocp.estimation.components.contact import ContactLaw, Param
@@ -118,6 +118,12 @@ def model_from_names(names, base: tuple = ()) -> tuple[Component, ...]:
     unknown = [n for n in names if n not in REGISTRY]
     if unknown:
         raise UnknownNameError(f"Unknown component(s) {unknown}; choose from {sorted(REGISTRY)}")
+    # a base named as diagnose() names it ("registered") was read letter by letter
+    if not isinstance(base, tuple | list) or not all(isinstance(c, Component) for c in base):
+        raise InputError(
+            f"base={base!r}: give a tuple of components, e.g. base=base_model() (the "
+            "diagnosis's 'registered' base), full_model() or seed_model()"
+        )
     model = tuple(base)
     for n in names:
         if REGISTRY[n] not in {type(c) for c in model}:
