@@ -710,3 +710,32 @@ def test_an_export_names_its_trial_and_refuses_options_of_the_other_target(
     with pytest.raises(InputError, match="no trial 'nosuch' to export"):
         export_opensim(hertz_fit, tmp_path / "osim", pairs=[bundled], trial="nosuch")
     assert not (tmp_path / "osim").exists()
+
+
+def test_an_export_s_missing_model_or_unknown_trial_is_refused_before_any_work(
+    tmp_path, hertz_fit, monkeypatch, capsys
+):
+    """``gc-ocp export opensim --hertz --model nope.osim`` (or ``--trial nosuch``) reloaded the
+    fit's trials and refitted them (minutes) before saying the model file is not there or the
+    trial not in the fit; both are refused first."""
+    from gc_ocp.cli import main
+    from gc_ocp.export import opensim_export
+    from gc_ocp.export.calibrated import fit_document
+
+    def no_work(*a, **k):
+        raise AssertionError("the trials were loaded or refitted before the check")
+
+    monkeypatch.setattr(opensim_export, "fit_pairs", no_work)
+    monkeypatch.setattr(opensim_export, "hertz_refit", no_work)
+    fit_json = tmp_path / "fit.json"
+    fit_json.write_text(json.dumps(fit_document(hertz_fit)))
+    out = tmp_path / "osim"
+    for extra, words in (
+        (["--model", str(tmp_path / "nope.osim")], "nope.osim does not exist"),
+        (["--trial", "nosuch"], "no trial 'nosuch' to export"),
+    ):
+        for hertz in ([], ["--hertz"]):
+            args = ["export", "opensim", str(fit_json), "--out", str(out), *hertz, *extra]
+            assert main(args) == 2
+            assert words in capsys.readouterr().err
+    assert not out.exists()

@@ -438,11 +438,18 @@ def cmd_export(args: argparse.Namespace) -> int:
         print(f"wrote {path}")
         return 0
     from gc_ocp.export.calibrated import CalibratedContact
-    from gc_ocp.export.opensim_export import DEFAULT_RADIUS, export_opensim, fit_pairs, hertz_refit
+    from gc_ocp.export.opensim_export import (
+        DEFAULT_RADIUS,
+        check_request,
+        export_opensim,
+        fit_pairs,
+        hertz_refit,
+    )
     from gc_ocp.outputs import check_writable
 
     check_writable(args.out, command="gc-ocp export")
     fit = args.fit_json
+    check_request(fit, args.model, args.trial)  # before a --hertz refit
     pairs = None
     if args.hertz:
         cal = CalibratedContact.from_fit(fit)

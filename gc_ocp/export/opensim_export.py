@@ -512,6 +512,19 @@ def model_wrenches(cal: CalibratedContact, trial, kin) -> dict[str, np.ndarray]:
     return foot_wrenches(cal.model(), on_belt, kin, cal.ground_height).wrench
 
 
+def check_request(fit, model: str | Path | None = None, trial: str | None = None) -> None:
+    """An ``--model`` file that is not there, or a ``--trial`` the fit does not have, as an
+    :class:`InputError` before any work (the trials' kinematics, a ``--hertz`` refit)."""
+    if model is not None and not Path(model).is_file():
+        raise InputError(f"Model {model} does not exist; give the subject's .osim file.")
+    if trial is not None:
+        names = list(dict.fromkeys(sf["trial"] for sf in fit_document(fit)["stance_fits"]))
+        if trial not in names:
+            raise InputError(
+                f"the fit has no trial {trial!r} to export; its trials are {names} (--trial NAME)"
+            )
+
+
 def export_opensim(
     fit,
     out: str | Path,
@@ -544,6 +557,7 @@ def export_opensim(
             f"default {DEFAULT_RADIUS:g} m): give it in metres (--radius 0.005)"
         )
     doc = fit_document(fit)
+    check_request(doc, model, trial)  # before the trials are loaded again
     if pairs is None:
         pairs = fit_pairs(CalibratedContact.from_fit(doc), say)
     # the fit's name of the exported trial: several trials of one subject each have their own
