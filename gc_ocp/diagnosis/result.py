@@ -290,6 +290,13 @@ FORMER_FLOOR_PCT = 2.0
 """The effect-size floor [%] of the versions whose ``diagnosis.json`` has no ``floor_pct``."""
 
 
+def _which(which: str) -> str:
+    """``which`` model a figure shows: ``"base"`` or ``"final"``, else :class:`InputError`."""
+    if which not in ("base", "final"):
+        raise InputError(f'which={which!r}: the figure is of the "base" or the "final" model')
+    return which
+
+
 @dataclasses.dataclass
 class Diagnosis:
     """The result of :func:`~gc_ocp.diagnosis.diagnose`: plain data plus the evaluations behind it.
@@ -536,11 +543,13 @@ class Diagnosis:
     # --- figures ---------------------------------------------------------------------------
     def heatmap(self, which: str = "base"):
         """Heat map of where the residual lies (``which``: ``"base"`` or ``"final"``)."""
+        _which(which)
         return heatmap_figure(self.where[which], title=f"Where the residual lies ({which} model)")
 
     def residual_figure(self, which: str = "base", **kw):
-        """Residual over time of the held-out stances, phases shaded (needs the evaluations)."""
-        ev = self.base_evaluation if which == "base" else self.final_evaluation
+        """Residual over time of the held-out stances, phases shaded (needs the evaluations;
+        ``which``: ``"base"`` or ``"final"``)."""
+        ev = self.base_evaluation if _which(which) == "base" else self.final_evaluation
         return residual_figure(ev.scored_fits, **{"weights": ev.weights, **kw})
 
     def ranking_figure(self):
