@@ -81,16 +81,3 @@ def test_a_diagnosis_row_with_not_finite_numbers_is_strict_and_reads_them_back()
     again = Diagnosis.from_json(strict_loads(json_text(doc)))
     assert math.isnan(again.waterfall[0].score)
     assert again.summary().count("\n") == d.summary().count("\n")
-
-
-def test_a_diagnosis_figure_of_a_model_that_is_not_base_or_final_is_refused():
-    """``heatmap(which="fnal")`` raised a bare KeyError and ``residual_figure(which="fnal")``
-    drew the final model's; each says which models there are."""
-    from gc_ocp.diagnosis import Diagnosis
-    from gc_ocp.errors import InputError
-
-    d = Diagnosis.from_json(json.loads((FIXTURES / "all_effects" / "diagnosis.json").read_text()))
-    for figure in (d.heatmap, d.residual_figure):
-        with pytest.raises(InputError, match='"base" or the "final"'):
-            figure(which="fnal")
-    assert d.heatmap(which="final") is not None

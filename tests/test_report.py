@@ -882,3 +882,16 @@ def test_a_ranking_only_diagnosis_does_not_say_no_effect_passes():
         ranked, rounds=[[dataclasses.replace(r, passes=False) for r in ranked.ranking]]
     )
     assert "selected: none (no effect passes)" in none.summary()
+
+
+def test_a_diagnosis_figure_of_a_model_that_is_not_base_or_final_is_refused():
+    """``heatmap(which="fnal")`` raised a bare KeyError and ``residual_figure(which="fnal")``
+    drew the final model's; each says which models there are."""
+    from gc_ocp.diagnosis import Diagnosis
+    from gc_ocp.errors import InputError
+
+    d = Diagnosis.from_json(json.loads((FIXTURES / "all_effects" / "diagnosis.json").read_text()))
+    for figure in (d.heatmap, d.residual_figure):
+        with pytest.raises(InputError, match='"base" or the "final"'):
+            figure(which="fnal")
+    assert d.heatmap(which="final") is not None
