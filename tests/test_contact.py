@@ -553,3 +553,28 @@ def test_frames_with_missing_plate_data_are_dropped(fake_trial):
     assert np.isfinite(cut[0].measured).all()
     res = reproduce_seed(trial2, kin, seeds=2)  # synthetic sets follow the kept frames
     assert res["table1"][0]["k_rms_pct"] < 1e-8
+
+
+def test_reproduce_seed_without_height_uses_the_kinematics_height(fake_trial):
+    """A trial without a height (an OpenSim TRC) is scaled by the kinematics with the height they
+    estimate; the experimental row's BW*H uses that same height (as ``fit`` does and as
+    docs/seed_study.md says), not the seed's 1,173 / 689 = 1.70 m. Exact: the height is a
+    number passed through, the tolerance only allows float rounding of BW * H."""
+    import dataclasses
+
+    trial, kin = fake_trial
+    no_height = dataclasses.replace(trial, height=None)
+    kin_h = dataclasses.replace(kin, info={"height": 1.9})
+    res = reproduce_seed(no_height, kin_h, seeds=1)
+    assert res["settings"]["height_m"] == pytest.approx(1.9, rel=1e-12)
+    fit = res["experimental_fit"]
+    assert fit.bw_height == pytest.approx(no_height.body_weight * 1.9, rel=1e-12)
+    assert any("kinematics' estimate" in n for n in res["notes"])
+    # torques scale as 1 / H: the same fit with the trial's height given is the same numbers
+    given = reproduce_seed(dataclasses.replace(trial, height=1.9), kin, seeds=1)
+    exp, exp_given = res["table1"][-1], given["table1"][-1]
+    for key in TABLE1_KEYS[1:]:
+        assert exp[key] == exp_given[key] or exp[key] is None
+    # no height anywhere: the seed's BW*H / BW, with a note
+    bare = reproduce_seed(no_height, kin, seeds=1)
+    assert bare["settings"]["height_m"] == pytest.approx(SEED_BWH / SEED_BW, rel=1e-12)

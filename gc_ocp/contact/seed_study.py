@@ -9,7 +9,9 @@ Table 1 rows (in this order) have the keys ``case``, ``k_rms_pct``, then one key
 ``mediolateral_torque_pct_bwh``); noisy rows (mean over ``seeds`` draws) add the same keys with
 ``_sd`` (sample standard deviation). Synthetic rows are normalised as in the seed: k by
 11,974 N/m, forces by BW = 689 N, torques by BW*H = 1,173 N·m; the experimental row by the
-trial's own BW and BW*H. Table 2 is the experimental ``{side: {unit: k [N/m]}}``.
+trial's own BW and BW*H (H: the trial's height, else the one the kinematics estimated and
+scaled the body with, else the seed's BW*H / BW). Table 2 is the experimental
+``{side: {unit: k [N/m]}}``.
 
 Outputs are written atomically (temporary file in the same directory, then ``os.replace``).
 """
@@ -166,7 +168,14 @@ def reproduce_seed(
 
     bw = trial.body_weight
     height = trial.height
-    if height is None:
+    if height is None and kinematics.info.get("height") is not None:
+        # the height the kinematics estimated and scaled the body with, as ``fit`` uses it
+        height = float(kinematics.info["height"])
+        notes.append(
+            f"Subject height not given: torques normalised with H = {height:.3f} m, the "
+            "kinematics' estimate from the markers (pass the measured height to override)."
+        )
+    elif height is None:
         height = SEED_BWH / SEED_BW
         notes.append(
             f"Subject height unknown: torques normalised with H = {height:.3f} m "
