@@ -50,6 +50,21 @@ def test_reproduce_seed_cli(tmp_path, capsys):
         assert (out / name).read_text().startswith("# Table")
 
 
+def test_reproduce_seed_on_a_treadmill_sets_the_belt_as_fit_does(tmp_path, capsys):
+    """A treadmill trial without ``--belt-speed``: ``fit`` takes the belt speed the stance feet
+    show (and says so); ``reproduce-seed`` ran with a still belt, its friction sliding against
+    the floor instead of the belt, without a word. It now sets the belt as ``fit`` does."""
+    from conftest import G23
+
+    if not G23.is_dir():
+        pytest.skip(f"real datasets not found at {G23}")
+    out = tmp_path / "seed"
+    argv = ["reproduce-seed", str(G23 / "subject01_walk1.trc"), "--mass", "72.6"]
+    assert main([*argv, "--seeds", "1", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "(a treadmill) but no belt speed was given: using 1." in err
+
+
 def test_info_on_bundled_example(capsys):
     assert main(["info"]) == 0
     out = capsys.readouterr().out

@@ -103,6 +103,7 @@ def cmd_kinematics(args: argparse.Namespace) -> int:
 
 def cmd_reproduce_seed(args: argparse.Namespace) -> int:
     from gc_ocp.contact.seed_study import reproduce_seed, table1_markdown, table2_markdown
+    from gc_ocp.io.consistency import belt
     from gc_ocp.outputs import check_writable, claim
 
     check_writable(args.out, command="gc-ocp reproduce-seed")  # before any computation
@@ -115,6 +116,10 @@ def cmd_reproduce_seed(args: argparse.Namespace) -> int:
         )
     [trial] = trials
     kin = _kinematics(trial, args)
+    # a treadmill's belt, as fit sets it (its friction slides against the belt, not the floor)
+    trial, notes = belt(trial)
+    for note in notes:
+        _progress(f"check: {note}")
     res = reproduce_seed(
         trial,
         kin,
