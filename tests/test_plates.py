@@ -661,21 +661,17 @@ def test_screen_axis_that_disagrees_with_gravity_is_noted_and_the_data_win(tmp_p
     assert any("POINT:Y_SCREEN of screen.c3d says +Y" in n for n in trial.load_notes)
 
 
-@needs_data
-def test_type3_file_reads_the_same_wrench_as_its_type2_original(tmp_path):
-    """End to end through a C3D: plate 1 of the bundled file rewritten as a Kistler type 3
-    (eight sensor channels, ORIGIN = a, b, az0 in mm) gives the original wrench."""
+def _as_type3(src, out, unit: str | None = None, per: float = 1.0):
+    """Plate 1 of ``src`` rewritten as a Kistler type 3 to ``out``: eight sensor channels (in
+    ``unit`` when given, their values divided by ``per``), ORIGIN = a, b, az0 in mm; plate 3's
+    channels hold the last two, so only two plates are used (USED = 2)."""
     import ezc3d
 
-    from gc_ocp.io.c3d import read_c3d
     from gc_ocp.io.plates import plate_axes
 
-    src = DATA / "plugingait_overground/test_small.c3d"
-    c = ezc3d.c3d(str(src), extract_forceplat_data=True)
-    pf = c["data"]["platform"][0]
+    pf = ezc3d.c3d(str(src), extract_forceplat_data=True)["data"]["platform"][0]
     axes = plate_axes(pf["corners"].T)
-    f = pf["force"].T @ axes
-    m = pf["moment"].T @ axes  # about the surface centre [N mm]
+    f, m = pf["force"].T @ axes, pf["moment"].T @ axes  # plate axes; m about the centre [N mm]
     a, b, az0 = 120.0, 200.0, -45.0
     ms = m + np.cross(np.broadcast_to([0.0, 0.0, az0], f.shape), f)  # about the sensor plane
     # fz1..fz4 from Fz, Mx, My and a zero "warp" (the fourth, unmeasured combination)
@@ -683,13 +679,18 @@ def test_type3_file_reads_the_same_wrench_as_its_type2_original(tmp_path):
     rhs = np.column_stack([f[:, 2], ms[:, 0], ms[:, 1], np.zeros(len(f))])
     fz = np.linalg.solve(eqs, rhs.T).T
     fx34 = (f[:, 0] + ms[:, 2] / b) / 2
-    ch = np.column_stack([f[:, 0] - fx34, fx34, f[:, 1] / 2, f[:, 1] / 2, fz])
-    new = ezc3d.c3d(str(src))
-    analogs = new["data"]["analogs"]
-    analogs[0, :6] = ch[:, :6].T
-    analogs[0, 12:14] = ch[:, 6:].T  # channels of plate 3, dropped below (USED = 2)
-    new["data"]["analogs"] = analogs
-    fp = new["parameters"]["FORCE_PLATFORM"]
+    sensors = np.column_stack([f[:, 0] - fx34, fx34, f[:, 1] / 2, f[:, 1] / 2, fz])
+    c = ezc3d.c3d(str(src))
+    analogs = c["data"]["analogs"]
+    analogs[0, :6] = sensors[:, :6].T / per
+    analogs[0, 12:14] = sensors[:, 6:].T / per  # channels of plate 3, dropped (USED = 2)
+    c["data"]["analogs"] = analogs
+    if unit is not None:
+        units = list(c["parameters"]["ANALOG"]["UNITS"]["value"])
+        for j in (0, 1, 2, 3, 4, 5, 12, 13):
+            units[j] = unit
+        c["parameters"]["ANALOG"]["UNITS"]["value"] = units
+    fp = c["parameters"]["FORCE_PLATFORM"]
     chan = np.asarray(fp["CHANNEL"]["value"])
     chan8 = np.vstack([chan, chan[:2]])
     chan8[:, 0] = [1, 2, 3, 4, 5, 6, 13, 14]
@@ -699,9 +700,18 @@ def test_type3_file_reads_the_same_wrench_as_its_type2_original(tmp_path):
     origin = np.asarray(fp["ORIGIN"]["value"], float).copy()
     origin[:, 0] = [a, b, az0]
     fp["ORIGIN"]["value"] = origin
-    out = tmp_path / "type3.c3d"
-    new.write(str(out))
-    raw = read_c3d(out)
+    c.write(str(out))
+    return out
+
+
+@needs_data
+def test_type3_file_reads_the_same_wrench_as_its_type2_original(tmp_path):
+    """End to end through a C3D: plate 1 of the bundled file rewritten as a Kistler type 3
+    (eight sensor channels, ORIGIN = a, b, az0 in mm) gives the original wrench."""
+    from gc_ocp.io.c3d import read_c3d
+
+    src = DATA / "plugingait_overground/test_small.c3d"
+    raw = read_c3d(_as_type3(src, tmp_path / "type3.c3d"))
     assert len(raw.plates) == 2 and raw.plates[0].plate_type == "C3D type 3"
     p, q = read_c3d(src).plates[0], raw.plates[0]
     centre = np.asarray(q.corners).mean(axis=0)
@@ -1160,46 +1170,13 @@ def test_type3_sensor_channels_follow_their_force_unit(tmp_path):
     force unit is still read as N, as before). Plate 1 of the bundled file as type 3 in N and
     the same in kN give one wrench (float32 storage of a value divided by 1000: ~1e-7 relative,
     checked at 1e-5 of the peak)."""
-    import ezc3d
-
     from gc_ocp.io.c3d import read_c3d
-    from gc_ocp.io.plates import plate_axes
 
     src = _bundled_c3d()
-    pf = ezc3d.c3d(str(src), extract_forceplat_data=True)["data"]["platform"][0]
-    axes = plate_axes(pf["corners"].T)
-    f, m = pf["force"].T @ axes, pf["moment"].T @ axes  # plate axes; m about the centre [N mm]
-    a, b, az0 = 120.0, 200.0, -45.0
-    ms = m + np.cross(np.broadcast_to([0.0, 0.0, az0], f.shape), f)
-    eqs = np.array([[1, 1, 1, 1], [b, b, -b, -b], [-a, a, a, -a], [1, -1, 1, -1]], float)
-    rhs = np.column_stack([f[:, 2], ms[:, 0], ms[:, 1], np.zeros(len(f))])
-    fz = np.linalg.solve(eqs, rhs.T).T
-    fx34 = (f[:, 0] + ms[:, 2] / b) / 2
-    sensors = np.column_stack([f[:, 0] - fx34, fx34, f[:, 1] / 2, f[:, 1] / 2, fz])
-    plates = {}
-    for unit, per in (("N", 1.0), ("kN", 1000.0)):
-        c = ezc3d.c3d(str(src))
-        analogs = c["data"]["analogs"]
-        analogs[0, :6] = sensors[:, :6].T / per
-        analogs[0, 12:14] = sensors[:, 6:].T / per  # channels of plate 3, unused (USED = 2)
-        c["data"]["analogs"] = analogs
-        units = list(c["parameters"]["ANALOG"]["UNITS"]["value"])
-        for j in (0, 1, 2, 3, 4, 5, 12, 13):
-            units[j] = unit
-        c["parameters"]["ANALOG"]["UNITS"]["value"] = units
-        fp = c["parameters"]["FORCE_PLATFORM"]
-        chan = np.asarray(fp["CHANNEL"]["value"])
-        chan8 = np.vstack([chan, chan[:2]])
-        chan8[:, 0] = [1, 2, 3, 4, 5, 6, 13, 14]
-        fp["CHANNEL"]["value"] = chan8
-        fp["TYPE"]["value"] = np.array([3, 2, 2, 2])
-        fp["USED"]["value"] = np.array([2])
-        origin = np.asarray(fp["ORIGIN"]["value"], float).copy()
-        origin[:, 0] = [a, b, az0]
-        fp["ORIGIN"]["value"] = origin
-        out = tmp_path / f"type3_{unit}.c3d"
-        c.write(str(out))
-        plates[unit] = read_c3d(out).plates[0]
+    plates = {
+        unit: read_c3d(_as_type3(src, tmp_path / f"type3_{unit}.c3d", unit, per)).plates[0]
+        for unit, per in (("N", 1.0), ("kN", 1000.0))
+    }
     n, k = plates["N"], plates["kN"]
     assert n.plate_type == k.plate_type == "C3D type 3"
     np.testing.assert_allclose(k.force, n.force, atol=1e-5 * np.abs(n.force).max())
