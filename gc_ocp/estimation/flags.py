@@ -42,6 +42,13 @@ def at_bound_names(flags) -> frozenset[str]:
     return frozenset(f["what"] for f in flags if f.get("code") == "at_bound")
 
 
+LAW_GIVERS: dict[str, str] = {}
+"""``{block name: law parameter}`` of the components that give the contact law a parameter
+(:attr:`~gc_ocp.estimation.components.base.Component.law_parameter`: damping's ``"c"``, the
+exponent's ``"n"``), filled as each such class is defined (``Component.__init_subclass__``; the
+components import this module, so it cannot import them)."""
+
+
 def law_at_bound(bound, param: str, side: str | None = None) -> bool:
     """The contact law's ``param`` (``"n"``, ``"mu"``) is among ``bound``
     (:func:`at_bound_names`), shared or, with ``side``, that foot's own: the law's own variable
@@ -50,9 +57,7 @@ def law_at_bound(bound, param: str, side: str | None = None) -> bool:
     Only those blocks: a trial named like a law parameter (``c.c3d``) keys its clock offset or
     belt ``"time_offset/c"``, which is not the law's ``c``."""
     tails = {(param,)} | ({(param, side)} if side is not None else set())
-    from gc_ocp.estimation.components import REGISTRY  # (the components import the flags)
-
-    blocks = {"contact"} | {c.name for c in REGISTRY.values() if c.law_parameter == param}
+    blocks = {"contact"} | {b for b, p in LAW_GIVERS.items() if p == param}
     return any(b.split("/")[0] in blocks and tuple(b.split("/")[1:]) in tails for b in bound)
 
 

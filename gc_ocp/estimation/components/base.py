@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal, NamedTuple
 import numpy as np
 
 from gc_ocp.errors import ModelError
+from gc_ocp.estimation.flags import LAW_GIVERS
 from gc_ocp.estimation.variables import block_values
 from gc_ocp.values import BOUND_TEXT, se_text
 
@@ -153,7 +154,14 @@ class Component:
     """The contact law's parameter this component gives (damping's ``"c"``, the exponent's
     ``"n"``): the law's own variable of it is then fixed and this component's value is the
     law's, so a flag of this component's variable at its bound is the law's
-    (:func:`~gc_ocp.estimation.flags.law_at_bound`)."""
+    (:func:`~gc_ocp.estimation.flags.law_at_bound`, which reads it from
+    :data:`~gc_ocp.estimation.flags.LAW_GIVERS`, filled by :meth:`__init_subclass__`)."""
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.law_parameter is not None:  # ``name``: the class's default block name
+            LAW_GIVERS[cls.name] = cls.law_parameter
+
     plate_mimicked: ClassVar[bool] = False
     """True when plates a few millimetres off or a percent or two mis-scaled (the mismatch
     family's opt-in plate calibration member) give this effect gains of its kind: the diagnosis
