@@ -396,6 +396,9 @@ def test_a_fit_records_its_law_s_settings_and_the_export_uses_them(stances):
     res = result_at(pb, pb.x0)
     assert res.contact_law == own and res.law.settings() == own
     assert "force at the 4 mm reference depth" in res.summary()
+    from gc_ocp.html.fit_tables import contact_tables
+
+    assert contact_tables(res.params, res.at_bound, res.law.reference_depth)["reference_mm"] == "4"
     back = EstimationResult.from_json(json.loads(json.dumps(res.to_json())))
     assert back.contact_law == own
     cal = CalibratedContact.from_fit(back)

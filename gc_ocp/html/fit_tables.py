@@ -13,6 +13,7 @@ import numpy as np
 
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_name, channel_unit
 from gc_ocp.estimation.components.base import per_axis
+from gc_ocp.estimation.components.contact import ContactLaw
 from gc_ocp.estimation.flags import k_at_bound, law_at_bound, row_at_bound, variable_key
 from gc_ocp.values import BOUND_TEXT, se_text
 
@@ -74,10 +75,16 @@ def pm_value(
     return f"{text} ± {se_text(se, text)}{unit}"
 
 
-def contact_tables(params: dict, at_bound: frozenset[str] = frozenset()) -> dict:
-    """The contact law's block as tables: per unit k and force at 5 mm, per-foot scalars, shared
-    parameters (each ``value ± SE``; a parameter of ``at_bound``, the fit's
+def contact_tables(
+    params: dict, at_bound: frozenset[str] = frozenset(), reference_depth: float | None = None
+) -> dict:
+    """The contact law's block as tables: per unit k and force at the reference depth
+    (``reference_depth`` [m], the fit's law's, :attr:`EstimationResult.law
+    <gc_ocp.estimation.result.EstimationResult.law>`; None: the default law's), per-foot
+    scalars, shared parameters (each ``value ± SE``; a parameter of ``at_bound``, the fit's
     :attr:`~gc_ocp.estimation.result.EstimationResult.at_bound`, says so instead)."""
+    if reference_depth is None:
+        reference_depth = ContactLaw.reference_depth
     units, per_foot = [], []
     for side, per in params.items():
         if side == "shared" or not isinstance(per, dict):
@@ -106,6 +113,7 @@ def contact_tables(params: dict, at_bound: frozenset[str] = frozenset()) -> dict
             )
     shared = params.get("shared", {})
     return {
+        "reference_mm": f"{reference_depth * 1e3:g}",
         "units": units,
         "per_foot": per_foot,
         "shared": [

@@ -61,7 +61,7 @@ def fit_report_html(
         "bias": None if report.bias is None else report.bias.message(),
         "bias_skipped": report.bias_skipped,
         "flags": _flags(report),
-        "contact": contact_tables(res.params, res.at_bound),
+        "contact": contact_tables(res.params, res.at_bound, res.law.reference_depth),
         "sole": sole_table(res.blocks.get("sole", {}), res.at_bound),
         "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
         "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),
