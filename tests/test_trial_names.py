@@ -193,6 +193,7 @@ def test_diagnose_and_confirm_trials_with_the_same_file_name(bts_pairs):
             n_boot=100,
             workers=1,
             mismatch_draws=4,
+            pose_width="prior",  # the labels are the point, not the nuisance's size (faster)
         )
         c = confirm(bts_pairs[:2], bts_pairs[2:], [], n_boot=100)
     trained = [(1, bts_pairs[0]), (2, bts_pairs[1])]
@@ -234,7 +235,10 @@ def test_cli_fit_and_diagnose_two_trial_folders_with_the_same_file_name(
     common = [*trials, "--mass", str(BTS_MASS)]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        assert main(["fit", *common, "--out", str(tmp_path / "fit")]) == 0
+        # the labels are the point, not the pose width (--fixed-pose-width, --pose-width
+        # prior: the guessed width, no width rounds; faster)
+        fit = ["fit", *common, "--fixed-pose-width", "--out", str(tmp_path / "fit")]
+        assert main(fit) == 0
         argv = [
             "diagnose",
             *common,
@@ -242,6 +246,8 @@ def test_cli_fit_and_diagnose_two_trial_folders_with_the_same_file_name(
             "damping",
             "--null-draws",
             "4",
+            "--pose-width",
+            "prior",
             "--out",
             str(tmp_path / "d"),
         ]
