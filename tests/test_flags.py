@@ -151,3 +151,33 @@ def test_the_summary_shows_a_belt_speed_at_its_bound_without_its_se():
     assert line.startswith(f"belt speed (walk): 1.600 m/s {BOUND_TEXT}") and "±" not in line
     free = _bare_result({"belt": belt}, []).summary()
     assert "belt speed (walk): 1.600 ± 0.000 m/s (from 1.100 m/s" in free
+
+
+def test_a_bound_flag_quotes_the_value_as_a_person_reads_it():
+    """The stiffness exponent stores ``n - 1`` and the toe onset radians: a flag quoted the
+    stored numbers ("= 0.35 ... bound 0"), which a reader takes for n = 0.35. It quotes n and
+    degrees, and a fit.json written before the reading was kept reads back as stored."""
+    from gc_ocp.estimation.components import StiffnessExponent, ToeJoint
+    from gc_ocp.estimation.variables import VariableSpec
+
+    v = Variables()
+    StiffnessExponent().declare(v, [])
+    ToeJoint(drive="pitch").declare(v, [])
+    v.finalize()
+    lo = np.array([s.lb[0] for s in v.specs])  # every parameter at its lower bound
+    message = {f["what"]: f["message"] for f in variable_flags(v.specs, lo)}
+    n_spec = v.spec(("stiffness_exponent", "n"))
+    assert message["stiffness_exponent/n"].startswith(
+        f"stiffness_exponent/n = {1.0 + n_spec.lb[0]:.4g} is at its lower bound "
+        f"{1.0 + n_spec.lb[0]:.4g}:"
+    )
+    onset = next(s for s in v.specs if "onset" in "/".join(map(str, s.key)))
+    deg = np.rad2deg(onset.lb[0])
+    assert (
+        f"= {deg:.4g} deg is at its lower bound {deg:.4g} deg"
+        in message["/".join(map(str, onset.key))]
+    )
+    again = VariableSpec.from_json(n_spec.to_json())
+    assert again.shown == n_spec.shown and again.reading(0.35) == "1.35"
+    old = {k: x for k, x in n_spec.to_json().items() if k != "shown"}
+    assert VariableSpec.from_json(old).reading(0.35) == "0.35"

@@ -442,7 +442,7 @@ def cmd_export(args: argparse.Namespace) -> int:
             )
         print(f"wrote {path}")
         return 0
-    from gc_ocp.export.calibrated import CalibratedContact
+    from gc_ocp.export.calibrated import CalibratedContact, fit_document
     from gc_ocp.export.opensim_export import (
         DEFAULT_RADIUS,
         check_request,
@@ -453,7 +453,7 @@ def cmd_export(args: argparse.Namespace) -> int:
     from gc_ocp.outputs import check_writable
 
     check_writable(args.out, command="gc-ocp export")
-    fit = args.fit_json
+    fit = fit_document(args.fit_json)  # read once, for the checks, a refit and the export
     check_request(fit, args.model, args.trial)  # before a --hertz refit
     pairs = None
     if args.hertz:

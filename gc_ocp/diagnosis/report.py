@@ -311,10 +311,7 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         "title": f"Diagnosis: {d.base} model vs the force plates",
         "held": "held-out" if d.folds.get("n") else "in-sample",
         "steps": steps,
-        # passing rows not selected: the selection was stopped before it (max_effects=0)
-        "passing": [r.effect for r in (d.rounds[-1] if d.rounds else []) if r.passes]
-        if not d.selected
-        else [],
+        "passing": d.passing_unselected,
         "base_sup": wf[0].heldout_superior_force_pct_bw,
         "final_sup": wf[-1].heldout_superior_force_pct_bw,
         "groups": _groups(d.ranking, d.selected),

@@ -461,11 +461,18 @@ class Diagnosis:
             mismatch_family=d.get("mismatch_family"),
         )
 
+    @property
+    def passing_unselected(self) -> list[str]:
+        """The effects that pass the rule although nothing is selected: the selection was
+        stopped before them (``max_effects=0``: rank only); empty when something is selected."""
+        if self.selected or not self.rounds:
+            return []
+        return [r.effect for r in self.rounds[-1] if r.passes]
+
     def _none_why(self) -> str:
         """Why nothing is selected, in the summary's words: no effect passes, or some do but the
         selection was stopped before it (``max_effects=0``: rank only)."""
-        last = self.rounds[-1] if self.rounds else []
-        passing = [r.effect for r in last if r.passes]
+        passing = self.passing_unselected
         if not passing:
             return "none (no effect passes)"
         return (

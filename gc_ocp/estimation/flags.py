@@ -102,7 +102,8 @@ def variable_flags(specs, x: np.ndarray) -> list[dict]:
                     flag(
                         "at_bound",
                         key,
-                        f"{key} = {val:.4g} is at its {which} bound {bval:.4g}: not identified "
+                        f"{key} = {s.reading(val)} is at its {which} bound {s.reading(bval)}: "
+                        "not identified "
                         "(the data push it beyond the allowed range; its SE is not meaningful)",
                     )
                 )

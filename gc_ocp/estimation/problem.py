@@ -557,14 +557,21 @@ def _check_stances(stances: list[StanceData]) -> None:
             )
 
 
+def configured(model: tuple) -> tuple:
+    """``model`` after each component adjusted the others, in order
+    (:meth:`Component.configure`: e.g. a stiffness exponent fixes the law's own exponent)."""
+    model = tuple(model)
+    for comp in tuple(model):
+        model = tuple(comp.configure(model))
+    return model
+
+
 def declare(stances: list[StanceData], model: tuple) -> tuple[tuple, list, Variables]:
     """``(model, stances, variables)``: the model after every component adjusted the others
     (:meth:`Component.configure`), the stances as the components prepare them, and the
     variables they declare (not finalised): the first half of :func:`build_estimation`, cheap
     (no CasADi graph), e.g. for the prior a model has on some stances."""
-    model = tuple(model)
-    for comp in tuple(model):  # each component may adjust the others (e.g. fix what it replaces)
-        model = tuple(comp.configure(model))
+    model = configured(model)
     stances = list(stances)
     for comp in model:
         stances = list(comp.prepare(stances))

@@ -18,7 +18,7 @@ import numpy as np
 
 from gc_ocp.contact.lls import fit_stiffness_lls
 from gc_ocp.errors import RankError, SolveError
-from gc_ocp.estimation.problem import EstimationProblem, Weights, build_estimation
+from gc_ocp.estimation.problem import EstimationProblem, Weights, build_estimation, configured
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
 from gc_ocp.stance import StanceData
@@ -69,10 +69,7 @@ def with_lls_start(model: tuple, stances: list, quiet: bool = False) -> tuple:
     law = next((c for c in model if hasattr(c, "with_initial_k")), None)
     if law is None:
         return model
-    configured = tuple(model)
-    for comp in tuple(model):  # as problem.declare does
-        configured = tuple(comp.configure(configured))
-    n0 = next(c for c in configured if hasattr(c, "with_initial_k")).n.value_for(SIDES[0])
+    n0 = next(c for c in configured(model) if hasattr(c, "with_initial_k")).n.value_for(SIDES[0])
     k0 = lls_k0(stances, float(n0), quiet)
     return tuple(c.with_initial_k(k0) if c is law else c for c in model)
 

@@ -31,7 +31,10 @@ class VariableSpec:
     key: its name; start, size: its slice of the decision vector; kind: ``"param"`` or
     ``"prior"``; log: stored as log(value); scale: ``(size,)`` physical units per stored unit
     (prior variables: their sigma); x0, lb, ub: ``(size,)`` initial value and bounds (stored
-    units); prior_weight, prior_mean: ``(size,)`` prior residual ``w (z - m)`` (0: no prior).
+    units); prior_weight, prior_mean: ``(size,)`` prior residual ``w (z - m)`` (0: no prior);
+    shown: ``(factor, offset, unit)``, how a person reads a physical value ``v`` of the block
+    (``factor * v + offset`` in ``unit``: the stiffness exponent's stored ``n - 1`` as ``n``, an
+    angle's radians in degrees), for messages that quote it (:mod:`~gc_ocp.estimation.flags`).
     """
 
     key: tuple
@@ -45,6 +48,7 @@ class VariableSpec:
     ub: np.ndarray
     prior_weight: np.ndarray
     prior_mean: np.ndarray
+    shown: tuple = (1.0, 0.0, "")
 
     @property
     def slice(self) -> slice:
@@ -54,6 +58,11 @@ class VariableSpec:
         """Physical values of the stored values ``z`` of this block."""
         z = np.asarray(z, float)
         return np.exp(z) if self.log else z * self.scale
+
+    def reading(self, v: float) -> str:
+        """The physical value ``v`` as a person reads it (:attr:`shown`), e.g. ``"1.35"``."""
+        factor, offset, unit = self.shown
+        return f"{factor * float(v) + offset:.4g}{unit}"
 
     def to_json(self) -> dict:
         return {
@@ -66,6 +75,7 @@ class VariableSpec:
                 f: getattr(self, f).tolist()
                 for f in ("scale", "x0", "lb", "ub", "prior_weight", "prior_mean")
             },
+            "shown": list(self.shown),
         }
 
     @classmethod
@@ -74,8 +84,15 @@ class VariableSpec:
             f: np.asarray(d[f], float)
             for f in ("scale", "x0", "lb", "ub", "prior_weight", "prior_mean")
         }
+        shown = d.get("shown", (1.0, 0.0, ""))  # a fit.json of before 2026-12-02: as stored
         return cls(
-            tuple(d["key"]), int(d["start"]), int(d["size"]), d["kind"], bool(d["log"]), **arrays
+            tuple(d["key"]),
+            int(d["start"]),
+            int(d["size"]),
+            d["kind"],
+            bool(d["log"]),
+            **arrays,
+            shown=(float(shown[0]), float(shown[1]), str(shown[2])),
         )
 
 
@@ -89,7 +106,18 @@ class Variables:
 
     # --- declaration pass ---------------------------------------------------------------------
     def _add(
-        self, key, size, x0, lb, ub, kind, scale, log, prior_weight=0.0, prior_mean=0.0
+        self,
+        key,
+        size,
+        x0,
+        lb,
+        ub,
+        kind,
+        scale,
+        log,
+        prior_weight=0.0,
+        prior_mean=0.0,
+        shown=(1.0, 0.0, ""),
     ) -> None:
         key = tuple(key)
         if self.x is not None:
@@ -114,6 +142,7 @@ class Variables:
             vec(ub),
             vec(prior_weight),
             vec(prior_mean),
+            tuple(shown),
         )
         self._n += size
 
@@ -125,17 +154,18 @@ class Variables:
         upper: float,
         log: bool = False,
         prior_sigma: float | None = None,
+        shown: tuple = (1.0, 0.0, ""),
     ) -> None:
         """A physical parameter. ``log``: optimise log(value) (value > 0). ``prior_sigma``: optional
-        Gaussian prior centred on ``value``, in the optimised units (log units when ``log``)."""
+        Gaussian prior centred on ``value``, in the optimised units (log units when ``log``).
+        ``shown``: how a person reads it (:attr:`VariableSpec.shown`)."""
         w = 0.0 if prior_sigma is None else 1.0 / prior_sigma
         if log:
             z0 = np.log(value)
-            self._add(
-                key, 1, z0, np.log(max(lower, 1e-300)), np.log(upper), "param", 1.0, True, w, z0
-            )
+            lo = np.log(max(lower, 1e-300))
+            self._add(key, 1, z0, lo, np.log(upper), "param", 1.0, True, w, z0, shown)
         else:
-            self._add(key, 1, value, lower, upper, "param", 1.0, False, w, value)
+            self._add(key, 1, value, lower, upper, "param", 1.0, False, w, value, shown)
 
     def prior_variable(self, key: tuple, size: int, sigma, bound) -> None:
         """A vector with Gaussian prior N(0, sigma^2), stored in units of sigma, bounded by +-bound.

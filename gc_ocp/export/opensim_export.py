@@ -578,10 +578,8 @@ def export_opensim(
     feet = cal.feet(kin)
     mapping = map_law(cal, trial, kin, radius)
     spheres, registration, loaded = [m.sphere for m in mapping], None, dict(HINDFOOT)
-    if model is not None:
+    if model is not None:  # there: check_request
         model = Path(model)
-        if not model.is_file():
-            raise InputError(f"Model {model} does not exist; give the subject's .osim file.")
         spheres, registration = register_feet(model, kin, mapping)
         loaded = {side: r["body"] for side, r in registration.items()}
         compare_forces = False

@@ -23,12 +23,7 @@ from gc_ocp.io.checks import (
     static_hint,
 )
 from gc_ocp.io.opensim import read_opensim, read_trc
-from gc_ocp.io.orientation import (
-    FOOT_CROSSOVER,
-    LEG_SEGMENTS,
-    mirrored_pairs,
-    walking_rotation,
-)
+from gc_ocp.io.orientation import SWAPPED_LEGS, leg_swaps, said_pairs, walking_rotation
 from gc_ocp.io.pairing import TRIAL_FIX, find_grf
 from gc_ocp.io.stances import DEFAULT_THRESHOLD, check_peaks, detect_stances
 from gc_ocp.io.subject import estimate_body_weight, read_subject_metadata
@@ -135,24 +130,15 @@ def load_trial(
     raw.notes.append(rot_note)
     markers = raw.markers @ rot.T
     plates = [_rotate_plate(p, rot) for p in raw.plates]
-    swapped = mirrored_pairs(raw.marker_names, markers, raw.marker_time)
-    legs = [p for p in swapped if p[3] in LEG_SEGMENTS]
-    # the feet of a crossover or tandem gait can lie a few cm the wrong way round; the shanks and
-    # thighs cannot, nor the feet by more than FOOT_CROSSOVER
-    if not any(p[3] not in ("hindfoot", "toes") or p[2] < -FOOT_CROSSOVER for p in legs):
-        swapped, legs = [p for p in swapped if p not in legs], []
-    said = ", ".join(f"{a}/{b} {d * 100:+.0f} cm" for a, b, d, _ in (legs or swapped)[:6])
+    legs, swapped = leg_swaps(raw.marker_names, markers, raw.marker_time)
     if legs:
-        raise MarkerError(
-            f"In {path} the left-side leg markers lie to the subject's right of the right-side "
-            f"ones ({said}; the subject's left is positive, forward being the feet's heel -> "
-            f"toe): left and right are swapped, by the labels or by mirrored (left-handed) axes "
-            f"in the file. Fix the labels, or export the file again."
-        )
+        said = SWAPPED_LEGS.format(said=said_pairs(legs))
+        raise MarkerError(f"In {path} {said}. Fix the labels, or export the file again.")
     if swapped:
         raw.notes.append(
-            f"left and right labels of {said} are exchanged in the file (the left one lies to "
-            f"the subject's right); they do not pose the feet and are used as labelled"
+            f"left and right labels of {said_pairs(swapped)} are exchanged in the file (the "
+            f"left one lies to the subject's right); they do not pose the feet and are used as "
+            f"labelled"
         )
         warn(f"{path}: {raw.notes[-1]}.")
     markers, spikes = marker_spikes(markers, raw.marker_time)

@@ -118,6 +118,33 @@ foot): a swap there is an error (a shank or thigh pair, or a foot pair beyond
 :data:`FOOT_CROSSOVER`); elsewhere (shoulders, arms, head) it is noted."""
 
 
+def leg_swaps(names, markers: np.ndarray, time: np.ndarray) -> tuple[list, list]:
+    """``(legs, others)``: the swapped pairs of :func:`mirrored_pairs` split into those that are
+    an error and those only noted. The leg pairs are an error when any of them is a shank or
+    thigh pair, or a foot pair beyond :data:`FOOT_CROSSOVER` (the feet of a crossover or tandem
+    gait may lie a few cm the wrong way round; the shanks and thighs cannot); else they join the
+    others. One rule for walking (:func:`gc_ocp.io.load.load_trial`) and static trials
+    (:func:`gc_ocp.kinematics.pipeline.check_static_sides`)."""
+    swapped = mirrored_pairs(names, markers, time)
+    legs = [p for p in swapped if p[3] in LEG_SEGMENTS]
+    if not any(p[3] not in ("hindfoot", "toes") or p[2] < -FOOT_CROSSOVER for p in legs):
+        legs = []
+    return legs, [p for p in swapped if p not in legs]
+
+
+def said_pairs(pairs) -> str:
+    """The first pairs of :func:`mirrored_pairs` as a message names them ("LKNE/RKNE -6 cm")."""
+    return ", ".join(f"{a}/{b} {d * 100:+.0f} cm" for a, b, d, _ in pairs[:6])
+
+
+SWAPPED_LEGS = (
+    "the left-side leg markers lie to the subject's right of the right-side ones ({said}; the "
+    "subject's left is positive, forward being the feet's heel -> toe): left and right are "
+    "swapped, by the labels or by mirrored (left-handed) axes in the file"
+)
+"""The error of :func:`leg_swaps`'s ``legs``, for walking and static trials alike."""
+
+
 def _sided_landmarks(names) -> dict[str, dict[str, int]]:
     """``{landmark: {side: column}}`` of the labels the vocabulary reads as sided landmarks."""
     sides: dict[str, dict[str, int]] = {}

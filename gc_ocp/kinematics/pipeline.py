@@ -37,7 +37,7 @@ import pinocchio as pin
 from gc_ocp.errors import InputError
 from gc_ocp.foot import FOOT_ROLLS, SEED_LAYOUT, UNITS, FootKinematics, TrialKinematics
 from gc_ocp.gaps import fill_rigid_gaps
-from gc_ocp.io.orientation import FOOT_CROSSOVER, LEG_SEGMENTS, mirrored_pairs
+from gc_ocp.io.orientation import SWAPPED_LEGS, leg_swaps, said_pairs
 from gc_ocp.kinematics.filtering import DEFAULT_CUTOFF_HZ, lowpass
 from gc_ocp.kinematics.ik import MarkerModel, solve_ik
 from gc_ocp.kinematics.marker_error import MarkerError
@@ -459,19 +459,12 @@ def check_static_sides(static: Trial) -> None:
     on a thigh or shank, or on a foot beyond :data:`~gc_ocp.io.orientation.FOOT_CROSSOVER`. The
     registration then put each leg's markers on the other leg: the Rajagopal static swapped gave
     a walking marker RMS of 42 mm (7 mm unswapped) and sole points 0.2 m under the foot."""
-    legs = [
-        p
-        for p in mirrored_pairs(static.marker_names, np.asarray(static.markers), static.marker_time)
-        if p[3] in LEG_SEGMENTS and (p[3] not in ("hindfoot", "toes") or p[2] < -FOOT_CROSSOVER)
-    ]
+    legs, _ = leg_swaps(static.marker_names, np.asarray(static.markers), static.marker_time)
     if legs:
-        said = ", ".join(f"{a}/{b} {d * 100:+.0f} cm" for a, b, d, _ in legs[:6])
+        said = SWAPPED_LEGS.format(said=said_pairs(legs))
         raise InputError(
-            f"In the static trial {static.source} the left-side leg markers lie to the subject's "
-            f"right of the right-side ones ({said}; the subject's left is positive, forward being "
-            "the feet's heel -> toe): left and right are swapped, by the labels or by mirrored "
-            "(left-handed) axes in the file. Fix the labels, or give no static trial (static=None; "
-            "on the command line: leave out --static)."
+            f"In the static trial {static.source} {said}. Fix the labels, or give no static "
+            "trial (static=None; on the command line: leave out --static)."
         )
 
 

@@ -269,8 +269,9 @@ class ContactDensity(Component):
             return
         for side in SIDES:
             variables.parameter(
-                (self.name, side, "1"), float(np.log(self.k0)), np.log(1e2), np.log(1e9), False, 2.0
-            )
+                (self.name, side, "1"), float(np.log(self.k0)), np.log(1e2), np.log(1e9), False, 2.0,
+                shown=(1.0, 0.0, " (ln k, k in N/m^n)"),
+            )  # fmt: skip
             for b in BASIS[1:]:
                 variables.parameter(
                     (self.name, side, b), 0.0, -self.bound_shape, self.bound_shape, False,

@@ -93,6 +93,7 @@ class StiffnessExponent(Component):
                 self.lower - 1.0,
                 self.upper - 1.0,
                 prior_sigma=self.prior_sigma,
+                shown=(1.0, 1.0, ""),  # stored n - 1, read as n
             )
 
     # --- per-frame inputs ---------------------------------------------------------------------

@@ -254,7 +254,14 @@ class ToeJoint(Component):
                 c = 0.0
                 if self.onset_deg is not None and side in self.onset_deg:
                     c = float(np.deg2rad(self.onset_deg[side]))
-                variables.parameter(self._onset_key(side), c, c - bound, c + bound, prior_sigma=sig)
+                variables.parameter(
+                    self._onset_key(side),
+                    c,
+                    c - bound,
+                    c + bound,
+                    prior_sigma=sig,
+                    shown=(float(np.rad2deg(1.0)), 0.0, " deg"),
+                )
             return
         sigma = np.deg2rad(self.sigma_deg)
         bound = np.deg2rad(self.bound_deg)
