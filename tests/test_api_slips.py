@@ -52,6 +52,13 @@ def test_figures_take_the_fit_itself_and_a_side_by_name(pair, tmp_path):
     path.write_text(json.dumps(report.to_json()))
     lines = [len(gc_ocp.plot_fit(x).axes[0].lines) for x in (report, report.result, path)]
     assert lines[0] > 0 and len(set(lines)) == 1
+    # a fit.json cut short of its stance fits: refused by name (it was an IndexError)
+    cut = dict(report.to_json(), stance_fits=[])
+    from gc_ocp.estimation.plots import plot_sole_fit
+
+    for draw in (gc_ocp.plot_fit, plot_sole_fit):
+        with pytest.raises(InputError, match="no stance fits"):
+            draw(cut)
     assert casadi_function(report, sides="left").name_out() == ["left_wrench", "left_unit_forces"]
 
 

@@ -32,6 +32,13 @@ CONVENTIONS = {
         "C7": "c7",
         "CLAV": "jugular_notch",
     },
+    "cgm2": {  # the Conventional Gait Model 2's medial markers (pyCGM2)
+        "LKNM": "knee_medial",
+        "RKNM": "knee_medial",
+        "LMED": "ankle_medial",
+        "RMED": "ankle_medial",
+        "LMMA": "ankle_medial",
+    },
     "helen hayes": {
         "RHEE": "heel",
         "RTOE": "metatarsal_2",

@@ -6,14 +6,27 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from gc_ocp.contact.plots import plot_sole, plot_wrench_fit
+from gc_ocp.errors import InputError
 from gc_ocp.estimation.result import as_result
 from gc_ocp.foot import SoleLayout
+
+
+def _fitted(result):
+    """``result`` (:func:`as_result`) with its stance fits, which every figure draws: a
+    ``fit.json`` whose ``stance_fits`` list is empty (edited, or cut short) is refused so."""
+    result = as_result(result)
+    if not result.stance_fits:
+        raise InputError(
+            'the fit has no stance fits (its fit.json\'s "stance_fits" is empty): there is '
+            "nothing to draw; give the fit.json gc-ocp fit wrote, or the fit itself"
+        )
+    return result
 
 
 def plot_fit(result, title: str = "measured (solid) vs fitted (dashed)") -> Figure:
     """Measured vs fitted six channels per foot, every stance; ``result``: a fit (what
     :func:`gc_ocp.fit` returns), its result or its ``fit.json`` (:func:`as_result`)."""
-    f = as_result(result).stance_fits
+    f = _fitted(result).stance_fits
     return plot_wrench_fit(
         [s["time"] for s in f],
         [s["measured"] for s in f],
@@ -29,7 +42,7 @@ def plot_sole_fit(result) -> Figure:
     law's reference depth, the quantity the fit identifies: k [N/m^n] alone means nothing
     across exponents; a unit not identified is labelled so, unscaled) and nominal ones (x);
     ``result`` as for :func:`plot_fit`."""
-    result = as_result(result)
+    result = _fitted(result)
     pts, nominal, toes, units = {}, {}, {}, {}
     for fit in result.stance_fits:
         if fit["side"] in pts:
@@ -74,7 +87,7 @@ def plot_sole_fit(result) -> Figure:
 def plot_pose_corrections(result) -> Figure:
     """Foot-pose corrections over time: translation [mm] and rotation [deg] per stance;
     ``result`` as for :func:`plot_fit`."""
-    result = as_result(result)
+    result = _fitted(result)
     fig = Figure(figsize=(9, 5), layout="constrained")
     ax_t, ax_r = fig.subplots(2, 1, sharex=True)
     pose = result.blocks.get("pose", {}).get("stances", {})
