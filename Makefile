@@ -26,7 +26,7 @@ demo: $(VENV)/.installed
 	@echo "Diagnosis report: $(abspath $(OUT))/diagnosis/report.html (open it in a browser)"
 
 test: lint
-	$(BIN)/python -m pytest -q -n auto -W error::RuntimeWarning
+	$(BIN)/python -m pytest -q -n auto --dist loadscope -W error::RuntimeWarning
 
 lint: $(VENV)/.installed
 	$(BIN)/ruff format --check .
