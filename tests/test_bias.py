@@ -301,3 +301,43 @@ def test_a_batch_refuses_a_bias_correction_of_one_replicate_before_any_subject()
     assert Settings(bias_correction=16).to_json()["bias_correction"] == 16
     with pytest.raises(InputError, match="at least 2"):
         Settings(bias_correction=1)
+
+
+def test_the_correction_reports_every_parameter_it_moves_not_only_the_laws_shared_ones():
+    """The bias is subtracted from every shared variable; it was reported (message, fit.json)
+    for the law's shared n, c, mu only: a per-foot friction coefficient and an effect's own
+    parameter (damping's c, given to the law by its component) were corrected unnamed."""
+    from gc_ocp.estimation import build_estimation
+    from gc_ocp.estimation.components import model_from_names
+    from gc_ocp.estimation.components.contact import ContactLaw, Param
+    from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
+    from gc_ocp.estimation.synthetic import recovery_model
+
+    sts, _ = synthetic_stances(np.random.default_rng(5), 1e-3, per_foot=1)
+    base = tuple(
+        dataclasses.replace(c, mu=Param("foot", 0.5, 0.0, 1.5)) if isinstance(c, ContactLaw) else c
+        for c in recovery_model()
+    )
+    model = model_from_names(["damping"], base)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        pb = build_estimation(sts, model)
+        res = solve(pb, IpoptOptions())
+        out, info = bias_corrected(sts, model, res, replicates=2, seed=0)
+    named = {"mu (left)", "mu (right)", "damping/c", "n"}
+    assert named <= set(info.bias) and named <= set(info.linearised_se)
+    for k in ("mu (left)", "mu (right)", "damping/c"):
+        assert k in info.message() or k in info.at_bound
+    # each value is the one the fit reports, and the corrected fit reports it less the bias
+    # (linear in its variable: scaled, not logged, so exact up to the solver's rounding)
+    assert info.as_fitted["mu (left)"] == res.params["left"]["mu"]
+    assert info.as_fitted["damping/c"] == res.blocks["damping"]["c"]
+    if "damping/c" not in info.at_bound:
+        assert out.blocks["damping"]["c"] == pytest.approx(
+            res.blocks["damping"]["c"] - info.bias["damping/c"], abs=1e-9
+        )
+    # its linearised SE is the fit's own at the corrected point
+    at = result_at(pb, out.x)
+    assert info.linearised_se["mu (right)"] == pytest.approx(at.params["right"]["mu_se"])
+    # the units' stiffnesses are not listed (fit.json's unit table has them, corrected)
+    assert not any(k.startswith("k") for k in info.bias)

@@ -56,6 +56,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from gc_ocp.errors import InputError, SolveError
+from gc_ocp.estimation.components import describe_block
 from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.measurement import censored
 from gc_ocp.estimation.pose_scale import widths_plausible
@@ -67,6 +68,7 @@ from gc_ocp.estimation.synthetic import plate_signal, simulate, with_pose_error
 from gc_ocp.foot import FootKinematics
 from gc_ocp.marker_noise import filter_kernel
 from gc_ocp.stance import StanceData
+from gc_ocp.trial import SIDES
 from gc_ocp.values import is_count, se_text
 
 REPLICATES = 16
@@ -280,7 +282,7 @@ class BiasCorrection:
         parts = [
             f"{k} {self.bias[k]:+.3g} (+- {se_text(self.bias_se[k], f'{self.bias[k]:+.3g}')})"
             for k in self.bias
-            if k in ("n", "c", "mu") and k not in self.at_bound
+            if k not in self.at_bound
         ]
         s = (
             f"bias correction ({self.replicates} replicates"
@@ -293,7 +295,7 @@ class BiasCorrection:
         )
         if not self.drift:
             s += " (the replicates drew the markers' noise only: " + self.no_drift_reason + ")"
-        up = {k: f for k, f in self.se_raised().items() if k in ("n", "c", "mu")}
+        up = self.se_raised()
         if up:
             s += "; SE from the replicates' spread, larger than the linearised one: " + ", ".join(
                 f"{k} x{f:.2g}" for k, f in up.items()
@@ -310,12 +312,35 @@ class BiasCorrection:
         return {**d, "message": self.message()}
 
 
-def _shared(result: EstimationResult) -> dict:
-    return {
-        k: float(v)
-        for k, v in result.params.get("shared", {}).items()
-        if not k.endswith("_se") and np.isscalar(v)
-    }
+def estimates(
+    blocks: dict, components: dict, shared_keys: set[tuple]
+) -> dict[str, tuple[float, float]]:
+    """``{name: (value, se)}`` of every scalar parameter the fit reports that the bias
+    correction moves (its variable is not a stance's: ``shared_keys``, the keys of the
+    problem's shared variables), as the summary shows it: the law's shared ``n``, ``c``,
+    ``mu``; a per-foot law parameter as ``"mu (left)"``; an effect's own parameters by its
+    block and row (``"damping/c"``, ``"stiffness_exponent/n"``, ``"friction/b"``). The units'
+    stiffnesses are left out (fit.json's unit table has them, corrected)."""
+    out = {}
+    law = blocks.get("contact", {})
+    for k, v in law.get("shared", {}).items():
+        if not k.endswith("_se") and np.isscalar(v):
+            out[k] = (float(v), float(law["shared"].get(k + "_se", np.nan)))
+    for side in SIDES:
+        for k, v in law.get(side, {}).items():
+            if np.isscalar(v) and not k.endswith("_se") and ("contact", k, side) in shared_keys:
+                out[f"{k} ({side})"] = (float(v), float(law[side].get(k + "_se", np.nan)))
+    for name, class_name in components.items():
+        for r in describe_block(class_name, blocks.get(name, {})):
+            if r.key and (name, *r.key) in shared_keys:
+                out[f"{name}/{r.label}"] = (float(r.value), float(r.se))
+    return out
+
+
+def _shared_keys(problem) -> set[tuple]:
+    """The keys of ``problem``'s variables that are not a stance's (the correction's)."""
+    stance = set(_stance_columns(problem).tolist())
+    return {s.key for s in problem.variables.specs if s.start not in stance}
 
 
 def replicate_covariance(
@@ -428,12 +453,17 @@ def bias_corrected(
         covariance=False if cov is None else cov,
     )
     # the bias of each shared parameter in its own units, from the replicates' parameters
-    before, after = _shared(result), _shared(corrected)
+    shared_keys = _shared_keys(problem)
+
+    def values(r: EstimationResult) -> dict:
+        return {k: v for k, (v, _) in estimates(r.blocks, r.components, shared_keys).items()}
+
+    before, after = values(result), values(corrected)
     reps = []
     for d in moved:
         xr = np.asarray(result.x, float).copy()
         xr[shared] += d
-        reps.append(_shared(result_at(problem, xr, covariance=False)))
+        reps.append(values(result_at(problem, xr, covariance=False)))
     bias = {k: float(np.mean([r[k] for r in reps]) - before[k]) for k in before if k in after}
     spread = {k: float(np.std([r[k] for r in reps], ddof=1)) for k in bias}
     se = {k: v / np.sqrt(B) for k, v in spread.items()}
@@ -441,8 +471,8 @@ def bias_corrected(
     # the SEs the linearised covariance alone gives, to say what the replicates' spread raised
     lin_se = {}
     if linearised is not None:
-        lin = decode(problem, x, linearised)[0].get("contact", {}).get("shared", {})
-        lin_se = {k: float(lin[k + "_se"]) for k in bias if k + "_se" in lin}
+        lin = estimates(decode(problem, x, linearised)[0], result.components, shared_keys)
+        lin_se = {k: lin[k][1] for k in bias if k in lin and np.isfinite(lin[k][1])}
     info = BiasCorrection(
         B,
         failed,
@@ -475,5 +505,6 @@ __all__ = [
     "draw_pose_drift",
     "draws_drift",
     "draw_pose_noise",
+    "estimates",
     "replicate_data",
 ]
