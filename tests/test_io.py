@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 import warnings
 from pathlib import Path
 
@@ -867,11 +868,17 @@ def test_c3d_subject_height_in_mm_cm_or_m(tmp_path, stored, unit):
     assert read_c3d(path).height == pytest.approx(1.58, abs=1e-6)
 
 
-def _trc_and_mot(folder: Path, cop_unit: float = 1.0, force_sign: float = 1.0):
+def _trc_and_mot(
+    folder: Path,
+    cop_unit: float = 1.0,
+    force_sign: float = 1.0,
+    torque_unit: float = 1.0,
+    header: str = "",
+):
     """A 2 s TRC (three markers, mm) and a MOT of three plates, plate 1 loaded 0.5-1.1 s
     (600 N peak, COP 1.0-1.2 m forward, 0.3 m across, free moment 2 N m) and zero elsewhere, as
     a thresholded export is: COP multiplied by ``cop_unit``, force and torque by
-    ``force_sign``."""
+    ``force_sign``, torque by ``torque_unit``; ``header``: extra header lines."""
     t = np.arange(200) / 100.0
     trc = folder / "walk.trc"
     rows = [f"{i + 1}\t{ti:.2f}\t0\t100\t0\t0\t1000\t0\t300\t900\t100" for i, ti in enumerate(t)]
@@ -895,10 +902,10 @@ def _trc_and_mot(folder: Path, cop_unit: float = 1.0, force_sign: float = 1.0):
     data[on, 2] = force_sign * 600 * np.sin(np.pi * (t[on] - 0.5) / 0.6)  # vertical (Y) [N]
     data[on, 4] = cop_unit * np.interp(t[on], [0.5, 1.1], [1.0, 1.2])  # COP x
     data[on, 6] = cop_unit * 0.3  # COP z
-    data[on, 8] = force_sign * 2.0  # free moment about Y [N m]
+    data[on, 8] = force_sign * torque_unit * 2.0  # free moment about Y [N m]
     mot = folder / "walk_grf.mot"
     mot.write_text(
-        "walk_grf.mot\nversion=1\nnRows=200\nnColumns=28\ninDegrees=no\nendheader\n"
+        f"walk_grf.mot\nversion=1\nnRows=200\nnColumns=28\ninDegrees=no\n{header}endheader\n"
         + "\t".join(cols)
         + "\n"
         + "\n".join("\t".join(f"{v:.6f}" for v in row) for row in data)
@@ -935,6 +942,122 @@ def test_mot_storing_the_force_on_the_plate_is_negated_with_a_note(tmp_path):
         np.testing.assert_array_equal(q.moment, p.moment)
     assert neg.plates[0].force[:, 2].max() == pytest.approx(600.0, rel=0.01)
     assert any("force on the plate" in n and "negated" in n for n in neg.notes)
+
+
+def _scaled_torques(mot: Path, out: Path, factor: float) -> Path:
+    """``mot`` with its ``*torque*`` columns multiplied by ``factor``, every value written to
+    full precision (``repr``): the torques differ from the original's by one rounding."""
+    lines, end, cols, data = _mot_table(mot)
+    for k, c in enumerate(cols):
+        if "torque" in c:
+            data[:, k] *= factor
+    body = "\n".join("\t".join(repr(float(v)) for v in row) for row in data)
+    out.write_text("\n".join(lines[: end + 2]) + "\n" + body + "\n")
+    return out
+
+
+def _mot_cases(tmp_path: Path) -> dict[str, tuple[Path, Path]]:
+    """(TRC, MOT) pairs: the synthetic free moment of :func:`_trc_and_mot` (2 N m about the
+    COP), and the Rajagopal files when the shared data are there."""
+    cases = {"synthetic": _trc_and_mot(tmp_path)}
+    if DATA.is_dir():
+        cases["rajagopal"] = RAJ
+    return cases
+
+
+def test_mot_torques_in_newton_millimetres_are_converted_with_a_note(tmp_path):
+    """A MOT's torque columns in N mm (1000x the N m values; a MOT has no unit header) read
+    1000x too large, silently. The median lever arm |T| / |F| while loaded tells them apart:
+    a free moment's is mm in N m (synthetic 4 mm, Rajagopal 3.9 and 1.6 mm) and "m" in N mm.
+    Now divided by 1000 with a note naming the columns: the same plates as the original.
+    rtol 1e-13: the torque differs by two roundings (x1000, x1e-3), ~1e-16 of itself, and the
+    moment about the origin adds p x F, unchanged, of the same order (hundreds of N m)."""
+    from gc_ocp.io.opensim import read_opensim
+
+    for name, (trc, mot) in _mot_cases(tmp_path).items():
+        ref = read_opensim(trc, _scaled_torques(mot, tmp_path / f"{name}_nm.mot", 1.0))
+        nmm = read_opensim(trc, _scaled_torques(mot, tmp_path / f"{name}_nmm.mot", 1000.0))
+        for p, q in zip(ref.plates, nmm.plates, strict=True):
+            np.testing.assert_allclose(q.moment, p.moment, rtol=1e-13, atol=1e-12, err_msg=name)
+            np.testing.assert_array_equal(q.force, p.force)
+        notes = [n for n in nmm.notes if "N mm" in n]
+        # one per loaded set: plate 1 of the synthetic file (2 and 3 are never loaded), both feet
+        assert len(notes) == {"synthetic": 1, "rajagopal": 2}[name], notes
+        assert all("divided by 1000" in n and "torque_" in n for n in notes), notes
+        assert not any("N mm" in n for n in ref.notes)
+
+
+def test_mot_torque_unit_declared_in_the_header_is_honoured(tmp_path):
+    """A header line ``torque_units=...`` (any key naming a unit whose value is a force times a
+    length) gives the torques' unit: N mm and N cm read as the N m original, without an
+    inference note (the N cm file, 100x, is one the inference cannot tell from N mm: it would
+    read it 10x too small). A declared N m contradicted by the values (torques 1000x) is refused naming
+    the header line and the columns (before, every header unit was ignored)."""
+    from gc_ocp.io.opensim import read_opensim
+
+    ref = read_opensim(*_trc_and_mot(tmp_path))
+    for unit, factor in (("N*mm", 1000.0), ("N.cm", 100.0), ("Nm", 1.0)):
+        folder = tmp_path / str(factor)
+        folder.mkdir()
+        got = read_opensim(
+            *_trc_and_mot(folder, torque_unit=factor, header=f"torque_units={unit}\n")
+        )
+        # the written cells are exact decimals (2000.000000); x1e-3 rounds once: rtol 1e-13
+        np.testing.assert_allclose(got.plates[0].moment, ref.plates[0].moment, rtol=1e-13)
+        assert not any("N mm" in n for n in got.notes)
+    (tmp_path / "bad").mkdir()
+    with pytest.raises(UnitsError, match=r'"torque_units=N\*m".*ground_torque_1_x.*header'):
+        read_opensim(
+            *_trc_and_mot(tmp_path / "bad", torque_unit=1000.0, header="torque_units=N*m\n")
+        )
+
+
+def test_mot_torques_fitting_no_unit_are_refused_naming_the_columns(tmp_path):
+    """Torques 1e6x (a lever arm of km in N m, of m for a free moment in N mm) fit neither unit:
+    refused naming the columns and the fix (before, read as given: a free moment of MN m). So
+    is the synthetic free moment 30x: 0.13 m, above the 0.1 m bound of N m but within 3x of it,
+    where its N mm reading (0.13 mm, a free moment of 0.06 N m) is no more plausible."""
+    from gc_ocp.io.opensim import read_opensim
+
+    for name, (trc, mot) in _mot_cases(tmp_path).items():
+        bad = _scaled_torques(mot, tmp_path / f"{name}_1e6.mot", 1e6)
+        with pytest.raises(
+            UnitsError, match=r"torque columns \S*ground_torque_.*neither N m nor N mm"
+        ):
+            read_opensim(trc, bad)
+    (tmp_path / "x30").mkdir()
+    with pytest.raises(UnitsError, match=r"ground_torque_1_x.*too close to it to be N mm"):
+        read_opensim(*_trc_and_mot(tmp_path / "x30", torque_unit=30.0))
+
+
+@needs_data
+def test_every_shared_mot_torque_reads_in_newton_metres_as_before():
+    """The torque unit rule on every shared MOT: each set's torque comes back unchanged and
+    without a note (the files are in N m), and the same torque x1000 comes back divided by 1000
+    with one. Camargo's ``ground_force_<n>_m{x,y,z}`` (not read as torques: about a point of the
+    lab, lever arms 0.06-0.50 m with the COPs up to 6.6 m from the origin) are put through the
+    rule too, for its case of a torque about a point. rtol 1e-13: two roundings."""
+    from gc_ocp.io._common import Y_UP_TO_LAB
+    from gc_ocp.io.opensim import COP_MIN_FORCE, _torque_in_newton_metres, grf_sets, read_mot
+
+    mots = sorted(DATA.rglob("*.mot"))
+    assert len(mots) >= 3
+    checked = 0
+    for mot in mots:
+        cols, data, _ = read_mot(mot)
+        cols = [re.sub(r"^(.*)force(.*)_m([xyz])$", r"\1torque\2_\3", c) for c in cols]
+        for s in grf_sets(cols):
+            if s["torque"] is None:
+                continue
+            f, p, tq = (data[:, s[k]] @ Y_UP_TO_LAB.T for k in ("force", "point", "torque"))
+            names = [cols[i] for i in s["torque"]]
+            same, note = _torque_in_newton_metres(mot, names, None, f, p, tq, COP_MIN_FORCE)
+            assert note is None and np.array_equal(same, tq), (mot.name, names)
+            back, note = _torque_in_newton_metres(mot, names, None, f, p, tq * 1e3, COP_MIN_FORCE)
+            np.testing.assert_allclose(back, tq, rtol=1e-13, atol=1e-12)
+            assert note and "divided by 1000" in note
+            checked += 1
+    assert checked >= 10  # Rajagopal 2, Gait2392 2, Camargo 6
 
 
 def test_a_static_c3d_recorded_without_force_plates_loads(tmp_path):

@@ -17,6 +17,10 @@ The torque of an OpenSim set is applied at the point ``p`` (the free moment at t
 Each set becomes one :class:`~gc_ocp.trial.Plate` whose reference point is the lab origin,
 ``moment = p x F + T``. The COP is used only where Fz is above the threshold: elsewhere ``p`` is
 replaced by the nearest valid COP (files often hold garbage COPs at zero force).
+
+Units: a MOT has no unit header. Its COP must be in metres (millimetres are refused); its torque
+is read in N m or N mm, told apart by the lever arm |T| / |F| while loaded
+(:func:`_torque_in_newton_metres`), unless a header line declares it (``torque_units=N*mm``).
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gc_ocp.errors import InputError, PlateError
+from gc_ocp.errors import InputError, PlateError, UnitsError
 from gc_ocp.io._common import (
     Y_UP_TO_LAB,
     RawTrial,
@@ -35,6 +39,7 @@ from gc_ocp.io._common import (
     check_metres,
     foot_markers,
     missing_as_nan,
+    moment_unit_scale,
     unit_scale,
     without_subject_prefix,
 )
@@ -43,6 +48,30 @@ from gc_ocp.trial import Plate
 
 COP_MIN_FORCE = 20.0
 """Vertical force [N] above which an OpenSim COP column is trusted."""
+
+FREE_MOMENT_ARM = 0.1
+"""[m] Largest median lever arm |T| / |F| of a torque about the centre of pressure (the free
+moment: vertical) read as N m. In walking the free moment is 0.1-15 N m at a load of hundreds
+of N: the shared MOT files' median lever arms are 1.6-6.5 mm (Rajagopal 3.9 and 1.6 mm,
+Gait2392 3.7 and 6.5 mm), and a median of 0.1 m would be a free moment of ~70 N m. The same
+torques in N mm read 1.6-6.5 "m"; 0.1 m sits between the two, a factor ~30 from each."""
+REFERENCE_MARGIN = 1.0
+"""[m] How far beyond the farthest loaded COP from the lab origin a torque's reference point
+may lie when the torque is not about the COP: the lab origin is within that distance by
+definition, a plate's centre within its half-diagonal (< 0.7 m) and depth (< 0.1 m) of every
+COP on it."""
+STANCE_LOAD_FRACTION = 0.1
+"""Samples whose |F| is above this fraction of the median stance load carry the torque unit
+test: near contact and toe-off |F| -> 0 and |T| / |F| is noise."""
+UNIT_GAP = 3.0
+"""A median lever arm read as N m must exceed its bound by this factor to be read as N mm: its
+N mm reading is then at least 0.3 mm for a free moment (~0.2 N m at a load of hundreds of N;
+the shared files' are 1.6-6.5 mm, a free moment's lever arm hardly depends on body size) and
+3 mm per metre of bound for a point. Just above the bound neither reading is plausible and
+the file is refused. The shared files' torques x1000 lie 16-65 times beyond the free-moment
+bound, Camargo's moments about points x1000 9-224 times beyond theirs. A file in N cm (100x) is
+not told from one in N mm: the free moment's lever arm spans a factor ~40 between files, and
+such a file reads 10x too small unless its header declares the unit."""
 
 
 def read_trc(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
@@ -263,6 +292,125 @@ def _check_one_clock(trc: Path, marker_time: np.ndarray, grf: Path, grf_time: np
         )
 
 
+def _declared_torque_unit(grf: Path, header: dict[str, str]) -> tuple[str, float] | None:
+    """The torque unit a MOT header declares, as ``(its line, N m per unit)``: a ``key=value``
+    line whose key names a unit (``torque_units=N*mm``, ``units=N.m``) and whose value is a force
+    times a length (:func:`~gc_ocp.io._common.moment_unit_scale`). None without one (OpenSim's
+    own headers say ``inDegrees`` only; a length unit such as ``units=m`` says nothing of the
+    torques). A unit key naming the torques or moments whose value is no such unit, and two
+    lines that disagree, are refused naming the lines."""
+    found: dict[str, float] = {}
+    for key, value in header.items():
+        low = key.lower()
+        if "unit" not in low:
+            continue
+        scale = moment_unit_scale(value)
+        if scale is None and ("torque" in low or "moment" in low):
+            raise UnitsError(
+                f'{grf}: the header line "{key}={value}" gives no torque unit the loader knows; '
+                "write a force times a length (N*m, N*mm, N*cm, kN*m, lbf*in)."
+            )
+        if scale is not None:
+            found[f"{key}={value}"] = scale
+    if len(set(found.values())) > 1:
+        raise UnitsError(
+            f"{grf}: the header lines {', '.join(found)} declare different torque units; keep "
+            "the one the torque columns are in."
+        )
+    return next(iter(found.items()), None)
+
+
+def _torque_lever(
+    f: np.ndarray, p: np.ndarray, tq: np.ndarray, threshold: float
+) -> tuple[float, float, str] | None:
+    """The median lever arm |T| / |F| of a set's torque over its loaded samples (|F| above
+    :data:`STANCE_LOAD_FRACTION` of the median stance load), in metres if ``tq`` is in N m; the
+    largest such lever arm [m] a walking lab's torque in N m has; and what the torque is about.
+
+    A torque whose horizontal components are below its vertical one (medians) is about the
+    centre of pressure, where the horizontal moment vanishes: its lever arm is the free moment's,
+    mm (:data:`FREE_MOMENT_ARM`). Otherwise it is about a point (the lab origin, a plate's
+    centre), whose lever arm is the COP's distance from it, tens of times its vertical part
+    (|F_z| against the shear): at most the farthest loaded COP from the origin plus
+    :data:`REFERENCE_MARGIN`. ``f``, ``p`` (metres), ``tq``: lab frame, Z up. None without loaded
+    samples (nothing to judge by)."""
+    fn = np.linalg.norm(f, axis=1)
+    stance = f[:, 2] > threshold
+    if not stance.any():
+        return None
+    loaded = stance & (fn > STANCE_LOAD_FRACTION * np.median(fn[stance]))
+    loaded &= np.all(np.isfinite(tq), axis=1) & np.all(np.isfinite(p), axis=1)
+    if not loaded.any():
+        return None
+    t = tq[loaded]
+    arm = float(np.median(np.linalg.norm(t, axis=1) / fn[loaded]))
+    if np.median(np.linalg.norm(t[:, :2], axis=1)) <= np.median(np.abs(t[:, 2])):
+        return arm, FREE_MOMENT_ARM, "the centre of pressure (a free moment: mostly vertical)"
+    reach = float(np.max(np.linalg.norm(p[loaded, :2], axis=1)))
+    return (
+        arm,
+        reach + REFERENCE_MARGIN,
+        f"a point of the lab (mostly horizontal: the COPs lie up to {reach:.2f} m from the origin)",
+    )
+
+
+def _torque_in_newton_metres(
+    grf: Path,
+    names: list[str],
+    declared: tuple[str, float] | None,
+    f: np.ndarray,
+    p: np.ndarray,
+    tq: np.ndarray,
+    threshold: float,
+) -> tuple[np.ndarray, str | None]:
+    """A set's torque ``tq`` (lab frame) in N m, and a note when its unit was inferred.
+
+    A MOT rarely says its torque unit; exporters write N m or N mm. The median lever arm
+    |T| / |F| while loaded (:func:`_torque_lever`) tells them apart, as the COP's magnitude tells
+    metres from millimetres (:func:`~gc_ocp.io._common.check_metres`): a lever arm beyond what a
+    walking lab's torque in N m has, by :data:`UNIT_GAP` or more, and within it once divided by
+    1000, is N mm (converted, with the note); a lever arm that fits neither unit is refused
+    naming the columns. A unit the header declares (:func:`_declared_torque_unit`) is applied
+    instead, and refused if the torque then does not fit N m."""
+    scale = declared[1] if declared else 1.0
+    lever = _torque_lever(f, p, tq, threshold)
+    if lever is None:
+        return tq * scale, None
+    arm, bound, about = lever
+    columns = ", ".join(names)
+    if declared:
+        if arm * scale <= bound:
+            return tq * scale, None
+        raise UnitsError(
+            f'{grf}: the header declares "{declared[0]}", but then the torque columns {columns} '
+            f"have a median lever arm |torque| / |force| of {arm * scale:.3g} m while loaded, "
+            f"beyond the {bound:.3g} m a walking lab's torque about {about} has. Correct the "
+            "unit in the header (or remove the line: the loader then tells N m from N mm)."
+        )
+    if arm <= bound:
+        return tq, None
+    if arm >= UNIT_GAP * bound and arm * 1e-3 <= bound:
+        return tq * 1e-3, (
+            f"{grf.name}: torque columns {columns} read in N mm and divided by 1000: in N m their "
+            f"median lever arm |torque| / |force| while loaded would be {arm:.3g} m, beyond the "
+            f"{bound:.3g} m a walking lab's torque about {about} has; in N mm it is "
+            f"{arm:.3g} mm. Write the torques in N m, or declare their unit in the header "
+            "(e.g. torque_units=N*mm), to read them without this inference."
+        )
+    fits = (
+        f"{arm * 1e-3:.3g} m in N mm, also beyond it"
+        if arm * 1e-3 > bound
+        else f"too close to it to be N mm (a unit 1000x off lies {UNIT_GAP:g}x or more beyond)"
+    )
+    raise UnitsError(
+        f"{grf}: the torque columns {columns} have a median lever arm |torque| / |force| of "
+        f"{arm:.3g} m while loaded if in N m, beyond the {bound:.3g} m a walking lab's torque "
+        f"about {about} has, and {fits}: neither N m nor N mm fits. Check that these columns "
+        "hold the ground reaction's moment, and give them in N m (or declare their unit in the "
+        "header, e.g. torque_units=N*mm)."
+    )
+
+
 def _no_torque_note(bare: list[dict], cols: list[str], grf: Path) -> str:
     """What the sets without ``<p>torque<m>_{x,y,z}`` columns are read with (no free moment),
     and the columns that may hold one under another name: a moment can be about the centre of
@@ -309,6 +457,7 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
             f"reactions. Columns found: {cols}"
         )
     _check_y_up(grf, data, sets)
+    declared = _declared_torque_unit(grf, header)
     plates = []
     notes = [prefix_note] if prefix_note else []
     # every set negative while loaded: the force on the plate, as some writers store (C3D too)
@@ -334,9 +483,18 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
             "An OpenSim MOT has no unit header: its COP columns are in metres; divide them "
             "by 1000 (or export the forces again in metres).",
         )
-        tq = data[:, s["torque"]] @ Y_UP_TO_LAB.T if s["torque"] else np.zeros_like(f)
-        if flip:
-            tq = -tq
+        tq = np.zeros_like(f)
+        if s["torque"]:
+            tq, note = _torque_in_newton_metres(
+                grf,
+                [cols[i] for i in s["torque"]],
+                declared,
+                f,
+                p,
+                data[:, s["torque"]] @ Y_UP_TO_LAB.T * (-1.0 if flip else 1.0),
+                threshold,
+            )
+            notes += [note] if note else []
         good = (f[:, 2] > threshold) & np.all(np.isfinite(p), axis=1)
         if good.any():
             k = np.flatnonzero(good)
