@@ -286,3 +286,83 @@ def test_a_static_trial_with_left_and_right_swapped_is_refused():
     names = tuple(other.get(n[0], n[0]) + n[1:] for n in st.marker_names)
     with pytest.raises(InputError, match=r"static trial .*L\.Knee/R\.Knee -36 cm.*swapped"):
         compute_kinematics(rajagopal_trial(), static=dataclasses.replace(st, marker_names=names))
+
+
+def _restyled(label: str, side_of=None) -> str:
+    """A Rajagopal static label (``L.Heel``) as another lab's export spells it: a subject
+    prefix, a landmark's side as a suffix (``Subject:Heel_L``), other labels in lower case with
+    underscores (``Subject:l_th1``, ``Subject:s2``); ``side_of`` changes the side written."""
+    from gc_ocp.model.landmarks import classify
+
+    if label[:2] in ("L.", "R."):
+        side = (side_of or {}).get(label[0], label[0])
+        if classify(label)[0] == "landmark":
+            return f"Subject:{label[2:]}_{side}"
+        return f"Subject:{side.lower()}_{label[2:].lower()}"
+    return f"Subject:{label.lower()}"
+
+
+def test_a_static_trial_labelled_in_another_style_is_matched_to_the_walking_markers():
+    # A static exported with other label spellings than the walking trial (a subject prefix,
+    # side suffixes, lower case) was refused ("lacks foot markers"); its labels are now matched
+    # by spelling up to case and separators, or by landmark and side, and renamed, so the
+    # kinematics are those of the static as labelled like the walking trial.
+    import dataclasses
+
+    st = rajagopal_static()
+    restyled = dataclasses.replace(st, marker_names=tuple(_restyled(n) for n in st.marker_names))
+    said = []
+    kin = compute_kinematics(rajagopal_trial(), static=restyled, progress=said.append)
+    ref = _kin("rajagopal+static")[1]
+    # The same columns reach the registration and IK in the same order: the same numbers
+    # through the same operations, equal up to the last bits (1e-12 m is 1e-8 of the 0.1 mm a
+    # camera resolves).
+    for n, p in ref.info["marker_local"].items():
+        np.testing.assert_allclose(kin.info["marker_local"][n], p, atol=1e-12, err_msg=n)
+    np.testing.assert_allclose(kin.q, ref.q, atol=1e-12)
+    note = next(m for m in said if m.startswith("static trial: labels matched"))
+    assert "Subject:Heel_L -> L.Heel (heel, left)" in note
+    assert "Subject:r_th1 -> R.TH1 (spelling)" in note
+    assert kin.info["static_labels"]["Subject:Toe_R"] == "R.Toe"
+    assert ref.info["static_labels"] == {}  # labels alike: nothing renamed
+
+
+def test_two_static_labels_for_one_walking_marker_are_refused_by_name():
+    # L.Heel spelt Heel_L and, on a second column, LHEEL: either could be the walking trial's
+    # L.Heel; a guess registers the heel where another point sits, so it is refused, both named
+    import dataclasses
+
+    from gc_ocp.errors import InputError
+
+    st = rajagopal_static()
+    j = st.marker_names.index("L.Heel")
+    names = tuple("Heel_L" if n == "L.Heel" else n for n in st.marker_names) + ("LHEEL",)
+    m = np.concatenate([st.markers, st.markers[:, j : j + 1]], axis=1)
+    two = dataclasses.replace(st, marker_names=names, markers=m)
+    with pytest.raises(
+        InputError, match=r"lacks foot markers \['L\.Heel'\].*L\.Heel: Heel_L or LHEEL"
+    ):
+        compute_kinematics(rajagopal_trial(), static=two)
+
+
+def test_a_static_label_of_the_other_side_is_never_matched():
+    # the left foot's labels spelt with a right side (Heel_R for L.Heel): the same landmark,
+    # the other foot; never the walking trial's left marker, whatever else is missing
+    import dataclasses
+
+    from gc_ocp.errors import InputError
+
+    st = rajagopal_static()
+    foot = ("L.Heel", "L.Toe", "L.MT5", "L.Ankle")
+    names = tuple(
+        _restyled(n, {"L": "R"})[len("Subject:") :] if n in foot else n for n in st.marker_names
+    )
+    with pytest.raises(
+        InputError, match=r"lacks foot markers .*L\.Heel.*matched to none: .*Heel_R"
+    ):
+        compute_kinematics(rajagopal_trial(), static=dataclasses.replace(st, marker_names=names))
+    from gc_ocp.io._common import match_labels
+
+    got = match_labels(["LHEE", "RTOE", "LKNE"], ["Heel_R", "l_toe", "L_KNE"], st.source)
+    assert got.renamed == {"L_KNE": "LKNE"}  # the spelling, on the same side
+    assert got.unmatched == ("LHEE", "RTOE") and got.spare == ("Heel_R", "l_toe")

@@ -1,5 +1,6 @@
-"""Pieces shared by the C3D and OpenSim readers: the raw-trial container, units, frames and
-foot-marker lookup. Marker gap filling is
+"""Pieces shared by the C3D and OpenSim readers: the raw-trial container, units, frames,
+foot-marker lookup, subject prefixes and the matching of a static trial's labels to a walking
+trial's. Marker gap filling is
 :func:`gc_ocp.gaps.fill_short_gaps`."""
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from gc_ocp.errors import MarkerError, UnitsError
-from gc_ocp.model.landmarks import classify, vocabulary
+from gc_ocp.model.landmarks import classify, normalise, vocabulary
 from gc_ocp.trial import Plate
 
 Y_UP_TO_LAB = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
@@ -296,6 +297,86 @@ def without_subject_prefix(labels: list[str], path: Path) -> tuple[list[str], st
         for lab in labels
     ]
     return out, f'marker labels carry the subject prefix "{head}:": dropped'
+
+
+# --- labels of two trials of one subject ------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class LabelMatch:
+    """What :func:`match_labels` found: ``renamed`` (label -> marker name, each with ``how``:
+    ``"spelling"`` or the landmark ``"heel, left"``), the marker names with no counterpart
+    (``unmatched``), the labels matched to none (``spare``) and the ambiguities
+    (``conflicts``: ``"L.Heel: Heel_L or LHEEL"``), each left unmatched."""
+
+    renamed: dict[str, str]
+    how: dict[str, str]
+    unmatched: tuple[str, ...]
+    spare: tuple[str, ...]
+    conflicts: tuple[str, ...]
+
+    def said(self) -> str:
+        """The renaming as a note: ``"Heel_L -> L.Heel (heel, left), l_th1 -> L.TH1 (spelling)"``."""
+        return ", ".join(f"{a} -> {b} ({self.how[a]})" for a, b in self.renamed.items())
+
+
+def match_labels(names, labels, source: Path) -> LabelMatch:
+    """Match the ``labels`` of a second trial of the subject (its static trial) to the marker
+    ``names`` one trial (the walking one) uses, when the two were exported in other styles.
+
+    Labels equal to a name are that name. For each other name, a remaining label is a candidate
+    when, both without a subject prefix (:func:`without_subject_prefix`), it is spelt the same
+    up to case and the separators ``. _ - space`` (``L_HEE``, ``l.hee`` for ``LHEE``:
+    :func:`~gc_ocp.model.landmarks.normalise`), or it is the same landmark on the same side
+    (``Heel_L``, ``L.Heel`` for ``LHEE``: :func:`~gc_ocp.model.landmarks.classify`). Labels of
+    opposite sides are never candidates. A name is matched only to its one candidate when that
+    label is no other name's candidate: two labels for one name, or one label for two, would
+    be a guess, and a wrong one registers a marker where another sits."""
+    names, labels = [str(n) for n in names], [str(x) for x in labels]
+    bare_names = dict(zip(names, without_subject_prefix(names, source)[0], strict=True))
+    pool = [x for x in dict.fromkeys(labels) if x not in bare_names]
+    bare = dict(zip(pool, without_subject_prefix(pool, source)[0], strict=True))
+    wanted = [n for n in dict.fromkeys(names) if n not in set(labels)]
+
+    def read(label: str) -> tuple[str, tuple[str, str | None] | None, str | None]:
+        kind, key, side = classify(label)
+        return normalise(label), ((key, side) if kind == "landmark" else None), side
+
+    mine = {n: read(bare_names[n]) for n in wanted}
+    theirs = {x: read(bare[x]) for x in pool}
+    cands: dict[str, list[str]] = {}
+    how: dict[tuple[str, str], str] = {}
+    for n, (spelt, lm, side) in mine.items():
+        for x, (x_spelt, x_lm, x_side) in theirs.items():
+            if side is not None and x_side is not None and side != x_side:
+                continue  # left is never right, whatever the spelling
+            if spelt == x_spelt:
+                how[n, x] = "spelling"
+            elif lm is not None and lm == x_lm:
+                how[n, x] = f"{lm[0]}, {lm[1]}" if lm[1] else lm[0]
+            else:
+                continue
+            cands.setdefault(n, []).append(x)
+    owners: dict[str, list[str]] = {}
+    for n, xs in cands.items():
+        for x in xs:
+            owners.setdefault(x, []).append(n)
+    renamed: dict[str, str] = {}
+    conflicts = []
+    for n, xs in cands.items():
+        if len(xs) > 1:
+            conflicts.append(f"{n}: {' or '.join(xs)}")
+        elif len(owners[xs[0]]) > 1:
+            conflicts.append(f"{xs[0]}: {' or '.join(owners[xs[0]])}")
+        else:
+            renamed[xs[0]] = n
+    return LabelMatch(
+        renamed,
+        {x: how[n, x] for x, n in renamed.items()},
+        tuple(n for n in wanted if n not in renamed.values()),
+        tuple(x for x in pool if x not in renamed),
+        tuple(dict.fromkeys(conflicts)),
+    )
 
 
 def warn(message: str) -> None:

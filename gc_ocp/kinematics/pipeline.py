@@ -37,6 +37,7 @@ import pinocchio as pin
 from gc_ocp.errors import InputError
 from gc_ocp.foot import FOOT_ROLLS, SEED_LAYOUT, UNITS, FootKinematics, TrialKinematics
 from gc_ocp.gaps import fill_rigid_gaps
+from gc_ocp.io._common import LabelMatch, match_labels
 from gc_ocp.io.orientation import SWAPPED_LEGS, leg_swaps, said_pairs
 from gc_ocp.kinematics.filtering import DEFAULT_CUTOFF_HZ, lowpass
 from gc_ocp.kinematics.ik import MarkerModel, solve_ik
@@ -45,6 +46,7 @@ from gc_ocp.kinematics.scaling import build_marker_model, estimate_height, regis
 from gc_ocp.marker_noise import foot_pose_noise, noise_band_hz, white_noise
 from gc_ocp.model.anthropometry import FOOT_LENGTH_RATIO, FOOT_WIDTH_RATIO
 from gc_ocp.model.body import BodyModel
+from gc_ocp.model.landmarks import classify
 from gc_ocp.model.markerset import MarkerSet, detect_markerset, load_markerset
 from gc_ocp.model.recognition import shipped_mapping
 from gc_ocp.model.urdf import POSTERIOR_FROM_HEEL, POSTERIOR_HALF_WIDTH
@@ -468,6 +470,46 @@ def check_static_sides(static: Trial) -> None:
         )
 
 
+def _static_as_walking(
+    static: Trial, trial: Trial, markerset: MarkerSet
+) -> tuple[Trial, LabelMatch | None]:
+    """The static trial with its labels renamed to the marker set's names where it spells them
+    otherwise (:func:`gc_ocp.io._common.match_labels`: a subject prefix, case and separators,
+    the same landmark on the same side), and the matching (``None`` when every name is among
+    its labels: the static is then used as given). The names are the walking trial's markers
+    and those of the set it lacks (a shipped set's medial markers, which a static may carry);
+    not the second column of a duplicated label (``RANK#2``), which is no label."""
+    used = [
+        n
+        for n in markerset.markers
+        if n in trial.marker_names or n.rpartition("#")[0] not in trial.marker_names
+    ]
+    if all(n in static.marker_names for n in used):
+        return static, None
+    labels = match_labels(used, static.marker_names, static.source)
+    if not labels.renamed:
+        return static, labels
+    renamed = tuple(labels.renamed.get(x, x) for x in static.marker_names)
+    return replace(static, marker_names=renamed), labels
+
+
+def _unmatched_said(labels: LabelMatch | None) -> str:
+    """Why none of the static's other labels stands for the foot markers it lacks (for the
+    refusal): the rule, its labels matched to none (computed points left out) and the
+    ambiguities."""
+    if labels is None:
+        return ""
+    spare = [x for x in labels.spare if classify(x)[0] != "virtual"]
+    out = (
+        ": a static label stands for a walking marker when it is spelt the same up to case, "
+        "separators and a subject prefix, or is the same landmark on the same side, and no "
+        f"other label does (static labels matched to none: {', '.join(spare) or 'none'}"
+    )
+    if labels.conflicts:
+        out += f"; ambiguous, so left unmatched: {'; '.join(labels.conflicts)}"
+    return out + ")"
+
+
 def compute_kinematics(
     trial: Trial,
     model: BodyModel | None = None,
@@ -484,7 +526,9 @@ def compute_kinematics(
     :class:`MarkerSet`, a shipped name or a TOML path (default: a shipped set matching the
     labels exactly, else one built from the recognised anatomical landmarks, see
     :func:`gc_ocp.model.markerset.detect_markerset`; the mapping is in ``info["landmarks"]``);
-    static: a static standing trial for registration and sole height (optional);
+    static: a static standing trial for registration and sole height (optional; labels
+    spelt otherwise than the walking trial's are matched to its markers by
+    :func:`gc_ocp.io._common.match_labels`, the renaming in ``info["static_labels"]``);
     cutoff_hz: marker low-pass cutoff [Hz]; progress: called with status strings;
     foot_roll: how a foot with two landmarks (heel and one forefoot marker: Helen Hayes, Davis)
     is rolled about the line through them, which its markers do not show: ``"chain"``
@@ -525,7 +569,12 @@ def compute_kinematics(
     floor = trial.floor_height
 
     st_markers = None
+    relabelled: dict[str, str] = {}  # static label -> walking marker name
     if static is not None:
+        static, labels = _static_as_walking(static, trial, markerset)
+        if labels is not None and labels.renamed:
+            relabelled = labels.renamed
+            say(f"static trial: labels matched to the walking trial's: {labels.said()}")
         shown = np.isfinite(np.asarray(static.markers)).all(axis=2).mean(axis=0)
         share = {n: shown[static.marker_names.index(n)] for n in static.marker_names}
         unseen = {n for n in markerset.markers if share.get(n, 1.0) < STATIC_SEEN_SHARE}
@@ -543,8 +592,10 @@ def compute_kinematics(
         ]  # (a second column of a duplicated label, "RANK#2", has no name in the static)
         if missing:
             raise InputError(
-                f"Static trial {static.source} lacks foot markers {missing}; calibrate on the "
-                "walking trial instead (static=None; on the command line: leave out --static)."
+                f"Static trial {static.source} lacks foot markers {missing}"
+                f"{_unmatched_said(labels)}; rename its labels as the walking trial's, or "
+                "calibrate on the walking trial instead (static=None; on the command line: "
+                "leave out --static)."
             )
         check_static_sides(static)
         check_static_feet(static, trial, markerset)
@@ -699,6 +750,7 @@ def compute_kinematics(
         "markerset": markerset.name,
         "landmarks": landmark_mapping(markerset, trial),
         "rigid_fills": fills,
+        "static_labels": relabelled,
         "registration_rms_history": history,
         "ik_seconds": res.seconds,
         "sole_height_source": sole_info,
