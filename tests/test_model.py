@@ -126,6 +126,28 @@ def test_neutral_pose_geometry(body):
     )
 
 
+@pytest.mark.parametrize("sex", ["male", "female"])
+def test_segment_inertias_follow_the_shape_of_the_body(sex):
+    """de Leva's (1996) sagittal radius of gyration is about the antero-posterior axis and the
+    transverse one about the medio-lateral axis: his upper trunk's 71.6 % and 45.4 % of 170.7 mm
+    are those of a box 0.4 m wide (shoulders) and 0.2 m deep (12.5 and 7.6 cm). So a trunk,
+    wider than deep, turns harder about X (forward) than about Y (left), and a foot, wider than
+    tall, harder about Z (up) than about Y. Read from the Pinocchio model (q = 0: every segment's
+    axes are lab's), so the URDF carries it too. The differences are 16-25 % of the smaller
+    inertia for the trunk segments (hence the 5 % margin) and 6-10 % for the foot; the swapped
+    axes reversed every one of them."""
+    body = BodyModel.from_subject(H, M, sex=sex)
+    inertia = {
+        body.model.names[j]: body.model.inertias[j].inertia for j in range(1, body.model.njoints)
+    }
+    for joint in ("lumbar_rotation", "pelvis_ry"):  # torso (with the head), pelvis
+        ixx, iyy = inertia[joint][0, 0], inertia[joint][1, 1]
+        assert ixx > 1.05 * iyy, (joint, ixx, iyy)
+    for s in "lr":
+        foot = inertia[f"subtalar_{s}"]  # hindfoot with the welded toes merged in
+        assert foot[2, 2] > foot[1, 1] > foot[0, 0], foot
+
+
 @pytest.mark.parametrize("name", ["plugingait", "rajagopal", "gait2392"])
 def test_markersets_load(name, body):
     ms = load_markerset(name)

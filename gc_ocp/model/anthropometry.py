@@ -141,9 +141,11 @@ def _rod(
     sgn = -1.0 if down else 1.0
     com = np.array([0.0, 0.0, sgn * com_frac * length])
     rs, rt, rl = (x * length for x in r)
-    # Sagittal radius is about the medio-lateral (Y) axis, transverse about the antero-posterior (X)
-    # axis, longitudinal about Z.
-    inertia = mass * np.diag([rt**2, rs**2, rl**2])
+    # de Leva's sagittal radius is about the antero-posterior (X) axis, the transverse one about
+    # the medio-lateral (Y) axis (the anatomical "transverse axis"), the longitudinal about Z: his
+    # upper trunk's 71.6 % and 45.4 % of 170.7 mm are those of a box 0.4 m wide and 0.2 m deep
+    # (12.5 and 7.6 cm about X and Y), not of one deeper than wide.
+    inertia = mass * np.diag([rs**2, rt**2, rl**2])
     return Segment("", mass, com, inertia)
 
 
@@ -222,9 +224,11 @@ def anthropometry(height: float, mass: float, sex: str = "male") -> Anthropometr
         fm = mp / 100.0 * mass
         heel_x = -HEEL_BEHIND_ANKLE * foot_len
         com = np.array([heel_x + cp / 100.0 * foot_len, 0.0, -0.5 * ankle_h])
-        # Foot radii: sagittal about Y, transverse about Z, longitudinal about X (foot lies along X).
+        # Foot radii (as in _rod): longitudinal about X (the foot lies along X), transverse about
+        # the medio-lateral Y, sagittal about the remaining axis in the sagittal plane, Z (the
+        # larger, 25.7 % against 24.5 %: a foot is wider than it is tall).
         ifoot = np.diag(
-            [(rl / 100 * foot_len) ** 2, (rs / 100 * foot_len) ** 2, (rt / 100 * foot_len) ** 2]
+            [(rl / 100 * foot_len) ** 2, (rt / 100 * foot_len) ** 2, (rs / 100 * foot_len) ** 2]
         )
         mtoe = TOES_MASS_FRACTION * fm
         segs[f"hindfoot_{side}"] = Segment(f"hindfoot_{side}", fm - mtoe, com, (fm - mtoe) * ifoot)
