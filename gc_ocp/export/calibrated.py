@@ -24,7 +24,7 @@ from gc_ocp.errors import InputError, read_document
 from gc_ocp.estimation.components.contact import ContactLaw, Param
 from gc_ocp.foot import SEED_LAYOUT, TrialKinematics
 from gc_ocp.text import read_json_file
-from gc_ocp.trial import belt_velocity
+from gc_ocp.trial import GRAVITY, belt_velocity
 
 EXPORTABLE = {
     "contact": "ContactLaw",
@@ -191,7 +191,7 @@ class CalibratedContact:
         first = fits[0]
         prov = dict(provenance or doc.get("provenance") or {})
         trials = prov.get("trials") or [{}]
-        mass = trials[0].get("mass_kg") or first["body_weight"] / 9.81
+        mass = trials[0].get("mass_kg") or first["body_weight"] / GRAVITY
         # the belt speed the fit used: the BeltSpeed block's fitted value per treadmill trial
         # ({trial: {"value", "se", ...}}: ``trial``'s, else the first trial's), else the
         # nominal one given

@@ -18,7 +18,9 @@ corner order: x = c1 - c2, y = c1 - c4, z = x cross y) and ORIGIN the FORCE_PLAT
 column (type-2 convention: the vector from the surface centre to the plate origin, in plate
 axes). With Vicon/AMTI plates (z axis down) this puts ``E`` ~40 mm *below* the surface, as it
 physically is; if a file stores the opposite sign (E would come out above the surface), the
-sign is flipped so that E is below the surface.
+sign is flipped so that E is below the surface. (:func:`gc_ocp.io.plates.type2_wrench` names the
+opposite vector, plate origin to surface centre, and flips a stored sign to that reading: the
+two readings of the one parameter put the origin at the same place.)
 
 Unloaded offsets: see :func:`unloaded_baseline`.
 """
