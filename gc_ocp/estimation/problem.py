@@ -34,10 +34,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from gc_ocp.errors import InputError, ModelError
+from gc_ocp.estimation.components.base import require_model
 from gc_ocp.estimation.frame import BASE_DATA, FrameModel, frame_model
 from gc_ocp.estimation.measurement import stance_residuals
 from gc_ocp.estimation.variables import Variables
-from gc_ocp.stance import StanceData
+from gc_ocp.stance import StanceData, require_stance_list
+from gc_ocp.values import require_given
 
 
 @dataclass(frozen=True)
@@ -635,7 +637,19 @@ def build_estimation(
     for a problem that is evaluated rather than solved, e.g. a simulation). ``like``: a problem
     this one may differ from only in prior widths (a continuation's stage, a widths' round): it
     is then that problem rescaled (:meth:`EstimationProblem.rescaled`), which shares its solver
-    and costs a fraction of a build."""
+    and costs a fraction of a build.
+
+    ``stances``: a list of :class:`~gc_ocp.stance.StanceData` (:func:`gc_ocp.trial_stances`);
+    ``weights``: the residuals' scales (default :class:`Weights`). Returns the problem for
+    :func:`~gc_ocp.estimation.solve`. Example::
+
+        problem = gc_ocp.build_estimation(gc_ocp.trial_stances(trial, kin), gc_ocp.full_model())
+    """
+    stances = require_stance_list(stances, "build_estimation")
+    require_model(model, "model")
+    if model is None:
+        raise InputError("build_estimation needs a model: e.g. gc_ocp.full_model().")
+    require_given(weights, Weights, "weights")
     if like is not None:
         same = like.rescaled(stances, model, weights)
         if same is not None:
