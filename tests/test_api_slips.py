@@ -49,6 +49,12 @@ def pair():
         (lambda t, k: gc_ocp.fit([(t, k)], margin="30ms"), "margin must be a number in s"),
         (lambda t, k: gc_ocp.fit("walk.c3d"), "got str 'walk.c3d'.*load_trial"),
         (lambda t, k: gc_ocp.fit([(t, k)], start="no_such_fit.json"), "does not exist"),
+        (lambda t, k: gc_ocp.diagnose([(t, k)], candidats=["damping"]), "'candidats'.*candidates"),
+        (lambda t, k: gc_ocp.ContactLaw(mu=0.8), r"mu=Param\('fixed', 0.8\)"),
+        # a percentage where a fraction of body weight is taken: plates weighted 100x too
+        # lightly against the priors, silently
+        (lambda t, k: gc_ocp.Weights(force_sigma=2), "fraction of body weight"),
+        (lambda t, k: gc_ocp.Weights(torque_length=250), "length in m"),
     ],
 )
 def test_a_slip_is_one_clear_error(pair, call, needle):

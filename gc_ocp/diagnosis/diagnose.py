@@ -16,6 +16,7 @@ Confirmation on new stances is :mod:`.confirm`; the HTML page, :mod:`.report`.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import numbers
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -742,6 +743,13 @@ def diagnose(
         d = gc_ocp.diagnose([(trial, kin)], candidates=["damping", "ground_offset"])
         print(d.summary())
     """
+    known = [k for k in inspect.signature(diagnose_stances).parameters if k != "stances"]
+    unknown = sorted(set(kw) - set(known))
+    if unknown:  # was diagnose_stances()'s TypeError, naming a function the caller never called
+        raise InputError(
+            f"diagnose got unknown keyword argument(s) {unknown}; it takes "
+            f"{', '.join(known)} (help(gc_ocp.diagnose_stances))"
+        )
     _, data, notes = fit_data(trials, progress=progress)
     d = diagnose_stances(data, base, candidates, progress=progress, **kw)
     d.notes = [*notes, *d.notes]

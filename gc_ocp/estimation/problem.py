@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import numbers
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
@@ -44,11 +45,26 @@ from gc_ocp.values import require_given
 
 @dataclass(frozen=True)
 class Weights:
-    """Residual scaling. force_sigma: force error scale as a fraction of BW [-];
+    """Residual scaling. force_sigma: force error scale as a fraction of BW [-] (0.02: 2 % BW);
     torque_length: torque error scale = force scale x this length [m]."""
 
     force_sigma: float = 0.02
     torque_length: float = 0.25
+
+    def __post_init__(self) -> None:
+        # a percentage (force_sigma=2 for 2 % BW) weighted the plates 100 times too lightly
+        # against the priors, silently
+        f, m = self.force_sigma, self.torque_length
+        if not (isinstance(f, numbers.Real) and 0 < f < 1):
+            raise InputError(
+                f"Weights(force_sigma={f!r}): give the force error scale as a fraction of body "
+                "weight, between 0 and 1 (0.02 for 2 % BW)"
+            )
+        if not (isinstance(m, numbers.Real) and 0 < m < 2):
+            raise InputError(
+                f"Weights(torque_length={m!r}): give the torque error scale's length in m, "
+                "between 0 and 2 (default 0.25, so that the COP counts)"
+            )
 
     def inverse_sigmas(self, body_weight: float) -> np.ndarray:
         sf = self.force_sigma * body_weight
