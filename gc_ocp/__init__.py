@@ -4,7 +4,7 @@ The public API, importable from the top level::
 
     import gc_ocp
 
-    trial = gc_ocp.load_trial()                   # or load_trial("walk.c3d"), TRC + MOT, ...
+    trial = gc_ocp.load_trial()                   # the bundled example; or load_trial("walk.c3d")
     kin = gc_ocp.compute_kinematics(trial)        # IK and sole-point trajectories
     report = gc_ocp.fit([(trial, kin)], model=gc_ocp.full_model(), holdout="right@0.407")
     print(report.summary())
@@ -19,6 +19,12 @@ type), :mod:`gc_ocp.contact` (contact laws, equivalent wrench, the seed's study)
 :mod:`gc_ocp.batch` (studies of many subjects on Dask: ``gc_ocp.batch.run(manifest, out)``),
 :mod:`gc_ocp.export` (the calibrated model for OpenSim and CasADi simulations).
 Names are imported on first use, so ``import gc_ocp`` stays light.
+
+Where to start: the five calls above, each with its units and an example in its help
+(``help(gc_ocp.load_trial)``, ``help(gc_ocp.fit)``, ...); the notebooks in ``notebooks/`` (01
+the seed study, 02 a fit, 03 the diagnosis); the README for the command line. SI units
+throughout (m, s, N, kg), arrays time-first; the usual wrong inputs raise :class:`InputError` (or another
+:class:`GcOcpError`) that names the fix.
 """
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ estimator (:mod:`gc_ocp.estimation`) all take it. Numeric, time-first, SI, ``lab
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -18,6 +18,7 @@ import numpy as np
 from gc_ocp.errors import InputError
 from gc_ocp.foot import FootKinematics, SoleLayout, TrialKinematics
 from gc_ocp.trial import SIDES, Stance, Trial
+from gc_ocp.values import given, require
 
 
 def _ro(a, shape: tuple, name: str, label: str, dtype=float) -> np.ndarray:
@@ -211,6 +212,33 @@ def _peak(fz: np.ndarray, t: np.ndarray, a: float, b: float) -> float:
     return float(seg[np.argmax(np.abs(seg))]) if seg.size else float("nan")
 
 
+def _require_trial_and_kinematics(trial, kin, who: str) -> None:
+    how = f"kin = gc_ocp.compute_kinematics(trial); gc_ocp.{who}(trial, kin, ...)"
+    require(trial, Trial, f"{who} takes a loaded trial first", how)
+    require(kin, TrialKinematics, f"{who} takes the trial's kinematics second", how)
+
+
+def require_stance_list(stances, who: str) -> list[StanceData]:
+    """``stances`` as a list of :class:`StanceData` (an iterator of them read once), else an
+    :class:`InputError` naming ``who`` and how to make them (``(trial, kinematics)`` pairs are
+    what :func:`gc_ocp.fit` and :func:`gc_ocp.diagnose` take, not the stance-level calls).
+    An empty list passes: each caller says what it lacks then."""
+    if isinstance(stances, Iterator):
+        stances = list(stances)
+    how = (
+        "stances = gc_ocp.trial_stances(trial, kin) (several trials: the lists added); "
+        "with (trial, kinematics) pairs use gc_ocp.fit or gc_ocp.diagnose instead"
+    )
+    if not isinstance(stances, Sequence) or isinstance(stances, str):
+        require(stances, list, f"{who} takes a list of stances (StanceData)", how)
+    for i, st in enumerate(stances):
+        if not isinstance(st, StanceData):
+            raise InputError(
+                f"{who} takes a list of stances (StanceData), but item {i} is {given(st)}: {how}"
+            )
+    return list(stances)
+
+
 def stance_data(
     trial: Trial,
     kin: TrialKinematics,
@@ -227,7 +255,22 @@ def stance_data(
     naming the stance and the likely cause. ``name``: the trial's name in the label
     (``name:side@t_on``) and in ``StanceData.trial`` (default ``trial.name``, the file's stem;
     several trials of one fit are named by :func:`trial_names`); ``censor_below``: its plate's
-    zero threshold [N] (:attr:`StanceData.censor_below`)."""
+    zero threshold [N] (:attr:`StanceData.censor_below`).
+
+    ``stance`` is one of ``trial.stances`` (a :class:`~gc_ocp.trial.Stance`, not its label).
+    Example::
+
+        stance = trial.stances[0]  # print(trial) lists them: right@0.407s, ...
+        data = gc_ocp.stance_data(trial, kin, stance, margin=0.03)
+    """
+    _require_trial_and_kinematics(trial, kin, "stance_data")
+    require(
+        stance,
+        Stance,
+        "stance_data takes one of the trial's stances",
+        "trial.stances[i] (print(trial) lists them), or every stance at once: "
+        "gc_ocp.trial_stances(trial, kin).",
+    )
     name = trial.name if name is None else name
     if stance.side not in kin.feet:
         raise InputError(
@@ -289,7 +332,13 @@ def trial_stances(
     censor_below: Mapping[int, float] | None = None,
 ) -> list[StanceData]:
     """Every stance of ``trial`` (see :func:`stance_data`); ``censor_below``: ``{plate index:
-    zero threshold [N]}`` (missing: 0)."""
+    zero threshold [N]}`` (missing: 0). What :func:`~gc_ocp.estimation.build_estimation` and
+    :func:`~gc_ocp.diagnosis.diagnose_stances` take (several trials: the lists added together).
+    Example::
+
+        stances = gc_ocp.trial_stances(trial, kin, margin=0.03)
+    """
+    _require_trial_and_kinematics(trial, kin, "trial_stances")
     thr = censor_below or {}
     return [
         stance_data(trial, kin, s, margin, min_frames, name, thr.get(s.plate, 0.0))

@@ -1,10 +1,12 @@
-"""Numbers a user gives the Python API (a notebook's ``mass="70kg"``): one rule, one message; and
-the one way a standard error is written for a reader (:func:`se_text`)."""
+"""Values a user gives the Python API (a notebook's ``mass="70kg"``, a path where a loaded trial
+is taken): one rule, one message each; and the one way a standard error is written for a
+reader (:func:`se_text`)."""
 
 from __future__ import annotations
 
 import math
 import numbers
+import os
 
 from gc_ocp.errors import InputError
 
@@ -23,6 +25,34 @@ def number(value, what: str, unit: str, text: bool = True) -> float:
     if not math.isfinite(x):
         raise InputError(f"{what} must be a number in {unit}, but got {value!r}")
     return x
+
+
+def given(value) -> str:
+    """What a message says the user gave: the type, and for a path or a text its value (a
+    notebook's ``describe_trial("walk.c3d")`` is told it gave ``str 'walk.c3d'``)."""
+    if isinstance(value, str | os.PathLike):
+        return f"{type(value).__name__} {str(value)!r:.80}"
+    return type(value).__name__
+
+
+def require(value, kind: type | tuple[type, ...], takes: str, fix: str) -> None:
+    """An :class:`InputError` unless ``value`` is a ``kind``: ``"{takes}, but got {given}:
+    {fix}"``, e.g. ``takes`` "describe_trial takes one loaded trial" and ``fix`` the call that
+    makes one. Python's own error for a wrong type comes from deep inside (an AttributeError
+    on the first attribute read), naming neither the argument nor the fix."""
+    if not isinstance(value, kind):
+        raise InputError(f"{takes}, but got {given(value)}: {fix}")
+
+
+def require_given(value, kind: type, what: str) -> None:
+    """:func:`require` for a keyword that takes a settings dataclass of the package's top level
+    (``weights=gc_ocp.Weights(...)``, ``options=gc_ocp.IpoptOptions(...)``) or None (its
+    defaults); a dict of its fields, the usual slip, is told the call that takes them."""
+    if value is None:
+        return
+    name = kind.__name__
+    kw = f"**{value!r:.60}" if isinstance(value, dict) else "..."
+    require(value, kind, f"{what} takes gc_ocp.{name} (or None)", f"{what}=gc_ocp.{name}({kw})")
 
 
 def is_count(value) -> bool:

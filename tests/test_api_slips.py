@@ -31,6 +31,30 @@ def pair():
         (lambda t, k: gc_ocp.fit([(t, k)], model="full"), "give a tuple of components"),
         (lambda t, k: gc_ocp.plot_fit(3), "expected a fit"),
         (lambda t, k: gc_ocp.plot_fit("no_such_fit.json"), "does not exist"),
+        # a review of 2026-12-02: each was an AttributeError or TypeError from inside (the
+        # path given as a file was told "got an empty list")
+        (lambda t, k: gc_ocp.describe_trial("walk.c3d"), "takes one loaded trial, but got str"),
+        (lambda t, k: gc_ocp.load_static(t, "static.c3d"), "static trial's file first"),
+        (lambda t, k: gc_ocp.load_static("static.c3d", "walk.c3d"), "walking trial second"),
+        (lambda t, k: gc_ocp.compute_kinematics(t, model="x"), "BodyModel.from_subject"),
+        (lambda t, k: gc_ocp.stance_data(t, k, "right@0.407"), "one of the trial's stances"),
+        (lambda t, k: gc_ocp.trial_stances(t, t), "kinematics second, but got Trial"),
+        (lambda t, k: gc_ocp.diagnose_stances([(t, k)]), "item 0 is tuple"),
+        (lambda t, k: gc_ocp.build_estimation([(t, k)], gc_ocp.full_model()), "trial_stances"),
+        (lambda t, k: gc_ocp.build_estimation(gc_ocp.trial_stances(t, k), "full"), "tuple of"),
+        (lambda t, k: gc_ocp.solve(gc_ocp.trial_stances(t, k)), "build_estimation"),
+        (lambda t, k: gc_ocp.fit([(t, k)], weights={"force_sigma": 0.01}), "gc_ocp.Weights"),
+        (lambda t, k: gc_ocp.fit([(t, k)], options={"max_iter": 50}), r"IpoptOptions\(\*\*"),
+        (lambda t, k: gc_ocp.diagnose([(t, k)], options={"max_iter": 50}), "IpoptOptions"),
+        (lambda t, k: gc_ocp.fit([(t, k)], margin="30ms"), "margin must be a number in s"),
+        (lambda t, k: gc_ocp.fit("walk.c3d"), "got str 'walk.c3d'.*load_trial"),
+        (lambda t, k: gc_ocp.fit([(t, k)], start="no_such_fit.json"), "does not exist"),
+        (lambda t, k: gc_ocp.diagnose([(t, k)], candidats=["damping"]), "'candidats'.*candidates"),
+        (lambda t, k: gc_ocp.ContactLaw(mu=0.8), r"mu=Param\('fixed', 0.8\)"),
+        # a percentage where a fraction of body weight is taken: plates weighted 100x too
+        # lightly against the priors, silently
+        (lambda t, k: gc_ocp.Weights(force_sigma=2), "fraction of body weight"),
+        (lambda t, k: gc_ocp.Weights(torque_length=250), "length in m"),
     ],
 )
 def test_a_slip_is_one_clear_error(pair, call, needle):
@@ -52,6 +76,12 @@ def test_figures_take_the_fit_itself_and_a_side_by_name(pair, tmp_path):
     path.write_text(json.dumps(report.to_json()))
     lines = [len(gc_ocp.plot_fit(x).axes[0].lines) for x in (report, report.result, path)]
     assert lines[0] > 0 and len(set(lines)) == 1
+    # a fit's fit.json as the start of another fit, as plot_fit takes it (was an
+    # AttributeError: start took the result only)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        again = gc_ocp.fit([pair], start=path, pose_scale=False, bias_correction=0)
+    assert again.result.success
     # a fit.json cut short of its stance fits: refused by name (it was an IndexError)
     cut = dict(report.to_json(), stance_fits=[])
     from gc_ocp.estimation.plots import plot_sole_fit

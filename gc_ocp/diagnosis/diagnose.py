@@ -16,6 +16,7 @@ Confirmation on new stances is :mod:`.confirm`; the HTML page, :mod:`.report`.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import numbers
 import time
 from collections.abc import Callable, Mapping, Sequence
@@ -73,9 +74,9 @@ from gc_ocp.estimation.components import (
 from gc_ocp.estimation.measurement import measurement_of
 from gc_ocp.estimation.pose_scale import with_estimated_width
 from gc_ocp.estimation.problem import Weights
-from gc_ocp.estimation.solve import IpoptOptions
+from gc_ocp.estimation.solve import IpoptOptions, require_settings
 from gc_ocp.estimation.starts import with_lls_start
-from gc_ocp.stance import StanceData
+from gc_ocp.stance import StanceData, require_stance_list
 from gc_ocp.values import is_count
 from gc_ocp.workflow.fitting import fit_data
 
@@ -193,7 +194,15 @@ def diagnose_stances(
     or ``"refit"`` (every fold of every model refitted, the ranking's own statistic, each
     mismatch draw one replicate: :mod:`.refits`; tens of times the null's cost, for few
     stances, where the one step misses gains the refit shows; every round then holds out every
-    candidate)."""
+    candidate).
+
+    Returns a :class:`~gc_ocp.diagnosis.result.Diagnosis`. Example::
+
+        stances = gc_ocp.trial_stances(trial, kin, margin=0.03)
+        d = gc_ocp.diagnose_stances(stances, candidates=["damping", "friction"])
+    """
+    stances = require_stance_list(stances, "diagnose_stances")
+    require_settings(weights, options)
     if not stances:  # was an IndexError (the frame rate of the first stance)
         raise InputError("no stances to diagnose: give the StanceData of one subject's trials")
     if null_fits not in NULL_FITS:
@@ -723,8 +732,24 @@ def diagnose(
 ) -> Diagnosis:
     """Diagnose the gap between ``base`` and the force plates on ``trials`` (``[(Trial,
     TrialKinematics), ...]`` of one subject: they share contact parameters; pose corrections are
-    per stance). Keyword arguments (``workers``, ``executor``, ...) go to
-    :func:`diagnose_stances`."""
+    per stance). ``base``: ``"registered"`` (default), ``"seed"``, ``"full"`` or a tuple of
+    components; ``candidates``: effect names (default: every effect of ``gc_ocp.EFFECTS`` the
+    base lacks). Keyword arguments (``workers``, ``executor``, ...) go to
+    :func:`diagnose_stances`.
+
+    Returns a :class:`~gc_ocp.diagnosis.result.Diagnosis` (``.summary()``, ``.selected``,
+    ``.ranking``, ``.to_json()``). Minutes of Ipopt fits on the bundled trial. Example::
+
+        d = gc_ocp.diagnose([(trial, kin)], candidates=["damping", "ground_offset"])
+        print(d.summary())
+    """
+    known = [k for k in inspect.signature(diagnose_stances).parameters if k != "stances"]
+    unknown = sorted(set(kw) - set(known))
+    if unknown:  # was diagnose_stances()'s TypeError, naming a function the caller never called
+        raise InputError(
+            f"diagnose got unknown keyword argument(s) {unknown}; it takes "
+            f"{', '.join(known)} (help(gc_ocp.diagnose_stances))"
+        )
     _, data, notes = fit_data(trials, progress=progress)
     d = diagnose_stances(data, base, candidates, progress=progress, **kw)
     d.notes = [*notes, *d.notes]

@@ -25,7 +25,12 @@ def _fitted(result):
 
 def plot_fit(result, title: str = "measured (solid) vs fitted (dashed)") -> Figure:
     """Measured vs fitted six channels per foot, every stance; ``result``: a fit (what
-    :func:`gc_ocp.fit` returns), its result or its ``fit.json`` (:func:`as_result`)."""
+    :func:`gc_ocp.fit` returns), its result or its ``fit.json`` (:func:`as_result`). Returns
+    the Matplotlib figure, not shown. Example::
+
+        fig = gc_ocp.plot_fit(report)  # or plot_fit("out/fit.json")
+        fig.savefig("fit.png")
+    """
     f = _fitted(result).stance_fits
     return plot_wrench_fit(
         [s["time"] for s in f],

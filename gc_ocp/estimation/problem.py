@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import numbers
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
@@ -34,19 +35,36 @@ import numpy as np
 import scipy.sparse as sp
 
 from gc_ocp.errors import InputError, ModelError
+from gc_ocp.estimation.components.base import require_model
 from gc_ocp.estimation.frame import BASE_DATA, FrameModel, frame_model
 from gc_ocp.estimation.measurement import stance_residuals
 from gc_ocp.estimation.variables import Variables
-from gc_ocp.stance import StanceData
+from gc_ocp.stance import StanceData, require_stance_list
+from gc_ocp.values import require_given
 
 
 @dataclass(frozen=True)
 class Weights:
-    """Residual scaling. force_sigma: force error scale as a fraction of BW [-];
+    """Residual scaling. force_sigma: force error scale as a fraction of BW [-] (0.02: 2 % BW);
     torque_length: torque error scale = force scale x this length [m]."""
 
     force_sigma: float = 0.02
     torque_length: float = 0.25
+
+    def __post_init__(self) -> None:
+        # a percentage (force_sigma=2 for 2 % BW) weighted the plates 100 times too lightly
+        # against the priors, silently
+        f, m = self.force_sigma, self.torque_length
+        if not (isinstance(f, numbers.Real) and 0 < f < 1):
+            raise InputError(
+                f"Weights(force_sigma={f!r}): give the force error scale as a fraction of body "
+                "weight, between 0 and 1 (0.02 for 2 % BW)"
+            )
+        if not (isinstance(m, numbers.Real) and 0 < m < 2):
+            raise InputError(
+                f"Weights(torque_length={m!r}): give the torque error scale's length in m, "
+                "between 0 and 2 (default 0.25, so that the COP counts)"
+            )
 
     def inverse_sigmas(self, body_weight: float) -> np.ndarray:
         sf = self.force_sigma * body_weight
@@ -635,7 +653,19 @@ def build_estimation(
     for a problem that is evaluated rather than solved, e.g. a simulation). ``like``: a problem
     this one may differ from only in prior widths (a continuation's stage, a widths' round): it
     is then that problem rescaled (:meth:`EstimationProblem.rescaled`), which shares its solver
-    and costs a fraction of a build."""
+    and costs a fraction of a build.
+
+    ``stances``: a list of :class:`~gc_ocp.stance.StanceData` (:func:`gc_ocp.trial_stances`);
+    ``weights``: the residuals' scales (default :class:`Weights`). Returns the problem for
+    :func:`~gc_ocp.estimation.solve`. Example::
+
+        problem = gc_ocp.build_estimation(gc_ocp.trial_stances(trial, kin), gc_ocp.full_model())
+    """
+    stances = require_stance_list(stances, "build_estimation")
+    require_model(model, "model")
+    if model is None:
+        raise InputError("build_estimation needs a model: e.g. gc_ocp.full_model().")
+    require_given(weights, Weights, "weights")
     if like is not None:
         same = like.rescaled(stances, model, weights)
         if same is not None:

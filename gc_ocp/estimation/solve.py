@@ -13,8 +13,9 @@ from gc_ocp.errors import ModelError, SolveError
 from gc_ocp.estimation.components.base import DecodeContext
 from gc_ocp.estimation.components.contact import ContactLaw
 from gc_ocp.estimation.flags import fit_flags, variable_flags
-from gc_ocp.estimation.problem import EstimationProblem
+from gc_ocp.estimation.problem import EstimationProblem, Weights
 from gc_ocp.estimation.result import EstimationResult, fit_quality
+from gc_ocp.values import require, require_given
 
 
 @dataclass(frozen=True)
@@ -68,6 +69,15 @@ class IpoptOptions:
             "ipopt.sb": "yes",
             "print_time": False,
         }
+
+
+def require_settings(weights, options) -> None:
+    """An :class:`InputError` unless ``weights`` is a :class:`Weights` and ``options`` an
+    :class:`IpoptOptions` (or None, the defaults): a notebook's ``options={"max_iter": 50}``
+    was a TypeError from the solver cache (an unhashable dict), ``weights={...}`` an
+    AttributeError from inside the build."""
+    require_given(weights, Weights, "weights")
+    require_given(options, IpoptOptions, "options")
 
 
 def gauss_newton_hessian(problem: EstimationProblem) -> ca.Function:
@@ -256,7 +266,21 @@ def solve(
     whose uncertainty nobody reads (continuation stages, the diagnosis's fold fits). ``warm``:
     ``x0`` is the solution of the same problem with other prior widths (:class:`IpoptOptions`'
     ``warm_*`` settings); other starts from a given point (a fold, a null draw, an effect from
-    its parent) keep Ipopt's defaults (``docs/estimation.md``, *Warm starts*)."""
+    its parent) keep Ipopt's defaults (``docs/estimation.md``, *Warm starts*).
+
+    Returns an :class:`EstimationResult` (``.summary()``, ``.blocks``). Example::
+
+        problem = gc_ocp.build_estimation(gc_ocp.trial_stances(trial, kin), gc_ocp.full_model())
+        result = gc_ocp.solve(problem, gc_ocp.IpoptOptions(max_iter=200))
+
+    (:func:`gc_ocp.fit` does this from the trials, with its start, continuation and widths.)"""
+    require(
+        problem,
+        EstimationProblem,
+        "solve takes a built problem",
+        "problem = gc_ocp.build_estimation(stances, model); gc_ocp.solve(problem)",
+    )
+    require_given(options, IpoptOptions, "options")
     options = options or IpoptOptions()
     warm = warm and x0 is not None
     # every problem is solved as its anchor's parametric problem (its own at s = 1, to the bit),
@@ -371,6 +395,7 @@ __all__ = [
     "IpoptOptions",
     "EstimationResult",
     "make_solver",
+    "require_settings",
     "solve",
     "result_at",
     "decode",

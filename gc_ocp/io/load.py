@@ -28,7 +28,7 @@ from gc_ocp.io.pairing import TRIAL_FIX, find_grf
 from gc_ocp.io.stances import DEFAULT_THRESHOLD, check_peaks, detect_stances
 from gc_ocp.io.subject import estimate_body_weight, read_subject_metadata
 from gc_ocp.trial import ESTIMATED, GRAVITY, ExcludedStance, Plate, Trial, belt_velocity
-from gc_ocp.values import number
+from gc_ocp.values import number, require
 
 
 def bundled_example_path() -> Path:
@@ -64,11 +64,20 @@ def load_trial(
         ...), subject metadata beside the trial (:func:`gc_ocp.io.subject.read_subject_metadata`),
         else an ESTIMATE from the force data with a warning (``Trial.mass_source`` says which).
     height: subject height in [m]; overrides the file. ``None`` and not in the file -> ``None``
-        (the kinematics then estimate it: see :func:`estimate_height_from_markers`).
+        (the kinematics then estimate it: see
+        :func:`~gc_ocp.io.estimates.estimate_height_from_markers`).
     belt_speed: treadmill belt speed in [m/s] (>= 0); sets ``belt_velocity = (-belt_speed, 0, 0)``
         in lab (the belt runs backwards under a subject walking +X). Never guessed: see
-        :func:`estimate_belt_speed`.
+        :func:`~gc_ocp.io.estimates.estimate_belt_speed`.
     stance_threshold: vertical-force contact threshold in [N] (default 20 N).
+
+    Returns the trial in the ``lab`` frame (Z up, walking +X), SI units, its usable stances
+    detected (``trial.stances``; ``print(trial)`` lists them). One file per call: the trials of
+    a subject are loaded one by one. Example::
+
+        trial = gc_ocp.load_trial()  # the bundled example (gc_ocp/data/test_small.c3d)
+        trial = gc_ocp.load_trial("walk.trc", grf="walk_grf.mot", mass=72.6)
+        print(gc_ocp.describe_trial(trial))
     """
     if path is not None and not isinstance(path, str | os.PathLike):
         raise InputError(
@@ -286,8 +295,18 @@ def load_static(path: str | Path, walking: Trial) -> Trial:
 
     A static trial has no walking direction, so the walking trial's rotation is reused: the
     static file must come from the same lab set-up (same axes). Plates are not read: the floor
-    height is the walking trial's plate surface.
+    height is the walking trial's plate surface. ``path``: the static trial's ``.c3d`` or
+    ``.trc``; ``walking``: a walking trial of the same session, loaded. Returns a
+    :class:`~gc_ocp.trial.Trial` with no plates or stances, for
+    :func:`~gc_ocp.kinematics.compute_kinematics`'s ``static``. Example::
+
+        trial = gc_ocp.load_trial("walk.c3d")
+        static = gc_ocp.load_static("static.c3d", trial)
+        kin = gc_ocp.compute_kinematics(trial, static=static)
     """
+    how = "trial = gc_ocp.load_trial(walking_path); static = gc_ocp.load_static(path, trial)"
+    require(path, str | os.PathLike, "load_static takes the static trial's file first", how)
+    require(walking, Trial, "load_static takes the loaded walking trial second", how)
     path = Path(path)
     require_file(path, "Static trial", "give the static trial's .c3d or .trc file (--static).")
     suffix = path.suffix.lower()

@@ -11,6 +11,7 @@ from gc_ocp.io.checks import stride_body_weight
 from gc_ocp.model.markerset import detect_markerset
 from gc_ocp.model.recognition import label_key
 from gc_ocp.trial import GRAVITY, Trial
+from gc_ocp.values import require
 
 
 def _markerset_line(trial: Trial) -> str:
@@ -54,7 +55,16 @@ def describe_trial(trial: Trial) -> str:
     direction, plates (type, reference, removed offset), the lab's processing
     (:func:`processing_lines`), stances (foot, plate, times, heading,
     peak force in N and % BW), exclusions with reasons, mass and its source, and the stride
-    body-weight check."""
+    body-weight check (what ``gc-ocp info`` prints). Example::
+
+        print(gc_ocp.describe_trial(gc_ocp.load_trial("walk.c3d")))
+    """
+    require(
+        trial,
+        Trial,
+        "describe_trial takes one loaded trial",
+        "gc_ocp.describe_trial(gc_ocp.load_trial(path))",
+    )
     bw = trial.body_weight
     lines = [f"Trial {trial.source}" + (f" + {trial.grf_source}" if trial.grf_source else "")]
     lines.append(

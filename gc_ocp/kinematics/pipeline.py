@@ -51,7 +51,7 @@ from gc_ocp.model.markerset import MarkerSet, detect_markerset, load_markerset
 from gc_ocp.model.recognition import shipped_mapping
 from gc_ocp.model.urdf import POSTERIOR_FROM_HEEL, POSTERIOR_HALF_WIDTH
 from gc_ocp.trial import Trial
-from gc_ocp.values import number
+from gc_ocp.values import number, require
 
 FOOT_FLAT = (0.20, 0.45)
 """Fraction of stance used as foot-flat for the sole-height calibration without a static trial."""
@@ -536,14 +536,32 @@ def compute_kinematics(
     with its medio-lateral axis horizontal on every frame (:func:`level_roll`);
     ``docs/quality.md``, "A Davis-like foot", for what each gives (and a third way tried and
     not kept). Feet with three or more landmarks are posed by their markers either way.
+
+    Returns a :class:`~gc_ocp.foot.TrialKinematics`: joint coordinates ``q`` ``(n, 27)``
+    [m, rad] on the marker frames ``time`` [s], each foot's segment poses and sole-point
+    trajectories in ``lab`` [m] (``feet["left"]``, ``feet["right"]``) and the IK marker RMS
+    [m]; what ``gc_ocp.fit`` and ``gc_ocp.diagnose`` take with the trial. Example::
+
+        trial = gc_ocp.load_trial("walk.c3d")
+        kin = gc_ocp.compute_kinematics(trial)  # or static=gc_ocp.load_static(path, trial)
+        report = gc_ocp.fit([(trial, kin)])
     """
     if foot_roll not in FOOT_ROLLS:
         raise InputError(f'foot_roll must be one of {FOOT_ROLLS}, but got "{foot_roll}"')
-    if not isinstance(trial, Trial):
-        raise InputError(
-            f"compute_kinematics takes one loaded trial, but got {type(trial).__name__}: "
-            "trial = gc_ocp.load_trial(path); kin = gc_ocp.compute_kinematics(trial) (one "
-            "call per trial of a subject)."
+    require(
+        trial,
+        Trial,
+        "compute_kinematics takes one loaded trial",
+        "trial = gc_ocp.load_trial(path); kin = gc_ocp.compute_kinematics(trial) (one "
+        "call per trial of a subject).",
+    )
+    if model is not None:
+        require(
+            model,
+            BodyModel,
+            "model takes a body model",
+            "leave it out (the de Leva model of the trial's height and mass) or give "
+            "gc_ocp.model.BodyModel.from_subject(height_m, mass_kg).",
         )
     cutoff_hz = number(cutoff_hz, "cutoff_hz", "Hz")
     if static is not None:

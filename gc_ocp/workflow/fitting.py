@@ -22,10 +22,17 @@ from collections.abc import Callable, Iterator, Sequence
 from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.bias import REPLICATES, BiasCorrection, bias_corrected, check_replicates
 from gc_ocp.estimation.components import PoseCorrection, full_model
+from gc_ocp.estimation.components.base import require_model
 from gc_ocp.estimation.pose_scale import PoseScale, estimate_pose_scale, widths_plausible
 from gc_ocp.estimation.problem import Weights, build_estimation
-from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.estimation.solve import IpoptOptions, result_at, retry_from_stop, solve
+from gc_ocp.estimation.result import EstimationResult, as_result
+from gc_ocp.estimation.solve import (
+    IpoptOptions,
+    require_settings,
+    result_at,
+    retry_from_stop,
+    solve,
+)
 from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
 from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.checks import require_stances
@@ -34,6 +41,7 @@ from gc_ocp.io.processing import censor_threshold, detect_processing, stance_cen
 from gc_ocp.marker_noise import ATTENUATING_UNIT_NOISE_M, noise_modelled, unit_noise_sd
 from gc_ocp.stance import StanceData, fit_stances, quiet_margins, trial_names
 from gc_ocp.trial import ESTIMATED, Trial
+from gc_ocp.values import given, number
 
 MARGIN = 0.03
 """Unloaded frames kept each side of a stance [s]: the model must predict no force there."""
@@ -41,7 +49,14 @@ MARGIN = 0.03
 
 @dataclasses.dataclass
 class FitReport:
-    """A fit and (optionally) its held-out evaluation; ``to_json()`` is the CLI's ``fit.json``."""
+    """A fit and (optionally) its held-out evaluation; ``to_json()`` is the CLI's ``fit.json``.
+
+    result: the fit (:class:`~gc_ocp.estimation.result.EstimationResult`: parameters with SEs
+    in ``result.blocks``, RMS per channel, flags); heldout, heldout_label: the held-out
+    stance's evaluation and label (None without ``holdout``); checks: the input checks' notes;
+    pose_scale, bias: the estimated pose width and the bias correction, when made.
+    ``print(report.summary())`` shows it all; ``gc_ocp.plot_fit(report)`` draws it.
+    """
 
     result: EstimationResult
     heldout: EstimationResult | None = None
@@ -161,21 +176,6 @@ def auto_holdout(data: Sequence[StanceData]) -> str | None:
     return [d for d in data if d.side == side][-1].label
 
 
-def _require_model(model, name: str) -> None:
-    """``model`` is None or a tuple of components, else :class:`InputError` with the fix."""
-    from gc_ocp.estimation.components.base import Component
-
-    if model is None or (
-        isinstance(model, tuple | list) and model and all(isinstance(c, Component) for c in model)
-    ):
-        return
-    raise InputError(
-        f"{name}={model!r}: give a tuple of components, e.g. gc_ocp.full_model(); to add "
-        "effects by name: gc_ocp.model_from_names(['friction'], "
-        "base=gc_ocp.full_model())."
-    )
-
-
 def _require_pairs(trials) -> list:
     """``trials`` as a list of ``(Trial, TrialKinematics)`` pairs (an iterator of them read
     once), else :class:`InputError` (``fit([trial])`` or ``fit(trial, kin)`` are the usual
@@ -188,7 +188,12 @@ def _require_pairs(trials) -> list:
         raise InputError(f"got one (trial, kinematics) pair, not a list of them; {how}.")
     if isinstance(trials, Iterator):  # a generator or zip(...): its pairs, once
         trials = list(trials)
-    if not isinstance(trials, Sequence) or isinstance(trials, str) or not trials:
+    if isinstance(trials, str | os.PathLike):  # a file: it was told "got an empty list"
+        raise InputError(
+            f"got {given(trials)}, not a list of (trial, kinematics) pairs; load it first, "
+            f"trial = gc_ocp.load_trial(path), then {how}."
+        )
+    if not isinstance(trials, Sequence) or not trials:
         got = "an empty list" if isinstance(trials, Sequence) else type(trials).__name__
         raise InputError(f"got {got}, not a list of (trial, kinematics) pairs; {how}.")
     for i, item in enumerate(trials):
@@ -379,11 +384,18 @@ def fit(
 ) -> FitReport:
     """Fit ``model`` (default :func:`full_model`) to every stance of ``trials`` (one subject).
 
+    trials: ``[(Trial, TrialKinematics), ...]``, the trials of one subject, each with its
+    :func:`~gc_ocp.kinematics.compute_kinematics` (they share the contact parameters).
+    model: a tuple of components (:func:`full_model`, :func:`seed_model`,
+    :func:`model_from_names`). weights: the residuals' scales (:class:`Weights`, default
+    2 % BW). options: Ipopt's settings (:class:`IpoptOptions`). progress: called with
+    status lines (e.g. ``print``).
     holdout: label (or unique prefix/substring) of a stance to hold out, see the module doc;
     ``"auto"``: the last stance of the foot with the most stances (of the right foot on a tie),
     when that foot has at least two (else none: :func:`auto_holdout`).
     margin: unloaded frames kept each side of a stance [s] (:data:`MARGIN`).
-    start: a fit of a model this one extends, tried as one more start (:func:`best_of`).
+    start: a fit of a model this one extends, tried as one more start (:func:`best_of`): what
+    :func:`fit` returns, its ``.result`` or its ``fit.json`` (:func:`as_result`).
     extends: a model this one extends (e.g. :func:`full_model` for the full model plus effects),
     fitted first on the same stances when no ``start`` is given; its optimum is then that start,
     so that the problem's non-convexity cannot leave the extended model above it.
@@ -405,10 +417,22 @@ def fit(
     (:mod:`gc_ocp.estimation.bias`); None (default): 16 where the markers' noise moves a
     contact unit by 0.15 mm or more after the low-pass, none elsewhere
     (:func:`bias_replicates`; the shared labs' files are all far below); 0: none.
+
+    Returns a :class:`FitReport`; a failed solve raises :class:`~gc_ocp.errors.SolveError`
+    carrying its result. Example::
+
+        trial = gc_ocp.load_trial()
+        kin = gc_ocp.compute_kinematics(trial)
+        report = gc_ocp.fit([(trial, kin)], holdout="auto")
+        print(report.summary())
+        report.result.blocks["contact"]  # the parameters and their SEs, as data
     """
     say = progress or (lambda s: None)
-    _require_model(model, "model")
-    _require_model(extends, "extends")
+    require_model(model, "model")
+    require_model(extends, "extends")
+    require_settings(weights, options)
+    margin = number(margin, "margin", "s")
+    start = None if start is None else as_result(start)
     if holdout is not None and not isinstance(holdout, str):
         raise InputError(
             f"holdout={holdout!r}: give a stance's label or a part of it, e.g. "

@@ -113,7 +113,12 @@ def describe_block(class_name: str, block: dict) -> list[SummaryRow]:
 
 def model_from_names(names, base: tuple = ()) -> tuple[Component, ...]:
     """``base`` plus the registered components ``names`` (the defaults for the model they join,
-    :meth:`Component.for_model`), skipping those whose class is already in ``base``."""
+    :meth:`Component.for_model`), skipping those whose class is already in ``base``.
+    ``names``: a list of registry names (one name alone is one name), e.g. of
+    :data:`EFFECTS`. Example::
+
+        model = gc_ocp.model_from_names(["friction"], base=gc_ocp.full_model())
+    """
     names = names_of(names, "component names")
     unknown = [n for n in names if n not in REGISTRY]
     if unknown:
@@ -146,7 +151,8 @@ def bare_seed_model() -> tuple[Component, ...]:
 
 
 def seed_model(mu: float = 0.0) -> tuple[Component, ...]:
-    """The seed report's configuration: contact law only, n = 1, c = 0, fixed points."""
+    """The seed report's configuration: contact law only, k per unit, n = 1, c = 0, fixed
+    points, the friction coefficient fixed at ``mu`` [-] (default 0: no friction force)."""
     return (ContactLaw.seed(mu),)
 
 

@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Literal, NamedTuple
 
 import numpy as np
 
-from gc_ocp.errors import ModelError
+from gc_ocp.errors import InputError, ModelError
 from gc_ocp.estimation.flags import LAW_GIVERS
 from gc_ocp.estimation.variables import block_values
 from gc_ocp.values import BOUND_TEXT, se_text
@@ -365,4 +365,17 @@ class Component:
         return bool(self.width_fields)
 
 
-__all__ = ["Component", "DecodeContext", "Scope", "SummaryRow"]
+def require_model(model, name: str) -> None:
+    """``model`` is None or a tuple of components, else :class:`InputError` with the fix."""
+    if model is None or (
+        isinstance(model, tuple | list) and model and all(isinstance(c, Component) for c in model)
+    ):
+        return
+    raise InputError(
+        f"{name}={model!r}: give a tuple of components, e.g. gc_ocp.full_model(); to add "
+        "effects by name: gc_ocp.model_from_names(['friction'], "
+        "base=gc_ocp.full_model())."
+    )
+
+
+__all__ = ["Component", "DecodeContext", "Scope", "SummaryRow", "require_model"]

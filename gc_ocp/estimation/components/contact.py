@@ -23,7 +23,7 @@ from gc_ocp.contact.laws import (
     normal_force_function,
     penetration_function,
 )
-from gc_ocp.errors import ModelError
+from gc_ocp.errors import InputError, ModelError
 from gc_ocp.estimation.components.base import Component, DecodeContext
 from gc_ocp.estimation.flags import flag
 from gc_ocp.trial import SIDES
@@ -178,6 +178,14 @@ class ContactLaw(Component):
         )
 
     def __post_init__(self) -> None:
+        for pname in PARAMS:  # ContactLaw(mu=0.8) was an AttributeError on its .scope
+            v = getattr(self, pname)
+            if not isinstance(v, Param):
+                raise InputError(
+                    f"ContactLaw({pname}={v!r}): give a Param, e.g. {pname}=Param('fixed', {v!r}) "
+                    f"to fix it, or Param('shared', {v!r}, lower, upper) to estimate it "
+                    "(gc_ocp.Param: its scope, value and bounds)"
+                )
         for pname in ("n", "c", "mu"):
             if getattr(self, pname).scope == "unit":
                 raise ModelError(
