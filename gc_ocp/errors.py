@@ -2,18 +2,39 @@
 
 Every error raised on bad user input is a :class:`GcOcpError` subclass whose message
 names the offending input (file, marker, plate, unit) and the fix. The CLI prints the
-message without a traceback and exits with status 2.
+message without a traceback and exits with status 2 (1 for a :class:`SolveError`).
+
+Which to catch: :class:`InputError` for what the user gave (a file, an option, an array: the
+message says what to change; :class:`MarkerError`, :class:`PlateError`, :class:`UnitsError`
+narrow it); :class:`SolveError` for a fit Ipopt did not bring to convergence (its ``.result``
+holds the last iterate); :class:`GcOcpError` for every error the package raises on purpose.
+Example::
+
+    try:
+        report = gc_ocp.fit([(trial, kin)])
+    except gc_ocp.SolveError as e:
+        print(e, e.result.status)  # what was obtained, to inspect or restart from
+    except gc_ocp.InputError as e:
+        print(e)  # names the input and the fix
 """
 
 from __future__ import annotations
 
 
 class GcOcpError(Exception):
-    """Base class of every error gc_ocp raises on purpose."""
+    """Base class of every error gc_ocp raises on purpose: ``except gc_ocp.GcOcpError`` takes
+    them all (an error of another type from inside gc_ocp is a bug, as the CLI says)."""
 
 
 class InputError(GcOcpError, ValueError):
-    """A file, option or array given by the user is unusable (names it and the fix)."""
+    """A file, option or array given by the user is unusable (names it and the fix): the one to
+    catch around a call on user input (also a ``ValueError``). Example::
+
+        try:
+            trial = gc_ocp.load_trial(path)
+        except gc_ocp.InputError as e:
+            print(f"skipped {path}: {e}")
+    """
 
 
 class MarkerError(InputError):
@@ -34,7 +55,10 @@ class MassError(InputError):
 
 
 class ModelError(GcOcpError):
-    """The body model or contact layout is inconsistent."""
+    """The body model or contact layout is inconsistent, or a model assembled in code cannot be
+    made (e.g. a :class:`~gc_ocp.estimation.components.contact.Param` of unknown scope, a
+    component name registered twice); an unknown name is also an :class:`InputError`
+    (:class:`UnknownNameError`)."""
 
 
 class UnknownNameError(InputError, ModelError):
@@ -71,7 +95,14 @@ class RankError(GcOcpError, ValueError):
 
 
 class SolveError(GcOcpError, RuntimeError):
-    """A numerical solve failed or did not converge; ``.result`` carries what was obtained."""
+    """A numerical solve failed or did not converge; ``.result`` carries what was obtained (an
+    :class:`~gc_ocp.estimation.result.EstimationResult` for an Ipopt fit). Example::
+
+        try:
+            result = gc_ocp.solve(problem, gc_ocp.IpoptOptions(max_iter=50))
+        except gc_ocp.SolveError as e:
+            result = e.result  # status, iterations and the last iterate
+    """
 
     def __init__(self, message: str, result: object = None) -> None:
         super().__init__(message)

@@ -47,6 +47,12 @@ class StanceData:
     an exact 0 wherever the vertical force was below this threshold (0: no threshold), so a
     measured vertical force below it is censored, not an error
     (:mod:`gc_ocp.estimation.measurement`).
+
+    Made from a loaded trial and its kinematics, not by hand: :func:`trial_stances` (every
+    stance of the trial) or :func:`stance_data` (one). Example::
+
+        stances = gc_ocp.trial_stances(trial, kin)  # [StanceData, ...]
+        problem = gc_ocp.build_estimation(stances, gc_ocp.full_model())
     """
 
     side: str

@@ -4,6 +4,9 @@ reader (:func:`se_text`)."""
 
 from __future__ import annotations
 
+import dataclasses
+import difflib
+import functools
 import math
 import numbers
 import os
@@ -53,6 +56,29 @@ def require_given(value, kind: type, what: str) -> None:
     name = kind.__name__
     kw = f"**{value!r:.60}" if isinstance(value, dict) else "..."
     require(value, kind, f"{what} takes gc_ocp.{name} (or None)", f"{what}=gc_ocp.{name}({kw})")
+
+
+def named_fields(cls: type) -> type:
+    """A settings dataclass (``gc_ocp.IpoptOptions``, ``gc_ocp.Weights``) whose unknown keyword
+    is an :class:`InputError` naming its fields and the closest one (``IpoptOptions(max_iters=50)``
+    was Python's TypeError, which lists no field). Applied above ``@dataclass``."""
+    init = cls.__init__
+    names = [f.name for f in dataclasses.fields(cls)]
+
+    @functools.wraps(init)
+    def __init__(self, *args, **kw):
+        unknown = [k for k in kw if k not in names]
+        if unknown:
+            close = difflib.get_close_matches(unknown[0], names, 1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise InputError(
+                f"gc_ocp.{cls.__name__} has no field {unknown[0]!r}{hint}; its fields: "
+                f"{', '.join(names)}"
+            )
+        init(self, *args, **kw)
+
+    cls.__init__ = __init__
+    return cls
 
 
 def is_count(value) -> bool:

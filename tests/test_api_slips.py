@@ -55,11 +55,51 @@ def pair():
         # lightly against the priors, silently
         (lambda t, k: gc_ocp.Weights(force_sigma=2), "fraction of body weight"),
         (lambda t, k: gc_ocp.Weights(torque_length=250), "length in m"),
+        # a review of 2026-12-04: Ipopt refused each at the first solve with CasADi's
+        # RuntimeError "Invalid options were detected by Ipopt" (its option text on stdout), a
+        # bad hessian was a ModelError from inside the solve, a misspelt field a TypeError, and
+        # a fractional max_iter was cut to a whole one silently
+        (lambda t, k: gc_ocp.IpoptOptions(max_iter=-5), r"max_iter=-5\).*whole number >= 0"),
+        (lambda t, k: gc_ocp.IpoptOptions(max_iter=2.5), r"max_iter=2.5\).*whole number"),
+        (lambda t, k: gc_ocp.IpoptOptions(tol=0), r"tol=0\).*number > 0"),
+        (lambda t, k: gc_ocp.IpoptOptions(tol="1e-8"), r"tol='1e-8'\).*number > 0"),
+        (lambda t, k: gc_ocp.IpoptOptions(acceptable_iter=-1), r"acceptable_iter=-1\)"),
+        (lambda t, k: gc_ocp.IpoptOptions(print_level=20), r"print_level=20\).*0 to 12"),
+        (lambda t, k: gc_ocp.IpoptOptions(warm_mu_init=0.0), r"warm_mu_init=0.0\).*or None"),
+        (lambda t, k: gc_ocp.IpoptOptions(warm_bound_push=0.9), r"warm_bound_push=0.9\).*0.5"),
+        (
+            lambda t, k: gc_ocp.IpoptOptions(hessian="exact-ish"),
+            r"hessian='exact-ish'\).*'exact', 'gauss-newton'",
+        ),
+        (
+            lambda t, k: gc_ocp.IpoptOptions(linear_solver="nosuch"),
+            r"linear_solver='nosuch'\).*ma27.*available here: mumps",
+        ),
+        (lambda t, k: gc_ocp.IpoptOptions(max_iters=50), "no field 'max_iters'.*'max_iter'"),
+        (lambda t, k: gc_ocp.Weights(force_sigms=0.01), "no field 'force_sigms'.*'force_sigma'"),
     ],
 )
 def test_a_slip_is_one_clear_error(pair, call, needle):
     with pytest.raises(InputError, match=needle):
         call(*pair)
+
+
+def test_a_linear_solver_ipopt_cannot_load_is_named_at_construction():
+    """HSL's MA27 where HSL is not installed (Ipopt loads its library, ``libhsl``, only when a
+    solve starts) was a SolveError "did not converge: Invalid_Option after -1 iterations" at the
+    first solve; now it is refused when the options are made, with the solvers this Ipopt has.
+    Where HSL is installed the option is valid and the test does not apply."""
+    import ctypes
+
+    try:
+        ctypes.CDLL("libhsl.so")
+        pytest.skip("HSL is installed: ma27 is a valid linear solver here")
+    except OSError:
+        pass
+    with pytest.raises(InputError, match=r"linear_solver='ma27'\).*available here: mumps"):
+        gc_ocp.IpoptOptions(linear_solver="ma27")
+    # the default and a spelt-out built-in one are taken
+    assert gc_ocp.IpoptOptions(linear_solver="mumps") == gc_ocp.IpoptOptions()
 
 
 def test_figures_take_the_fit_itself_and_a_side_by_name(pair, tmp_path):

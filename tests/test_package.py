@@ -165,3 +165,19 @@ def test_shipped_marker_sets_are_files_of_the_package():
     assert MARKERSET_DIR.is_dir() and not MARKERSET_DIR.is_symlink()
     assert MARKERSET_DIR.resolve().is_relative_to(ROOT)
     assert available_markersets() == ["gait2392", "plugingait", "rajagopal"]
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["Component", "Weights", "IpoptOptions", "Param", "StanceData", "EstimationResult"]
+    + ["InputError", "SolveError"],
+)
+def test_public_classes_show_an_example_with_names_that_exist(name):
+    """``help(gc_ocp.X)`` of a class a user builds, receives or catches shows how (an example
+    block, ``::``), and every ``gc_ocp.<name>`` the docstring uses is one the package has."""
+    import re
+
+    doc = getattr(gc_ocp, name).__doc__
+    assert "::" in doc
+    used = set(re.findall(r"\bgc_ocp\.(\w+)", doc))
+    assert used and all(hasattr(gc_ocp, n) for n in used), used

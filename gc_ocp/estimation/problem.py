@@ -40,13 +40,17 @@ from gc_ocp.estimation.frame import BASE_DATA, FrameModel, frame_model
 from gc_ocp.estimation.measurement import stance_residuals
 from gc_ocp.estimation.variables import Variables
 from gc_ocp.stance import StanceData, require_stance_list
-from gc_ocp.values import require_given
+from gc_ocp.values import named_fields, require_given
 
 
+@named_fields
 @dataclass(frozen=True)
 class Weights:
     """Residual scaling. force_sigma: force error scale as a fraction of BW [-] (0.02: 2 % BW);
-    torque_length: torque error scale = force scale x this length [m]."""
+    torque_length: torque error scale = force scale x this length [m]. Example::
+
+        report = gc_ocp.fit([(trial, kin)], weights=gc_ocp.Weights(force_sigma=0.01))
+    """
 
     force_sigma: float = 0.02
     torque_length: float = 0.25

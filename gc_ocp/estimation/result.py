@@ -69,6 +69,13 @@ class EstimationResult:
     "nominal_points", "toes_offset", "reference_point", "ground_height", "body_weight", "height",
     "units"}`` (arrays time-first, SI); flags: plausibility flags ``{"code", "what", "message"}``
     (:mod:`gc_ocp.estimation.flags`): what should not be taken at face value.
+
+    Returned by :func:`~gc_ocp.estimation.solve.solve`, by ``gc_ocp.fit(...).result``, and read
+    back from a fit.json by :meth:`from_json`. Example::
+
+        result = gc_ocp.fit([(trial, kin)]).result  # or EstimationResult.from_json(path)
+        print(result.summary())
+        result.blocks["contact"]  # the contact law's parameters with their SEs
     """
 
     x: np.ndarray

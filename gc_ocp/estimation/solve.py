@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import functools
+import math
+import numbers
 import time as _time
 from dataclasses import dataclass
 
@@ -9,15 +12,72 @@ import casadi as ca
 import numpy as np
 
 from gc_ocp import signals
-from gc_ocp.errors import ModelError, SolveError
+from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.components.base import DecodeContext
 from gc_ocp.estimation.components.contact import ContactLaw
 from gc_ocp.estimation.flags import fit_flags, variable_flags
 from gc_ocp.estimation.problem import EstimationProblem, Weights
 from gc_ocp.estimation.result import EstimationResult, fit_quality
-from gc_ocp.values import require, require_given
+from gc_ocp.values import is_count, named_fields, require, require_given
+
+HESSIANS = ("exact", "gauss-newton")
+"""The Hessians :func:`make_solver` gives Ipopt (:class:`IpoptOptions`' ``hessian``)."""
+
+LINEAR_SOLVERS = ("mumps", "spral", "ma27", "ma57", "ma77", "ma86", "ma97", "pardiso")
+"""Ipopt's ``linear_solver`` settings (its option documentation, Ipopt 3.14; ``custom`` needs a
+solver object CasADi cannot pass). MUMPS and SPRAL are built into CasADi's Ipopt; HSL's MA27-MA97
+and Pardiso are loaded when a solve starts from their own libraries, installed separately."""
 
 
+@functools.cache
+def linear_solver_available(name: str) -> bool:
+    """Whether this process's Ipopt can factorise with ``name`` (one of :data:`LINEAR_SOLVERS`):
+    a one-variable problem solved with it, once per process (a few ms). Without its library Ipopt
+    stops before its first iteration (``Invalid_Option``), which :func:`solve` reported as "did
+    not converge"; a name Ipopt does not know is refused by ``nlpsol`` itself (with its option
+    text on stdout), so only the names of :data:`LINEAR_SOLVERS` are tried."""
+    x = ca.MX.sym("x")
+    opts = {"ipopt.linear_solver": name, "ipopt.print_level": 0, "ipopt.sb": "yes"}
+    probe = ca.nlpsol(
+        "linear_solver_probe", "ipopt", {"x": x, "f": (x - 1) ** 2}, opts | {"print_time": False}
+    )
+    probe(x0=0.0)
+    return bool(probe.stats()["success"])
+
+
+def _linear_solvers_here() -> str:
+    """The built-in linear solvers this Ipopt has, for a message. The run-time loaded ones are not
+    tried: a failed load of MA86, then MA97, then Pardiso in one process crashed it (CasADi
+    3.8.2's Ipopt 3.14.19, a segmentation fault)."""
+    here = [n for n in LINEAR_SOLVERS[:2] if linear_solver_available(n)]
+    names = ", ".join(here) or "none"
+    return f"available here: {names} (ma27-ma97 with HSL's library, pardiso with Pardiso's)"
+
+
+_RANGES = {
+    # field: (a whole number, lowest, lowest allowed, highest), Ipopt's (its option documentation)
+    "tol": (False, 0, False, math.inf),
+    "acceptable_tol": (False, 0, False, math.inf),
+    "acceptable_obj_change_tol": (False, 0, True, math.inf),
+    "acceptable_iter": (True, 0, True, math.inf),
+    "max_iter": (True, 0, True, math.inf),
+    "print_level": (True, 0, True, 12),
+    "warm_mu_init": (False, 0, False, math.inf),
+    "warm_bound_push": (False, 0, False, 0.5),  # also Ipopt's bound_frac, at most 0.5
+}
+
+
+def _range_text(whole: bool, low, low_in: bool, high) -> str:
+    """A range of :data:`_RANGES` as a message says it ("a whole number from 0 to 12")."""
+    kind = "a whole number" if whole else "a number"
+    if high == math.inf:
+        return f"{kind} {'>=' if low_in else '>'} {low}"
+    if whole:
+        return f"{kind} from {low} to {high}"
+    return f"{kind} in {'[' if low_in else '('}{low}, {high}]"
+
+
+@named_fields
 @dataclass(frozen=True)
 class IpoptOptions:
     """Ipopt settings. ``tol``: NLP tolerance; ``max_iter``; ``print_level`` 0-12.
@@ -34,6 +94,14 @@ class IpoptOptions:
     large barrier, and then spend iterations coming back. With 1e-4 and 1e-6 the bundled
     trial's warm stages and rounds take about a quarter fewer iterations to the same optima
     (``docs/estimation.md``, *Warm starts*). ``None``: Ipopt's defaults there too.
+
+    linear_solver: one of :data:`LINEAR_SOLVERS` that this Ipopt can load (``"mumps"``, built
+    in, by default; HSL's ``"ma27"``-``"ma97"`` need HSL's library). A value Ipopt would refuse
+    is an :class:`~gc_ocp.errors.InputError` when the options are made, naming the field and
+    what it takes. Example::
+
+        options = gc_ocp.IpoptOptions(max_iter=200, print_level=5)
+        report = gc_ocp.fit([(trial, kin)], options=options)
     """
 
     tol: float = 1e-8
@@ -46,6 +114,40 @@ class IpoptOptions:
     hessian: str = "exact"
     warm_mu_init: float | None = 1e-4
     warm_bound_push: float | None = 1e-6
+
+    def __post_init__(self) -> None:
+        # Ipopt refused a value out of its range at the first solve, as CasADi's RuntimeError
+        # "Invalid options were detected by Ipopt" (its option text on stdout), and cut a
+        # fractional max_iter to a whole one silently
+        for name, (whole, low, low_in, high) in _RANGES.items():
+            v = getattr(self, name)
+            warm = name.startswith("warm_")  # None: Ipopt's default
+            if v is None and warm:
+                continue
+            if whole:
+                ok = is_count(v)
+            else:
+                ok = isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v)
+            if not (ok and (low <= v if low_in else low < v) and v <= high):
+                takes = _range_text(whole, low, low_in, high) + " (Ipopt's range)"
+                takes += ", or None (Ipopt's default)" if warm else ""
+                raise InputError(f"IpoptOptions({name}={v!r}): give {takes}")
+        if self.hessian not in HESSIANS:
+            raise InputError(
+                f"IpoptOptions(hessian={self.hessian!r}): give one of "
+                f"{', '.join(map(repr, HESSIANS))}"
+            )
+        ls = self.linear_solver
+        if not (isinstance(ls, str) and ls in LINEAR_SOLVERS):
+            raise InputError(
+                f"IpoptOptions(linear_solver={ls!r}): not one of Ipopt's linear solvers "
+                f"({', '.join(LINEAR_SOLVERS)}); {_linear_solvers_here()}"
+            )
+        if not linear_solver_available(ls):
+            raise InputError(
+                f"IpoptOptions(linear_solver={ls!r}): this Ipopt cannot load it (its library is "
+                f"not installed); {_linear_solvers_here()}"
+            )
 
     def as_dict(self, warm: bool = False) -> dict:
         """Ipopt's options for CasADi's ``nlpsol``; ``warm``: for a warm solve (the ``warm_*``
@@ -235,7 +337,7 @@ def make_solver(
     )
     if options.hessian == "gauss-newton":
         opts["hess_lag"] = gauss_newton_hessian(problem)
-    elif options.hessian == "exact":
+    else:  # "exact" (IpoptOptions checks the name)
         lam_f, lam_g = ca.MX.sym("lam_f"), ca.MX.sym("lam_g", 0, 1)
         opts["hess_lag"] = ca.Function(
             "nlp_hess_l",
@@ -243,10 +345,6 @@ def make_solver(
             [lam_f * ca.triu(problem.hessian)],
             ["x", "p", "lam_f", "lam_g"],
             ["triu_hess_gamma_x_x"],
-        )
-    else:
-        raise ModelError(
-            f'IpoptOptions.hessian must be "exact" or "gauss-newton", but got "{options.hessian}"'
         )
     solver = ca.nlpsol("gc_ocp_fit", "ipopt", nlp, opts)
     return solver

@@ -164,7 +164,13 @@ def full_model() -> tuple[Component, ...]:
 
 EFFECTS: tuple[str, ...] = candidate_effects()
 """The candidate model extensions of the diagnosis, by registry name: every registered class
-with ``candidate = True``, in :data:`REGISTRY` order (derived again by :func:`register`)."""
+with ``candidate = True``, in :data:`REGISTRY` order (derived again by :func:`register`; a
+module that imported it before keeps its tuple, :func:`candidate_effects` is the registry now).
+Each name is accepted by :func:`model_from_names` and by the diagnosis's ``candidates``::
+
+    model = gc_ocp.model_from_names([gc_ocp.EFFECTS[0]], base=gc_ocp.base_model())
+    d = gc_ocp.diagnose([(trial, kin)], candidates=["damping", "friction"])
+"""
 
 
 __all__ = [

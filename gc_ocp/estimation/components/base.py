@@ -130,7 +130,25 @@ def unique_labels(name: str, stances) -> None:
 
 
 class Component:
-    """Base class: every hook is a no-op, so a component implements only what it does."""
+    """Base class: every hook is a no-op, so a component implements only what it does.
+
+    A model is a tuple of components (``gc_ocp.full_model()``); the builder composes them
+    through their hooks and never tests a component's type (``docs/architecture.md``, *The
+    component protocol*, lists the hooks). A new effect is one frozen-dataclass subclass in one
+    file and one :func:`~gc_ocp.estimation.components.register` line: take
+    :class:`~gc_ocp.estimation.components.damping.Damping` (``components/damping.py``: one
+    variable in one slot of the contact law) as the template and ``docs/effects.md``, *Adding an
+    effect*, as the checklist. Example::
+
+        @dataclass(frozen=True)
+        class GroundTilt(gc_ocp.Component):
+            name: str = "ground_tilt"
+            candidate = True  # offered by the diagnosis, listed in gc_ocp.EFFECTS
+            ...  # declare, slot_sizes, slots, edit_contact, decode, frozen, signature
+
+        gc_ocp.register("ground_tilt", GroundTilt)
+        model = gc_ocp.model_from_names(["ground_tilt"], base=gc_ocp.base_model())
+    """
 
     name: str = "component"
     scope: Scope = "global"

@@ -42,7 +42,9 @@ class Param:
     ``{side: {unit: float}}`` for per-foot / per-unit values.
     lower, upper: bounds in SI units.
     prior_sigma: optional Gaussian prior centred on ``value``, in the optimised units (log units
-    for k: ``prior_sigma = 2`` means a factor e^2 = 7.4 at one standard deviation).
+    for k: ``prior_sigma = 2`` means a factor e^2 = 7.4 at one standard deviation). Example::
+
+        law = gc_ocp.ContactLaw(mu=gc_ocp.Param("fixed", 0.8), c=gc_ocp.Param("shared", 0.3, 0, 10))
     """
 
     scope: str
