@@ -143,7 +143,9 @@ class IpoptOptions:
                 f"IpoptOptions(linear_solver={ls!r}): not one of Ipopt's linear solvers "
                 f"({', '.join(LINEAR_SOLVERS)}); {_linear_solvers_here()}"
             )
-        if not linear_solver_available(ls):
+        # the default is built into every Ipopt CasADi ships: no probe solve at construction
+        # (an IpoptOptions() is made at import, as a default argument)
+        if ls != "mumps" and not linear_solver_available(ls):
             raise InputError(
                 f"IpoptOptions(linear_solver={ls!r}): this Ipopt cannot load it (its library is "
                 f"not installed); {_linear_solvers_here()}"
