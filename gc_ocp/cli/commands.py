@@ -31,10 +31,10 @@ def _print_skipped(skipped) -> None:
 def cmd_info(args: argparse.Namespace) -> int:
     """Describe every trial; one that cannot be read is reported and the others described
     (exit status 2 at the end if any failed: a lab's folder is checked in one run), as is a
-    mass the plates contradict beyond what a fit accepts (described, then refused)."""
-    from gc_ocp.errors import MassError
+    mass the plates contradict beyond what a fit accepts (described, then refused), and so is a
+    belt speed the stance feet contradict."""
     from gc_ocp.io import describe_trial
-    from gc_ocp.io.consistency import body_weight
+    from gc_ocp.io.consistency import belt, body_weight
 
     files = _trial_files(args)
     failed = refused = 0
@@ -49,9 +49,11 @@ def cmd_info(args: argparse.Namespace) -> int:
             continue
         print(describe_trial(trial))
         print()
-        try:  # the mass a fit refuses (e.g. --mass in pounds): bad input, said as the fit says it
+        try:  # what a fit refuses of the subject's values (--mass in pounds, --belt-speed in
+            # km/h): bad input, said as the fit says it
             body_weight(trial)
-        except MassError as e:
+            belt(trial)
+        except InputError as e:
             refused += 1
             print(f"gc-ocp info: error: {' '.join(str(e).split())}", file=sys.stderr)
     if failed:
