@@ -801,6 +801,22 @@ def test_kinematics_interrupted_while_drawing_its_figure_leaves_no_partial_set(
     assert not list(tmp_path.glob(".kin.*"))
 
 
+def test_kinematics_of_trials_one_cannot_pose_writes_no_trial(tmp_path, capsys):
+    """Two trials, the second without the marker set's foot markers: the first trial's folder
+    was written before the second failed, a part of the run looking like its result."""
+    from conftest import RAJ
+
+    if not RAJ.is_dir():
+        pytest.skip(f"real datasets not found at {RAJ}")
+    bundled = Path(__file__).resolve().parents[1] / "gc_ocp" / "data" / "test_small.c3d"
+    out = tmp_path / "kin"
+    argv = ["kinematics", str(bundled), str(RAJ / "motion_capture_walk.trc"), "--mass", "70"]
+    assert main([*argv, "--markerset", "plugingait", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert 'Foot marker "LANK" of marker set "plugingait"' in err and "Traceback" not in err, err
+    assert not out.exists() and not list(tmp_path.glob(".kin*"))
+
+
 def test_a_killed_run_s_staging_folder_is_removed_by_the_next(tmp_path):
     """A run killed outright (SIGKILL) cannot remove its staging folder ``.OUT.*`` beside
     ``--out`` (an interruption review found them left for good). The next run of any command

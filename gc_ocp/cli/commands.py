@@ -82,22 +82,27 @@ def cmd_kinematics(args: argparse.Namespace) -> int:
     check_writable(args.out, command="gc-ocp kinematics")  # before any computation
     trials = _load(args)
     names = [t.name for t in trials]
-    for i, trial in enumerate(trials):
-        kin = _kinematics(trial, args)
-        _print_landmarks(kin)
-        sub = trial.name if names.count(trial.name) == 1 else f"{i + 1}_{trial.name}"
-        out = args.out if len(trials) == 1 else args.out / sub  # one folder per trial
-        # staged and moved in together: an interrupt while the figure was drawn left the
-        # trajectories without their summary and figure (or beside an earlier run's)
-        files = OutputSet(out, KINEMATICS_OUTPUTS, "gc-ocp kinematics")
-        try:
-            for p in write_kinematics(trial, kin, files.stage, fmt=args.format):
-                files.path(p.name)
-            paths = files.commit()
-        finally:
+    kins = []
+    for trial in trials:  # every trial posed before anything is written: a trial that cannot
+        # be posed left the earlier trials' folders in --out, a study's part looking whole
+        kins.append(_kinematics(trial, args))
+        _print_landmarks(kins[-1])
+    sets = []
+    try:
+        for i, (trial, kin) in enumerate(zip(trials, kins, strict=True)):
+            sub = trial.name if names.count(trial.name) == 1 else f"{i + 1}_{trial.name}"
+            out = args.out if len(trials) == 1 else args.out / sub  # one folder per trial
+            # staged and moved in together: an interrupt while the figure was drawn left the
+            # trajectories without their summary and figure (or beside an earlier run's)
+            sets.append(OutputSet(out, KINEMATICS_OUTPUTS, "gc-ocp kinematics"))
+            for p in write_kinematics(trial, kin, sets[-1].stage, fmt=args.format):
+                sets[-1].path(p.name)
+        paths = [p for files in sets for p in files.commit()]
+    finally:
+        for files in sets:
             files.discard()
-        for p in paths:
-            print(f"wrote {p}")
+    for p in paths:
+        print(f"wrote {p}")
     if len(trials) > 1:  # the folder of the trials' folders (one trial's set claims its own)
         claim(args.out, "gc-ocp kinematics")
     return 0
