@@ -1056,6 +1056,29 @@ def test_export_of_json_that_is_not_an_object_exits_2(tmp_path, capsys, target, 
     assert "Traceback" not in err and not out.exists()
 
 
+def test_an_export_into_a_folder_named_like_a_casadi_file_writes_in_the_folder(
+    tmp_path, monkeypatch
+):
+    """``--out`` names a .casadi file or a folder: an existing folder named ``x.casadi`` was
+    taken for the file (status 3, IsADirectoryError on the move). What is written is not the
+    point here (test_export's): the law is a stand-in, so that no fit is needed."""
+    import casadi as ca
+
+    import gc_ocp.export.casadi_export as casadi_export
+
+    x = ca.SX.sym("x")
+    monkeypatch.setattr(
+        casadi_export, "casadi_function", lambda doc, trial: ca.Function("f", [x], [x])
+    )
+    fitted = tmp_path / "fit.json"
+    fitted.write_text(json.dumps({"stance_fits": [{"trial": "walk"}]}))
+    out = tmp_path / "models.casadi"
+    out.mkdir()
+    assert main(["export", "casadi", str(fitted), "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [".gc_ocp_outputs", "contact.casadi"]
+    assert not list(tmp_path.glob(".models.casadi.*"))  # no staging file left beside it
+
+
 def test_a_file_given_as_markerset_that_is_not_toml_is_named_as_such(tmp_path, capsys):
     """An existing file that is not a .toml marker set (a trial given to --markerset by
     mistake) was said "not found"."""

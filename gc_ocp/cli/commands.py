@@ -430,7 +430,8 @@ def cmd_export(args: argparse.Namespace) -> int:
                 f"{', '.join(wrong)} {'is' if len(wrong) == 1 else 'are'} for the OpenSim export; "
                 "the CasADi function is the fitted law itself: leave them out, or export opensim"
             )
-        if args.out.suffix == ".casadi":  # the file itself
+        if args.out.suffix == ".casadi" and not args.out.is_dir():  # the file itself (a
+            # folder so named is a folder: it was status 3, IsADirectoryError on the move)
             check_writable(args.out.parent)
             path = args.out
         else:  # a folder, perhaps another command's
