@@ -1079,6 +1079,22 @@ def test_an_export_into_a_folder_named_like_a_casadi_file_writes_in_the_folder(
     assert not list(tmp_path.glob(".models.casadi.*"))  # no staging file left beside it
 
 
+def test_a_batch_with_an_unusable_scheduler_or_no_workers_exits_2(tmp_path, capsys):
+    """``--scheduler nonsense`` was status 3 (distributed's ValueError, missing port number);
+    ``--workers 0`` was refused after the study's folder was made and claimed (left behind)."""
+    bundled = Path(__file__).resolve().parents[1] / "gc_ocp" / "data" / "test_small.c3d"
+    manifest = tmp_path / "study.csv"
+    manifest.write_text(f"subject,trial\nP01,{bundled}\n")
+    out = tmp_path / "results"
+    assert main(["batch", str(manifest), "--out", str(out), "--workers", "0"]) == 2
+    assert "workers must be 1 or more, but got 0" in capsys.readouterr().err
+    assert not out.exists()
+    assert main(["batch", str(manifest), "--out", str(out), "--scheduler", "nonsense"]) == 2
+    err = capsys.readouterr().err
+    assert "--scheduler nonsense: cannot connect" in err and "tcp://" in err, err
+    assert "Traceback" not in err and "internal error" not in err
+
+
 def test_a_file_given_as_markerset_that_is_not_toml_is_named_as_such(tmp_path, capsys):
     """An existing file that is not a .toml marker set (a trial given to --markerset by
     mistake) was said "not found"."""
