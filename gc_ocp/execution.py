@@ -99,7 +99,17 @@ def dask_client(
     from distributed import Client, LocalCluster
 
     if scheduler:
-        with Client(scheduler) as c:
+        from gc_ocp.errors import InputError
+
+        try:  # only the connection: an error of the block's work is the work's
+            c = Client(scheduler)
+        except (ValueError, OSError) as e:  # a malformed address; none answering (timeout)
+            raise InputError(
+                f"--scheduler {scheduler}: cannot connect ({e}); give a running Dask "
+                "scheduler's address, e.g. tcp://10.0.0.5:8786, or leave --scheduler out for a "
+                "local cluster (--workers N)."
+            ) from None
+        with c:
             yield c
         return
     method = start_method(start)

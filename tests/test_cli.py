@@ -152,10 +152,14 @@ def test_kinematics_cli_writes_trajectories_summary_and_figure(tmp_path):
         # a folder where a file belongs: named as a folder, not as missing
         (["info", "FOLDER"], "is a folder, not a file; give a trial's .c3d file"),
         (["export", "casadi", "FOLDER", "--out", "OUT"], "is a folder, not a file; give the fit"),
+        # it was "Model FOLDER does not exist"
+        (["export", "opensim", "FIT", "--model", "FOLDER", "--out", "OUT"], "is a folder, not a"),
     ],
 )
 def test_bad_input_exits_2_with_one_clear_message(argv, needle, capsys, tmp_path):
-    argv = [{"OUT": str(tmp_path / "o"), "FOLDER": str(tmp_path)}.get(a, a) for a in argv]
+    (tmp_path / "fit.json").write_text("{}")  # "FIT": the check of --model comes first
+    given = {"OUT": str(tmp_path / "o"), "FOLDER": str(tmp_path), "FIT": str(tmp_path / "fit.json")}
+    argv = [given.get(a, a) for a in argv]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert needle in err and "Traceback" not in err
@@ -559,6 +563,17 @@ def test_plates_in_the_truth_without_its_family_exit_2_before_any_work(tmp_path,
     assert "give --mismatch too" in err and "Traceback" not in err and not out.exists()
 
 
+@pytest.mark.parametrize("seeds", ["0", "-2"])
+def test_a_benchmark_without_noise_draws_exits_2_before_any_work(tmp_path, capsys, seeds):
+    """``--seeds 0`` plans no case: it was status 3 (numpy's AxisError in the confusion
+    figure) with the output folder left behind."""
+    out = tmp_path / "bench"
+    assert main(["benchmark-diagnosis", "--seeds", seeds, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"--seeds must be 1 or more, but got {seeds}" in err and "Traceback" not in err, err
+    assert not out.exists()
+
+
 def test_plates_in_a_null_without_draws_exit_2_before_any_work(tmp_path, capsys):
     """``diagnose --plate-calibration --null-draws 0``: a noise-only null draws no plate errors,
     so the flag would be void (and the note on claims plate errors mimic withheld): refused
@@ -593,6 +608,9 @@ def test_diagnose_bad_effects_exit_2_before_any_work(tmp_path, capsys, argv, nee
         (["fit", "--fixed-pose-width", "--pose-correlation"], "keep pose_scale=True"),
         (["diagnose", "--null-draws", "-3"], "--null-draws must be 0 or more"),
         (["diagnose", "--workers", "0"], "--workers must be 1 or more"),
+        # an empty label is part of every label: it went through to the fit, which refused it
+        # after the kinematics as matching every stance
+        (["fit", "--holdout", ""], "(--holdout) is blank: it names no stance"),
     ],
 )
 def test_bad_numbers_and_option_clashes_exit_2_before_the_kinematics(
@@ -783,6 +801,22 @@ def test_kinematics_interrupted_while_drawing_its_figure_leaves_no_partial_set(
     assert not list(tmp_path.glob(".kin.*"))
 
 
+def test_kinematics_of_trials_one_cannot_pose_writes_no_trial(tmp_path, capsys):
+    """Two trials, the second without the marker set's foot markers: the first trial's folder
+    was written before the second failed, a part of the run looking like its result."""
+    from conftest import RAJ
+
+    if not RAJ.is_dir():
+        pytest.skip(f"real datasets not found at {RAJ}")
+    bundled = Path(__file__).resolve().parents[1] / "gc_ocp" / "data" / "test_small.c3d"
+    out = tmp_path / "kin"
+    argv = ["kinematics", str(bundled), str(RAJ / "motion_capture_walk.trc"), "--mass", "70"]
+    assert main([*argv, "--markerset", "plugingait", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert 'Foot marker "LANK" of marker set "plugingait"' in err and "Traceback" not in err, err
+    assert not out.exists() and not list(tmp_path.glob(".kin*"))
+
+
 def test_a_killed_run_s_staging_folder_is_removed_by_the_next(tmp_path):
     """A run killed outright (SIGKILL) cannot remove its staging folder ``.OUT.*`` beside
     ``--out`` (an interruption review found them left for good). The next run of any command
@@ -933,3 +967,155 @@ def test_what_a_closing_cluster_logs_is_dropped_and_nothing_else():
     quiet_close("gc_ocp_test_logger")  # once
     log = logging.getLogger("gc_ocp_test_logger")
     assert sum(isinstance(x, CloseNoise) for x in log.filters) == 1
+
+
+def _damaged_trc(tmp_path, edit) -> Path:
+    """The Rajagopal TRC with ``edit(lines)`` applied (the list of its lines, changed in place)."""
+    from conftest import RAJ
+
+    if not RAJ.is_dir():
+        pytest.skip(f"real datasets not found at {RAJ}")
+    lines = (RAJ / "motion_capture_walk.trc").read_text().splitlines()
+    edit(lines)
+    trc = tmp_path / "damaged.trc"
+    trc.write_text("\n".join(lines) + "\n")
+    return trc
+
+
+def test_a_trc_without_marker_names_exits_2_naming_its_line(tmp_path, capsys):
+    """Line 4 of a TRC names the markers: without names it was status 3 (a ValueError of
+    numpy's reshape, cannot reshape array of size 0)."""
+    from conftest import RAJ
+
+    def edit(lines):
+        lines[3] = "Frame#\tTime"
+
+    trc = _damaged_trc(tmp_path, edit)
+    assert main(["info", str(trc), "--grf", str(RAJ / "grf_walk.mot"), "--mass", "85.07"]) == 2
+    err = capsys.readouterr().err
+    assert "damaged.trc, line 4: no marker names" in err and "Traceback" not in err, err
+
+
+@pytest.mark.parametrize("which", ["trc", "mot"])
+def test_a_time_column_that_goes_back_exits_2_naming_the_row(tmp_path, capsys, which):
+    """Rows out of order (two exports joined, a row pasted at the wrong place): the times step
+    back. It was accepted, the frames then taken in file order as if their times increased."""
+    from conftest import RAJ
+
+    def back(lines, first, col, sep):
+        cells = lines[first + 20].split(sep)  # the 21st data row gets the time of the 5th
+        cells[col] = lines[first + 4].split(sep)[col]
+        lines[first + 20] = sep.join(cells)
+
+    trc, mot = RAJ / "motion_capture_walk.trc", RAJ / "grf_walk.mot"
+    if which == "trc":
+        # lines 1-5 the header, line 6 blank (as OpenSim writes it), the data from line 7
+        trc = _damaged_trc(tmp_path, lambda lines: back(lines, 6, 1, "\t"))
+    else:
+        if not RAJ.is_dir():
+            pytest.skip(f"real datasets not found at {RAJ}")
+        lines = mot.read_text().splitlines()
+        end = next(i for i, ln in enumerate(lines) if ln.strip().lower() == "endheader")
+        col = [c.strip().lower() for c in lines[end + 1].split("\t")].index("time")
+        back(lines, end + 2, col, "\t")
+        mot = tmp_path / "damaged.mot"
+        mot.write_text("\n".join(lines) + "\n")
+    assert main(["info", str(trc), "--grf", str(mot), "--mass", "85.07"]) == 2
+    err = capsys.readouterr().err
+    assert f"damaged.{which}: the time goes back at data row 21" in err, err
+    assert "Traceback" not in err
+
+
+def test_a_belt_speed_the_stance_feet_contradict_exits_2(capsys):
+    """The Gait2392 trial's stance feet move backward at 1.06 m/s: 4 (its speed in km/h, 1.1
+    m/s) is beyond what the fit's belt correction can reach (BeltSpeed.bound, 0.5 m/s), so the
+    friction would slide against a belt the feet do not follow. It was described and fitted."""
+    from conftest import G23
+
+    if not G23.is_dir():
+        pytest.skip(f"real datasets not found at {G23}")
+    argv = ["info", str(G23 / "subject01_walk1.trc"), "--mass", "72.6"]
+    assert main([*argv, "--belt-speed", "4"]) == 2
+    err = capsys.readouterr().err
+    assert "a belt speed of 4.000 m/s was given but the stance feet move backward at 1.0" in err
+    assert "4 km/h = 1.111 m/s" in err and "Traceback" not in err, err
+    assert main([*argv, "--belt-speed", "1.2"]) == 0  # within the correction's reach
+
+
+@pytest.mark.parametrize("target", ["casadi", "opensim"])
+@pytest.mark.parametrize("text", ["[1, 2]", '"fit"', "3"])
+def test_export_of_json_that_is_not_an_object_exits_2(tmp_path, capsys, target, text):
+    """A fit.json is a JSON object: another JSON value was status 3 (AttributeError: 'list'
+    object has no attribute 'to_json')."""
+    fit = tmp_path / "fit.json"
+    fit.write_text(text)
+    out = tmp_path / "export"
+    assert main(["export", target, str(fit), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"{fit} is not a gc-ocp fit.json" in err and "JSON object" in err, err
+    assert "Traceback" not in err and not out.exists()
+
+
+def test_an_export_into_a_folder_named_like_a_casadi_file_writes_in_the_folder(
+    tmp_path, monkeypatch
+):
+    """``--out`` names a .casadi file or a folder: an existing folder named ``x.casadi`` was
+    taken for the file (status 3, IsADirectoryError on the move). What is written is not the
+    point here (test_export's): the law is a stand-in, so that no fit is needed."""
+    import casadi as ca
+
+    import gc_ocp.export.casadi_export as casadi_export
+
+    x = ca.SX.sym("x")
+    monkeypatch.setattr(
+        casadi_export, "casadi_function", lambda doc, trial: ca.Function("f", [x], [x])
+    )
+    fitted = tmp_path / "fit.json"
+    fitted.write_text(json.dumps({"stance_fits": [{"trial": "walk"}]}))
+    out = tmp_path / "models.casadi"
+    out.mkdir()
+    assert main(["export", "casadi", str(fitted), "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [".gc_ocp_outputs", "contact.casadi"]
+    assert not list(tmp_path.glob(".models.casadi.*"))  # no staging file left beside it
+
+
+def test_a_batch_with_an_unusable_scheduler_or_no_workers_exits_2(tmp_path, capsys):
+    """``--scheduler nonsense`` was status 3 (distributed's ValueError, missing port number);
+    ``--workers 0`` was refused after the study's folder was made and claimed (left behind)."""
+    bundled = Path(__file__).resolve().parents[1] / "gc_ocp" / "data" / "test_small.c3d"
+    manifest = tmp_path / "study.csv"
+    manifest.write_text(f"subject,trial\nP01,{bundled}\n")
+    out = tmp_path / "results"
+    assert main(["batch", str(manifest), "--out", str(out), "--workers", "0"]) == 2
+    assert "workers must be 1 or more, but got 0" in capsys.readouterr().err
+    assert not out.exists()
+    assert main(["batch", str(manifest), "--out", str(out), "--scheduler", "nonsense"]) == 2
+    err = capsys.readouterr().err
+    assert "--scheduler nonsense: cannot connect" in err and "tcp://" in err, err
+    assert "Traceback" not in err and "internal error" not in err
+
+
+def test_a_file_given_as_markerset_that_is_not_toml_is_named_as_such(tmp_path, capsys):
+    """An existing file that is not a .toml marker set (a trial given to --markerset by
+    mistake) was said "not found"."""
+    trc = tmp_path / "static.trc"
+    trc.write_text("PathFileType\t4\n")
+    out = tmp_path / "kin"
+    assert main(["kinematics", "--markerset", str(trc), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f'Marker set "{trc}" is a .trc file, not a marker set' in err, err
+    assert "not found" not in err and not out.exists()
+
+
+def test_python_m_gc_ocp_is_the_command():
+    """``python -m gc_ocp`` (the usual way to run a package's command) was "No module named
+    gc_ocp.__main__"."""
+    import subprocess
+    import sys
+
+    from gc_ocp import __version__
+
+    run = subprocess.run(
+        [sys.executable, "-m", "gc_ocp", "--version"], capture_output=True, text=True, timeout=120
+    )
+    assert run.returncode == 0 and run.stdout.strip() == f"gc-ocp {__version__}", run.stderr

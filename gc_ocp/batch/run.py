@@ -269,6 +269,8 @@ def run(
         )
     if out is None:
         raise InputError("Give the study's output folder (out=..., --out DIR).")
+    if workers is not None and workers < 1:  # before the study's folder is made and claimed
+        raise InputError(f"workers must be 1 or more, but got {workers}")
     out = check_writable(out, command=BATCH)
     out.mkdir(parents=True, exist_ok=True)
     lock = _lock(out)  # before anything of the study's is written or removed
@@ -278,8 +280,6 @@ def run(
         settings = settings or Settings()
         if diagnose:
             settings = dataclasses.replace(settings, diagnose=True)
-        if workers is not None and workers < 1:
-            raise InputError(f"workers must be 1 or more, but got {workers}")
         say = _progress_default() if progress == "auto" else progress
         t0 = time.perf_counter()
         bar = Progress(len(subjects), say)

@@ -145,6 +145,10 @@ def plan(
     of them from ``first_seed``: runs of other seeds can be merged), seeds outermost (a partial
     run covers every truth). "none" has no magnitude: it gets one case per (magnitude, seed)
     with distinct seeds, as many as any effect."""
+    if seeds < 1:  # no case: nothing to score, and no confusion matrix to draw
+        raise InputError(
+            f"--seeds must be 1 or more, but got {seeds} (noise draws per effect and magnitude)"
+        )
     _, model = resolve_base(base)
     values = injected_values()
     cands = [e for e in candidate_names(model) if e in values]  # those it can inject

@@ -31,10 +31,10 @@ def _print_skipped(skipped) -> None:
 def cmd_info(args: argparse.Namespace) -> int:
     """Describe every trial; one that cannot be read is reported and the others described
     (exit status 2 at the end if any failed: a lab's folder is checked in one run), as is a
-    mass the plates contradict beyond what a fit accepts (described, then refused)."""
-    from gc_ocp.errors import MassError
+    mass the plates contradict beyond what a fit accepts (described, then refused), and so is a
+    belt speed the stance feet contradict."""
     from gc_ocp.io import describe_trial
-    from gc_ocp.io.consistency import body_weight
+    from gc_ocp.io.consistency import belt, body_weight
 
     files = _trial_files(args)
     failed = refused = 0
@@ -49,9 +49,11 @@ def cmd_info(args: argparse.Namespace) -> int:
             continue
         print(describe_trial(trial))
         print()
-        try:  # the mass a fit refuses (e.g. --mass in pounds): bad input, said as the fit says it
+        try:  # what a fit refuses of the subject's values (--mass in pounds, --belt-speed in
+            # km/h): bad input, said as the fit says it
             body_weight(trial)
-        except MassError as e:
+            belt(trial)
+        except InputError as e:
             refused += 1
             print(f"gc-ocp info: error: {' '.join(str(e).split())}", file=sys.stderr)
     if failed:
@@ -80,22 +82,27 @@ def cmd_kinematics(args: argparse.Namespace) -> int:
     check_writable(args.out, command="gc-ocp kinematics")  # before any computation
     trials = _load(args)
     names = [t.name for t in trials]
-    for i, trial in enumerate(trials):
-        kin = _kinematics(trial, args)
-        _print_landmarks(kin)
-        sub = trial.name if names.count(trial.name) == 1 else f"{i + 1}_{trial.name}"
-        out = args.out if len(trials) == 1 else args.out / sub  # one folder per trial
-        # staged and moved in together: an interrupt while the figure was drawn left the
-        # trajectories without their summary and figure (or beside an earlier run's)
-        files = OutputSet(out, KINEMATICS_OUTPUTS, "gc-ocp kinematics")
-        try:
-            for p in write_kinematics(trial, kin, files.stage, fmt=args.format):
-                files.path(p.name)
-            paths = files.commit()
-        finally:
+    kins = []
+    for trial in trials:  # every trial posed before anything is written: a trial that cannot
+        # be posed left the earlier trials' folders in --out, a study's part looking whole
+        kins.append(_kinematics(trial, args))
+        _print_landmarks(kins[-1])
+    sets = []
+    try:
+        for i, (trial, kin) in enumerate(zip(trials, kins, strict=True)):
+            sub = trial.name if names.count(trial.name) == 1 else f"{i + 1}_{trial.name}"
+            out = args.out if len(trials) == 1 else args.out / sub  # one folder per trial
+            # staged and moved in together: an interrupt while the figure was drawn left the
+            # trajectories without their summary and figure (or beside an earlier run's)
+            sets.append(OutputSet(out, KINEMATICS_OUTPUTS, "gc-ocp kinematics"))
+            for p in write_kinematics(trial, kin, sets[-1].stage, fmt=args.format):
+                sets[-1].path(p.name)
+        paths = [p for files in sets for p in files.commit()]
+    finally:
+        for files in sets:
             files.discard()
-        for p in paths:
-            print(f"wrote {p}")
+    for p in paths:
+        print(f"wrote {p}")
     if len(trials) > 1:  # the folder of the trials' folders (one trial's set claims its own)
         claim(args.out, "gc-ocp kinematics")
     return 0
@@ -423,7 +430,8 @@ def cmd_export(args: argparse.Namespace) -> int:
                 f"{', '.join(wrong)} {'is' if len(wrong) == 1 else 'are'} for the OpenSim export; "
                 "the CasADi function is the fitted law itself: leave them out, or export opensim"
             )
-        if args.out.suffix == ".casadi":  # the file itself
+        if args.out.suffix == ".casadi" and not args.out.is_dir():  # the file itself (a
+            # folder so named is a folder: it was status 3, IsADirectoryError on the move)
             check_writable(args.out.parent)
             path = args.out
         else:  # a folder, perhaps another command's

@@ -225,12 +225,15 @@ def fit_document(fit) -> dict:
     """The JSON document (``fit.json``'s) of a ``FitReport``, an ``EstimationResult``, a
     ``fit.json`` dict or its path."""
     if isinstance(fit, str | Path):
-        return read_json_file(
-            fit,
-            "Fit file",
-            "a gc-ocp fit.json",
-            "give the fit.json of a fit (in the folder gc-ocp fit --out wrote).",
-        )
+        fix = "give the fit.json of a fit (in the folder gc-ocp fit --out wrote)."
+        doc = read_json_file(fit, "Fit file", "a gc-ocp fit.json", fix)
+        if not isinstance(doc, Mapping):  # valid JSON, but a list, text or number: no document
+            kind = {list: "an array", str: "a string", bool: "true/false", type(None): "null"}
+            raise InputError(
+                f"{fit} is not a gc-ocp fit.json ({kind.get(type(doc), 'a number')}, not a "
+                f"JSON object); {fix}"
+            )
+        return doc
     # a FitReport's own document (its result's, plus the held-out stance's fit and the
     # checks, as fit.json has them), an EstimationResult's, or a dict as it is
     return dict(fit) if isinstance(fit, Mapping) else fit.to_json()

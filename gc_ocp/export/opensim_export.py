@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from gc_ocp.contact.channels import TABLE_KEYS, channel_name, channel_rms_pct, channel_unit
-from gc_ocp.errors import InputError, ModelError
+from gc_ocp.errors import InputError, ModelError, require_file
 from gc_ocp.export import opensim_worker as worker
 from gc_ocp.export.calibrated import CalibratedContact, fit_document
 from gc_ocp.export.fitted_kinematics import fitted_kinematics
@@ -515,8 +515,8 @@ def model_wrenches(cal: CalibratedContact, trial, kin) -> dict[str, np.ndarray]:
 def check_request(fit, model: str | Path | None = None, trial: str | None = None) -> None:
     """An ``--model`` file that is not there, or a ``--trial`` the fit does not have, as an
     :class:`InputError` before any work (the trials' kinematics, a ``--hertz`` refit)."""
-    if model is not None and not Path(model).is_file():
-        raise InputError(f"Model {model} does not exist; give the subject's .osim file.")
+    if model is not None:  # a folder named as a folder (require_file)
+        require_file(model, "Model", "give the subject's .osim file (--model).")
     if trial is not None:
         names = list(dict.fromkeys(sf["trial"] for sf in fit_document(fit)["stance_fits"]))
         if trial not in names:

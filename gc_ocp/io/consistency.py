@@ -10,7 +10,9 @@ or excludes a stance / corrects a setting with a warning that is recorded in the
 * **Treadmill vs overground**: on a treadmill the stance foot moves backward with the belt
   (``estimate_belt_speed``; ~0 overground). A belt speed of at least :data:`TREADMILL_SPEED`
   with none given: the estimate is used, with a warning. A belt speed given while the feet stand
-  still in stance (below :data:`OVERGROUND_SPEED`): error.
+  still in stance (below :data:`OVERGROUND_SPEED`), or further from their speed than the fit's
+  belt correction reaches (``BeltSpeed.bound``, 0.5 m/s: the feet move at the belt's speed to
+  within a few cm/s in mid-stance), is an error.
 * **Force-motion**: while a plate is loaded (Fz > 20 % BW, middle half of the stance) its centre
   of pressure lies under the foot: within :data:`COP_MARGIN` of the convex hull of the foot's
   contact units (sole location from skin markers ~1-2 cm, COP noise ~1 cm). A stance whose COP
@@ -160,6 +162,12 @@ def _check_estimated_mass(trial: Trial) -> None:
 
 
 def belt(trial: Trial) -> tuple[Trial, list[str]]:
+    """``(trial, notes)`` with the belt speed the fit will use: the stance feet's estimate on a
+    treadmill given none (with a note); refused when given for overground walking, or further
+    from the feet's speed than the fit's belt correction reaches (its bound,
+    :class:`~gc_ocp.estimation.components.belt.BeltSpeed`): friction would slide the feet
+    against a belt they do not follow (a speed in km/h given as m/s)."""
+    from gc_ocp.estimation.components.belt import BeltSpeed
 
     try:
         speed, _ = estimate_belt_speed(trial)
@@ -176,6 +184,14 @@ def belt(trial: Trial) -> tuple[Trial, list[str]]:
         raise InputError(
             f"{trial.source}: a belt speed of {given:.3f} m/s was given but the stance feet stand still "
             f"({speed:+.3f} m/s along -X): this is overground walking; drop --belt-speed."
+        )
+    reach = BeltSpeed.bound  # [m/s] the largest correction the fit makes to a given speed
+    if given != 0.0 and abs(given - speed) > reach:
+        raise InputError(
+            f"{trial.source}: a belt speed of {given:.3f} m/s was given but the stance feet move "
+            f"backward at {speed:.3f} m/s, and the fit corrects a given speed by at most "
+            f"{reach:g} m/s. Give the belt speed in m/s ({given:g} km/h = {given / 3.6:.3f} m/s), "
+            "or drop --belt-speed to use the feet's speed."
         )
     return trial, []
 

@@ -87,6 +87,11 @@ def read_trc(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
         raise InputError(f"{path}: no 'Units' in the TRC header (line 3); add mm or m.")
     scale = unit_scale(unit, path, "TRC Units")
     names = [n.strip() for n in lines[3].split("\t")[2:] if n.strip()]
+    if not names:
+        raise InputError(
+            f"{path}, line 4: no marker names after Frame# and Time; a TRC's line 4 names "
+            "each marker (tab-separated, one name per X/Y/Z triple). Export the file again."
+        )
     columns = ["Frame#", "Time"] + [f'marker "{n}" {a}' for n in names for a in "XYZ"]
     rows = []
     for lineno, line in enumerate(lines[5:], start=6):
@@ -108,6 +113,7 @@ def read_trc(path: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
         raise InputError(
             f"{path}: data row {k + 1} has no Time value; every TRC row needs its time in column 2."
         )
+    _check_increasing(time, path, "TRC")
     rate = _number(header.get("DataRate", ""), path, 3, "DataRate", blank=np.nan)
     if np.isfinite(rate) and rate > 0:
         regular = time[0] + np.arange(len(time)) / rate
@@ -155,6 +161,21 @@ def _check_trc_y_up(path: Path, names: list[str], xyz: np.ndarray) -> None:
         f"(median), not along +Y: OpenSim's TRC files are Y-up, and this one is written "
         f"{up}-up. Export it Y-up (X forward, Y up), as its MOT."
     )
+
+
+def _check_increasing(time: np.ndarray, path: Path, kind: str) -> None:
+    """Refuse a time column that does not increase row by row (rows out of order, two exports
+    joined, a row pasted twice): every reader takes the rows as samples in time order, so the
+    file would be read as a motion it does not hold. Names the first data row that steps back
+    (or repeats its time)."""
+    back = np.flatnonzero(np.diff(time) <= 0)
+    if back.size:
+        k = int(back[0]) + 1  # 0-based index of the row whose time is not after its previous
+        raise InputError(
+            f"{path}: the time goes back at data row {k + 1} ({time[k]:.6g} s after "
+            f"{time[k - 1]:.6g} s): a {kind} file's times increase row by row. Put the rows in "
+            "time order (remove a repeated or pasted row), or export the file again."
+        )
 
 
 def read_mot(path: Path) -> tuple[list[str], np.ndarray, dict[str, str]]:
@@ -448,6 +469,7 @@ def read_opensim(trc: Path, grf: Path, threshold: float = COP_MIN_FORCE) -> RawT
     if "time" not in [c.lower() for c in cols]:
         raise InputError(f"{grf} has no 'time' column; columns are {cols}.")
     t = data[:, [c.lower() for c in cols].index("time")]
+    _check_increasing(t, grf, "MOT/STO")
     _check_one_clock(trc, time, grf, t)
     sets = grf_sets(cols)
     if not sets:

@@ -57,6 +57,14 @@ def markerset_path(name_or_path: str | Path) -> Path:
 def load_markerset(name_or_path: str | Path) -> MarkerSet:
     """Load a shipped marker set by name (``"plugingait"``...) or any TOML file by path."""
     p = markerset_path(name_or_path)
+    given = Path(name_or_path)
+    if not p.exists() and given.exists():  # a path, not of a .toml file: "not found" misleads
+        what = "a folder" if given.is_dir() else f"a {given.suffix or 'suffix-less'} file"
+        raise MarkerError(
+            f'Marker set "{name_or_path}" is {what}, not a marker set; give a shipped marker '
+            f"set's name {available_markersets()} or a .toml file (format: docs/markersets.md)"
+            "; a static trial is given with --static."
+        )
     if not p.exists():
         raise MarkerError(
             f'Marker set "{name_or_path}" not found; available marker sets: {available_markersets()} '

@@ -131,7 +131,13 @@ def with_detected_censoring(stances: Sequence[StanceData]) -> list[StanceData]:
 def _holdout_index(holdout: str, labels: Sequence[str]) -> int:
     """The one stance of ``labels`` that ``holdout`` names: its label exactly, else the one
     label of which it is a part (an exact label wins over the labels that contain it:
-    ``walk:right@0.410s`` names that stance beside ``fastwalk:right@0.410s``)."""
+    ``walk:right@0.410s`` names that stance beside ``fastwalk:right@0.410s``). A blank one
+    names none (it is a part of every label)."""
+    if not holdout.strip():
+        raise InputError(
+            f'holdout "{holdout}" (--holdout) is blank: it names no stance; give a stance label '
+            f'or a unique part of it, one of {list(labels)}, or "auto" (or leave --holdout out).'
+        )
     exact = [i for i, label in enumerate(labels) if label == holdout]
     if len(exact) == 1:
         return exact[0]
@@ -161,7 +167,7 @@ def check_holdout(holdout: str | None, trials: Sequence[Trial]) -> None:
         for st in t.stances:
             shown.append(f"{name}:{st.label}")
             every += [f"{path}:{st.label}", f"{t.name}#{i + 1}:{st.label}"]
-    if not any(holdout in label for label in every):
+    if not holdout.strip() or not any(holdout in label for label in every):
         _holdout_index(holdout, shown)
 
 
