@@ -65,6 +65,36 @@ def test_reproduce_seed_on_a_treadmill_sets_the_belt_as_fit_does(tmp_path, capsy
     assert "(a treadmill) but no belt speed was given: using 1." in err
 
 
+def test_reproduce_seed_stopped_midway_leaves_no_part_of_its_tables(tmp_path, monkeypatch, capsys):
+    """``reproduce-seed`` wrote table1.json, table1.md, table2.json, table2.md one by one: an
+    interrupt between them left this run's Table 1 in --out, alone (a new folder) or beside an
+    earlier run's Table 2, looking like a result. The four are now staged and moved in as one
+    set (:class:`gc_ocp.outputs.OutputSet`): the interrupt, while table2.json is written, leaves
+    a new folder empty and an earlier complete result as it was."""
+    import os
+
+    move = os.replace
+
+    def interrupted(src, dst):  # Ctrl-C while table2.json is moved into place
+        if Path(dst).name == "table2.json":
+            raise KeyboardInterrupt
+        move(src, dst)
+
+    earlier, fresh = tmp_path / "earlier", tmp_path / "fresh"
+    assert main(["reproduce-seed", "--seeds", "1", "--out", str(earlier)]) == 0
+    before = {p.name: p.read_bytes() for p in earlier.iterdir()}
+    assert {"table1.json", "table2.json", ".gc_ocp_outputs"} <= set(before)
+    monkeypatch.setattr(os, "replace", interrupted)
+    # --seeds 2: noisy rows with their spreads, a Table 1 unlike the earlier one
+    for out in (earlier, fresh):
+        assert main(["reproduce-seed", "--seeds", "2", "--out", str(out)]) == 130
+    monkeypatch.undo()
+    assert "interrupted" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in earlier.iterdir()} == before
+    assert not fresh.exists() or not any(fresh.iterdir())
+    assert not list(tmp_path.glob(".*"))  # no staging folder left beside either
+
+
 def test_info_on_bundled_example(capsys):
     assert main(["info"]) == 0
     out = capsys.readouterr().out
@@ -1093,6 +1123,35 @@ def test_a_batch_with_an_unusable_scheduler_or_no_workers_exits_2(tmp_path, caps
     err = capsys.readouterr().err
     assert "--scheduler nonsense: cannot connect" in err and "tcp://" in err, err
     assert "Traceback" not in err and "internal error" not in err
+
+
+def test_a_batch_whose_scheduler_does_not_answer_leaves_no_claimed_folder(tmp_path, capsys):
+    """``--scheduler tcp://127.0.0.1:PORT`` with nothing listening was refused (status 2) after
+    Dask's connect timeout, but only once the study's folder had been made and claimed (its
+    lock and owner files, no summary). The connection is now made before the folder is. Dask's
+    connect timeout is cut to 2 s here (30 s by default): a refused port fails the same way,
+    only sooner."""
+    import socket
+
+    import dask
+
+    bundled = Path(__file__).resolve().parents[1] / "gc_ocp" / "data" / "test_small.c3d"
+    manifest = tmp_path / "study.csv"
+    manifest.write_text(f"subject,trial\nP01,{bundled}\n")
+    with socket.socket() as s:  # a port nothing listens on (bound, then released)
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    scheduler = f"tcp://127.0.0.1:{port}"
+    new, empty = tmp_path / "results", tmp_path / "empty"
+    empty.mkdir()
+    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
+        for out in (new, empty):
+            argv = ["batch", str(manifest), "--out", str(out), "--scheduler", scheduler]
+            assert main(argv) == 2
+            err = capsys.readouterr().err
+            assert f"--scheduler {scheduler}: cannot connect" in err, err
+    assert not new.exists()
+    assert not any(empty.iterdir())
 
 
 def test_a_file_given_as_markerset_that_is_not_toml_is_named_as_such(tmp_path, capsys):

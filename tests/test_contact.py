@@ -457,7 +457,15 @@ def test_reproduce_seed_tables(fake_trial, tmp_path):
         got = np.array([res["table2"][side][u] for u in UNITS])
         np.testing.assert_allclose(got, K_TRUE_EXP[side], rtol=0.05)
     # written files: exact keys/order, seed values side by side
-    assert sorted(os.listdir(tmp_path)) == ["table1.json", "table1.md", "table2.json", "table2.md"]
+    # one set, with its owner record (gc_ocp.outputs.OWNER: no other command mixes files in)
+    assert sorted(os.listdir(tmp_path)) == [
+        ".gc_ocp_outputs",
+        "table1.json",
+        "table1.md",
+        "table2.json",
+        "table2.md",
+    ]
+    assert (tmp_path / ".gc_ocp_outputs").read_text() == "gc-ocp reproduce-seed\n"
     assert json.loads((tmp_path / "table1.json").read_text()) == json.loads(json.dumps(rows))
     assert [list(r) for r in json.loads((tmp_path / "table1.json").read_text())] == [
         list(r) for r in rows

@@ -22,6 +22,7 @@ summary table at the end.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import sys
 import time
@@ -272,8 +273,17 @@ def run(
     if workers is not None and workers < 1:  # before the study's folder is made and claimed
         raise InputError(f"workers must be 1 or more, but got {workers}")
     out = check_writable(out, command=BATCH)
-    out.mkdir(parents=True, exist_ok=True)
-    lock = _lock(out)  # before anything of the study's is written or removed
+    cluster = contextlib.ExitStack()
+    # the workers (a scheduler's connection, a local cluster's start) before the study's folder
+    # is made and claimed: a scheduler that did not answer left a claimed folder, lock and
+    # owner files and no summary, looking like a study's
+    client = cluster.enter_context(dask_client(workers, scheduler, client))
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        lock = _lock(out)  # before anything of the study's is written or removed
+    except BaseException:
+        cluster.close()
+        raise
     try:
         claim(out, BATCH)  # the study's folder, before any subject's
         clean_stale(out, ids)
@@ -285,8 +295,8 @@ def run(
         bar = Progress(len(subjects), say)
         outcomes: dict[str, dict] = {}
         futures = {}
-        with dask_client(workers, scheduler, client) as client:
-            _gather(client, subjects, out, settings, bar, outcomes, futures)
+        _gather(client, subjects, out, settings, bar, outcomes, futures)
+        cluster.close()  # its work is done (the summary's figures need no workers)
         # a worker killed midway left its subject's staging folder (the subject was redone elsewhere)
         clean_stale(out, ids)
         ordered = [outcomes[s.id] for s in subjects]
@@ -307,6 +317,7 @@ def run(
             atomic_write_text(out / "summary.html", page)
         return result
     finally:
+        cluster.close()  # (on an error) first: a cancelled task may still write its subject
         lock.close()
 
 

@@ -13,7 +13,8 @@ trial's own BW and BW*H (H: the trial's height, else the one the kinematics esti
 scaled the body with, else the seed's BW*H / BW). Table 2 is the experimental
 ``{side: {unit: k [N/m]}}``.
 
-Outputs are written atomically (temporary file in the same directory, then ``os.replace``).
+The four tables are written as one set (:func:`write_tables`): all of them, replacing an
+earlier run's, or none.
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ from gc_ocp.contact.synthetic import (
 )
 from gc_ocp.errors import InputError
 from gc_ocp.foot import UNITS
-from gc_ocp.outputs import atomic_write_text  # noqa: F401  (re-exported)
+from gc_ocp.outputs import OutputSet, atomic_write_text  # noqa: F401  (re-exported)
 from gc_ocp.stance import StanceData
 from gc_ocp.text import json_text
 
@@ -124,9 +125,10 @@ def reproduce_seed(
 
     trial: :class:`~gc_ocp.trial.Trial`; kinematics: ``TrialKinematics`` (``.feet[side]``);
     seeds: number of draws for each noisy case; out_dir: if given, writes ``table1.json``,
-    ``table1.md``, ``table2.json``, ``table2.md`` there; progress: ``progress(done, total, label)``;
-    law: contact law of the fit and of the synthetic data; synthetic_depth: penetration of the
-    lowest unit at mid-stance in the synthetic sets [m] (:func:`auto_ground_heights`);
+    ``table1.md``, ``table2.json``, ``table2.md`` there as one set (:func:`write_tables`);
+    progress: ``progress(done, total, label)``; law: contact law of the fit and of the
+    synthetic data; synthetic_depth: penetration of the lowest unit at mid-stance in the
+    synthetic sets [m] (:func:`auto_ground_heights`);
     rng_seed: base seed (draw d of case i uses ``default_rng([rng_seed, i, d])``).
 
     Returns ``{"table1": [rows], "table2": {side: {unit: k}}, "experimental_fit": LLSResult,
@@ -288,9 +290,18 @@ def table2_markdown(table2: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+SEED_COMMAND = "gc-ocp reproduce-seed"
+"""The owner recorded in a folder of the tables (:data:`gc_ocp.outputs.OWNER`)."""
+
+SEED_OUTPUTS: tuple[str, ...] = ("table1.json", "table1.md", "table2.json", "table2.md")
+"""The files of :func:`write_tables`: one set, replaced as a whole."""
+
+
 def write_tables(result: dict, out_dir: str | os.PathLike) -> dict[str, Path]:
-    """Write ``table1.json``, ``table1.md``, ``table2.json``, ``table2.md`` atomically."""
-    out = Path(out_dir)
+    """Write ``table1.json``, ``table1.md``, ``table2.json``, ``table2.md`` into ``out_dir`` as
+    one set (:class:`~gc_ocp.outputs.OutputSet`): written one by one, an interrupt or error
+    between them left this run's Table 1 alone, or beside an earlier run's Table 2, looking like
+    a result. A folder holding another command's outputs is refused."""
     # Render everything first, so a formatting error writes nothing.
     texts = {
         "table1.json": table1_json(result["table1"]),
@@ -298,4 +309,10 @@ def write_tables(result: dict, out_dir: str | os.PathLike) -> dict[str, Path]:
         "table2.json": table2_json(result["table2"]),
         "table2.md": table2_markdown(result["table2"]),
     }
-    return {name: atomic_write_text(out / name, text) for name, text in texts.items()}
+    out = OutputSet(out_dir, SEED_OUTPUTS, SEED_COMMAND)
+    try:
+        for name, text in texts.items():
+            out.text(name, text)
+        return {p.name: p for p in out.commit()}
+    finally:
+        out.discard()
