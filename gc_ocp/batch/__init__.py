@@ -2,7 +2,10 @@
 summary table (``docs/batch.md``).
 
 >>> from gc_ocp import batch
->>> # result = batch.run("study.csv", "out/", workers=2)   # summary.csv, summary.parquet
+>>> # skipped: it needs a study's manifest and trial files, and fits every subject (minutes)
+>>> result = batch.run("study.csv", "out/", workers=2)  # doctest: +SKIP
+>>> result.counts()  # subjects per status; out/summary.csv, out/summary.parquet  # doctest: +SKIP
+{'done': 2}
 """
 
 from gc_ocp.batch.manifest import Subject, TrialSpec, read_manifest

@@ -1,10 +1,12 @@
 """The sim-to-real diagnosis: where the residual lies, which unmodelled effect causes it, how far
 it shrinks once that effect is added (``docs/diagnosis.md``).
 
->>> import gc_ocp                                                    # doctest: +SKIP
->>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)   # doctest: +SKIP
+>>> import gc_ocp
+>>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)
+>>> # skipped: a diagnosis is minutes of Ipopt fits (tests/test_diagnosis.py runs small ones)
 >>> d = gc_ocp.diagnose([(trial, kin)])                              # doctest: +SKIP
->>> print(d.summary()); d.heatmap(); d.waterfall_figure()            # doctest: +SKIP
+>>> print(d.summary())                                               # doctest: +SKIP
+>>> fig = d.heatmap(); fig = d.waterfall_figure()                    # doctest: +SKIP
 
 Layout, one idea per module (the table in ``docs/architecture.md``):
 

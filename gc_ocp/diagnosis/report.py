@@ -1,7 +1,8 @@
 """The diagnosis as one self-contained HTML page a researcher reads without Python.
 
->>> from gc_ocp.diagnosis.report import write_report     # doctest: +SKIP
->>> write_report(diagnosis, "report.html")                # doctest: +SKIP
+>>> from gc_ocp.diagnosis.report import write_report
+>>> # skipped: it needs a diagnosis with its final fit (gc_ocp.diagnose: minutes of fits)
+>>> path = write_report(diagnosis, "report.html")         # doctest: +SKIP
 
 The page holds: where the gap is (heat map, residual over time, the worst cells in words), the
 ranked effects (held-out reduction with its 95 % interval, in-sample reduction, parameters

@@ -1,8 +1,13 @@
 """Joint kinematics-contact estimation (CasADi + Ipopt) on composable models.
 
->>> from gc_ocp.estimation import build_estimation, solve, full_model   # doctest: +SKIP
->>> problem = build_estimation(stances, full_model())                  # doctest: +SKIP
->>> result = solve(problem)                                            # doctest: +SKIP
+>>> import gc_ocp
+>>> from gc_ocp.estimation import build_estimation, solve, full_model
+>>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)
+>>> stances = gc_ocp.trial_stances(trial, kin)
+>>> problem = build_estimation(stances, full_model())
+>>> result = solve(problem)                   # seconds of Ipopt
+>>> result.success, len(stances)
+(True, 3)
 
 Layout: :mod:`.variables` (named decision-variable blocks), :mod:`.components` (one file per
 component: the physics each adds), :mod:`.frame` (the per-frame model composed from

@@ -2,7 +2,12 @@
 
 >>> from gc_ocp.io import load_trial
 >>> from gc_ocp.io.processing import detect_processing
->>> print(detect_processing(load_trial()).summary())  # doctest: +SKIP
+>>> print(detect_processing(load_trial()).summary())  # doctest: +ELLIPSIS
+Processing detected in ...test_small.c3d:
+  plate plate1: zeroed below 10.0 N (exact zeros where unloaded: a threshold, ...)
+  plate plate1: raw: a noise floor reaches Nyquist (...)
+...
+  markers: low-passed by the lab at ~8 Hz before export
 
 Rules (conventions and signal properties only, never a file or lab name; ``docs/data_formats.md``,
 "What the lab's processing did", gives the reasons and limits):

@@ -2,8 +2,17 @@
 (:func:`~gc_ocp.workflow.fitting.fit`, with the input checks and a held-out stance) and the
 sensitivity of a fit to processing choices (:mod:`.sensitivity`).
 
->>> import gc_ocp                                                # doctest: +SKIP
->>> report = gc_ocp.fit([(trial, kin)], holdout="right@0.407")   # doctest: +SKIP
+>>> import gc_ocp
+>>> trial = gc_ocp.load_trial()               # the bundled example
+>>> kin = gc_ocp.compute_kinematics(trial)
+>>> report = gc_ocp.fit([(trial, kin)], holdout="right@0.407")   # seconds of Ipopt
+>>> report.result.success, report.heldout_label
+(True, 'test_small:right@0.407s')
+>>> print(report.summary())                   # doctest: +ELLIPSIS
+input checks:
+...
+held-out stance test_small:right@0.407s:
+Ipopt: Solve_Succeeded in ...
 
 Layers: :mod:`gc_ocp.estimation` (the NLP on stances; no files) < :mod:`gc_ocp.workflow` (trials,
 checks) < :mod:`gc_ocp.diagnosis` (which effect causes the gap) < :mod:`gc_ocp.bench` (research

@@ -4,6 +4,8 @@ A model is a tuple of components (see :mod:`.base` for the protocol). Presets:
 
 >>> seed = seed_model()        # the seed report: k per unit, n = 1, c = 0, fixed friction
 >>> full = full_model()        # contact law with n, c, mu free; sole, pose and belt corrections
+>>> [c.name for c in seed], [c.name for c in full]
+(['contact'], ['contact', 'sole', 'pose', 'belt'])
 
 :data:`REGISTRY` maps a component's name to its class: the vocabulary of model names
 (``model_from_names(["damping"], base=base_model())``). A new component is one file in this folder
