@@ -51,6 +51,10 @@ def pair():
         (lambda t, k: gc_ocp.fit([(t, k)], start="no_such_fit.json"), "does not exist"),
         (lambda t, k: gc_ocp.diagnose([(t, k)], candidats=["damping"]), "'candidats'.*candidates"),
         (lambda t, k: gc_ocp.ContactLaw(mu=0.8), r"mu=Param\('fixed', 0.8\)"),
+        # found writing Param's docstring example (2026-12-03): reversed bounds were CasADi's
+        # RuntimeError "Ill-posed problem detected" at the first solve
+        (lambda t, k: gc_ocp.Param("shared", 0.3, 10, 0), r"lower <= upper.*lower=10, upper=0"),
+        (lambda t, k: gc_ocp.Param("shared", 0.3, "0", 10), r"must be numbers.*lower='0'"),
         # a percentage where a fraction of body weight is taken: plates weighted 100x too
         # lightly against the priors, silently
         (lambda t, k: gc_ocp.Weights(force_sigma=2), "fraction of body weight"),

@@ -8,6 +8,7 @@ definition shared with the seed study. Stiffness is estimated as ``log k`` so th
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import ClassVar
@@ -40,7 +41,7 @@ class Param:
     (one for both feet) or ``"fixed"`` (not estimated: ``value`` is used).
     value: initial (or fixed) value in SI units; a float, or ``{side: float}`` /
     ``{side: {unit: float}}`` for per-foot / per-unit values.
-    lower, upper: bounds in SI units.
+    lower, upper: bounds in SI units, lower <= upper.
     prior_sigma: optional Gaussian prior centred on ``value``, in the optimised units (log units
     for k: ``prior_sigma = 2`` means a factor e^2 = 7.4 at one standard deviation). Example::
 
@@ -57,6 +58,14 @@ class Param:
         if self.scope not in ("unit", "foot", "shared", "fixed"):
             raise ModelError(
                 f'Param scope must be one of unit, foot, shared, fixed, but got "{self.scope}"'
+            )
+        # reversed bounds were a CasADi RuntimeError "Ill-posed problem detected" at the solve
+        lo, hi = self.lower, self.upper
+        real = all(isinstance(b, numbers.Real) and not isinstance(b, bool) for b in (lo, hi))
+        if not (real and lo <= hi):
+            raise InputError(
+                f"Param bounds must be numbers with lower <= upper (SI units), but got "
+                f"lower={lo!r}, upper={hi!r}: e.g. Param('shared', 0.3, 0, 10)"
             )
 
     def value_for(self, side: str, unit: str | None = None) -> float:
