@@ -8,14 +8,17 @@ Which to catch: :class:`InputError` for what the user gave (a file, an option, a
 message says what to change; :class:`MarkerError`, :class:`PlateError`, :class:`UnitsError`
 narrow it); :class:`SolveError` for a fit Ipopt did not bring to convergence (its ``.result``
 holds the last iterate); :class:`GcOcpError` for every error the package raises on purpose.
-Example::
+A trial given without its kinematics, for example:
 
-    try:
-        report = gc_ocp.fit([(trial, kin)])
-    except gc_ocp.SolveError as e:
-        print(e, e.result.status)  # what was obtained, to inspect or restart from
-    except gc_ocp.InputError as e:
-        print(e)  # names the input and the fix
+>>> import gc_ocp
+>>> trial = gc_ocp.load_trial()               # the bundled example
+>>> try:                                      # doctest: +ELLIPSIS
+...     report = gc_ocp.fit([trial])
+... except gc_ocp.SolveError as e:
+...     print(e, e.result.status)             # what was obtained, to inspect or restart from
+... except gc_ocp.InputError as e:
+...     print(e)                              # names the input and the fix
+item 0 of the trials is a Trial without its kinematics; give a list of (trial, kinematics) pairs: ...
 """
 
 from __future__ import annotations
@@ -28,12 +31,15 @@ class GcOcpError(Exception):
 
 class InputError(GcOcpError, ValueError):
     """A file, option or array given by the user is unusable (names it and the fix): the one to
-    catch around a call on user input (also a ``ValueError``). Example::
+    catch around a call on user input (also a ``ValueError``).
 
-        try:
-            trial = gc_ocp.load_trial(path)
-        except gc_ocp.InputError as e:
-            print(f"skipped {path}: {e}")
+    >>> import gc_ocp
+    >>> path = "walk.c3d"                     # a file that is not there
+    >>> try:
+    ...     trial = gc_ocp.load_trial(path)
+    ... except gc_ocp.InputError as e:
+    ...     print(f"skipped {path}: {e}")     # doctest: +ELLIPSIS
+    skipped walk.c3d: Trial file walk.c3d does not exist; give a trial's .c3d file, ...
     """
 
 
@@ -96,12 +102,20 @@ class RankError(GcOcpError, ValueError):
 
 class SolveError(GcOcpError, RuntimeError):
     """A numerical solve failed or did not converge; ``.result`` carries what was obtained (an
-    :class:`~gc_ocp.estimation.result.EstimationResult` for an Ipopt fit). Example::
+    :class:`~gc_ocp.estimation.result.EstimationResult` for an Ipopt fit). Five iterations
+    are too few for the seed's model on the bundled trial:
 
-        try:
-            result = gc_ocp.solve(problem, gc_ocp.IpoptOptions(max_iter=50))
-        except gc_ocp.SolveError as e:
-            result = e.result  # status, iterations and the last iterate
+    >>> import gc_ocp
+    >>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)
+    >>> problem = gc_ocp.build_estimation(gc_ocp.trial_stances(trial, kin), gc_ocp.seed_model())
+    >>> try:
+    ...     result = gc_ocp.solve(problem, gc_ocp.IpoptOptions(max_iter=5))
+    ... except gc_ocp.SolveError as e:
+    ...     print(e)
+    ...     result = e.result                 # status, iterations and the last iterate
+    Ipopt did not converge: Maximum_Iterations_Exceeded after 5 iterations
+    >>> result.status, result.iterations
+    ('Maximum_Iterations_Exceeded', 5)
     """
 
     def __init__(self, message: str, result: object = None) -> None:

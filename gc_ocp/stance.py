@@ -49,10 +49,13 @@ class StanceData:
     (:mod:`gc_ocp.estimation.measurement`).
 
     Made from a loaded trial and its kinematics, not by hand: :func:`trial_stances` (every
-    stance of the trial) or :func:`stance_data` (one). Example::
+    stance of the trial) or :func:`stance_data` (one).
 
-        stances = gc_ocp.trial_stances(trial, kin)  # [StanceData, ...]
-        problem = gc_ocp.build_estimation(stances, gc_ocp.full_model())
+    >>> import gc_ocp
+    >>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)
+    >>> first = gc_ocp.trial_stances(trial, kin)[0]
+    >>> first.label, first.side, first.measured.shape  # the wrench: (frames, 6) [N, N m]
+    ('test_small:right@0.407s', 'right', (66, 6))
     """
 
     side: str
@@ -264,10 +267,13 @@ def stance_data(
     zero threshold [N] (:attr:`StanceData.censor_below`).
 
     ``stance`` is one of ``trial.stances`` (a :class:`~gc_ocp.trial.Stance`, not its label).
-    Example::
 
-        stance = trial.stances[0]  # print(trial) lists them: right@0.407s, ...
-        data = gc_ocp.stance_data(trial, kin, stance, margin=0.03)
+    >>> import gc_ocp
+    >>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)
+    >>> stance = trial.stances[0]             # print(trial) lists them: right@0.407s, ...
+    >>> data = gc_ocp.stance_data(trial, kin, stance, margin=0.03)
+    >>> data.label, data.foot.time.shape      # with 0.03 s (3 frames) each side of the stance
+    ('test_small:right@0.407s', (72,))
     """
     _require_trial_and_kinematics(trial, kin, "stance_data")
     require(
@@ -340,9 +346,12 @@ def trial_stances(
     """Every stance of ``trial`` (see :func:`stance_data`); ``censor_below``: ``{plate index:
     zero threshold [N]}`` (missing: 0). What :func:`~gc_ocp.estimation.build_estimation` and
     :func:`~gc_ocp.diagnosis.diagnose_stances` take (several trials: the lists added together).
-    Example::
 
-        stances = gc_ocp.trial_stances(trial, kin, margin=0.03)
+    >>> import gc_ocp
+    >>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)
+    >>> stances = gc_ocp.trial_stances(trial, kin, margin=0.03)
+    >>> [st.label for st in stances]
+    ['test_small:right@0.407s', 'test_small:left@0.941s', 'test_small:right@1.494s']
     """
     _require_trial_and_kinematics(trial, kin, "trial_stances")
     thr = censor_below or {}

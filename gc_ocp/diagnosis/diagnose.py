@@ -196,10 +196,13 @@ def diagnose_stances(
     stances, where the one step misses gains the refit shows; every round then holds out every
     candidate).
 
-    Returns a :class:`~gc_ocp.diagnosis.result.Diagnosis`. Example::
+    Returns a :class:`~gc_ocp.diagnosis.result.Diagnosis`.
 
-        stances = gc_ocp.trial_stances(trial, kin, margin=0.03)
-        d = gc_ocp.diagnose_stances(stances, candidates=["damping", "friction"])
+    >>> import gc_ocp
+    >>> # skipped: minutes of Ipopt fits (tests/test_diagnosis.py runs small diagnoses)
+    >>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)  # doctest: +SKIP
+    >>> stances = gc_ocp.trial_stances(trial, kin, margin=0.03)             # doctest: +SKIP
+    >>> d = gc_ocp.diagnose_stances(stances, candidates=["damping", "friction"])  # doctest: +SKIP
     """
     stances = require_stance_list(stances, "diagnose_stances")
     require_settings(weights, options)
@@ -738,10 +741,20 @@ def diagnose(
     :func:`diagnose_stances`.
 
     Returns a :class:`~gc_ocp.diagnosis.result.Diagnosis` (``.summary()``, ``.selected``,
-    ``.ranking``, ``.to_json()``). Minutes of Ipopt fits on the bundled trial. Example::
+    ``.ranking``, ``.to_json()``).
 
-        d = gc_ocp.diagnose([(trial, kin)], candidates=["damping", "ground_offset"])
-        print(d.summary())
+    >>> import gc_ocp
+    >>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)
+    >>> # skipped: minutes of Ipopt fits on the bundled trial
+    >>> d = gc_ocp.diagnose([(trial, kin)], candidates=["damping", "ground_offset"])  # doctest: +SKIP
+    >>> print(d.summary())                                                  # doctest: +SKIP
+
+    A keyword it does not take is refused at once, naming those it takes:
+
+    >>> d = gc_ocp.diagnose([(trial, kin)], worker=2)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    gc_ocp.errors.InputError: diagnose got unknown keyword argument(s) ['worker']; it takes base, ...
     """
     known = [k for k in inspect.signature(diagnose_stances).parameters if k != "stances"]
     unknown = sorted(set(kw) - set(known))

@@ -26,10 +26,15 @@ def _fitted(result):
 def plot_fit(result, title: str = "measured (solid) vs fitted (dashed)") -> Figure:
     """Measured vs fitted six channels per foot, every stance; ``result``: a fit (what
     :func:`gc_ocp.fit` returns), its result or its ``fit.json`` (:func:`as_result`). Returns
-    the Matplotlib figure, not shown. Example::
+    the Matplotlib figure, not shown.
 
-        fig = gc_ocp.plot_fit(report)  # or plot_fit("out/fit.json")
-        fig.savefig("fit.png")
+    >>> import gc_ocp
+    >>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)
+    >>> problem = gc_ocp.build_estimation(gc_ocp.trial_stances(trial, kin), gc_ocp.seed_model())
+    >>> fig = gc_ocp.plot_fit(gc_ocp.solve(problem))  # or plot_fit(report), plot_fit("out/fit.json")
+    >>> len(fig.axes)                         # six channels, two feet
+    12
+    >>> fig.savefig("fit.png")
     """
     f = _fitted(result).stance_fits
     return plot_wrench_fit(

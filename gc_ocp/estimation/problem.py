@@ -47,9 +47,16 @@ from gc_ocp.values import named_fields, require_given
 @dataclass(frozen=True)
 class Weights:
     """Residual scaling. force_sigma: force error scale as a fraction of BW [-] (0.02: 2 % BW);
-    torque_length: torque error scale = force scale x this length [m]. Example::
+    torque_length: torque error scale = force scale x this length [m]. Given to
+    :func:`gc_ocp.fit` (``weights=``), :func:`build_estimation` or the diagnosis:
 
-        report = gc_ocp.fit([(trial, kin)], weights=gc_ocp.Weights(force_sigma=0.01))
+    >>> import gc_ocp
+    >>> gc_ocp.Weights(force_sigma=0.01)      # 1 % BW: the plates weigh more against the priors
+    Weights(force_sigma=0.01, torque_length=0.25)
+    >>> gc_ocp.Weights(force_sigma=2)         # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    gc_ocp.errors.InputError: Weights(force_sigma=2): give the force error scale as a fraction of body weight, ...
     """
 
     force_sigma: float = 0.02
@@ -661,9 +668,13 @@ def build_estimation(
 
     ``stances``: a list of :class:`~gc_ocp.stance.StanceData` (:func:`gc_ocp.trial_stances`);
     ``weights``: the residuals' scales (default :class:`Weights`). Returns the problem for
-    :func:`~gc_ocp.estimation.solve`. Example::
+    :func:`~gc_ocp.estimation.solve`.
 
-        problem = gc_ocp.build_estimation(gc_ocp.trial_stances(trial, kin), gc_ocp.full_model())
+    >>> import gc_ocp
+    >>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)
+    >>> problem = gc_ocp.build_estimation(gc_ocp.trial_stances(trial, kin), gc_ocp.seed_model())
+    >>> len(problem.blocks), problem.x0.size  # one block per stance; k of 5 units per foot
+    (3, 10)
     """
     stances = require_stance_list(stances, "build_estimation")
     require_model(model, "model")

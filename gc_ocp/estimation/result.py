@@ -71,11 +71,18 @@ class EstimationResult:
     (:mod:`gc_ocp.estimation.flags`): what should not be taken at face value.
 
     Returned by :func:`~gc_ocp.estimation.solve.solve`, by ``gc_ocp.fit(...).result``, and read
-    back from a fit.json by :meth:`from_json`. Example::
+    back from a fit.json by :meth:`from_json`.
 
-        result = gc_ocp.fit([(trial, kin)]).result  # or EstimationResult.from_json(path)
-        print(result.summary())
-        result.blocks["contact"]  # the contact law's parameters with their SEs
+    >>> import gc_ocp
+    >>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)
+    >>> problem = gc_ocp.build_estimation(gc_ocp.trial_stances(trial, kin), gc_ocp.seed_model())
+    >>> result = gc_ocp.solve(problem)        # or gc_ocp.fit(...).result, from_json(path)
+    >>> print(result.summary())               # doctest: +ELLIPSIS
+    Ipopt: Solve_Succeeded in ... iterations, ... s; objective ...
+     left k [N/m^n]: PL ...
+    ...
+    >>> sorted(result.blocks["contact"])      # the contact law's parameters with their SEs
+    ['left', 'right']
     """
 
     x: np.ndarray

@@ -98,10 +98,16 @@ class IpoptOptions:
     linear_solver: one of :data:`LINEAR_SOLVERS` that this Ipopt can load (``"mumps"``, built
     in, by default; HSL's ``"ma27"``-``"ma97"`` need HSL's library). A value Ipopt would refuse
     is an :class:`~gc_ocp.errors.InputError` when the options are made, naming the field and
-    what it takes. Example::
+    what it takes. Given to :func:`gc_ocp.fit` (``options=``), :func:`solve` or the diagnosis:
 
-        options = gc_ocp.IpoptOptions(max_iter=200, print_level=5)
-        report = gc_ocp.fit([(trial, kin)], options=options)
+    >>> import gc_ocp
+    >>> options = gc_ocp.IpoptOptions(max_iter=200, print_level=5)
+    >>> options.max_iter, options.tol
+    (200, 1e-08)
+    >>> gc_ocp.IpoptOptions(print_level=20)
+    Traceback (most recent call last):
+    ...
+    gc_ocp.errors.InputError: IpoptOptions(print_level=20): give a whole number from 0 to 12 (Ipopt's range)
     """
 
     tol: float = 1e-8
@@ -368,10 +374,14 @@ def solve(
     ``warm_*`` settings); other starts from a given point (a fold, a null draw, an effect from
     its parent) keep Ipopt's defaults (``docs/estimation.md``, *Warm starts*).
 
-    Returns an :class:`EstimationResult` (``.summary()``, ``.blocks``). Example::
+    Returns an :class:`EstimationResult` (``.summary()``, ``.blocks``).
 
-        problem = gc_ocp.build_estimation(gc_ocp.trial_stances(trial, kin), gc_ocp.full_model())
-        result = gc_ocp.solve(problem, gc_ocp.IpoptOptions(max_iter=200))
+    >>> import gc_ocp
+    >>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)
+    >>> problem = gc_ocp.build_estimation(gc_ocp.trial_stances(trial, kin), gc_ocp.full_model())
+    >>> result = gc_ocp.solve(problem, gc_ocp.IpoptOptions(max_iter=200))
+    >>> result.status
+    'Solve_Succeeded'
 
     (:func:`gc_ocp.fit` does this from the trials, with its start, continuation and widths.)"""
     require(

@@ -73,11 +73,14 @@ def load_trial(
 
     Returns the trial in the ``lab`` frame (Z up, walking +X), SI units, its usable stances
     detected (``trial.stances``; ``print(trial)`` lists them). One file per call: the trials of
-    a subject are loaded one by one. Example::
+    a subject are loaded one by one (:func:`gc_ocp.describe_trial` says what was read).
 
-        trial = gc_ocp.load_trial()  # the bundled example (gc_ocp/data/test_small.c3d)
-        trial = gc_ocp.load_trial("walk.trc", grf="walk_grf.mot", mass=72.6)
-        print(gc_ocp.describe_trial(trial))
+    >>> import gc_ocp
+    >>> trial = gc_ocp.load_trial()           # the bundled example (gc_ocp/data/test_small.c3d)
+    >>> trial                                 # doctest: +ELLIPSIS
+    Trial('...test_small.c3d', 33 markers at 100 Hz, 4 plates, 3 stances (right@0.407s, left@0.941s, right@1.494s), mass 63.6 kg)
+    >>> # skipped: files of your own (a TRC, its ground reactions, the mass the files lack)
+    >>> trial = gc_ocp.load_trial("walk.trc", grf="walk_grf.mot", mass=72.6)  # doctest: +SKIP
     """
     if path is not None and not isinstance(path, str | os.PathLike):
         raise InputError(
@@ -298,11 +301,13 @@ def load_static(path: str | Path, walking: Trial) -> Trial:
     height is the walking trial's plate surface. ``path``: the static trial's ``.c3d`` or
     ``.trc``; ``walking``: a walking trial of the same session, loaded. Returns a
     :class:`~gc_ocp.trial.Trial` with no plates or stances, for
-    :func:`~gc_ocp.kinematics.compute_kinematics`'s ``static``. Example::
+    :func:`~gc_ocp.kinematics.compute_kinematics`'s ``static``.
 
-        trial = gc_ocp.load_trial("walk.c3d")
-        static = gc_ocp.load_static("static.c3d", trial)
-        kin = gc_ocp.compute_kinematics(trial, static=static)
+    >>> import gc_ocp
+    >>> # skipped: files of your own (no static trial is bundled)
+    >>> trial = gc_ocp.load_trial("walk.c3d")                  # doctest: +SKIP
+    >>> static = gc_ocp.load_static("static.c3d", trial)       # doctest: +SKIP
+    >>> kin = gc_ocp.compute_kinematics(trial, static=static)  # doctest: +SKIP
     """
     how = "trial = gc_ocp.load_trial(walking_path); static = gc_ocp.load_static(path, trial)"
     require(path, str | os.PathLike, "load_static takes the static trial's file first", how)

@@ -55,9 +55,16 @@ def describe_trial(trial: Trial) -> str:
     direction, plates (type, reference, removed offset), the lab's processing
     (:func:`processing_lines`), stances (foot, plate, times, heading,
     peak force in N and % BW), exclusions with reasons, mass and its source, and the stride
-    body-weight check (what ``gc-ocp info`` prints). Example::
+    body-weight check (what ``gc-ocp info`` prints).
 
-        print(gc_ocp.describe_trial(gc_ocp.load_trial("walk.c3d")))
+    >>> import gc_ocp
+    >>> print(gc_ocp.describe_trial(gc_ocp.load_trial()))  # doctest: +ELLIPSIS
+    Trial ...test_small.c3d
+      markers: 33 at 100 Hz, 0.000-3.360 s
+      marker set: "plugingait" (33 of its 35 markers found)
+    ...
+      stance right plate1: 0.407-1.061 s, used, heading +1 deg, peak Fz 669 N (107 % BW), ...
+    ...
     """
     require(
         trial,

@@ -540,11 +540,17 @@ def compute_kinematics(
     Returns a :class:`~gc_ocp.foot.TrialKinematics`: joint coordinates ``q`` ``(n, 27)``
     [m, rad] on the marker frames ``time`` [s], each foot's segment poses and sole-point
     trajectories in ``lab`` [m] (``feet["left"]``, ``feet["right"]``) and the IK marker RMS
-    [m]; what ``gc_ocp.fit`` and ``gc_ocp.diagnose`` take with the trial. Example::
+    [m]; what ``gc_ocp.fit`` and ``gc_ocp.diagnose`` take with the trial.
 
-        trial = gc_ocp.load_trial("walk.c3d")
-        kin = gc_ocp.compute_kinematics(trial)  # or static=gc_ocp.load_static(path, trial)
-        report = gc_ocp.fit([(trial, kin)])
+    >>> import gc_ocp
+    >>> trial = gc_ocp.load_trial()           # the bundled example, or load_trial("walk.c3d")
+    >>> kin = gc_ocp.compute_kinematics(trial)  # or static=gc_ocp.load_static(path, trial)
+    >>> kin                                   # doctest: +ELLIPSIS
+    TrialKinematics('test_small', 337 frames 0.000-3.360 s, 27 coordinates, feet ['left', 'right'], ...)
+    >>> kin.q.shape, kin.feet["right"].positions.shape  # (frames, coordinates), (frames, units, xyz)
+    ((337, 27), (337, 5, 3))
+
+    Then ``gc_ocp.fit([(trial, kin)])`` (:func:`gc_ocp.workflow.fit` shows it run).
     """
     if foot_roll not in FOOT_ROLLS:
         raise InputError(f'foot_roll must be one of {FOOT_ROLLS}, but got "{foot_roll}"')

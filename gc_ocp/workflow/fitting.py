@@ -425,13 +425,21 @@ def fit(
     (:func:`bias_replicates`; the shared labs' files are all far below); 0: none.
 
     Returns a :class:`FitReport`; a failed solve raises :class:`~gc_ocp.errors.SolveError`
-    carrying its result. Example::
+    carrying its result. The seed's model (seconds of Ipopt; the default model is
+    :mod:`gc_ocp.workflow`'s example), the first right stance held out:
 
-        trial = gc_ocp.load_trial()
-        kin = gc_ocp.compute_kinematics(trial)
-        report = gc_ocp.fit([(trial, kin)], holdout="auto")
-        print(report.summary())
-        report.result.blocks["contact"]  # the parameters and their SEs, as data
+    >>> import gc_ocp
+    >>> trial = gc_ocp.load_trial()
+    >>> kin = gc_ocp.compute_kinematics(trial)
+    >>> report = gc_ocp.fit([(trial, kin)], model=gc_ocp.seed_model(), holdout="right@0.407")
+    >>> print(report.summary())               # doctest: +ELLIPSIS
+    input checks:
+    ...
+    Ipopt: Solve_Succeeded in ...
+    held-out stance test_small:right@0.407s:
+    ...
+    >>> sorted(report.result.blocks["contact"])  # the parameters and their SEs, as data
+    ['left', 'right']
     """
     say = progress or (lambda s: None)
     require_model(model, "model")

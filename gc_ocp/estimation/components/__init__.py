@@ -10,7 +10,13 @@ A model is a tuple of components (see :mod:`.base` for the protocol). Presets:
 :data:`REGISTRY` maps a component's name to its class: the vocabulary of model names
 (``model_from_names(["damping"], base=base_model())``). A new component is one file in this folder
 plus one line in :data:`REGISTRY` (an effect's class says it is a diagnosis candidate and how the
-benchmark injects it, :mod:`.base`); :data:`EFFECTS` is derived from it.
+benchmark injects it, :mod:`.base`); :data:`EFFECTS` is derived from it: the diagnosis's
+candidate effects, each a name :func:`model_from_names` takes.
+
+>>> EFFECTS[:3]
+('damping', 'stiffness_exponent', 'sole_geometry')
+>>> [c.name for c in model_from_names([EFFECTS[0]], base=base_model())]
+['contact', 'sole', 'pose', 'belt', 'damping']
 """
 
 from __future__ import annotations
@@ -117,9 +123,12 @@ def model_from_names(names, base: tuple = ()) -> tuple[Component, ...]:
     """``base`` plus the registered components ``names`` (the defaults for the model they join,
     :meth:`Component.for_model`), skipping those whose class is already in ``base``.
     ``names``: a list of registry names (one name alone is one name), e.g. of
-    :data:`EFFECTS`. Example::
+    :data:`EFFECTS`.
 
-        model = gc_ocp.model_from_names(["friction"], base=gc_ocp.full_model())
+    >>> import gc_ocp
+    >>> model = gc_ocp.model_from_names(["friction"], base=gc_ocp.full_model())
+    >>> [c.name for c in model]
+    ['contact', 'sole', 'pose', 'belt', 'friction']
     """
     names = names_of(names, "component names")
     unknown = [n for n in names if n not in REGISTRY]
@@ -168,11 +177,9 @@ EFFECTS: tuple[str, ...] = candidate_effects()
 """The candidate model extensions of the diagnosis, by registry name: every registered class
 with ``candidate = True``, in :data:`REGISTRY` order (derived again by :func:`register`; a
 module that imported it before keeps its tuple, :func:`candidate_effects` is the registry now).
-Each name is accepted by :func:`model_from_names` and by the diagnosis's ``candidates``::
-
-    model = gc_ocp.model_from_names([gc_ocp.EFFECTS[0]], base=gc_ocp.base_model())
-    d = gc_ocp.diagnose([(trial, kin)], candidates=["damping", "friction"])
-"""
+Each name is accepted by :func:`model_from_names` and by the diagnosis's ``candidates``
+(the examples of this module's docstring and of :func:`gc_ocp.diagnose`, which run as tests:
+doctest does not see this string)."""
 
 
 __all__ = [

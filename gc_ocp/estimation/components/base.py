@@ -138,16 +138,24 @@ class Component:
     file and one :func:`~gc_ocp.estimation.components.register` line: take
     :class:`~gc_ocp.estimation.components.damping.Damping` (``components/damping.py``: one
     variable in one slot of the contact law) as the template and ``docs/effects.md``, *Adding an
-    effect*, as the checklist. Example::
+    effect*, as the checklist.
 
-        @dataclass(frozen=True)
-        class GroundTilt(gc_ocp.Component):
-            name: str = "ground_tilt"
-            candidate = True  # offered by the diagnosis, listed in gc_ocp.EFFECTS
-            ...  # declare, slot_sizes, slots, edit_contact, decode, frozen, signature
+    >>> from dataclasses import dataclass
+    >>> import gc_ocp
+    >>> @dataclass(frozen=True)
+    ... class GroundTilt(gc_ocp.Component):
+    ...     name: str = "ground_tilt"
+    ...     candidate = True  # offered by the diagnosis, listed in gc_ocp.EFFECTS
+    ...     # declare, slot_sizes, slots, edit_contact, decode, frozen, signature: as damping.py
+    >>> [c.name for c in (*gc_ocp.base_model(), GroundTilt())]
+    ['contact', 'sole', 'pose', 'belt', 'ground_tilt']
 
-        gc_ocp.register("ground_tilt", GroundTilt)
-        model = gc_ocp.model_from_names(["ground_tilt"], base=gc_ocp.base_model())
+    Registered, it is a name of the vocabulary:
+
+    >>> # skipped: the registry is the process's (the tests would all see ground_tilt)
+    >>> gc_ocp.register("ground_tilt", GroundTilt)  # doctest: +SKIP
+    <class '__main__.GroundTilt'>
+    >>> model = gc_ocp.model_from_names(["ground_tilt"], base=gc_ocp.base_model())  # doctest: +SKIP
     """
 
     name: str = "component"

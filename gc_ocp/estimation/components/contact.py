@@ -43,9 +43,16 @@ class Param:
     ``{side: {unit: float}}`` for per-foot / per-unit values.
     lower, upper: bounds in SI units, lower <= upper.
     prior_sigma: optional Gaussian prior centred on ``value``, in the optimised units (log units
-    for k: ``prior_sigma = 2`` means a factor e^2 = 7.4 at one standard deviation). Example::
+    for k: ``prior_sigma = 2`` means a factor e^2 = 7.4 at one standard deviation).
 
-        law = gc_ocp.ContactLaw(mu=gc_ocp.Param("fixed", 0.8), c=gc_ocp.Param("shared", 0.3, 0, 10))
+    >>> import gc_ocp
+    >>> law = gc_ocp.ContactLaw(mu=gc_ocp.Param("fixed", 0.8), c=gc_ocp.Param("shared", 0.3, 0, 10))
+    >>> law.c
+    Param(scope='shared', value=0.3, lower=0, upper=10, prior_sigma=None)
+    >>> gc_ocp.Param("global", 0.8)
+    Traceback (most recent call last):
+    ...
+    gc_ocp.errors.ModelError: Param scope must be one of unit, foot, shared, fixed, but got "global"
     """
 
     scope: str
