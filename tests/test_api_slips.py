@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import warnings
 
+import numpy as np
 import pytest
 
 import gc_ocp
@@ -116,6 +117,12 @@ def test_figures_take_the_fit_itself_and_a_side_by_name(pair, tmp_path):
     path.write_text(json.dumps(report.to_json()))
     lines = [len(gc_ocp.plot_fit(x).axes[0].lines) for x in (report, report.result, path)]
     assert lines[0] > 0 and len(set(lines)) == 1
+    # drawn in % BW of the stance's subject, as the fit's RMS is printed (it was in N)
+    sup, first = gc_ocp.plot_fit(report).axes[2], report.result.stance_fits[0]  # row 2: superior
+    assert sup.get_ylabel() == "superior force\n[% BW]"
+    np.testing.assert_allclose(
+        sup.lines[0].get_ydata(), 100 * np.asarray(first["measured"])[:, 2] / first["body_weight"]
+    )
     # a fit's fit.json as the start of another fit, as plot_fit takes it (was an
     # AttributeError: start took the result only)
     with warnings.catch_warnings():
