@@ -49,6 +49,9 @@ def pair():
         (lambda t, k: gc_ocp.diagnose([(t, k)], options={"max_iter": 50}), "IpoptOptions"),
         (lambda t, k: gc_ocp.fit([(t, k)], margin="30ms"), "margin must be a number in s"),
         (lambda t, k: gc_ocp.fit("walk.c3d"), "got str 'walk.c3d'.*load_trial"),
+        # a new user's walk of 2026-12-03: fit(trial, kin) was told its model= was no model
+        (lambda t, k: gc_ocp.fit(t, k), r"a Trial on its own.*gc_ocp.fit\(\[\(trial, kin\)\]\)"),
+        (lambda t, k: gc_ocp.diagnose(t, k), r"a Trial on its own.*list of \(trial, kin"),
         (lambda t, k: gc_ocp.fit([(t, k)], start="no_such_fit.json"), "does not exist"),
         (lambda t, k: gc_ocp.diagnose([(t, k)], candidats=["damping"]), "'candidats'.*candidates"),
         (lambda t, k: gc_ocp.ContactLaw(mu=0.8), r"mu=Param\('fixed', 0.8\)"),
