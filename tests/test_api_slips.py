@@ -120,6 +120,10 @@ def test_figures_take_the_fit_itself_and_a_side_by_name(pair, tmp_path):
     path.write_text(json.dumps(report.to_json()))
     lines = [len(gc_ocp.plot_fit(x).axes[0].lines) for x in (report, report.result, path)]
     assert lines[0] > 0 and len(set(lines)) == 1
+    # the damping printed with its unit, the pure numbers without (a reader could not tell)
+    summary = report.summary()
+    assert "shared c [s/m] = " in summary and "shared n = " in summary
+    assert "shared mu = " in summary
     # drawn in % BW of the stance's subject, as the fit's RMS is printed (it was in N)
     sup, first = gc_ocp.plot_fit(report).axes[2], report.result.stance_fits[0]  # row 2: superior
     assert sup.get_ylabel() == "superior force\n[% BW]"
