@@ -54,6 +54,12 @@ def pair():
         (lambda t, k: gc_ocp.diagnose(t, k), r"a Trial on its own.*list of \(trial, kin"),
         (lambda t, k: gc_ocp.fit([(t, k)], start="no_such_fit.json"), "does not exist"),
         (lambda t, k: gc_ocp.diagnose([(t, k)], candidats=["damping"]), "'candidats'.*candidates"),
+        # the README's CLI names tried in Python (a new user's walk, 2026-12-03)
+        (
+            lambda t, k: gc_ocp.diagnose([(t, k)], null_draws=8),
+            "--null-draws: here mismatch_draws=",
+        ),
+        (lambda t, k: gc_ocp.diagnose([(t, k)], effects=["damping"]), "here candidates="),
         (lambda t, k: gc_ocp.ContactLaw(mu=0.8), r"mu=Param\('fixed', 0.8\)"),
         # a percentage where a fraction of body weight is taken: plates weighted 100x too
         # lightly against the priors, silently
