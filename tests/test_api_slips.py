@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import warnings
 
+import numpy as np
 import pytest
 
 import gc_ocp
@@ -48,8 +49,17 @@ def pair():
         (lambda t, k: gc_ocp.diagnose([(t, k)], options={"max_iter": 50}), "IpoptOptions"),
         (lambda t, k: gc_ocp.fit([(t, k)], margin="30ms"), "margin must be a number in s"),
         (lambda t, k: gc_ocp.fit("walk.c3d"), "got str 'walk.c3d'.*load_trial"),
+        # a new user's walk of 2026-12-03: fit(trial, kin) was told its model= was no model
+        (lambda t, k: gc_ocp.fit(t, k), r"a Trial on its own.*gc_ocp.fit\(\[\(trial, kin\)\]\)"),
+        (lambda t, k: gc_ocp.diagnose(t, k), r"a Trial on its own.*list of \(trial, kin"),
         (lambda t, k: gc_ocp.fit([(t, k)], start="no_such_fit.json"), "does not exist"),
         (lambda t, k: gc_ocp.diagnose([(t, k)], candidats=["damping"]), "'candidats'.*candidates"),
+        # the README's CLI names tried in Python (a new user's walk, 2026-12-03)
+        (
+            lambda t, k: gc_ocp.diagnose([(t, k)], null_draws=8),
+            "--null-draws: here mismatch_draws=",
+        ),
+        (lambda t, k: gc_ocp.diagnose([(t, k)], effects=["damping"]), "here candidates="),
         (lambda t, k: gc_ocp.ContactLaw(mu=0.8), r"mu=Param\('fixed', 0.8\)"),
         # found writing Param's docstring example (2026-12-03): reversed bounds were CasADi's
         # RuntimeError "Ill-posed problem detected" at the first solve
@@ -120,6 +130,16 @@ def test_figures_take_the_fit_itself_and_a_side_by_name(pair, tmp_path):
     path.write_text(json.dumps(report.to_json()))
     lines = [len(gc_ocp.plot_fit(x).axes[0].lines) for x in (report, report.result, path)]
     assert lines[0] > 0 and len(set(lines)) == 1
+    # the damping printed with its unit, the pure numbers without (a reader could not tell)
+    summary = report.summary()
+    assert "shared c [s/m] = " in summary and "shared n = " in summary
+    assert "shared mu = " in summary
+    # drawn in % BW of the stance's subject, as the fit's RMS is printed (it was in N)
+    sup, first = gc_ocp.plot_fit(report).axes[2], report.result.stance_fits[0]  # row 2: superior
+    assert sup.get_ylabel() == "superior force\n[% BW]"
+    np.testing.assert_allclose(
+        sup.lines[0].get_ydata(), 100 * np.asarray(first["measured"])[:, 2] / first["body_weight"]
+    )
     # a fit's fit.json as the start of another fit, as plot_fit takes it (was an
     # AttributeError: start took the result only)
     with warnings.catch_warnings():

@@ -357,6 +357,8 @@ def _check_fit_report(out):
     for p in ("n", "c", "mu"):
         v, se = d["params"]["shared"][p], d["params"]["shared"][p + "_se"]
         assert f"{v:.4g} ± {se:.2g}" in page
+    # the damping's unit beside its value, in the lead and the table (it was "c" alone)
+    assert page.count("c [s/m]") == 2 and "mu [" not in page
     for f in d["flags"]:
         assert f["code"] in page
     held = d["heldout_stance"]

@@ -537,6 +537,39 @@ def test_plots_return_figures(template, feet):
     assert laws.unit_force_function(False).n_in() == len(laws.UNIT_FORCE_INPUTS)
 
 
+def test_wrench_fit_figure_in_percent_body_weight_with_its_legend_off_the_curves(template, feet):
+    """With ``normalisers`` the channels are drawn in % BW and % BW x H (the unit of every RMS
+    the package prints; they were drawn in N beside tables in % BW), labelled so, and the
+    legend sits below the axes: inside, it covered a second stance's curve."""
+    data = synthetic_stances(template, feet, {s: np.full(5, K0) for s in ("left", "right")})
+    norm = [(SEED_BW, SEED_BWH)] * len(data)
+    fig = plot_wrench_fit(
+        [d.time for d in data],
+        [d.measured for d in data],
+        [d.measured * 1.01 for d in data],
+        sides=[d.side for d in data],
+        normalisers=norm,
+    )
+    rows = {ax.get_ylabel().split("\n")[0]: ax for ax in fig.axes[::2]}  # first column
+    sup = rows["superior force"]
+    assert sup.get_ylabel().endswith("[% BW]")
+    assert rows["mediolateral torque"].get_ylabel().endswith("[% BW×H]")
+    # the first column's first line is the first stance's measured vertical force
+    np.testing.assert_allclose(sup.lines[0].get_ydata(), 100 * data[0].measured[:, 2] / SEED_BW)
+    for ax in fig.axes:
+        legend = ax.get_legend()
+        if legend is not None:  # anchored below its axes: its top under the axes' bottom
+            assert legend.get_bbox_to_anchor().y1 < ax.get_window_extent().y0
+    assert sum(ax.get_legend() is not None for ax in fig.axes) == 2  # one per column
+    with pytest.raises(InputError, match="one \\(BW, BW x H\\) per stance"):
+        plot_wrench_fit(
+            [d.time for d in data],
+            [d.measured for d in data],
+            [d.measured for d in data],
+            normalisers=norm[:1],
+        )
+
+
 def test_frames_with_missing_plate_data_are_dropped(fake_trial):
     from gc_ocp.contact.lls import stances_from_trial
 

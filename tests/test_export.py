@@ -220,6 +220,34 @@ def test_opensim_contact_forces_agree_with_ours(exported):
     assert kin["frames_corrected"] and kin["foot_placement_residual_mm"] < 0.1
 
 
+def test_the_comparison_figure_shades_the_compared_stances_and_stays_out_of_pyplot():
+    """The export's figure drew the model's force over the whole trial, hundreds of % BW where
+    a foot is off the plates and nothing is compared, with nothing to say so; it now shades
+    each stance on a plate (the RMS's frames) and says so in its legend. It was a pyplot figure
+    left open: a notebook showed it after every export."""
+    import types
+
+    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
+
+    from gc_ocp.export.opensim_export import plot_comparison
+
+    time = np.linspace(0.0, 2.0, 201)
+    w = {s: np.ones((time.size, 6)) for s in ("left", "right")}
+    before = plt.get_fignums()
+    fig = plot_comparison(
+        time, w, w, w, types.SimpleNamespace(body_weight=600.0), [("left", 0.4, 1.0)]
+    )
+    assert isinstance(fig, Figure) and plt.get_fignums() == before
+    left_vertical, right_vertical = fig.axes[0], fig.axes[1]
+    spans = [p for p in left_vertical.patches if p.get_alpha() == pytest.approx(0.12)]
+    assert len(spans) == 1 and not right_vertical.patches  # the left stance only
+    x0, x1 = spans[0].get_x(), spans[0].get_x() + spans[0].get_width()
+    assert (x0, x1) == pytest.approx((0.4, 1.0))
+    texts = [t.get_text() for t in left_vertical.get_legend().get_texts()]
+    assert any("stance on a plate" in t for t in texts)
+
+
 def test_opensim_inverse_dynamics_reads_the_exported_files(exported, bundled):
     """OpenSim's InverseDynamicsTool runs on the exported model, coordinates and the plates'
     ExternalLoads; where the plates carry the body (vertical force above 90 % BW), the vertical

@@ -884,6 +884,30 @@ def test_a_ranking_only_diagnosis_does_not_say_no_effect_passes():
     assert "selected: none (no effect passes)" in none.summary()
 
 
+def test_a_run_with_too_few_null_draws_says_first_that_nothing_could_be_named(diagnosis):
+    """A small run (``mismatch_draws=4``, the fixture's; ``--null-draws 8``) can name nothing:
+    the p-value counts draws. The summary's "selected: none (no effect passes)" and the page's
+    "none ... predicts the held-out stances clearly better" read as the data's answer beside a
+    +5 % [+3, +7] gain, the reason last among the notes; both now say it first, with the fix."""
+    from gc_ocp.diagnosis.report import report_html
+
+    assert diagnosis.calibration[0]["mismatch_draws_planned"] == 4 and not diagnosis.selected
+    assert diagnosis.draws_too_few == 20  # 1 / 21 < 0.05 <= 1 / 20
+    said = "selected: none (none could be: 4 mismatch draws per round cannot give a p-value"
+    assert said in diagnosis.summary() and "give at least 20, the default 32" in diagnosis.summary()
+    lead = _Page(report_html(diagnosis)).visible.split("1. Where the gap is")[0]
+    assert "none could on this run: with 4 mismatch draws per round" in lead
+    assert "at least 20 are needed, 32 by default" in lead and "--null-draws" in lead
+    # enough draws planned: the answer is the data's, said as before
+    enough = dataclasses.replace(
+        diagnosis, calibration=[dict(diagnosis.calibration[0], mismatch_draws_planned=20)]
+    )
+    assert enough.draws_too_few is None
+    assert "selected: none (no effect passes)" in enough.summary()
+    lead = _Page(report_html(enough)).visible.split("1. Where the gap is")[0]
+    assert "No candidate effect passes the decision rule:" in lead and "none could" not in lead
+
+
 def test_a_diagnosis_figure_of_a_model_that_is_not_base_or_final_is_refused():
     """``heatmap(which="fnal")`` raised a bare KeyError and ``residual_figure(which="fnal")``
     drew the final model's; each says which models there are."""

@@ -116,7 +116,7 @@ def test_fit_names_the_usual_slips_of_its_first_argument():
     for bad, words in (
         ([trial], "item 0 of the trials is a Trial without its kinematics"),
         ((trial, kin), "got one (trial, kinematics) pair, not a list"),
-        (trial, "got Trial, not a list"),
+        (trial, "got a Trial on its own, not a list"),
         ([], "got an empty list"),
         ([(kin, trial)], "item 0 of the trials is tuple of (TrialKinematics, Trial)"),
     ):

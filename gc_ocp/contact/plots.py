@@ -7,6 +7,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
 from gc_ocp.contact.channels import CHANNELS, WRENCH_COLUMN
 from gc_ocp.errors import InputError
@@ -20,6 +21,9 @@ _UNIT_LABEL = {
     "longitudinal_torque": "N·m",
     "mediolateral_torque": "N·m",
 }
+_PCT_LABEL = {
+    ch: "% BW" if unit == "N" else "% BW×H" for ch, unit in _UNIT_LABEL.items()
+}  # the same channels normalised (:func:`plot_wrench_fit`'s ``normalisers``)
 
 
 def plot_wrench_fit(
@@ -29,43 +33,76 @@ def plot_wrench_fit(
     sides=None,
     labels=None,
     title: str = "",
+    normalisers=None,
 ) -> Figure:
-    """Measured vs modelled wrench, six channels (rows) per foot (columns).
+    """Measured (solid) vs modelled (dashed) wrench, six channels (rows) per foot (columns).
 
     times, measured, simulated: one stance each as ``(n,)``, ``(n, 6)``, ``(n, 6)`` ``lab``
     wrenches ([s], [N], [N·m]), or sequences of these for several stances. sides: side of each
     stance (``"left"``/``"right"``), one column per side; default one column. labels: legend text
-    per stance. Channels follow :data:`~gc_ocp.contact.channels.CHANNELS`.
+    per stance (one colour each; the legend sits below each column, off the curves).
+    normalisers: per stance ``(BW [N], BW x H [N·m])``: the channels are then drawn in % BW and
+    % BW x H (the package's reporting unit, as every RMS it prints); default: N and N·m.
+    Channels follow :data:`~gc_ocp.contact.channels.CHANNELS`.
     """
     if np.ndim(times[0]) == 0:  # a single stance
         times, measured, simulated = [times], [measured], [simulated]
+        normalisers = None if normalisers is None else [normalisers]
     n_st = len(times)
     if not (len(measured) == len(simulated) == n_st):
         raise InputError(
             f"times, measured, simulated must have the same number of stances, "
             f"but got {n_st}, {len(measured)}, {len(simulated)}"
         )
+    if normalisers is not None and len(normalisers) != n_st:
+        raise InputError(
+            f"normalisers must give one (BW, BW x H) per stance ({n_st}), "
+            f"but got {len(normalisers)}"
+        )
     sides = list(sides) if sides is not None else ["foot"] * n_st
     cols = list(dict.fromkeys(sides))
     fig = Figure(figsize=(4.5 * len(cols), 11), layout="constrained")
     axes = fig.subplots(len(CHANNELS), len(cols), sharex="col", squeeze=False)
+    handles: dict[int, list] = {j: [] for j in range(len(cols))}
     for s in range(n_st):
         j = cols.index(sides[s])
         t = np.asarray(times[s])
-        m, q = np.asarray(measured[s]), np.asarray(simulated[s])
+        m, q = np.asarray(measured[s], float), np.asarray(simulated[s], float)
+        if normalisers is not None:
+            bw, bwh = normalisers[s]
+            scale = 100.0 / np.array([bw, bw, bw, bwh, bwh, bwh])
+            m, q = m * scale, q * scale
         lab = labels[s] if labels is not None else f"stance {s + 1}"
         for i, ch in enumerate(CHANNELS):
             ax = axes[i, j]
             c = WRENCH_COLUMN[ch]
-            (line,) = ax.plot(t, m[:, c], lw=1.5, label=f"{lab} measured")
-            ax.plot(t, q[:, c], lw=1.2, ls="--", color=line.get_color(), label=f"{lab} model")
+            (line,) = ax.plot(t, m[:, c], lw=1.5)
+            ax.plot(t, q[:, c], lw=1.2, ls="--", color=line.get_color())
+            if i == 0:
+                handles[j].append(Line2D([], [], color=line.get_color(), lw=1.5, label=lab))
+    unit = _PCT_LABEL if normalisers is not None else _UNIT_LABEL
     for j, side in enumerate(cols):
         axes[0, j].set_title(side)
         axes[-1, j].set_xlabel("time [s]")
         for i, ch in enumerate(CHANNELS):
-            axes[i, j].set_ylabel(f"{ch.replace('_', ' ')} [{_UNIT_LABEL[ch]}]", fontsize=8)
+            # two lines: "anteroposterior torque [% BW×H]" on one ran into the next row's
+            axes[i, j].set_ylabel(f"{ch.replace('_', ' ')}\n[{unit[ch]}]", fontsize=8)
             axes[i, j].grid(alpha=0.3)
-        axes[0, j].legend(fontsize=7)
+        # below the column, never over a curve: one entry per stance (its colour) and the key
+        # to the line styles (a legend inside the axes covered the second stance's curve)
+        key = [
+            Line2D([], [], color="k", lw=1.5, label="measured"),
+            Line2D([], [], color="k", lw=1.2, ls="--", label="model"),
+        ]
+        entries = handles[j] + key
+        axes[-1, j].legend(
+            handles=entries,
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.3),
+            ncol=min(4, len(entries)),
+            fontsize=7,
+            frameon=False,
+        )
     if title:
         fig.suptitle(title)
     return fig

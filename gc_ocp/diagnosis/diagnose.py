@@ -726,6 +726,18 @@ def step_note(rows: Sequence[RankRow], info: dict, parent: str, k: int) -> str |
     )
 
 
+_CLI_NAMES = {
+    "null_draws": "--null-draws: here mismatch_draws=",
+    "effects": "--effects: here candidates=",
+    "plate_calibration": (
+        "--plate-calibration: here mismatch=gc_ocp.diagnosis.null.DEFAULT_FAMILY"
+        ".with_plate_calibration()"
+    ),
+}
+"""The CLI's names of :func:`diagnose`'s keywords where they differ (the README's words, so
+a user's first guess in Python), each with the keyword to give instead."""
+
+
 def diagnose(
     trials: list,
     base: str | tuple = "registered",
@@ -759,9 +771,11 @@ def diagnose(
     known = [k for k in inspect.signature(diagnose_stances).parameters if k != "stances"]
     unknown = sorted(set(kw) - set(known))
     if unknown:  # was diagnose_stances()'s TypeError, naming a function the caller never called
+        cli = [f"{k}= is the command line's {_CLI_NAMES[k]}" for k in unknown if k in _CLI_NAMES]
         raise InputError(
-            f"diagnose got unknown keyword argument(s) {unknown}; it takes "
-            f"{', '.join(known)} (help(gc_ocp.diagnose_stances))"
+            f"diagnose got unknown keyword argument(s) {unknown}; "
+            + (f"{'; '.join(cli)}; " if cli else "")
+            + f"it takes {', '.join(known)} (help(gc_ocp.diagnose_stances))"
         )
     _, data, notes = fit_data(trials, progress=progress)
     d = diagnose_stances(data, base, candidates, progress=progress, **kw)

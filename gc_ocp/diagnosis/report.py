@@ -27,7 +27,7 @@ from gc_ocp.contact.channels import channel_name, channel_unit
 from gc_ocp.diagnosis import selection
 from gc_ocp.diagnosis.compare import BLOCK_SECONDS, MIN_CLUSTERS, resamples_stances
 from gc_ocp.diagnosis.mismatch import MismatchFamily
-from gc_ocp.diagnosis.null import DRAWS_PER_LOOK, PRACTICAL_FACTOR
+from gc_ocp.diagnosis.null import DRAWS_PER_LOOK, MISMATCH_DRAWS, PRACTICAL_FACTOR
 from gc_ocp.html import FIGURE_DPI, data_uri, environment, pngs, provenance_context
 from gc_ocp.html.fit_tables import (
     CHANNEL_KEYS,
@@ -313,6 +313,7 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         "held": "held-out" if d.folds.get("n") else "in-sample",
         "steps": steps,
         "passing": d.passing_unselected,
+        "default_draws": MISMATCH_DRAWS,  # said beside d.draws_too_few
         "base_sup": wf[0].heldout_superior_force_pct_bw,
         "final_sup": wf[-1].heldout_superior_force_pct_bw,
         "groups": _groups(d.ranking, d.selected),

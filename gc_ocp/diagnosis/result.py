@@ -18,7 +18,13 @@ import numpy as np
 
 from gc_ocp.contact.channels import TABLE_KEYS, channel_name
 from gc_ocp.diagnosis.compare import Evaluation, heldout_quality, score, superior_rms
-from gc_ocp.diagnosis.null import RESOLUTION_PCT, NullTest, practical
+from gc_ocp.diagnosis.null import (
+    MISMATCH_DRAWS,
+    RESOLUTION_PCT,
+    NullTest,
+    fewest_draws,
+    practical,
+)
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
 from gc_ocp.errors import InputError, names_of, read_document
 from gc_ocp.text import float_fields, nan_for_null, read_json_file
@@ -469,10 +475,30 @@ class Diagnosis:
             return []
         return [r.effect for r in self.rounds[-1] if r.passes]
 
+    @property
+    def draws_too_few(self) -> int | None:
+        """The fewest mismatch draws per round that can name an effect at ``alpha``
+        (:func:`~gc_ocp.diagnosis.null.fewest_draws`) when round 1's null was given fewer (and
+        some): its p-value counts draws, so nothing could be named whatever the data; None
+        otherwise. The summary and the page say so first: the "none" of a small run (e.g.
+        ``mismatch_draws=8``) read as the data's answer, its reason last among the notes."""
+        planned = self.calibration[0].get("mismatch_draws_planned", 0) if self.calibration else 0
+        need = fewest_draws(self.alpha)
+        return need if 0 < planned < need else None
+
     def _none_why(self) -> str:
         """Why nothing is selected, in the summary's words: no effect passes, or some do but the
-        selection was stopped before it (``max_effects=0``: rank only)."""
+        selection was stopped before it (``max_effects=0``: rank only), or none could pass
+        (:attr:`draws_too_few`)."""
         passing = self.passing_unselected
+        need = self.draws_too_few
+        if not passing and need is not None:
+            planned = self.calibration[0]["mismatch_draws_planned"]
+            return (
+                f"none (none could be: {planned} mismatch draws per round cannot give a p-value "
+                f"under alpha {self.alpha:g}; give at least {need}, the default "
+                f"{MISMATCH_DRAWS}: mismatch_draws=, gc-ocp diagnose --null-draws)"
+            )
         if not passing:
             return "none (no effect passes)"
         return (

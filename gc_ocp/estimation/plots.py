@@ -24,9 +24,10 @@ def _fitted(result):
 
 
 def plot_fit(result, title: str = "measured (solid) vs fitted (dashed)") -> Figure:
-    """Measured vs fitted six channels per foot, every stance; ``result``: a fit (what
-    :func:`gc_ocp.fit` returns), its result or its ``fit.json`` (:func:`as_result`). Returns
-    the Matplotlib figure, not shown.
+    """Measured vs fitted six channels per foot, every stance, in % BW (forces) and % BW x
+    height (torques) of each stance's subject, the unit of every RMS the fit prints;
+    ``result``: a fit (what :func:`gc_ocp.fit` returns), its result or its ``fit.json``
+    (:func:`as_result`). Returns the Matplotlib figure, not shown (``fig.savefig("fit.png")``).
 
     >>> import gc_ocp
     >>> trial = gc_ocp.load_trial(); kin = gc_ocp.compute_kinematics(trial)
@@ -34,7 +35,6 @@ def plot_fit(result, title: str = "measured (solid) vs fitted (dashed)") -> Figu
     >>> fig = gc_ocp.plot_fit(gc_ocp.solve(problem))  # or plot_fit(report), plot_fit("out/fit.json")
     >>> len(fig.axes)                         # six channels, two feet
     12
-    >>> fig.savefig("fit.png")
     """
     f = _fitted(result).stance_fits
     return plot_wrench_fit(
@@ -44,6 +44,7 @@ def plot_fit(result, title: str = "measured (solid) vs fitted (dashed)") -> Figu
         sides=[s["side"] for s in f],
         labels=[s["label"].split(":")[-1] for s in f],
         title=title,
+        normalisers=[(s["body_weight"], s["body_weight"] * s["height"]) for s in f],
     )
 
 

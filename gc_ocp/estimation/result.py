@@ -20,7 +20,7 @@ from gc_ocp._version import __version__
 from gc_ocp.contact.channels import TABLE_KEYS, channel_rms_pct
 from gc_ocp.errors import InputError, read_document
 from gc_ocp.estimation.components import describe_block
-from gc_ocp.estimation.components.contact import ContactLaw
+from gc_ocp.estimation.components.contact import ContactLaw, with_unit
 from gc_ocp.estimation.flags import (
     at_bound_names,
     k_at_bound,
@@ -208,7 +208,7 @@ class EstimationResult:
             if not k.endswith("_se"):
                 se = shared.get(k + "_se", float("nan"))
                 lines.append(
-                    f"shared {k} = {v:.4g} "
+                    f"shared {with_unit(k)} = {v:.4g} "
                     + (
                         BOUND_TEXT
                         if law_at_bound(self.at_bound, k)

@@ -423,15 +423,26 @@ def compare(trial, time, ours: dict, theirs: dict, cal: CalibratedContact) -> di
     return out
 
 
-def plot_comparison(time, ours: dict, theirs: dict, plates: dict, cal: CalibratedContact):
+def plot_comparison(
+    time, ours: dict, theirs: dict, plates: dict, cal: CalibratedContact, stances=()
+):
     """Figure: the vertical and anterior force of each foot [% BW]: the plates, the package's
-    model and OpenSim's."""
-    import matplotlib.pyplot as plt
+    model and OpenSim's; ``stances``: ``[(side, t_on, t_off)]`` of the trial's stances on a
+    plate, shaded (the frames the RMS compares; elsewhere no plate measures the foot, and the
+    model's force there, hundreds of % BW on the bundled trial's ends, is checked by none). A
+    :class:`~matplotlib.figure.Figure`, not pyplot's: it was left open in pyplot, shown by a
+    notebook after every export and kept to the end of a script."""
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Patch
 
-    fig, axes = plt.subplots(2, 2, figsize=(10, 6), sharex=True, constrained_layout=True)
+    fig = Figure(figsize=(10, 6), layout="constrained")
+    axes = fig.subplots(2, 2, sharex=True)
     for j, side in enumerate(("left", "right")):
         for i, (col, what) in enumerate(((2, "vertical"), (0, "anterior"))):
             ax = axes[i, j]
+            for s, t_on, t_off in stances:
+                if s == side:
+                    ax.axvspan(t_on, t_off, color="C2", alpha=0.12, lw=0)
             if side in plates:
                 ax.plot(
                     time,
@@ -457,7 +468,14 @@ def plot_comparison(time, ours: dict, theirs: dict, plates: dict, cal: Calibrate
                 )
             ax.set_title(f"{side}: {what} force")
             ax.set_ylabel("% BW")
-    axes[0, 0].legend(fontsize=8)
+    handles, _ = axes[0, 0].get_legend_handles_labels()
+    if stances:
+        handles.append(
+            Patch(
+                color="C2", alpha=0.12, label="stance on a plate (compared; elsewhere unmeasured)"
+            )
+        )
+    axes[0, 0].legend(handles=handles, fontsize=8)
     for ax in axes[-1]:
         ax.set_xlabel("time [s]")
     return fig
@@ -623,7 +641,9 @@ def export_opensim(
         rms = None
         if theirs is not None:
             rms = compare(trial, time, ours, theirs, cal)
-            outset.figure("opensim_vs_gc_ocp.png", plot_comparison(time, ours, theirs, plates, cal))
+            spans = [(st.side, st.t_on, st.t_off) for st in trial.stances]
+            fig = plot_comparison(time, ours, theirs, plates, cal, spans)
+            outset.figure("opensim_vs_gc_ocp.png", fig)
         notes = _notes(cal, doc)
         notes += [
             f"the fit has no {side} stance: the {side} foot has no contact spheres and no "

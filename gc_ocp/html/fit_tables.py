@@ -13,7 +13,7 @@ import numpy as np
 
 from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_name, channel_unit
 from gc_ocp.estimation.components.base import per_axis
-from gc_ocp.estimation.components.contact import ContactLaw
+from gc_ocp.estimation.components.contact import ContactLaw, with_unit
 from gc_ocp.estimation.flags import k_at_bound, law_at_bound, row_at_bound, variable_key
 from gc_ocp.values import BOUND_TEXT, se_text
 
@@ -107,7 +107,8 @@ def contact_tables(
                 {
                     "side": side,
                     "values": [
-                        (k, pm(per, k, bound=law_at_bound(at_bound, k, side))) for k in scalars
+                        (with_unit(k), pm(per, k, bound=law_at_bound(at_bound, k, side)))
+                        for k in scalars
                     ],
                 }
             )
@@ -117,7 +118,7 @@ def contact_tables(
         "units": units,
         "per_foot": per_foot,
         "shared": [
-            (k, pm(shared, k, bound=law_at_bound(at_bound, k)))
+            (with_unit(k), pm(shared, k, bound=law_at_bound(at_bound, k)))
             for k in shared
             if not k.endswith("_se")
         ],

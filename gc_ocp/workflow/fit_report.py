@@ -6,6 +6,7 @@ figures), the held-out stance and the provenance. The markup is
 
 from __future__ import annotations
 
+from gc_ocp.estimation.components.contact import with_unit
 from gc_ocp.estimation.flags import law_at_bound
 from gc_ocp.html import data_uri, environment, provenance_context
 from gc_ocp.html.fit_tables import (
@@ -54,7 +55,9 @@ def fit_report_html(
             "heldout": None
             if held is None
             else next(iter(held.rms.values()))["superior_force_pct_bw"],
-            "shared": [(p, pm(shared, p, bound=law_at_bound(res.at_bound, p))) for p in names],
+            "shared": [
+                (with_unit(p), pm(shared, p, bound=law_at_bound(res.at_bound, p))) for p in names
+            ],
         },
         "checks": list(report.checks),
         "pose_scale": None if report.pose_scale is None else report.pose_scale.message(),

@@ -192,6 +192,8 @@ def _require_pairs(trials) -> list:
     )
     if isinstance(trials, tuple) and len(trials) == 2 and isinstance(trials[0], Trial):
         raise InputError(f"got one (trial, kinematics) pair, not a list of them; {how}.")
+    if isinstance(trials, Trial):  # fit(trial, kin): the kinematics went to model=
+        raise InputError(f"got a Trial on its own, not a list of (trial, kinematics) pairs; {how}.")
     if isinstance(trials, Iterator):  # a generator or zip(...): its pairs, once
         trials = list(trials)
     if isinstance(trials, str | os.PathLike):  # a file: it was told "got an empty list"
@@ -442,6 +444,8 @@ def fit(
     ['left', 'right']
     """
     say = progress or (lambda s: None)
+    # the trials first: fit(trial, kin) was told its model=TrialKinematics(...) was no model
+    trials = _require_pairs(trials)
     require_model(model, "model")
     require_model(extends, "extends")
     require_settings(weights, options)

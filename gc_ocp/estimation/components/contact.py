@@ -31,6 +31,15 @@ from gc_ocp.trial import SIDES
 
 PARAMS = ("k", "n", "c", "mu")
 LAW_SLOTS = {"n": "law_n", "c": "law_c", "mu": "law_mu"}
+PARAM_UNITS = {"k": "N/m^n", "c": "s/m"}
+"""Units of the law's parameters where they have one (n and mu are pure numbers)."""
+
+
+def with_unit(name: str) -> str:
+    """A parameter's name as the summary and the pages print it: ``"c [s/m]"``, ``"mu"``
+    (the damping's unit was nowhere beside its value: a reader could not tell s/m from ms/mm)."""
+    unit = PARAM_UNITS.get(name)
+    return f"{name} [{unit}]" if unit else name
 
 
 @dataclass(frozen=True)
@@ -414,4 +423,4 @@ class ContactLaw(Component):
         return replace(self, k=replace(self.k, value=k0))
 
 
-__all__ = ["ContactLaw", "Param"]
+__all__ = ["PARAM_UNITS", "ContactLaw", "Param", "with_unit"]
