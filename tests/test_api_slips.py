@@ -65,6 +65,16 @@ def pair():
         # RuntimeError "Ill-posed problem detected" at the first solve
         (lambda t, k: gc_ocp.Param("shared", 0.3, 10, 0), r"lower <= upper.*lower=10, upper=0"),
         (lambda t, k: gc_ocp.Param("shared", 0.3, "0", 10), r"must be numbers.*lower='0'"),
+        # a scope the package does not know was a ModelError only (not caught as bad input)
+        (lambda t, k: gc_ocp.Param("global", 0.8), r'scope must be one of.*"global"'),
+        # a per-foot value without the other foot was a bare KeyError('right') at the build
+        (
+            lambda t, k: gc_ocp.build_estimation(
+                gc_ocp.trial_stances(t, k),
+                (gc_ocp.ContactLaw(mu=gc_ocp.Param("fixed", {"left": 0.8})),),
+            ),
+            r"no side 'right' \(it gives 'left'\).*for each foot",
+        ),
         # a percentage where a fraction of body weight is taken: plates weighted 100x too
         # lightly against the priors, silently
         (lambda t, k: gc_ocp.Weights(force_sigma=2), "fraction of body weight"),

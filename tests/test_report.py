@@ -898,12 +898,32 @@ def test_a_run_with_too_few_null_draws_says_first_that_nothing_could_be_named(di
     lead = _Page(report_html(diagnosis)).visible.split("1. Where the gap is")[0]
     assert "none could on this run: with 4 mismatch draws per round" in lead
     assert "at least 20 are needed, 32 by default" in lead and "--null-draws" in lead
+    # the steps a row's verdict gives are those of a run with the default draws (null.decide's
+    # critical value is the full null's): said beside them, or "28 more steps would decide"
+    # reads as if more steps alone would. A row of the fixture with a number, and every one said so
+    # reads as if more steps alone would. The fixture's row given a number (test_diagnosis's
+    # inconclusive row: named by the test, its interval reaching 0, 1200 more steps by the floor)
+    from gc_ocp.diagnosis.null import NullTest
+
+    row = dataclasses.replace(
+        diagnosis.ranking[0],
+        heldout_rms_reduction_ci=(-6.0, 7.2),
+        calibrated=NullTest(2.2, 0.4, 0.6, 3.0, 0.039, 2.4, 0, 400),
+        inconclusive=True,
+        floor_stances=1200,
+    )
+    small = dataclasses.replace(diagnosis, ranking=[row], rounds=[[row]])
+    qualified = "steps would decide with 32 mismatch draws per round"
+    assert qualified in row.verdict(small.steps_draws)
+    for text in (small.summary(), _Page(report_html(small)).visible):
+        assert text.count("steps would decide") == text.count(qualified) > 0
     # enough draws planned: the answer is the data's, said as before
     enough = dataclasses.replace(
         diagnosis, calibration=[dict(diagnosis.calibration[0], mismatch_draws_planned=20)]
     )
     assert enough.draws_too_few is None
     assert "selected: none (no effect passes)" in enough.summary()
+    assert enough.steps_draws is None and "mismatch draws per round" not in row.verdict()
     lead = _Page(report_html(enough)).visible.split("1. Where the gap is")[0]
     assert "No candidate effect passes the decision rule:" in lead and "none could" not in lead
 

@@ -181,16 +181,17 @@ def _nuisance(ranking: list) -> list[dict]:
     return items
 
 
-def _verdict(r) -> str:
-    """The decision rule's outcome for a ranking row, in words (the row's own verdict)."""
+def _verdict(r, draws: int | None) -> str:
+    """The decision rule's outcome for a ranking row, in words (the row's own verdict; ``draws``:
+    :attr:`~gc_ocp.diagnosis.result.Diagnosis.steps_draws`)."""
     if r.not_evaluable is not None:
         return f"not evaluable on these data: {r.not_evaluable}"
-    return r.verdict()
+    return r.verdict(draws)
 
 
-def _table(rows: list) -> list[dict]:
+def _table(rows: list, draws: int | None) -> list[dict]:
     """A round's rows as the ranking table shows them."""
-    return [{"row": r, "verdict": _verdict(r), "flags": sorted(set(r.flags))} for r in rows]
+    return [{"row": r, "verdict": _verdict(r, draws), "flags": sorted(set(r.flags))} for r in rows]
 
 
 def _change(a, b) -> str:
@@ -319,12 +320,12 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         "groups": _groups(d.ranking, d.selected),
         "nuisance": _nuisance(d.ranking),
         "where": _where(d.where["base"]),
-        "ranking": _table(d.ranking),
+        "ranking": _table(d.ranking, d.steps_draws),
         "inconclusive": [
             r for r in (d.rounds[-1] if d.rounds else []) if r.effect in d.inconclusive
         ],
         "later_rounds": [
-            (" + ".join(["base", *d.selected[: k - 1]]), _table(rows))
+            (" + ".join(["base", *d.selected[: k - 1]]), _table(rows, d.steps_draws))
             for k, rows in enumerate(d.rounds[1:], 2)
         ],
         "waterfall": _waterfall(wf),

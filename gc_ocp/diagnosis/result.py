@@ -163,10 +163,24 @@ class RankRow:
             }
         )
 
-    def verdict(self) -> str:
+    def verdict(self, draws: int | None = None) -> str:
         """What the calibrated test says, in words: ``"named (p = 0.004)"``, ``"inconclusive;
         about 14 more steps would decide"``, ``"not decidable by more steps: within what model
-        mismatch gives"``, ``"no gain"`` (with the refit's gain when only the refit has one)."""
+        mismatch gives"``, ``"no gain"`` (with the refit's gain when only the refit has one).
+
+        draws: the mismatch draws per round the steps assume, said beside them; given by a
+        diagnosis that ran with fewer (:attr:`Diagnosis.draws_too_few`): its null could name
+        nothing, and its steps are those of a run with the default draws (:func:`~gc_ocp.
+        diagnosis.null.decide`), which more steps alone would not give."""
+        text = self._verdict()
+        if draws is not None:
+            text = text.replace(
+                "would decide", f"would decide with {draws} mismatch draws per round"
+            )
+        return text
+
+    def _verdict(self) -> str:
+        """:meth:`verdict` without the draws' qualifier."""
         c = self.calibrated
         if self.not_evaluable is not None:
             return "not evaluable"
@@ -249,20 +263,21 @@ class RankRow:
             )
         return f"no gain ({p})"
 
-    def line(self) -> str:
-        """The row in a line: ``effect +x.x % [lo, hi]`` (or its in-sample screen)."""
+    def line(self, draws: int | None = None) -> str:
+        """The row in a line: ``effect +x.x % [lo, hi]`` (or its in-sample screen); ``draws``
+        as in :meth:`verdict`."""
         if self.not_evaluable is not None:
             return f"{self.effect} not evaluable"
         if self.heldout_rms_reduction_pct is None:
             return (
                 f"{self.effect} in-sample {self.insample_rms_reduction_pct:+.1f} % (not held out;"
-                f" {self.verdict()})"
+                f" {self.verdict(draws)})"
             )
         lo, hi = self.heldout_rms_reduction_ci
         mark = " PASS" if self.passes else ""
         return (
             f"{self.effect} {self.heldout_rms_reduction_pct:+.1f} % [{lo:+.1f}, {hi:+.1f}]{mark}"
-            f" ({self.verdict()})"
+            f" ({self.verdict(draws)})"
         )
 
 
@@ -486,6 +501,14 @@ class Diagnosis:
         need = fewest_draws(self.alpha)
         return need if 0 < planned < need else None
 
+    @property
+    def steps_draws(self) -> int | None:
+        """The mismatch draws the verdicts' steps assume, to be said beside them
+        (:meth:`RankRow.verdict`): the default when this run had too few to name anything
+        (:attr:`draws_too_few`; a small run's "about 28 more steps would decide" read as if more
+        steps alone would); None otherwise."""
+        return MISMATCH_DRAWS if self.draws_too_few is not None else None
+
     def _none_why(self) -> str:
         """Why nothing is selected, in the summary's words: no effect passes, or some do but the
         selection was stopped before it (``max_effects=0``: rank only), or none could pass
@@ -514,6 +537,7 @@ class Diagnosis:
 
     def summary(self) -> str:
         f = self.folds
+        draws = self.steps_draws
         lines = [
             f"Diagnosis on base '{self.base}' ({', '.join(self.base_components)}); "
             f"{f['kind']}, {f['n']} held-out stance(s); {self.seconds:.0f} s",
@@ -531,17 +555,17 @@ class Diagnosis:
             lines.append(
                 f"  {mark} {r.effect:<20} {r.heldout_rms_reduction_pct:+6.1f} % [{lo:+.1f}, {hi:+.1f}]"
                 f"  in-sample {r.insample_rms_reduction_pct:+6.1f} %  ({r.n_params} params)"
-                f"  {r.verdict()}{conf}"
+                f"  {r.verdict(draws)}{conf}"
             )
         for k, rows in enumerate(self.rounds[1:], 2):
             lines.append(
                 f"round {k} (on top of {' + '.join(['base', *self.selected[: k - 1]])}): "
-                + "; ".join(r.line() for r in rows)
+                + "; ".join(r.line(draws) for r in rows)
             )
         lines.append("selected: " + (", ".join(self.selected) or self._none_why()))
         last = {r.effect: r for r in (self.rounds[-1] if self.rounds else [])}
         for e in self.inconclusive:
-            lines.append(f"{e}: {last[e].verdict()}")
+            lines.append(f"{e}: {last[e].verdict(draws)}")
         if self.inconclusive and self.inconclusive_before:
             lines.append(
                 f"(measured before {self.inconclusive_before} was added: the selection stopped "

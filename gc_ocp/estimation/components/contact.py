@@ -24,7 +24,7 @@ from gc_ocp.contact.laws import (
     normal_force_function,
     penetration_function,
 )
-from gc_ocp.errors import InputError, ModelError
+from gc_ocp.errors import InputError, ModelError, UnknownNameError
 from gc_ocp.estimation.components.base import Component, DecodeContext
 from gc_ocp.estimation.flags import flag
 from gc_ocp.trial import SIDES
@@ -61,7 +61,7 @@ class Param:
     >>> gc_ocp.Param("global", 0.8)
     Traceback (most recent call last):
     ...
-    gc_ocp.errors.ModelError: Param scope must be one of unit, foot, shared, fixed, but got "global"
+    gc_ocp.errors.UnknownNameError: Param scope must be one of unit, foot, shared, fixed, but got "global"
     """
 
     scope: str
@@ -72,7 +72,8 @@ class Param:
 
     def __post_init__(self) -> None:
         if self.scope not in ("unit", "foot", "shared", "fixed"):
-            raise ModelError(
+            # a name the user gave: bad input (and a model that cannot be made, as before)
+            raise UnknownNameError(
                 f'Param scope must be one of unit, foot, shared, fixed, but got "{self.scope}"'
             )
         # reversed bounds were a CasADi RuntimeError "Ill-posed problem detected" at the solve
@@ -85,11 +86,21 @@ class Param:
             )
 
     def value_for(self, side: str, unit: str | None = None) -> float:
+        """The value for ``side`` (and ``unit``, for per-unit values); a per-foot or per-unit
+        value that lacks the side or unit the model needs is an :class:`InputError` naming the
+        keys it has (it was a bare KeyError at the build)."""
         v = self.value
-        if isinstance(v, dict):
-            v = v[side]
-            if isinstance(v, dict):
-                v = v[unit]
+        for key, what in ((side, "side"), (unit, "unit")):
+            if not isinstance(v, dict):
+                break
+            if key not in v:
+                raise InputError(
+                    f"Param value {self.value!r} has no {what} {key!r} (it gives "
+                    f"{', '.join(map(repr, v))}): give a value for each "
+                    + ("foot, e.g. {'left': 0.8, 'right': 0.8}" if what == "side" else "unit")
+                    + ", or one number for all"
+                )
+            v = v[key]
         return float(v)
 
 
