@@ -173,11 +173,12 @@ def test_shipped_marker_sets_are_files_of_the_package():
     + ["InputError", "SolveError"],
 )
 def test_public_classes_show_an_example_with_names_that_exist(name):
-    """``help(gc_ocp.X)`` of a class a user builds, receives or catches shows how (an example
-    block, ``::``), and every ``gc_ocp.<name>`` the docstring uses is one the package has."""
+    """``help(gc_ocp.X)`` of a class a user builds, receives or catches shows how (an example:
+    a ``>>>`` doctest, which tests/test_docstring_examples.py runs), and every ``gc_ocp.<name>``
+    the docstring uses is one the package has."""
     import re
 
     doc = getattr(gc_ocp, name).__doc__
-    assert "::" in doc
+    assert "\n    >>> " in doc
     used = set(re.findall(r"\bgc_ocp\.(\w+)", doc))
     assert used and all(hasattr(gc_ocp, n) for n in used), used
