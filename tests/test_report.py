@@ -919,3 +919,42 @@ def test_a_diagnosis_figure_of_a_model_that_is_not_base_or_final_is_refused():
         with pytest.raises(InputError, match='"base" or the "final"'):
             figure(which="fnal")
     assert d.heatmap(which="final") is not None
+
+
+def test_the_summary_names_the_body_weight_and_height_its_percentages_are_of():
+    """The summary gives its errors in % BW and % BW x height; it now prints the body weight
+    [N] and height [m] they are of, once (one subject), or per trial (subjects that differ)."""
+    _, _, _, _, final = _fixture(CASES[0])  # its stance fits are cut: the scale of two here
+    one = [
+        {"label": f"t:{s}@1s", "side": s, "trial": "t", "body_weight": 623.916, "height": 1.58}
+        for s in ("left", "right")
+    ]
+    text = dataclasses.replace(final, stance_fits=one).summary()
+    line = next(ln for ln in text.splitlines() if "body weight" in ln)
+    assert "624 N" in line and "1.58 m" in line and "% BW x height" in line
+    two = [one[0], {**one[1], "trial": "u", "body_weight": 700.0, "height": 1.8}]
+    text = dataclasses.replace(final, stance_fits=two).summary()
+    line = next(ln for ln in text.splitlines() if "body weight" in ln)
+    assert "624 N and height 1.58 m (t)" in line and "700 N and height 1.80 m (u)" in line
+    assert "body weight" not in final.summary()  # no stance fits: no scale to name
+
+
+def test_a_held_out_fit_s_summary_says_its_contact_law_is_fixed_in_one_line():
+    """A held-out fit (the contact law frozen at the training fit's values: every SE zero)
+    printed a k line and a force line per foot, each unit "(fixed)", repeating the values the
+    training fit's summary prints just above; it now says once that the law is fixed. A fit
+    that estimated the law prints its lines as before."""
+    _, _, _, _, final = _fixture(CASES[0])
+
+    def frozen(d):
+        if isinstance(d, dict):
+            return {k: (0.0 if k.endswith("_se") else frozen(v)) for k, v in d.items()}
+        return d
+
+    blocks = {**final.blocks, "contact": frozen(final.params)}
+    text = dataclasses.replace(final, blocks=blocks).summary()
+    assert "(fixed)" not in text and "k [N/m^n]" not in text and "shared n =" not in text
+    line = next(ln for ln in text.splitlines() if ln.startswith("contact law: fixed"))
+    assert "k of PL, PM, AL, AM, TT" in line
+    before = final.summary()
+    assert "contact law: fixed" not in before and " left k [N/m^n]" in before
