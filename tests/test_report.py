@@ -958,3 +958,79 @@ def test_a_held_out_fit_s_summary_says_its_contact_law_is_fixed_in_one_line():
     assert "k of PL, PM, AL, AM, TT" in line
     before = final.summary()
     assert "contact law: fixed" not in before and " left k [N/m^n]" in before
+
+
+def _sole_fits(pts):
+    from gc_ocp.foot import SEED_LAYOUT
+
+    return [
+        {
+            "side": side,
+            "label": f"t:{side}@1.000s",
+            "units": list(SEED_LAYOUT.units),
+            "parents": list(SEED_LAYOUT.parents),
+            "points_local": pts,
+            "nominal_points": pts,
+            "toes_offset": np.array([0.13, 0.0, 0.0]),
+        }
+        for side in ("right", "left")
+    ]
+
+
+def test_the_sole_figure_keeps_its_unit_labels_inside_the_frame():
+    """A unit at the sole's edge had its label ("AL 704 N" on the right foot of the bundled
+    trial's fit) run over the frame: every label (and every unit, nominal or corrected) now
+    lies inside its axes."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from gc_ocp.estimation.plots import plot_sole_fit
+
+    _, _, _, _, final = _fixture(CASES[0])  # its stance fits are not stored: two made here
+    # the units of the bundled trial's fit [m] (hindfoot frame; the toe on the toes frame)
+    pts = np.array(
+        [[-0.032, 0.031, 0], [-0.033, -0.034, 0], [0.095, 0.037, 0], [0.096, -0.047, 0]]
+        + [[0.028, -0.002, 0]]
+    )
+    fig = plot_sole_fit(dataclasses.replace(final, stance_fits=_sole_fits(pts)))
+    canvas = FigureCanvasAgg(fig)  # the figure as savefig draws it
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    for ax in fig.axes:
+        frame = ax.get_window_extent(renderer)
+        assert len(ax.texts) == 5
+        for t in ax.texts:
+            box = t.get_window_extent(renderer)
+            inside = frame.x0 <= box.x0 and box.x1 <= frame.x1
+            assert inside and frame.y0 <= box.y0 and box.y1 <= frame.y1, (ax.get_title(), t)
+        (x0, x1), (y0, y1) = sorted(ax.get_xlim()), sorted(ax.get_ylim())
+        for c in ax.collections:
+            xy = c.get_offsets()
+            assert ((xy[:, 0] > x0) & (xy[:, 0] < x1) & (xy[:, 1] > y0) & (xy[:, 1] < y1)).all()
+
+
+def test_the_pose_corrections_figure_has_a_readable_key_on_each_panel():
+    """The key was in 6 pt on the translation panel only (nine entries over the curves): each
+    panel now has one in the text's size, a colour per stance and a line style per axis."""
+    import matplotlib as mpl
+    from matplotlib.font_manager import FontProperties
+
+    from gc_ocp.estimation.plots import plot_pose_corrections
+
+    _, _, _, _, final = _fixture(CASES[0])
+    fits = _sole_fits(np.zeros((5, 3)))
+    t = np.linspace(0.0, 0.6, 31)
+    for f in fits:
+        f["time"] = t
+    stances = {
+        f["label"]: {"translation_m": np.full((31, 3), 1e-3), "rotation_rad": np.zeros((31, 3))}
+        for f in fits
+    }
+    blocks = {**final.blocks, "pose": {"stances": stances}}
+    fig = plot_pose_corrections(dataclasses.replace(final, blocks=blocks, stance_fits=fits))
+    small = FontProperties(size=mpl.rcParams["legend.fontsize"]).get_size_in_points()
+    for ax in fig.axes:
+        legend = ax.get_legend()
+        assert legend is not None, ax.get_ylabel()
+        labels = [x.get_text() for x in legend.get_texts()]
+        assert labels == ["right@1.000s", "left@1.000s", "x", "y", "z"]
+        assert all(x.get_fontsize() >= min(small, 8) for x in legend.get_texts())
