@@ -1034,3 +1034,33 @@ def test_the_pose_corrections_figure_has_a_readable_key_on_each_panel():
         labels = [x.get_text() for x in legend.get_texts()]
         assert labels == ["right@1.000s", "left@1.000s", "x", "y", "z"]
         assert all(x.get_fontsize() >= min(small, 8) for x in legend.get_texts())
+
+
+def test_the_contact_table_gives_each_unit_s_force_in_body_weights_too():
+    """The flags say a unit is not identified at "24 BW"; the contact table gave its force at
+    5 mm in N only (14669 N). It now gives it in % BW beside, of the subject's body weight
+    (each foot's stances', as the flag divides; from the provenance's mass when the stance
+    fits are cut, as in the fixture)."""
+    from gc_ocp.diagnosis.report import report_html
+    from gc_ocp.html.fit_tables import body_weights, contact_tables
+    from gc_ocp.trial import GRAVITY
+
+    _, _, js, d, final = _fixture(CASES[0])
+    bw = js["provenance"]["trials"][0]["mass_kg"] * GRAVITY
+    assert body_weights(final, js["provenance"]) == {"left": bw, "right": bw}
+    fits = [{"side": "left", "body_weight": 700.0}, {"side": "right", "body_weight": 650.0}]
+    assert body_weights(dataclasses.replace(final, stance_fits=fits), None) == {
+        "left": 700.0,
+        "right": 650.0,
+    }
+    assert body_weights(final, None) == {}  # nothing to divide by: the cells say "–"
+    units = contact_tables(final.params, final.at_bound, None, {"left": bw, "right": bw})["units"]
+    am = next(u for u in units if (u["side"], u["unit"]) == ("left", "AM"))
+    f = final.params["left"]["AM"]["f_ref"]
+    assert am["f_ref_pct_bw"] == f"{100 * f / bw:.0f}" == "2351"  # the flag's "24 BW"
+    assert "24 BW" in " ".join(x["message"] for x in final.flags)
+    pngs = dict.fromkeys(("heatmap", "residuals", "ranking", "waterfall", "heatmap_final"), b"")
+    page = _Page(report_html(d, js["provenance"], pngs, final))
+    assert "force [% BW]" in page.visible
+    row = page.visible.split("left\nAM\n", 1)[1].split("\n")[:3]
+    assert row == ["2.934e+06 ± 1.9e+06", "14669 ± 9400", "2351"], row
