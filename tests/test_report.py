@@ -1064,3 +1064,25 @@ def test_the_contact_table_gives_each_unit_s_force_in_body_weights_too():
     assert "force [% BW]" in page.visible
     row = page.visible.split("left\nAM\n", 1)[1].split("\n")[:3]
     assert row == ["2.934e+06 ± 1.9e+06", "14669 ± 9400", "2351"], row
+
+
+def test_the_fit_page_s_flags_table_breaks_long_stance_labels():
+    """The fit page's flags table ran wider than the text column: a flag's "where" (and its
+    fit's label) is a stance label with no space in it, "pose/<trial>:right@0.407s/trans",
+    which a browser does not break. Those cells now break anywhere (the codes stay whole)."""
+    from gc_ocp.workflow.fit_report import fit_report_html
+    from gc_ocp.workflow.fitting import FitReport
+
+    _, _, _, _, final = _fixture(CASES[0])
+    label = "Walking1_subject03_overground_session2:right@0.407s"
+    flag = {"code": "prior_exceeded", "what": f"pose/{label}/trans", "message": "-"}
+    report = FitReport(result=dataclasses.replace(final, flags=[flag]))
+    names = ("fit_wrench.png", "fit_sole.png", "fit_pose_corrections.png")
+    page = _Page(fit_report_html(report, None, dict.fromkeys(names, b"")))
+    assert "table.flags td { overflow-wrap: anywhere; }" in page.style
+    assert "td.nw { white-space: nowrap; }" in page.style
+    tags = page.tags[
+        next(i for i, t in enumerate(page.tags) if t == ("table", (("class", "flags"),))) :
+    ]
+    cells = [dict(t[1]).get("class") for t in tags[: tags.index(("/table",))] if t[0] == "td"]
+    assert cells == ["l", "l nw", "l", "l"]  # fit, code (whole), where, message
