@@ -31,6 +31,18 @@ ESTIMATED = "ESTIMATE"
 of "estimated" (:attr:`Trial.mass_estimated`, :attr:`Trial.height_estimated`)."""
 
 
+def _estimated_text(source: str) -> str:
+    """What a printed mass or height says of its ``source`` (``Trial.mass_source``,
+    ``height_source``): " (estimated from the plates)" (or the markers) when the package
+    estimated it (:data:`ESTIMATED`), nothing when a file or the user gave it."""
+    if not source.startswith(ESTIMATED):
+        return ""
+    for words, what in (("force data", "the plates"), ("markers", "the markers")):
+        if words in source:
+            return f" (estimated from {what})"
+    return " (estimated)"  # e.g. the mean of a subject's trials' estimates
+
+
 def belt_velocity(speed: float) -> np.ndarray:
     """The velocity in ``lab`` [m/s] of a treadmill belt running at ``speed`` [m/s] (>= 0) under a
     subject walking along +X: ``(-speed, 0, 0)`` (zeros overground). The inverse is
@@ -195,7 +207,14 @@ class Trial:
         return (
             f"Trial({str(self.source)!r}, {len(self.marker_names)} markers at "
             f"{self.marker_rate:.0f} Hz, {len(self.plates)} plates, {len(self.stances)} stances "
-            f"({', '.join(s.label for s in self.stances)}), mass {self.mass:.1f} kg)"
+            f"({', '.join(s.label for s in self.stances)}), mass {self.mass:.1f} kg"
+            f"{_estimated_text(self.mass_source)}"
+            + (
+                ""
+                if self.height is None
+                else f", height {self.height:.2f} m{_estimated_text(self.height_source)}"
+            )
+            + ")"
         )
 
     @property

@@ -174,6 +174,30 @@ def test_a_trial_and_its_kinematics_print_in_one_line(pair):
     assert "27 coordinates" in repr(kin)
 
 
+def test_a_trial_s_printout_says_which_mass_and_height_the_package_estimated(pair):
+    """A mass estimated from the plates (no mass in the file: the shared data's BTS
+    Walking1.c3d) or a height from the markers is marked where the trial is printed, not only
+    in the warning that went by at load; a recorded one is printed as it is."""
+    import dataclasses
+
+    from gc_ocp.trial import ESTIMATED
+
+    trial, _ = pair
+    assert "mass 63.6 kg, height 1.58 m)" in repr(trial)  # the file's: no mark
+    guessed = dataclasses.replace(
+        trial,
+        mass_source=f"{ESTIMATED} 63.6 kg from the force data (walking: ...)",
+        height_source=f"{ESTIMATED} from the markers",
+    )
+    text = repr(guessed)
+    assert "mass 63.6 kg (estimated from the plates)" in text
+    assert "height 1.58 m (estimated from the markers)" in text
+    pooled = dataclasses.replace(
+        trial, mass_source=f"{ESTIMATED} 63.6 kg: the mean of the subject's trials' estimates"
+    )
+    assert "mass 63.6 kg (estimated)" in repr(pooled)
+
+
 @pytest.mark.parametrize(
     "kw, words",
     [

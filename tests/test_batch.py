@@ -656,3 +656,94 @@ def test_a_number_that_is_not_finite_is_null_in_the_table_as_after_a_resume():
     for rows in (fresh, resumed):
         assert to_arrow(rows).column(col).to_pylist() == [None]
     assert to_csv(fresh) == to_csv(resumed)
+
+
+def _unbreakable_widths(page: str) -> list[int]:
+    """Per column of the page's ``table.wide``, the widest piece [characters] a browser cannot
+    break: a cell of class ``w`` breaks between words but not inside a ``<span>``; any other
+    cell (``white-space: nowrap`` in that table) is one piece; a header breaks between words."""
+    from html.parser import HTMLParser
+
+    class Table(HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.inside, self.cells, self.cell, self.span = False, [], None, 0
+
+        def handle_starttag(self, tag, attrs):
+            a = dict(attrs)
+            if tag == "table" and a.get("class") == "wide":
+                self.inside = True
+            elif self.inside and tag == "tr":
+                self.col = 0
+            elif self.inside and tag in ("td", "th"):
+                wrap = tag == "th" or "w" in (a.get("class") or "").split()
+                self.cell = {"col": self.col, "wrap": wrap, "pieces": [""]}
+            elif self.cell is not None and tag == "span":
+                self.span += 1
+
+        def handle_endtag(self, tag):
+            if tag == "table":
+                self.inside = False
+            elif self.inside and tag in ("td", "th") and self.cell is not None:
+                self.cells.append(self.cell)
+                self.cell, self.col = None, self.col + 1
+            elif tag == "span":
+                self.span -= 1
+
+        def handle_data(self, data):
+            if self.cell is None:
+                return
+            if not self.cell["wrap"] or self.span:
+                self.cell["pieces"][-1] += data
+            else:
+                words = data.split(" ")
+                self.cell["pieces"][-1] += words[0]
+                self.cell["pieces"] += words[1:]
+
+    t = Table()
+    t.feed(page)
+    widths: dict[int, int] = {}
+    for c in t.cells:
+        widths[c["col"]] = max(widths.get(c["col"], 0), *(len(p.strip()) for p in c["pieces"]))
+    return [widths[k] for k in sorted(widths)]
+
+
+def test_the_study_table_fits_a_1280_px_window():
+    """The table of every subject and foot was wider than a 1280 px window (every cell kept on
+    one line; the last columns cut, the reader scrolled sideways). Its narrowest layout, the
+    widest unbreakable piece of each column at the table's type size, now fits: the status,
+    a subject's trials note and its diagnosis wrap, a value's SE goes below it."""
+    import re
+
+    from gc_ocp.batch.page import summary_html
+    from gc_ocp.batch.summary import COLUMNS
+
+    done = dict.fromkeys(COLUMNS) | {
+        "subject": "subject_0042",
+        "status": "done",
+        "trials": 3,
+        "trials_skipped": 1,
+        "stances": 4,
+        **{k: 1.5682 for k in ("n", "c", "mu")},
+        **{k: 0.1234 for k in ("n_se", "c_se", "mu_se")},
+        **{k: 1.79 for k in COLUMNS if k.startswith("rms_")},
+        "cop_rms_mm": 12.3,
+        "heldout_rms_superior_force_pct_bw": 2.83,
+        "flags": 7,
+        "diagnosis_selected": "ground_offset, time_offset, damping",
+        "seconds": 1234.0,
+    }
+    rows = [done | {"foot": f} for f in ("left", "right")]
+    rows.append(dict.fromkeys(COLUMNS) | {"subject": "BAD", "status": "failed"})
+    rows[-1]["error_type"] = "InputError"
+    subjects = [{"subject": "subject_0042", "status": "done"}]
+    page = summary_html(rows, subjects, 1.0)
+    size = re.search(r"table\.wide \{ font-size: ([0-9.]+)em", page)
+    em = float(size.group(1)) if size else 1.0
+    # 16 px type, 0.9 em tables (gc_ocp/html/templates/_style.html.j2) scaled by table.wide's;
+    # a character of Helvetica/Arial digits and lower case is at most ~0.6 em wide; each cell
+    # adds its padding (0.4 em a side) and a 1 px border; the body 1 em each side of the window
+    px = 16 * 0.9 * em
+    widths = _unbreakable_widths(page)
+    need = sum(n * 0.6 * px + 0.8 * px + 1 for n in widths) + 2 * 16
+    assert len(widths) == 19 and need <= 1280, (widths, need)

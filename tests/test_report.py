@@ -939,3 +939,170 @@ def test_a_diagnosis_figure_of_a_model_that_is_not_base_or_final_is_refused():
         with pytest.raises(InputError, match='"base" or the "final"'):
             figure(which="fnal")
     assert d.heatmap(which="final") is not None
+
+
+def test_the_summary_names_the_body_weight_and_height_its_percentages_are_of():
+    """The summary gives its errors in % BW and % BW x height; it now prints the body weight
+    [N] and height [m] they are of, once (one subject), or per trial (subjects that differ)."""
+    _, _, _, _, final = _fixture(CASES[0])  # its stance fits are cut: the scale of two here
+    one = [
+        {"label": f"t:{s}@1s", "side": s, "trial": "t", "body_weight": 623.916, "height": 1.58}
+        for s in ("left", "right")
+    ]
+    text = dataclasses.replace(final, stance_fits=one).summary()
+    line = next(ln for ln in text.splitlines() if "body weight" in ln)
+    assert "624 N" in line and "1.58 m" in line and "% BW x height" in line
+    two = [one[0], {**one[1], "trial": "u", "body_weight": 700.0, "height": 1.8}]
+    text = dataclasses.replace(final, stance_fits=two).summary()
+    line = next(ln for ln in text.splitlines() if "body weight" in ln)
+    assert "624 N and height 1.58 m (t)" in line and "700 N and height 1.80 m (u)" in line
+    assert "body weight" not in final.summary()  # no stance fits: no scale to name
+
+
+def test_a_held_out_fit_s_summary_says_its_contact_law_is_fixed_in_one_line():
+    """A held-out fit (the contact law frozen at the training fit's values: every SE zero)
+    printed a k line and a force line per foot, each unit "(fixed)", repeating the values the
+    training fit's summary prints just above; it now says once that the law is fixed. A fit
+    that estimated the law prints its lines as before."""
+    _, _, _, _, final = _fixture(CASES[0])
+
+    def frozen(d):
+        if isinstance(d, dict):
+            return {k: (0.0 if k.endswith("_se") else frozen(v)) for k, v in d.items()}
+        return d
+
+    blocks = {**final.blocks, "contact": frozen(final.params)}
+    text = dataclasses.replace(final, blocks=blocks).summary()
+    assert "(fixed)" not in text and "k [N/m^n]" not in text and "shared n =" not in text
+    line = next(ln for ln in text.splitlines() if ln.startswith("contact law: fixed"))
+    assert "k of PL, PM, AL, AM, TT" in line
+    before = final.summary()
+    assert "contact law: fixed" not in before and " left k [N/m^n]" in before
+
+
+def _sole_fits(pts):
+    from gc_ocp.foot import SEED_LAYOUT
+
+    return [
+        {
+            "side": side,
+            "label": f"t:{side}@1.000s",
+            "units": list(SEED_LAYOUT.units),
+            "parents": list(SEED_LAYOUT.parents),
+            "points_local": pts,
+            "nominal_points": pts,
+            "toes_offset": np.array([0.13, 0.0, 0.0]),
+        }
+        for side in ("right", "left")
+    ]
+
+
+def test_the_sole_figure_keeps_its_unit_labels_inside_the_frame():
+    """A unit at the sole's edge had its label ("AL 704 N" on the right foot of the bundled
+    trial's fit) run over the frame: every label (and every unit, nominal or corrected) now
+    lies inside its axes."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from gc_ocp.estimation.plots import plot_sole_fit
+
+    _, _, _, _, final = _fixture(CASES[0])  # its stance fits are not stored: two made here
+    # the units of the bundled trial's fit [m] (hindfoot frame; the toe on the toes frame)
+    pts = np.array(
+        [[-0.032, 0.031, 0], [-0.033, -0.034, 0], [0.095, 0.037, 0], [0.096, -0.047, 0]]
+        + [[0.028, -0.002, 0]]
+    )
+    fig = plot_sole_fit(dataclasses.replace(final, stance_fits=_sole_fits(pts)))
+    canvas = FigureCanvasAgg(fig)  # the figure as savefig draws it
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    for ax in fig.axes:
+        frame = ax.get_window_extent(renderer)
+        assert len(ax.texts) == 5
+        for t in ax.texts:
+            box = t.get_window_extent(renderer)
+            inside = frame.x0 <= box.x0 and box.x1 <= frame.x1
+            assert inside and frame.y0 <= box.y0 and box.y1 <= frame.y1, (ax.get_title(), t)
+        (x0, x1), (y0, y1) = sorted(ax.get_xlim()), sorted(ax.get_ylim())
+        for c in ax.collections:
+            xy = c.get_offsets()
+            assert ((xy[:, 0] > x0) & (xy[:, 0] < x1) & (xy[:, 1] > y0) & (xy[:, 1] < y1)).all()
+
+
+def test_the_pose_corrections_figure_has_a_readable_key_on_each_panel():
+    """The key was in 6 pt on the translation panel only (nine entries over the curves): each
+    panel now has one in the text's size, a colour per stance and a line style per axis."""
+    import matplotlib as mpl
+    from matplotlib.font_manager import FontProperties
+
+    from gc_ocp.estimation.plots import plot_pose_corrections
+
+    _, _, _, _, final = _fixture(CASES[0])
+    fits = _sole_fits(np.zeros((5, 3)))
+    t = np.linspace(0.0, 0.6, 31)
+    for f in fits:
+        f["time"] = t
+    stances = {
+        f["label"]: {"translation_m": np.full((31, 3), 1e-3), "rotation_rad": np.zeros((31, 3))}
+        for f in fits
+    }
+    blocks = {**final.blocks, "pose": {"stances": stances}}
+    fig = plot_pose_corrections(dataclasses.replace(final, blocks=blocks, stance_fits=fits))
+    small = FontProperties(size=mpl.rcParams["legend.fontsize"]).get_size_in_points()
+    for ax in fig.axes:
+        legend = ax.get_legend()
+        assert legend is not None, ax.get_ylabel()
+        labels = [x.get_text() for x in legend.get_texts()]
+        assert labels == ["right@1.000s", "left@1.000s", "x", "y", "z"]
+        assert all(x.get_fontsize() >= min(small, 8) for x in legend.get_texts())
+
+
+def test_the_contact_table_gives_each_unit_s_force_in_body_weights_too():
+    """The flags say a unit is not identified at "24 BW"; the contact table gave its force at
+    5 mm in N only (14669 N). It now gives it in % BW beside, of the subject's body weight
+    (each foot's stances', as the flag divides; from the provenance's mass when the stance
+    fits are cut, as in the fixture)."""
+    from gc_ocp.diagnosis.report import report_html
+    from gc_ocp.html.fit_tables import body_weights, contact_tables
+    from gc_ocp.trial import GRAVITY
+
+    _, _, js, d, final = _fixture(CASES[0])
+    bw = js["provenance"]["trials"][0]["mass_kg"] * GRAVITY
+    assert body_weights(final, js["provenance"]) == {"left": bw, "right": bw}
+    fits = [{"side": "left", "body_weight": 700.0}, {"side": "right", "body_weight": 650.0}]
+    assert body_weights(dataclasses.replace(final, stance_fits=fits), None) == {
+        "left": 700.0,
+        "right": 650.0,
+    }
+    assert body_weights(final, None) == {}  # nothing to divide by: the cells say "–"
+    units = contact_tables(final.params, final.at_bound, None, {"left": bw, "right": bw})["units"]
+    am = next(u for u in units if (u["side"], u["unit"]) == ("left", "AM"))
+    f = final.params["left"]["AM"]["f_ref"]
+    assert am["f_ref_pct_bw"] == f"{100 * f / bw:.0f}" == "2351"  # the flag's "24 BW"
+    assert "24 BW" in " ".join(x["message"] for x in final.flags)
+    pngs = dict.fromkeys(("heatmap", "residuals", "ranking", "waterfall", "heatmap_final"), b"")
+    page = _Page(report_html(d, js["provenance"], pngs, final))
+    assert "force [% BW]" in page.visible
+    row = page.visible.split("left\nAM\n", 1)[1].split("\n")[:3]
+    assert row == ["2.934e+06 ± 1.9e+06", "14669 ± 9400", "2351"], row
+
+
+def test_the_fit_page_s_flags_table_breaks_long_stance_labels():
+    """The fit page's flags table ran wider than the text column: a flag's "where" (and its
+    fit's label) is a stance label with no space in it, "pose/<trial>:right@0.407s/trans",
+    which a browser does not break. Those cells now break anywhere (the codes stay whole)."""
+    from gc_ocp.workflow.fit_report import fit_report_html
+    from gc_ocp.workflow.fitting import FitReport
+
+    _, _, _, _, final = _fixture(CASES[0])
+    label = "Walking1_subject03_overground_session2:right@0.407s"
+    flag = {"code": "prior_exceeded", "what": f"pose/{label}/trans", "message": "-"}
+    report = FitReport(result=dataclasses.replace(final, flags=[flag]))
+    names = ("fit_wrench.png", "fit_sole.png", "fit_pose_corrections.png")
+    page = _Page(fit_report_html(report, None, dict.fromkeys(names, b"")))
+    assert "table.flags td { overflow-wrap: anywhere; }" in page.style
+    assert "td.nw { white-space: nowrap; }" in page.style
+    tags = page.tags[
+        next(i for i, t in enumerate(page.tags) if t == ("table", (("class", "flags"),))) :
+    ]
+    cells = [dict(t[1]).get("class") for t in tags[: tags.index(("/table",))] if t[0] == "td"]
+    assert cells == ["l", "l nw", "l", "l"]  # fit, code (whole), where, message

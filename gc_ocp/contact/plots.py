@@ -177,4 +177,36 @@ def plot_sole(
         ax.grid(alpha=0.3)
     if title:
         fig.suptitle(title)
+    keep_texts_inside(fig)
     return fig
+
+
+def keep_texts_inside(fig: Figure, pad_px: float = 3.0, rounds: int = 6) -> None:
+    """Widen each axes' limits until its texts (a unit's name and value beside its marker)
+    lie inside its frame, ``pad_px`` [px] from it: a label beside a unit at the edge of the
+    sole ran over the frame ("AL 704 N" on the right foot). The figure is laid out and drawn
+    once per round (the texts keep their size in points while the data scale changes, so a few
+    rounds settle it); axes without texts are left as they are."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.transforms import Bbox
+
+    canvas = FigureCanvasAgg(fig)
+    for _ in range(rounds):
+        canvas.draw()
+        renderer = canvas.get_renderer()
+        moved = False
+        for ax in fig.axes:
+            texts = [t.get_window_extent(renderer) for t in ax.texts if t.get_text()]
+            if not texts:
+                continue
+            box, need = ax.get_window_extent(renderer), Bbox.union(texts)
+            x0, y0 = min(box.x0, need.x0 - pad_px), min(box.y0, need.y0 - pad_px)
+            x1, y1 = max(box.x1, need.x1 + pad_px), max(box.y1, need.y1 + pad_px)
+            if (x0, y0, x1, y1) == (box.x0, box.y0, box.x1, box.y1):
+                continue
+            (dx0, dy0), (dx1, dy1) = ax.transData.inverted().transform([(x0, y0), (x1, y1)])
+            ax.set_xlim(dx0, dx1)  # display left to right: an inverted axis stays inverted
+            ax.set_ylim(dy0, dy1)
+            moved = True
+        if not moved:
+            return

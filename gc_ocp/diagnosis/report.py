@@ -32,6 +32,7 @@ from gc_ocp.html import FIGURE_DPI, data_uri, environment, pngs, provenance_cont
 from gc_ocp.html.fit_tables import (
     CHANNEL_KEYS,
     belt_rows,
+    body_weights,
     contact_tables,
     effect_blocks,
     fmt_num,
@@ -332,7 +333,9 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         "figures": {name: data_uri(png) for name, png in pngs.items()},
         "res": res,
         "rms": rms_table(res, wf[-1].heldout_rms if d.folds.get("n") else None),
-        "contact": contact_tables(res.params, res.at_bound, res.law.reference_depth),
+        "contact": contact_tables(
+            res.params, res.at_bound, res.law.reference_depth, body_weights(res, provenance)
+        ),
         "sole": sole_table(res.blocks.get("sole", {}), res.at_bound),
         "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
         "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),

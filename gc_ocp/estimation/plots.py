@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
-from gc_ocp.contact.plots import plot_sole, plot_wrench_fit
+from gc_ocp.contact.plots import keep_texts_inside, plot_sole, plot_wrench_fit
 from gc_ocp.errors import InputError
 from gc_ocp.estimation.result import as_result
 from gc_ocp.foot import SoleLayout
@@ -90,8 +91,10 @@ def plot_sole_fit(result) -> Figure:
                 text.set_text(f"{text.get_text()}\nnot identified")
         nom = nominal[side].copy()
         nom[list(layout.on("toes"))] += toes[side]
+        ax.autoscale()  # the limits plot_sole set for its labels, set again with these points
         ax.scatter(nom[:, 1] * 100, nom[:, 0] * 100, marker="x", color="C3", zorder=4)
         ax.margins(0.15)  # room for the labels (the title names the markers: no legend over them)
+    keep_texts_inside(fig)  # the labels, "not identified" ones longer now, inside the frame
     return fig
 
 
@@ -102,20 +105,29 @@ def plot_pose_corrections(result) -> Figure:
     fig = Figure(figsize=(9, 5), layout="constrained")
     ax_t, ax_r = fig.subplots(2, 1, sharex=True)
     pose = result.blocks.get("pose", {}).get("stances", {})
+    styles = dict(zip("xyz", ("-", "--", ":"), strict=True))
+    stances = []  # (label, colour): one colour per stance, one line style per axis
     for fit in result.stance_fits:
         if fit["label"] not in pose:
             continue
-        lab = fit["label"].split(":")[-1]
+        colour = f"C{len(stances) % 10}"
+        stances.append((fit["label"].split(":")[-1], colour))
         d = np.asarray(pose[fit["label"]]["translation_m"])
         th = np.asarray(pose[fit["label"]]["rotation_rad"])
         for j, axis in enumerate("xyz"):
-            ax_t.plot(fit["time"], d[:, j] * 1e3, label=f"{lab} {axis}")
-            ax_r.plot(fit["time"], np.rad2deg(th[:, j]), label=f"{lab} {axis}")
+            kw = {"color": colour, "linestyle": styles[axis]}
+            ax_t.plot(fit["time"], d[:, j] * 1e3, **kw)
+            ax_r.plot(fit["time"], np.rad2deg(th[:, j]), **kw)
     ax_t.set_ylabel("translation [mm]")
     ax_r.set_ylabel("rotation [deg]")
     ax_r.set_xlabel("time [s]")
     ax_t.set_title("foot-pose corrections (lab axes, about the hindfoot origin)")
+    # a key on each panel, in the text's size, beside the plot (it covered the curves, in 6 pt
+    # on the translation panel only): the stances by colour, the axes by line style
+    handles = [Line2D([], [], color=c, label=lab) for lab, c in stances]
+    handles += [Line2D([], [], color="0.3", linestyle=ls, label=a) for a, ls in styles.items()]
     for ax in (ax_t, ax_r):
         ax.grid(alpha=0.3)
-    ax_t.legend(fontsize=6, ncol=3)
+        if stances:
+            ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return fig

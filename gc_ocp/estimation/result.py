@@ -162,18 +162,46 @@ class EstimationResult:
         return out
 
     # --- text ---------------------------------------------------------------------------------
+    def scale_text(self) -> str:
+        """The body weight [N] and height [m] the RMS in % BW and % BW x height are relative
+        to (each stance's subject's, from :attr:`stance_fits`): one line; "" without stance
+        fits (a ``fit.json`` cut short)."""
+        scales: dict = {}
+        for f in self.stance_fits:
+            scales.setdefault((f.get("body_weight"), f.get("height")), []).append(f.get("trial"))
+        scales.pop((None, None), None)
+        if not scales:
+            return ""
+
+        def text(bw, h) -> str:
+            return f"{bw:.0f} N and height " + ("unknown" if h is None else f"{h:.2f} m")
+
+        if len(scales) == 1:
+            return f"% BW, % BW x height: of the subject's body weight {text(*next(iter(scales)))}"
+        each = "; ".join(
+            f"{text(bw, h)} ({', '.join(dict.fromkeys(str(t) for t in trials))})"
+            for (bw, h), trials in scales.items()
+        )
+        return f"% BW, % BW x height: of each stance's subject's body weight: {each}"
+
     def summary(self) -> str:
         lines = [
             f"Ipopt: {self.status} in {self.iterations} iterations, {self.seconds:.2f} s; objective "
             f"{self.objective:.4g} (data {self.data_cost:.4g}, prior {self.prior_cost:.4g}; "
             f"{self.n_data} residuals, {self.n_free} free variables)"
         ]
+        scale = self.scale_text()
+        if scale:
+            lines.append(scale)
+        fixed = law_fixed(self.params)
+        if fixed:  # a held-out fit's frozen law: its values are the training fit's, printed there
+            lines.append(f"contact law: fixed, not estimated in this fit ({fixed})")
         for side in SIDES:
             if side not in self.rms:
                 continue
             p = self.params.get(side, {})
             units = [u for u, e in p.items() if isinstance(e, dict)]
-            if units:
+            if units and not fixed:
                 bound = {u for u in units if k_at_bound(self.at_bound, side, u)}
                 lines.append(
                     f"{side:>5} k [N/m^n]: "
@@ -203,7 +231,7 @@ class EstimationResult:
                 + (f"m/s {BOUND_TEXT}" if at else f"± {v['se']:.3f} m/s")
                 + f" (from {v['nominal']:.3f} m/s: given, or measured from the stance feet)"
             )
-        shared = self.params.get("shared", {})
+        shared = {} if fixed else self.params.get("shared", {})
         for k, v in shared.items():
             if not k.endswith("_se"):
                 se = shared.get(k + "_se", float("nan"))
@@ -335,6 +363,32 @@ def as_result(fit) -> EstimationResult:
     raise InputError(
         f"expected a fit (what gc_ocp.fit returns), its .result or its fit.json, but got "
         f"{type(fit).__name__}"
+    )
+
+
+def law_fixed(params: dict) -> str:
+    """What of the contact block ``params`` (:attr:`EstimationResult.params`) is fixed when
+    every parameter of it is (all SEs zero: a held-out fit's frozen law,
+    :func:`~gc_ocp.estimation.starts.frozen_model`), e.g. ``"k of PL, PM, AL, AM, TT; n, c,
+    mu"``; "" when any is estimated (or there is no block)."""
+    units: dict = {}
+    scalars: dict = {}
+    ses = []
+    for per in params.values():
+        if not isinstance(per, dict):
+            continue
+        for key, v in per.items():
+            if isinstance(v, dict):
+                units[key] = None
+                ses += [v.get("k_se"), v.get("f_ref_se")]
+            elif key.endswith("_se"):
+                ses.append(v)
+            else:
+                scalars[key] = None
+    if not ses or any(se is None or se != 0 for se in ses):
+        return ""
+    return "; ".join(
+        part for part in (f"k of {', '.join(units)}" if units else "", ", ".join(scalars)) if part
     )
 
 

@@ -75,16 +75,39 @@ def pm_value(
     return f"{text} ± {se_text(se, text)}{unit}"
 
 
+def body_weights(res, provenance: dict | None = None) -> dict[str, float]:
+    """``{side: body weight [N]}`` of a fit's feet, as its flags divide a unit's force by it
+    (:meth:`ContactLaw.flags <gc_ocp.estimation.components.contact.ContactLaw.flags>`: each
+    foot's stances' subject): from ``res.stance_fits``; without them (a ``fit.json`` cut short)
+    from ``provenance``'s trials when they give one mass (one subject); else ``{}``."""
+    out = {f["side"]: float(f["body_weight"]) for f in res.stance_fits if f.get("body_weight")}
+    if out:
+        return out
+    masses = {t.get("mass_kg") for t in (provenance or {}).get("trials", [])}
+    if len(masses) != 1 or None in masses:
+        return {}
+    from gc_ocp.trial import GRAVITY
+
+    bw = float(masses.pop()) * GRAVITY
+    return {side: bw for side in res.params if side != "shared"}
+
+
 def contact_tables(
-    params: dict, at_bound: frozenset[str] = frozenset(), reference_depth: float | None = None
+    params: dict,
+    at_bound: frozenset[str] = frozenset(),
+    reference_depth: float | None = None,
+    body_weight: dict[str, float] | None = None,
 ) -> dict:
     """The contact law's block as tables: per unit k and force at the reference depth
     (``reference_depth`` [m], the fit's law's, :attr:`EstimationResult.law
-    <gc_ocp.estimation.result.EstimationResult.law>`; None: the default law's), per-foot
+    <gc_ocp.estimation.result.EstimationResult.law>`; None: the default law's), also in % of
+    the foot's ``body_weight`` [N] (``{side: N}``, :func:`body_weights`; "–" where unknown:
+    the flags say "22 BW" of a unit the table gave in N alone), per-foot
     scalars, shared parameters (each ``value ± SE``; a parameter of ``at_bound``, the fit's
     :attr:`~gc_ocp.estimation.result.EstimationResult.at_bound`, says so instead)."""
     if reference_depth is None:
         reference_depth = ContactLaw.reference_depth
+    body_weight = body_weight or {}
     units, per_foot = [], []
     for side, per in params.items():
         if side == "shared" or not isinstance(per, dict):
@@ -98,6 +121,10 @@ def contact_tables(
                         "unit": unit,
                         "k": pm(e, "k", ".4g", bound),
                         "f_ref": pm(e, "f_ref", ".0f", bound),
+                        "f_ref_pct_bw": fmt_num(
+                            100 * e["f_ref"] / body_weight[side] if side in body_weight else None,
+                            ".0f",
+                        ),
                         "identified": e.get("identified", True),
                     }
                 )

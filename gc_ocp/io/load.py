@@ -78,7 +78,7 @@ def load_trial(
     >>> import gc_ocp
     >>> trial = gc_ocp.load_trial()           # the bundled example (gc_ocp/data/test_small.c3d)
     >>> trial                                 # doctest: +ELLIPSIS
-    Trial('...test_small.c3d', 33 markers at 100 Hz, 4 plates, 3 stances (right@0.407s, left@0.941s, right@1.494s), mass 63.6 kg)
+    Trial('...test_small.c3d', 33 markers at 100 Hz, 4 plates, 3 stances (right@0.407s, left@0.941s, right@1.494s), mass 63.6 kg, height 1.58 m)
     >>> # skipped: files of your own (a TRC, its ground reactions, the mass the files lack)
     >>> trial = gc_ocp.load_trial("walk.trc", grf="walk_grf.mot", mass=72.6)  # doctest: +SKIP
     """

@@ -11,7 +11,7 @@ sensitivity of a fit to processing choices (:mod:`.sensitivity`).
 >>> print(report.summary())                   # doctest: +ELLIPSIS
 input checks:
 ...
-held-out stance test_small:right@0.407s:
+held-out stance test_small:right@0.407s (the contact law and the sole corrections fixed at the values above, its pose re-estimated):
 Ipopt: Solve_Succeeded in ...
 
 Layers: :mod:`gc_ocp.estimation` (the NLP on stances; no files) < :mod:`gc_ocp.workflow` (trials,

@@ -11,6 +11,7 @@ from gc_ocp.estimation.flags import law_at_bound
 from gc_ocp.html import data_uri, environment, provenance_context
 from gc_ocp.html.fit_tables import (
     belt_rows,
+    body_weights,
     contact_tables,
     effect_blocks,
     pm,
@@ -64,7 +65,9 @@ def fit_report_html(
         "bias": None if report.bias is None else report.bias.message(),
         "bias_skipped": report.bias_skipped,
         "flags": _flags(report),
-        "contact": contact_tables(res.params, res.at_bound, res.law.reference_depth),
+        "contact": contact_tables(
+            res.params, res.at_bound, res.law.reference_depth, body_weights(res, provenance)
+        ),
         "sole": sole_table(res.blocks.get("sole", {}), res.at_bound),
         "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
         "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),

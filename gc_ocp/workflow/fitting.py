@@ -97,7 +97,11 @@ class FitReport:
         if self.bias is not None:  # on its own line, whatever the text above ended with
             s = s.rstrip("\n") + "\n" + self.bias.message() + "\n"
         if self.heldout is not None:
-            s += f"\nheld-out stance {self.heldout_label}:\n" + self.heldout.summary()
+            s += (
+                f"\nheld-out stance {self.heldout_label} (the contact law and the sole "
+                "corrections fixed at the values above, its pose re-estimated):\n"
+                + self.heldout.summary()
+            )
         return s
 
 
@@ -438,7 +442,7 @@ def fit(
     input checks:
     ...
     Ipopt: Solve_Succeeded in ...
-    held-out stance test_small:right@0.407s:
+    held-out stance test_small:right@0.407s (the contact law and the sole corrections fixed at the values above, its pose re-estimated):
     ...
     >>> sorted(report.result.blocks["contact"])  # the parameters and their SEs, as data
     ['left', 'right']

@@ -43,6 +43,13 @@ The method text's steps (2026-12-01, a review): of the spread between mismatch d
 part every held-out stance shares does not shrink (as the steps have been computed since
 2026-11-28), and *inconclusive* only within a follow-up of five times the data: both pages
 re-rendered (``--rerender``), that sentence the only change.
+The contact-units table gives each unit's force at 5 mm in % BW too (2026-12-03, a newcomer's
+walkthrough: the flags said "24 BW" of a unit the table gave in N only): a column "force [% BW]"
+after "force at 5 mm [N] ± SE", of the provenance's mass (63.6 kg, 623.9 N). Both pages
+re-rendered (``--rerender``) and only the one line of that table (line 45 of ``all_effects``,
+43 of ``damping_time_offset``) taken from the new page: the rest of the re-rendered pages
+differed in whitespace alone (a line break before "<h2>2. Which effect" and the file's last
+newline, the template's since an earlier change), left as it was.
 """
 
 from __future__ import annotations
