@@ -726,14 +726,16 @@ def step_note(rows: Sequence[RankRow], info: dict, parent: str, k: int) -> str |
     )
 
 
-_CLI_NAMES = {
-    "null_draws": "--null-draws: here mismatch_draws=",
-    "effects": "--effects: here candidates=",
-    "plate_calibration": (
-        "--plate-calibration: here mismatch=gc_ocp.diagnosis.null.DEFAULT_FAMILY"
-        ".with_plate_calibration()"
-    ),
-}
+_CLI_NAMES = MappingProxyType(
+    {
+        "null_draws": "--null-draws: here mismatch_draws=",
+        "effects": "--effects: here candidates=",
+        "plate_calibration": (
+            "--plate-calibration: here mismatch=gc_ocp.diagnosis.null.DEFAULT_FAMILY"
+            ".with_plate_calibration()"
+        ),
+    }
+)
 """The CLI's names of :func:`diagnose`'s keywords where they differ (the README's words, so
 a user's first guess in Python), each with the keyword to give instead."""
 

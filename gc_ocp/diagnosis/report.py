@@ -182,7 +182,7 @@ def _nuisance(ranking: list) -> list[dict]:
     return items
 
 
-def _verdict(r, draws: int | None) -> str:
+def _verdict(r, draws: int | None = None) -> str:
     """The decision rule's outcome for a ranking row, in words (the row's own verdict; ``draws``:
     :attr:`~gc_ocp.diagnosis.result.Diagnosis.steps_draws`)."""
     if r.not_evaluable is not None:

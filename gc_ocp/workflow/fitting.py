@@ -448,8 +448,8 @@ def fit(
     ['left', 'right']
     """
     say = progress or (lambda s: None)
-    # the trials first: fit(trial, kin) was told its model=TrialKinematics(...) was no model
-    trials = _require_pairs(trials)
+    if isinstance(trials, Trial):  # fit(trial, kin): told its model= (the kinematics) was no model
+        _require_pairs(trials)
     require_model(model, "model")
     require_model(extends, "extends")
     require_settings(weights, options)
