@@ -706,25 +706,13 @@ def test_the_sole_figure_gives_no_number_for_a_unit_not_identified():
     identified unit shrunk beside it. A unit not identified is drawn with no force and says so;
     the identified units keep theirs."""
     from gc_ocp.estimation.plots import plot_sole_fit
-    from gc_ocp.foot import SEED_LAYOUT
 
     _, _, _, _, final = _fixture(CASES[0])  # its stance fits are not stored: two made here
     assert final.params["left"]["AM"]["identified"] is False
     pts = np.array(
         [[-0.03, 0.03, 0], [-0.03, -0.03, 0], [0.1, 0.04, 0], [0.1, -0.04, 0], [0.05, 0, 0]]
     )
-    fits = [
-        {
-            "side": side,
-            "units": list(SEED_LAYOUT.units),
-            "parents": list(SEED_LAYOUT.parents),
-            "points_local": pts,
-            "nominal_points": pts,
-            "toes_offset": np.array([0.13, 0.0, 0.0]),
-        }
-        for side in ("right", "left")
-    ]
-    fig = plot_sole_fit(dataclasses.replace(final, stance_fits=fits))
+    fig = plot_sole_fit(dataclasses.replace(final, stance_fits=_sole_fits(pts)))
     texts = {
         ax.get_title(): {t.get_text().split("\n")[0]: t.get_text() for t in ax.texts}
         for ax in fig.axes
