@@ -172,16 +172,11 @@ class RankRow:
         diagnosis that ran with fewer (:attr:`Diagnosis.draws_too_few`): its null could name
         nothing, and its steps are those of a run with the default draws (:func:`~gc_ocp.
         diagnosis.null.decide`), which more steps alone would not give."""
-        text = self._verdict()
-        if draws is not None:
-            text = text.replace(
-                "would decide", f"would decide with {draws} mismatch draws per round"
-            )
-        return text
-
-    def _verdict(self) -> str:
-        """:meth:`verdict` without the draws' qualifier."""
         c = self.calibrated
+        # every number of steps is said with this verb, and so with the draws it assumes
+        decide = "would decide" + (
+            "" if draws is None else f" with {draws} mismatch draws per round"
+        )
         if self.not_evaluable is not None:
             return "not evaluable"
         # the floor stops a row (floor_stances None) when its held-out or its in-sample gain is
@@ -219,7 +214,7 @@ class RankRow:
                 exact = self.inconclusive and practical(more, c.n_heldout)
                 return (
                     f"{head} ({p}), but its held-out interval still "
-                    f"reaches 0; {_about(more, exact)} would decide"
+                    f"reaches 0; {_about(more, exact)} {decide}"
                 )
             if self.floor_stances is None:
                 return f"{head} ({p}), but {under}"
@@ -229,19 +224,19 @@ class RankRow:
         if self.inconclusive:
             if more is None and c.more_stances:
                 return (
-                    f"inconclusive ({p}); {_about(c.more_stances, True)} would decide the "
+                    f"inconclusive ({p}); {_about(c.more_stances, True)} {decide} the "
                     f"test, but {under}"
                 )
             if more is None:  # a row read back without its number
                 return f"inconclusive ({p})"
-            return f"inconclusive ({p}); {_about(more, True)} would decide"
+            return f"inconclusive ({p}); {_about(more, True)} {decide}"
         if c.more_stances:
             if more is None:
                 return (
-                    f"not named ({p}); {_about(c.more_stances)} would decide the test "
+                    f"not named ({p}); {_about(c.more_stances)} {decide} the test "
                     f"at this gain, but {under}"
                 )
-            return f"not named ({p}); {_about(more)} would decide at this gain"
+            return f"not named ({p}); {_about(more)} {decide} at this gain"
         if c.n_heldout == 0 and c.observed_pct > 0:
             # the in-sample fallback: no held-out stance to count from (null.more_stances)
             return (
