@@ -17,6 +17,7 @@ import numpy as np
 
 from gc_ocp.errors import InputError
 from gc_ocp.foot import FootKinematics, SoleLayout, TrialKinematics
+from gc_ocp.io.antialias import band_limited, needs_filter, reach
 from gc_ocp.trial import SIDES, Stance, Trial
 from gc_ocp.values import given, require
 
@@ -196,6 +197,24 @@ def quiet_margins(trial: Trial, stance: Stance, margin: float) -> tuple[float, f
     return t_lo, t_hi, reasons
 
 
+def plate_signal(
+    trial: Trial, stance: Stance, t_first: float, t_last: float, frame_rate: float | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(times, wrench)``: the stance's plate wrench (about ``stance.reference_point``, lab) on
+    the plate's samples within :data:`PLATE_SIGNAL_MARGIN` of ``[t_first, t_last]`` [s] and the
+    filter's reach beyond, as the frames at ``frame_rate`` [Hz] read it: other loads zeroed
+    (:func:`without_other_loads`), then low-passed for the frames
+    (:func:`gc_ocp.io.antialias.band_limited`; None: raw). The frames' measured wrench is this
+    signal interpolated at their times, and a clock offset resamples the same signal."""
+    plate = trial.plates[stance.plate]
+    filtered = needs_filter(plate.rate, frame_rate)
+    far = PLATE_SIGNAL_MARGIN + (reach(plate.rate, frame_rate) if filtered else 0.0)
+    near = (plate.time >= t_first - far) & (plate.time <= t_last + far)
+    pt = plate.time[near]
+    pw = without_other_loads(trial, stance, pt, trial.stance_wrench(stance, pt))
+    return pt, band_limited(pt, pw, frame_rate) if filtered else pw
+
+
 def without_other_loads(
     trial: Trial, stance: Stance, times: np.ndarray, wrench: np.ndarray
 ) -> np.ndarray:
@@ -290,13 +309,15 @@ def stance_data(
         )
     foot = kin.feet[stance.side]
     t = foot.time
+    rate = 1.0 / float(np.median(np.diff(t))) if t.size > 1 else None
     t_lo, t_hi, _ = quiet_margins(trial, stance, margin)
     sel = (t > t_lo) & (t < t_hi)
     idx = np.flatnonzero(sel)
     ok = np.zeros(0, bool)
     if idx.size:
         foot = foot.window(t[idx[0]], t[idx[-1]])
-        meas = trial.stance_wrench(stance, foot.time)
+        pt, pw = plate_signal(trial, stance, foot.time[0], foot.time[-1], rate)
+        meas = np.column_stack([np.interp(foot.time, pt, pw[:, c]) for c in range(6)])
         ok = (
             np.isfinite(foot.positions).all(axis=(1, 2))
             & np.isfinite(foot.velocities).all(axis=(1, 2))
@@ -311,11 +332,10 @@ def stance_data(
     if not ok.all():
         foot, meas = foot.frames(ok), meas[ok]
     height = float("nan") if trial.height is None else float(trial.height)
-    plate = trial.plates[stance.plate]
-    t0, t1 = foot.time[0] - PLATE_SIGNAL_MARGIN, foot.time[-1] + PLATE_SIGNAL_MARGIN
-    around = (plate.time >= t0) & (plate.time <= t1)
-    pt = plate.time[around]
-    pw = without_other_loads(trial, stance, pt, trial.stance_wrench(stance, pt))
+    around = (pt >= foot.time[0] - PLATE_SIGNAL_MARGIN) & (
+        pt <= foot.time[-1] + PLATE_SIGNAL_MARGIN
+    )
+    pt, pw = pt[around], pw[around]
     finite = np.isfinite(pw).all(axis=1)
     return StanceData(
         side=stance.side,

@@ -509,14 +509,16 @@ class OpenSimExport:
 
 
 def plate_wrenches(trial, time) -> dict[str, np.ndarray]:
-    """The plates' wrench per foot over ``time`` (about the ``lab`` origin; zero off the
-    stances)."""
+    """The plates' wrench per foot over the frames ``time`` (about the ``lab`` origin; zero off
+    the stances), low-passed for the frames' rate as a fit reads them."""
     out = {s: np.zeros((time.size, 6)) for s in ("left", "right")}
+    rate = 1.0 / float(np.median(np.diff(time))) if time.size > 1 else None
     for st in trial.stances:
         sel = (time >= st.t_on) & (time <= st.t_off)
         if not sel.any():
             continue
-        w = trial.stance_wrench(st, time[sel])
+        # read as the fit reads them: band-limited to the frames (gc_ocp.io.antialias)
+        w = trial.stance_wrench(st, time[sel], frame_rate=rate)
         out[st.side][sel] = transport_wrench(w, st.reference_point, np.zeros(3))
     return out
 

@@ -19,6 +19,8 @@ import os
 import warnings
 from collections.abc import Callable, Iterator, Sequence
 
+import numpy as np
+
 from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.bias import REPLICATES, BiasCorrection, bias_corrected, check_replicates
 from gc_ocp.estimation.components import PoseCorrection, full_model
@@ -35,6 +37,7 @@ from gc_ocp.estimation.solve import (
 )
 from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
 from gc_ocp.foot import TrialKinematics
+from gc_ocp.io.antialias import PASS_FRACTION, needs_filter
 from gc_ocp.io.checks import require_stances
 from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
@@ -274,6 +277,9 @@ def fit_data(
                 notes.append(note)
                 say(f"check: {note}")
     for t, k in trials:
+        for note in band_notes(t, k):
+            notes.append(note)
+            say(f"check: {note}")
         for note in marker_notes(t.source, k):
             notes.append(note)
             say(f"check: {note}")
@@ -287,6 +293,39 @@ labs zero at 10-50 N (2-7 % of a 70 kg body weight, ``docs/data_formats.md``); a
 censored edges hold a good part of the loading response and of pre-swing, and a review found a
 fit of a plate zeroed at 120 N reading 1.45 % BW against 1.93 % for the same data zeroed at 0,
 while it predicted the unzeroed force worse (3.65 % BW)."""
+
+
+def band_notes(trial: Trial, kin: TrialKinematics) -> list[str]:
+    """What reading the plates at the frames through their anti-alias low-pass does
+    (:mod:`gc_ocp.io.antialias`), per plate faster than the frames: the pass band, and the RMS
+    of the vertical force it removes from the point samples over the trial's stances, in %
+    BW (what would otherwise alias into the band the fit compares)."""
+    times = {side: foot.time for side, foot in kin.feet.items() if foot.time.size > 1}
+    out = []
+    for i, plate in enumerate(trial.plates):
+        removed = []
+        for st in trial.stances:
+            t = times.get(st.side)
+            if st.plate != i or t is None:
+                continue
+            rate = 1.0 / float(np.median(np.diff(t)))
+            if not needs_filter(plate.rate, rate):
+                continue
+            t = t[(t >= st.t_on) & (t <= st.t_off)]
+            d = trial.stance_wrench(st, t) - trial.stance_wrench(st, t, frame_rate=rate)
+            removed.append(d[np.isfinite(d[:, 2]), 2] / trial.body_weight)
+        if not removed:
+            continue
+        r = np.concatenate(removed)
+        rms = 100 * float(np.sqrt(np.mean(r**2))) if r.size else float("nan")
+        out.append(
+            f"{trial.source}: plate {plate.name} ({plate.rate:.0f} Hz) is read at the "
+            f"{rate:.0f} Hz frames through an anti-alias low-pass (flat to "
+            f"{PASS_FRACTION * rate:.0f} Hz, stopped from {rate / 2:.0f} Hz): it removes "
+            f"{rms:.2f} % BW RMS of vertical force from the point samples over its stances "
+            "(the heel-strike transient, hum, noise), which would alias into the fitted band"
+        )
+    return out
 
 
 def marker_notes(source, kin: TrialKinematics) -> list[str]:
