@@ -289,11 +289,15 @@ def test_a_plate_ringing_after_toe_off_is_not_fitted_and_the_fit_says_so(walk):
     assert cut.foot.time[-1] < first_loud <= clean.foot.time[-1]
     assert cut.in_contact.sum() == clean.in_contact.sum()  # the stance itself is whole
     # the plate signal a clock offset shifts holds the foot's zero from the ringing on, and
-    # the plate's samples, untouched, up to it
+    # the plate's samples up to it, both band-limited for the frames (gc_ocp.io.antialias):
+    # the low-pass spreads the foot's own last, sub-threshold force (< 20 N at toe-off) into
+    # the zeros by a few N, nothing of the 151 N ringing
     ringing = cut.plate_time >= first_loud - 1e-9
-    assert ringing.any() and not cut.plate_wrench[ringing].any()
+    assert ringing.any() and np.abs(cut.plate_wrench[ringing]).max() < 0.05 * 151.0
     same = np.isin(clean.plate_time, cut.plate_time[~ringing])
-    assert np.array_equal(cut.plate_wrench[~ringing], clean.plate_wrench[same])
+    # before it, the two differ only by what the filter's tails carry back of the real file's
+    # quiet samples after first_loud (under 20 N) against the zeros: under 1 N
+    np.testing.assert_allclose(cut.plate_wrench[~ringing], clean.plate_wrench[same], atol=1.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         notes = fit_data([(rung, k)])[2]

@@ -117,8 +117,12 @@ class MismatchFamily:
       country), amplitude ``hum_amplitude_n`` uniform in [0.5, 3] N on each force channel (the
       moments: times :data:`~gc_ocp.estimation.synthetic.TORQUE_NOISE_LENGTH`), a random phase
       per stance and channel: the order of an unloaded plate's noise floor; a larger hum shows
-      in every unloaded recording and is fixed before data are taken. The frames sample it as
-      the plate's samples are read at frame times (aliased), as :meth:`Trial.stance_wrench` does.
+      in every unloaded recording and is fixed before data are taken. The frames sample it at
+      their times (aliased), as a pipeline that reads a plate's samples at the frames does;
+      gc_ocp's own low-passes them for the frames first (:mod:`gc_ocp.io.antialias`), which
+      removes a hum above the frames' Nyquist frequency: the member allows for more than the
+      package's reading of a trial leaves (a conservative null; kept so that the calibration
+      measured with it stands).
     * **marker low-pass**: the fitter sees the foot pose low-passed (zero lag, 4th order) at a
       cutoff ``cutoff_hz`` uniform in [4, 10] Hz: the choices of walking labs (Winter's
       residual analysis gives 4-7 Hz for lower-limb markers; 6 Hz is the common default, up to
