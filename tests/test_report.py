@@ -1265,3 +1265,48 @@ def test_no_module_of_the_package_uses_pyplot():
             )
             users += [(path.name, n) for n in names if n.startswith("matplotlib.pyplot")]
     assert not users, users
+
+
+def _sole_figures():
+    """The sole figure of the bundled trial's fit (its units; the fixture's forces) and a sole
+    whose units all have the largest marker."""
+    from gc_ocp.contact.plots import plot_sole
+    from gc_ocp.estimation.plots import plot_sole_fit
+    from gc_ocp.foot import SEED_LAYOUT
+
+    _, _, _, _, final = _fixture(CASES[0])
+    pts = np.array(
+        [[-0.032, 0.031, 0], [-0.033, -0.034, 0], [0.095, 0.037, 0], [0.096, -0.047, 0]]
+        + [[0.028, -0.002, 0]]
+    )
+    yield plot_sole_fit(dataclasses.replace(final, stance_fits=_sole_fits(pts)))
+    yield plot_sole({"left": pts}, k={"left": dict.fromkeys(SEED_LAYOUT.units, 1e5)})
+
+
+@pytest.mark.parametrize("which", [0, 1])
+def test_the_sole_figure_s_labels_lie_off_every_marker(which):
+    """A unit's label was set 8 pt right of its marker's centre, inside the disk of the
+    largest markers (radius sqrt(300) / 2 = 8.7 pt): the bundled fit's labels ran over their
+    markers' edges. No label's box now meets any marker's disk (its centre, its radius in
+    points from the marker's size, an area in pt^2), the nominal units' markers included."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = list(_sole_figures())[which]
+    canvas = FigureCanvasAgg(fig)  # as savefig draws it
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    px_per_pt = fig.dpi / 72.0
+    met = []
+    for ax in fig.axes:
+        boxes = [(t.get_text(), t.get_window_extent(renderer)) for t in ax.texts]
+        assert len(boxes) == 5
+        for c in ax.collections:
+            centres = ax.transData.transform(c.get_offsets())
+            radii = np.broadcast_to(np.sqrt(c.get_sizes()) / 2 * px_per_pt, len(centres))
+            for (x, y), r in zip(centres, radii, strict=True):
+                for text, b in boxes:
+                    # the box's nearest point to the centre, closer than the radius: they meet
+                    gap = np.hypot(max(b.x0 - x, 0, x - b.x1), max(b.y0 - y, 0, y - b.y1))
+                    if gap < r:
+                        met.append((ax.get_title(), text, round(gap, 1), round(r, 1)))
+    assert not met, met
