@@ -39,6 +39,41 @@ def read_json_file(path: str | Path, what: str, document: str, fix: str):
         raise InputError(f"{path} is not {document} ({e}); {fix}") from None
 
 
+def check_document(
+    doc, where: str, document: str, known: int, needed: tuple[str, ...], fix: str
+) -> None:
+    """Refuse a JSON document the package wrote (``document``, e.g. ``"fit.json"``) that this
+    version cannot read, with one :class:`InputError` naming ``where`` (the file), the version
+    that wrote it (its ``"gc_ocp_version"``), this version and the ``fix``:
+
+    * its ``"format"`` is not one this version knows (1 to ``known``): a later layout;
+    * it lacks a key of ``needed`` (what the reader takes): a layout this version does not
+      read (an older one, or an edited file).
+
+    A document without ``"format"`` was written before the field: read as today's when it has
+    the ``needed`` keys."""
+    from gc_ocp._version import __version__
+
+    if not isinstance(doc, dict):
+        return  # not a document at all: the reader says so
+    wrote = doc.get("gc_ocp_version", "an unknown version")
+    fmt = doc.get("format")
+    here = f"this gc_ocp {__version__} reads {document} format 1 to {known}"
+    if fmt is not None and not (type(fmt) is int and 1 <= fmt <= known):
+        raise InputError(
+            f"{where} is a {document} of format {fmt!r}, written by gc_ocp {wrote}; {here}: "
+            f"{fix}, or read it with the gc_ocp that wrote it"
+        )
+    missing = [k for k in needed if k not in doc]
+    if missing:
+        written = f"format {fmt}" if fmt is not None else "no format number (written before it)"
+        raise InputError(
+            f"{where} has no {', '.join(map(repr, missing))}, which this gc_ocp {__version__} "
+            f"reads: a {document} of another layout (written by gc_ocp {wrote}, {written}) or "
+            f"an edited one; {fix}"
+        )
+
+
 def json_text(obj, indent: int | None = 2, default=None) -> str:
     """``obj`` as strict JSON (RFC 8259), the text of every JSON file the package writes.
 

@@ -407,3 +407,59 @@ def test_a_fit_records_its_law_s_settings_and_the_export_uses_them(stances):
     old = res.to_json()
     del old["contact_law"]
     assert EstimationResult.from_json(old).law.settings() == ContactLaw().settings()
+
+
+@pytest.mark.parametrize(
+    "law, needle",
+    [
+        (
+            lambda: ContactLaw(c=Param("shared", 20.0, 0.0, 10.0)),
+            r"ContactLaw\(c=Param\('shared', 20.0, 0.0, 10.0\)\): the start 20.0 lies outside "
+            r"the bounds \[0.0, 10.0\]: give a start within them, or widen the bounds",
+        ),
+        (
+            lambda: ContactLaw(mu=Param("foot", {"left": 0.5, "right": 2.0}, 0.0, 1.5)),
+            r"mu=.*the start of right 2.0 lies outside the bounds \[0.0, 1.5\]",
+        ),
+        (
+            lambda: ContactLaw(k=Param("unit", {"left": {"PL": 50.0}}, 1e2, 1e9)),
+            r"k=.*the start of left/PL 50.0 lies outside the bounds \[100.0, 1000000000.0\]",
+        ),
+        (lambda: ContactLaw(n=Param("shared", float("nan"), 1.0, 3.0)), r"the start nan"),
+    ],
+)
+def test_a_param_started_outside_its_bounds_is_refused_by_name(law, needle):
+    """A start outside its bounds was accepted silently: Ipopt moved it inside (its
+    bound_push), the prior still centred outside, a fit from a start the user did not get."""
+    from gc_ocp.errors import InputError
+
+    with pytest.raises(InputError, match=needle):
+        law()
+    ContactLaw(c=Param("fixed", 20.0))  # a fixed value is no start: its bounds do not apply
+
+
+def test_a_component_started_outside_its_bounds_is_refused_by_name():
+    """Every parameter a component declares is checked where it is declared: the damping's
+    start, c = 20 s/m beside its bounds [0, 10], and the exponent's (stored n - 1, read as n)."""
+    from gc_ocp.errors import InputError
+    from gc_ocp.estimation.components.damping import Damping
+    from gc_ocp.estimation.components.stiffness_exponent import StiffnessExponent
+    from gc_ocp.estimation.variables import Variables
+
+    with pytest.raises(
+        InputError, match=r"start of damping/c, 20, lies outside its bounds \[0, 10\]"
+    ):
+        Damping(value=20.0).declare(Variables(), [])
+    with pytest.raises(InputError, match=r"stiffness_exponent/n, 4, .*bounds \[1, 3\]"):
+        StiffnessExponent(value=4.0).declare(Variables(), [])
+
+
+def test_a_computed_start_outside_the_bounds_is_clipped_into_them():
+    """The LLS start converted to a law started at n = 3 multiplies the linear k by 40 000: a
+    unit of 50 kN/m starts at 2e9 N/m^3, beyond k's bound of 1e9 (and one barely loaded, at 1
+    N/m, below 1e2). A computed start is clipped into the bounds, as Ipopt would move it, so that
+    the start and the log-k prior's centre are the point the solve starts from."""
+    law = ContactLaw(n=Param("shared", 3.0, 1.0, 3.0))
+    started = law.with_initial_k({"left": {"PL": 5e4 * 0.005**-2, "PM": 1.0, "AL": 3e5}})
+    assert started.k.value == {"left": {"PL": 1e9, "PM": 1e2, "AL": 3e5}}
+    assert started.k.lower == 1e2 and started.k.upper == 1e9

@@ -1149,8 +1149,6 @@ def test_the_ranking_figure_keeps_gains_readable_beside_a_large_loss():
     whole."""
     from types import SimpleNamespace
 
-    import matplotlib.pyplot as plt
-
     from gc_ocp.diagnosis.result import OFF_SCALE, Diagnosis
 
     rows = [_row("damping", 5.0), _row("friction", 0.5), _row("contact_density", -160.0)]
@@ -1158,21 +1156,17 @@ def test_the_ranking_figure_keeps_gains_readable_beside_a_large_loss():
     ax = fig.axes[0]
     assert ax.get_xlim()[0] == pytest.approx(-OFF_SCALE * 6.0)  # the largest gain's upper end
     assert [t.get_text() for t in ax.texts] == [" \u25c0 -160 % [-161, -159]"]
-    plt.close(fig)
     fig = Diagnosis.ranking_figure(SimpleNamespace(ranking=rows[:2]))
     ax = fig.axes[0]
     assert ax.get_xlim()[0] < -0.5 and not ax.texts  # friction's interval reaches -0.5: whole
-    plt.close(fig)
     # a row without an interval (NaN) does not turn the axis's stop off; with no gain at all
     # there is nothing to keep readable, and every loss is drawn whole
     nan = (float("nan"),) * 2
     odd = [*rows, RankRow("x", 1.0, nan, 1.0, 1.0, {}, 1, False, False, False, None, (), ())]
     fig = Diagnosis.ranking_figure(SimpleNamespace(ranking=odd))
     assert fig.axes[0].get_xlim()[0] == pytest.approx(-OFF_SCALE * 6.0)
-    plt.close(fig)
     fig = Diagnosis.ranking_figure(SimpleNamespace(ranking=[_row("a", -160.0), _row("b", -3.0)]))
     assert fig.axes[0].get_xlim()[0] < -161.0 and not fig.axes[0].texts
-    plt.close(fig)
 
 
 def test_a_claim_plate_errors_mimic_is_noted_unless_the_null_drew_them():

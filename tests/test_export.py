@@ -565,8 +565,11 @@ def test_a_results_file_that_is_not_one_is_an_input_error(tmp_path, hertz_fit):
     cut.write_text(json.dumps(doc)[:500])
     with pytest.raises(InputError, match="is not a gc-ocp fit.json"):
         EstimationResult.from_json(cut)
-    with pytest.raises(InputError, match="is not a gc-ocp fit.json"):
+    # a key its reader takes, missing: named, with the versions and the fix (check_fit_document)
+    with pytest.raises(InputError, match=r"has no 'solver'.*refit with this version"):
         EstimationResult.from_json(_edited(doc, ("solver",), None))
+    with pytest.raises(InputError, match="is not a gc-ocp fit.json"):
+        EstimationResult.from_json(_edited(doc, ("solver",), "done"))  # there, but not one
     with pytest.raises(InputError, match="not a diagnosis.json"):
         Diagnosis.from_json(doc)
     with pytest.raises(InputError, match="not a diagnosis.json"):
@@ -767,3 +770,85 @@ def test_an_export_s_missing_model_or_unknown_trial_is_refused_before_any_work(
             assert main(args) == 2
             assert words in capsys.readouterr().err
     assert not out.exists()
+
+
+FIT_FIXTURE = Path(__file__).parent / "report_fixtures" / "all_effects" / "final_fit.json"
+"""A fit.json gc_ocp 0.1.0 wrote before ``"format"`` was a field (a diagnosis's final fit)."""
+
+
+def _readers():
+    """Every reader of a fit.json's path: the result, the exports' document, the CLI's export."""
+    from gc_ocp.cli import main
+    from gc_ocp.estimation.result import EstimationResult
+    from gc_ocp.export.calibrated import fit_document
+
+    def cli(path):
+        out = path.parent / "export"
+        status = main(["export", "casadi", str(path), "--out", str(out)])
+        assert status == 2 and not out.exists()
+
+    return {"from_json": EstimationResult.from_json, "fit_document": fit_document, "cli": cli}
+
+
+@pytest.mark.parametrize("reader", ["from_json", "fit_document", "cli"])
+def test_a_fit_json_of_a_later_format_is_refused_naming_both_versions(tmp_path, capsys, reader):
+    """fit.json recorded the version that wrote it and nothing checked it: a file of a later
+    layout was read as this one's (a KeyError's "not a gc-ocp fit.json" deep in the export at
+    best). Its ``"format"``, above the one this version knows, is one error naming the file,
+    the version that wrote it, this one and the fix."""
+    from gc_ocp import __version__
+    from gc_ocp.errors import InputError
+    from gc_ocp.estimation.result import FIT_FORMAT
+
+    doc = json.loads(FIT_FIXTURE.read_text())
+    path = tmp_path / "fit.json"
+    path.write_text(json.dumps({**doc, "format": FIT_FORMAT + 1, "gc_ocp_version": "9.0"}))
+    words = [
+        f"{path} is a fit.json of format {FIT_FORMAT + 1}, written by gc_ocp 9.0",
+        f"this gc_ocp {__version__} reads fit.json format 1 to {FIT_FORMAT}",
+        "refit with this version",
+    ]
+    if reader == "cli":
+        _readers()["cli"](path)
+        err = capsys.readouterr().err
+        assert all(w in err for w in words) and "Traceback" not in err, err
+        return
+    with pytest.raises(InputError) as e:
+        _readers()[reader](path)
+    assert all(w in str(e.value) for w in words), e.value
+
+
+@pytest.mark.parametrize(
+    "reader, key", [("from_json", "variables"), ("fit_document", "components"), ("cli", "blocks")]
+)
+def test_a_fit_json_without_a_key_its_reader_needs_is_refused_naming_both_versions(
+    tmp_path, capsys, reader, key
+):
+    """A fit.json without the format field (written before it) is read as today's when it has
+    the keys its reader takes; without one (an older layout, or an edited file) it is one error
+    naming the key, the file, the version that wrote it, this one and the fix (it was a
+    KeyError turned into "not a gc-ocp fit.json (KeyError: 'variables')")."""
+    from gc_ocp import __version__
+    from gc_ocp.errors import InputError
+    from gc_ocp.estimation.result import FIT_FORMAT, EstimationResult
+    from gc_ocp.export.calibrated import fit_document
+
+    doc = json.loads(FIT_FIXTURE.read_text())
+    assert "format" not in doc  # written before the field: read as today's
+    assert EstimationResult.from_json(FIT_FIXTURE).to_json()["format"] == FIT_FORMAT
+    assert fit_document(FIT_FIXTURE)["components"] == doc["components"]
+    path = tmp_path / "fit.json"
+    path.write_text(json.dumps({k: v for k, v in doc.items() if k != key}))
+    words = [
+        f"{path} has no '{key}', which this gc_ocp {__version__} reads",
+        "written by gc_ocp 0.1.0, no format number",
+        "refit with this version",
+    ]
+    if reader == "cli":
+        _readers()["cli"](path)
+        err = capsys.readouterr().err
+        assert all(w in err for w in words) and "Traceback" not in err, err
+        return
+    with pytest.raises(InputError) as e:
+        _readers()[reader](path)
+    assert all(w in str(e.value) for w in words), e.value

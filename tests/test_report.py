@@ -471,17 +471,13 @@ def test_each_effect_block_is_shown_by_its_component(case):
 def test_figures_label_channels_in_words():
     """The heat map's rows and the waterfall's legend name the channels as the page's tables
     do ("right superior force", "COP"), not by their JSON keys ("superior_force", "cop_mm")."""
-    import matplotlib.pyplot as plt
-
     _, _, _, d, _ = _fixture(CASES[0])
     fig = d.heatmap("base")
     rows = [t.get_text() for t in fig.axes[0].get_yticklabels()]
-    plt.close(fig)
     assert rows and not [r for r in rows if "_" in r], rows
     assert any(r.endswith(" COP") for r in rows) and any("superior force" in r for r in rows)
     fig = d.waterfall_figure()
     legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
-    plt.close(fig)
     assert "anteroposterior torque" in legend and not [t for t in legend if "_" in t], legend
 
 
@@ -599,10 +595,7 @@ def test_waterfall_legend_hides_no_point(steps):
     diagnosis that names nothing, as notebook 03's part 2 in small mode) every channel's point
     sits in one column, and the legend at matplotlib's "best" place lay over the superior force's
     point, the figure's main one."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     from gc_ocp.diagnosis.result import WaterfallStep
 
@@ -620,16 +613,16 @@ def test_waterfall_legend_hides_no_point(steps):
             d, waterfall=[WaterfallStep("base", 1.40, {"right": rms}, 0.62, "base")]
         )
     fig = d.waterfall_figure()
-    fig.canvas.draw()
+    canvas = FigureCanvasAgg(fig)  # drawn as savefig draws it (the constrained layout done)
+    canvas.draw()
     ax = fig.axes[0]
-    box = ax.get_legend().get_window_extent()
+    box = ax.get_legend().get_window_extent(canvas.get_renderer())
     covered = [
         (line.get_label(), x, y)
         for line in ax.get_lines()
         for x, y in ax.transData.transform(line.get_xydata())
         if box.x0 - 3 <= x <= box.x1 + 3 and box.y0 - 3 <= y <= box.y1 + 3
     ]
-    plt.close(fig)
     assert not covered, covered
 
 
@@ -1094,3 +1087,226 @@ def test_the_fit_page_s_flags_table_breaks_long_stance_labels():
     ]
     cells = [dict(t[1]).get("class") for t in tags[: tags.index(("/table",))] if t[0] == "td"]
     assert cells == ["l", "l nw", "l", "l"]  # fit, code (whole), where, message
+
+
+# --- every figure the package draws stays out of pyplot -----------------------------------
+FIGURE_MODULES = (
+    "gc_ocp.estimation.plots",
+    "gc_ocp.contact.plots",
+    "gc_ocp.export.opensim_export",
+    "gc_ocp.diagnosis.result",
+    "gc_ocp.diagnosis.where",
+    "gc_ocp.batch.page",
+    "gc_ocp.bench.summary",
+    "gc_ocp.kinematics.export",
+)
+
+
+def _drawable_fits():
+    """Two stance fits (right, left) carrying every key a figure reads: the wrench (a 1 % BW
+    superior-force error), the phases' inputs and the sole's units."""
+    t = np.linspace(0.0, 0.6, 61)
+    pts = np.array(
+        [[-0.03, 0.03, 0], [-0.03, -0.03, 0], [0.1, 0.04, 0], [0.1, -0.04, 0], [0.05, 0, 0]]
+    )
+    fits = _sole_fits(pts)
+    for f in fits:
+        meas = np.zeros((t.size, 6))
+        meas[:, 2] = 700.0 * np.sin(np.pi * t / 0.6)
+        meas[:, 0] = 0.1 * meas[:, 2]
+        mod = meas.copy()
+        mod[:, 2] += 7.0
+        f.update(
+            time=t,
+            measured=meas,
+            model=mod,
+            in_contact=np.ones(t.size, bool),
+            reference_point=np.zeros(3),
+            ground_height=0.0,
+            body_weight=700.0,
+            height=1.7,
+        )
+    return fits
+
+
+def _figure_calls() -> dict:
+    """``{public plotting function: a call of it on cheap inputs}``; each call returns a
+    figure, or ``summary_figures``'s dict of them."""
+    import types
+
+    from gc_ocp.batch.page import summary_figures
+    from gc_ocp.bench.summary import confusion_figure
+    from gc_ocp.contact.plots import plot_sole, plot_wrench_fit
+    from gc_ocp.diagnosis.result import Diagnosis
+    from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
+    from gc_ocp.estimation.plots import plot_fit, plot_pose_corrections, plot_sole_fit
+    from gc_ocp.export.opensim_export import plot_comparison
+    from gc_ocp.kinematics.export import plot_kinematics
+
+    ns = types.SimpleNamespace
+
+    def fitted():
+        _, _, _, d, final = _fixture(CASES[0])
+        fits = _drawable_fits()
+        pose = {
+            f["label"]: {"translation_m": np.full((61, 3), 1e-3), "rotation_rad": np.zeros((61, 3))}
+            for f in fits
+        }
+        blocks = {**final.blocks, "pose": {"stances": pose}}
+        return d, dataclasses.replace(final, stance_fits=fits, blocks=blocks), fits
+
+    def kinematics():
+        t = np.linspace(0.0, 1.0, 11)
+        foot = ns(time=t, positions=np.zeros((t.size, 5, 3)))
+        trial = ns(name="t", floor_height=0.0, stances=[ns(side="left", t_on=0.2, t_off=0.8)])
+        return plot_kinematics(
+            trial, ns(time=t, marker_rms=np.zeros(t.size), feet={"left": foot, "right": foot})
+        )
+
+    def comparison():
+        time = np.linspace(0.0, 2.0, 21)
+        w = {s: np.ones((time.size, 6)) for s in ("left", "right")}
+        return plot_comparison(time, w, w, w, ns(body_weight=600.0), [("left", 0.4, 1.0)])
+
+    def confusion():
+        summary = {
+            "matrix": [[2, 0], [1, 1]],
+            "answers": ["damping", "none"],
+            "truths": ["damping", "none"],
+            "top1_accuracy": 0.75,
+            "none_correct_rejection": 0.5,
+            "n_cases": 4,
+        }
+        return confusion_figure({"summary": summary, "settings": {"base": "registered"}})
+
+    fits = _drawable_fits()
+    evaluation = ns(base_evaluation=ns(scored_fits=fits, weights=None))
+    return {
+        "plot_fit": lambda: plot_fit(fitted()[1]),
+        "plot_sole_fit": lambda: plot_sole_fit(fitted()[1]),
+        "plot_pose_corrections": lambda: plot_pose_corrections(fitted()[1]),
+        "plot_wrench_fit": lambda: plot_wrench_fit(
+            [f["time"] for f in fits], [f["measured"] for f in fits], [f["model"] for f in fits]
+        ),
+        "plot_sole": lambda: plot_sole({"left": fits[1]["points_local"]}),
+        "plot_comparison": comparison,
+        "heatmap": lambda: fitted()[0].heatmap("base"),
+        "Diagnosis.residual_figure": lambda: Diagnosis.residual_figure(evaluation, "base"),
+        "ranking_figure": lambda: fitted()[0].ranking_figure(),
+        "waterfall_figure": lambda: fitted()[0].waterfall_figure(),
+        "heatmap_figure": lambda: heatmap_figure(fitted()[0].where["base"]),
+        "residual_figure": lambda: residual_figure(fits),
+        "summary_figures": lambda: summary_figures(
+            [{"subject": "S1", "status": "failed", "diagnosis_selected": "damping"}]
+        ),
+        "confusion_figure": confusion,
+        "plot_kinematics": kinematics,
+    }
+
+
+def test_every_plotting_function_is_in_the_pyplot_test():
+    """The list below names every public plotting function of the modules that draw (a new one
+    is added to it, or this fails): ``plot_*`` and ``*_figure(s)`` functions, and the figure
+    methods of :class:`~gc_ocp.diagnosis.result.Diagnosis`."""
+    import importlib
+    import inspect
+
+    from gc_ocp.diagnosis.result import Diagnosis
+
+    def drawing(name):
+        return name.startswith("plot_") or name.endswith(("_figure", "_figures"))
+
+    found = set()
+    for module in map(importlib.import_module, FIGURE_MODULES):
+        for name, obj in vars(module).items():
+            if inspect.isfunction(obj) and obj.__module__ == module.__name__ and drawing(name):
+                found.add(name)
+    found |= {n for n in vars(Diagnosis) if drawing(n) and n != "residual_figure"}
+    found |= {"heatmap", "Diagnosis.residual_figure"}
+    assert found == set(_figure_calls())
+
+
+@pytest.mark.parametrize("name", list(_figure_calls()))
+def test_figures_stay_out_of_pyplot(name):
+    """Every figure the package draws is a :class:`~matplotlib.figure.Figure` pyplot does not
+    hold: a notebook or a study drawing hundreds of them does not accumulate open figures (nor
+    meet pyplot's "more than 20 figures" warning), and no caller has to close them. Nine were
+    drawn with ``plt.subplots`` (the diagnosis's, the study page's, the benchmark's confusion
+    matrix and the kinematics figure)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
+
+    before = plt.get_fignums()
+    out = _figure_calls()[name]()
+    figs = list(out.values()) if isinstance(out, dict) else [out]
+    assert figs and all(isinstance(f, Figure) for f in figs)
+    assert plt.get_fignums() == before
+    for f in figs:  # each draws as savefig draws it (the constrained layout included)
+        f.savefig(__import__("io").BytesIO(), format="png", dpi=40)
+
+
+def test_no_module_of_the_package_uses_pyplot():
+    """The behavioural test above covers the plotting modules' public functions; this scan
+    covers the rest of the package: no module imports pyplot (its figures are held open by
+    pyplot's state until closed)."""
+    import ast
+
+    import gc_ocp
+
+    users = []
+    for path in sorted(Path(gc_ocp.__file__).parent.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [f"{node.module}.{a.name}" for a in node.names]
+                if isinstance(node, ast.ImportFrom) and node.module
+                else []
+            )
+            users += [(path.name, n) for n in names if n.startswith("matplotlib.pyplot")]
+    assert not users, users
+
+
+def _sole_figures():
+    """The sole figure of the bundled trial's fit (its units; the fixture's forces) and a sole
+    whose units all have the largest marker."""
+    from gc_ocp.contact.plots import plot_sole
+    from gc_ocp.estimation.plots import plot_sole_fit
+    from gc_ocp.foot import SEED_LAYOUT
+
+    _, _, _, _, final = _fixture(CASES[0])
+    pts = np.array(
+        [[-0.032, 0.031, 0], [-0.033, -0.034, 0], [0.095, 0.037, 0], [0.096, -0.047, 0]]
+        + [[0.028, -0.002, 0]]
+    )
+    yield plot_sole_fit(dataclasses.replace(final, stance_fits=_sole_fits(pts)))
+    yield plot_sole({"left": pts}, k={"left": dict.fromkeys(SEED_LAYOUT.units, 1e5)})
+
+
+@pytest.mark.parametrize("which", [0, 1])
+def test_the_sole_figure_s_labels_lie_off_every_marker(which):
+    """A unit's label was set 8 pt right of its marker's centre, inside the disk of the
+    largest markers (radius sqrt(300) / 2 = 8.7 pt): the bundled fit's labels ran over their
+    markers' edges. No label's box now meets any marker's disk (its centre, its radius in
+    points from the marker's size, an area in pt^2), the nominal units' markers included."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = list(_sole_figures())[which]
+    canvas = FigureCanvasAgg(fig)  # as savefig draws it
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    px_per_pt = fig.dpi / 72.0
+    met = []
+    for ax in fig.axes:
+        boxes = [(t.get_text(), t.get_window_extent(renderer)) for t in ax.texts]
+        assert len(boxes) == 5
+        for c in ax.collections:
+            centres = ax.transData.transform(c.get_offsets())
+            radii = np.broadcast_to(np.sqrt(c.get_sizes()) / 2 * px_per_pt, len(centres))
+            for (x, y), r in zip(centres, radii, strict=True):
+                for text, b in boxes:
+                    # the box's nearest point to the centre, closer than the radius: they meet
+                    gap = np.hypot(max(b.x0 - x, 0, x - b.x1), max(b.y0 - y, 0, y - b.y1))
+                    if gap < r:
+                        met.append((ax.get_title(), text, round(gap, 1), round(r, 1)))
+    assert not met, met

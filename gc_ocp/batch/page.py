@@ -38,15 +38,16 @@ def _not_identified(row: dict, unit: str) -> bool:
 
 
 def summary_figures(rows: Sequence[dict]) -> dict:
-    """The page's figures (matplotlib; the caller closes them): ``units`` (each unit's force at
+    """The page's figures (matplotlib Figures, not pyplot's: nothing to close): ``units`` (each unit's force at
     the reference depth across subjects, per foot), ``rms`` (in-sample and held-out RMS per
     channel across subjects and feet) and, when any subject was diagnosed, ``effects`` (how many
     diagnoses name each effect)."""
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     ok = [r for r in rows if r["status"] == "done"]
     figs = {}
-    fig, ax = plt.subplots(figsize=(8, 3.6))
+    fig = Figure(figsize=(8, 3.6), layout="constrained")
+    ax = fig.subplots()
     plotted = False
     for j, foot in enumerate(("left", "right")):
         for i, u in enumerate(UNITS):
@@ -72,9 +73,9 @@ def summary_figures(rows: Sequence[dict]) -> dict:
         "contact units across subjects" + (" (log scale)" if plotted else "")
     )
     ax.legend()
-    fig.tight_layout()
     figs["units"] = fig
-    fig, ax = plt.subplots(figsize=(8, 3.6))
+    fig = Figure(figsize=(8, 3.6), layout="constrained")
+    ax = fig.subplots()
     for k, (prefix, label) in enumerate((("rms_", "in-sample"), ("heldout_rms_", "held-out"))):
         data = [_finite(r[prefix + c] for r in ok) for c in CHANNELS]
         pos = [i + (k - 0.5) * 0.35 for i in range(len(CHANNELS))]
@@ -93,17 +94,16 @@ def summary_figures(rows: Sequence[dict]) -> dict:
     ax.set_ylabel("RMS [% BW; torques % BW x height]")
     ax.set_title("fit error across subjects and feet")
     ax.legend()
-    fig.tight_layout()
     figs["rms"] = fig
     named = _named(rows)
     if named:
-        fig, ax = plt.subplots(figsize=(6, 0.4 * len(named) + 1.2))
+        fig = Figure(figsize=(6, 0.4 * len(named) + 1.2), layout="constrained")
+        ax = fig.subplots()
         names = list(named)
         ax.barh(names, [named[n] for n in names], color="C2")
         ax.invert_yaxis()
         ax.set_xlabel("subjects whose diagnosis names it")
         ax.set_title("effects named by the diagnoses")
-        fig.tight_layout()
         figs["effects"] = fig
     return figs
 

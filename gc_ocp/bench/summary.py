@@ -84,11 +84,13 @@ def merge(results: Sequence[dict]) -> dict:
 
 def confusion_figure(result: dict):
     """The confusion matrix (counts; rows truth, columns answer) as a matplotlib figure."""
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     s = result["summary"]
     m = np.asarray(s["matrix"], float)
-    fig, ax = plt.subplots(figsize=(1.0 + 0.62 * len(s["answers"]), 1.2 + 0.5 * len(s["truths"])))
+    size = (1.0 + 0.62 * len(s["answers"]), 1.2 + 0.5 * len(s["truths"]))
+    fig = Figure(figsize=size, layout="constrained")
+    ax = fig.subplots()
     share = m / np.maximum(m.sum(axis=1, keepdims=True), 1)
     ax.imshow(share, cmap="Blues", vmin=0, vmax=1)
     for i in range(m.shape[0]):
@@ -113,7 +115,6 @@ def confusion_figure(result: dict):
         f"{'-' if rej is None else f'{100 * rej:.0f} %'} ({s['n_cases']} cases)",
         fontsize=10,
     )
-    fig.tight_layout()
     return fig
 
 

@@ -468,9 +468,6 @@ def run_benchmark(
     atomic_write_text(path, json.dumps(res, indent=1, default=_json))
     fig = confusion_figure(res)
     atomic_savefig(fig, Path(out) / "confusion.png", dpi=120)
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
     return res
 
 

@@ -108,6 +108,10 @@ def plot_wrench_fit(
     return fig
 
 
+LABEL_GAP_PT = 4.0
+"""Gap [pt] between a unit's marker disk and its label in :func:`plot_sole`."""
+
+
 def _kilo_newton_per_metre(k: float) -> str:
     return f"{k / 1000:.1f} kN/m"
 
@@ -161,11 +165,13 @@ def plot_sole(
                 zorder=3,
             )
             text = u if val is None else f"{u}\n{(label or _kilo_newton_per_metre)(val)}"
+            # beside the marker's disk, not on it: its radius [pt] (a scatter's size is its
+            # area in pt^2) plus a gap; a fixed 8 pt lay over the largest markers (radius 8.7 pt)
             ax.annotate(
                 text,
                 (pts[i, 1] * 100, pts[i, 0] * 100),
                 textcoords="offset points",
-                xytext=(8, 0),
+                xytext=(np.sqrt(size) / 2 + LABEL_GAP_PT, 0),
                 fontsize=8,
                 va="center",
             )

@@ -52,7 +52,7 @@ TEMPLATE = "report.html.j2"
 def report_figures(diagnosis) -> dict:
     """The report's figures as matplotlib figures: ``heatmap`` (base, held-out), ``residuals``
     (base, held-out, over time), ``ranking``, ``waterfall`` and, when an effect was selected,
-    ``heatmap_final``. The caller closes them. A diagnosis read back from ``diagnosis.json``
+    ``heatmap_final`` (not pyplot's: nothing to close). A diagnosis read back from ``diagnosis.json``
     (:meth:`~gc_ocp.diagnosis.result.Diagnosis.from_json`) has no fits: no ``residuals``
     (the page says so)."""
     figs = {
@@ -68,7 +68,7 @@ def report_figures(diagnosis) -> dict:
 
 
 def report_pngs(diagnosis, dpi: int = FIGURE_DPI) -> dict[str, bytes]:
-    """:func:`report_figures` rendered as PNG bytes (the figures are closed): what the page
+    """:func:`report_figures` rendered as PNG bytes: what the page
     embeds and what the CLI writes beside it."""
     return pngs(report_figures(diagnosis), dpi)
 

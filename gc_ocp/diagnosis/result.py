@@ -606,10 +606,11 @@ class Diagnosis:
 
     def ranking_figure(self):
         """Held-out reduction per candidate with its 95 % interval (named ones in green)."""
-        import matplotlib.pyplot as plt
+        from matplotlib.figure import Figure
 
         r = [e for e in self.ranking if e.not_evaluable is None]
-        fig, ax = plt.subplots(figsize=(7.0, 0.35 * len(r) + 1.4))
+        fig = Figure(figsize=(7.0, 0.35 * len(r) + 1.4), layout="constrained")
+        ax = fig.subplots()
         y = np.arange(len(r))[::-1]
         v = np.array([e.heldout_rms_reduction_pct for e in r])
         ci = np.array([e.heldout_rms_reduction_ci for e in r]).reshape(-1, 2)
@@ -638,14 +639,14 @@ class Diagnosis:
                         )
         ax.set_yticks(y, [e.effect + (" *" if e.confounded_with else "") for e in r])
         ax.set_xlabel("held-out reduction of the combined score [%]  (green: named; * confounded)")
-        fig.tight_layout()
         return fig
 
     def waterfall_figure(self):
         """Held-out RMS per channel after each added effect."""
-        import matplotlib.pyplot as plt
+        from matplotlib.figure import Figure
 
-        fig, ax = plt.subplots(figsize=(7.0, 3.6))
+        fig = Figure(figsize=(7.0, 3.6), layout="constrained")
+        ax = fig.subplots()
         labels = [w.model for w in self.waterfall]
         x = np.arange(len(labels))
         ax.plot(
@@ -670,7 +671,6 @@ class Diagnosis:
         # column, and a legend inside covered the superior force's point
         ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
         ax.set_title("How far the gap shrinks")
-        fig.tight_layout()
         return fig
 
 

@@ -130,7 +130,7 @@ def where(fits: list, weights: Weights | None = None) -> dict:
 def heatmap_figure(w: dict, title: str = "Where the residual lies"):
     """Heat map of the normalised RMS: rows foot x channel (and COP), columns the four phases
     and the whole stance; each cell annotated with its RMS in % BW, % BW x H or mm."""
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     rows, vals, texts = [], [], []
     for side, chans in w["normalised"].items():
@@ -139,7 +139,8 @@ def heatmap_figure(w: dict, title: str = "Where the residual lies"):
             vals.append([cells[c] for c in CELLS])
             texts.append([w["rms"][side][key][c] for c in CELLS])
     v = np.array(vals, float)
-    fig, ax = plt.subplots(figsize=(7.5, 0.32 * len(rows) + 1.6))
+    fig = Figure(figsize=(7.5, 0.32 * len(rows) + 1.6), layout="constrained")
+    ax = fig.subplots()
     im = ax.imshow(np.nan_to_num(v), aspect="auto", cmap="magma_r", vmin=0.0)
     ax.set_xticks(range(len(CELLS)), [c.replace("_", " ") for c in CELLS], rotation=20)
     ax.set_yticks(range(len(rows)), rows, fontsize=8)
@@ -158,7 +159,6 @@ def heatmap_figure(w: dict, title: str = "Where the residual lies"):
                 )
     fig.colorbar(im, ax=ax, label="RMS / error scale (COP: / 20 mm)")
     ax.set_title(title + "\n(cells: RMS in % BW, % BW×H, COP mm)", fontsize=10)
-    fig.tight_layout()
     return fig
 
 
@@ -170,10 +170,11 @@ def residual_figure(
 ):
     """Residual (model - measured) over time, one panel per stance (at most ``max_stances``),
     ``channels`` as lines (% BW or % BW x H), the four phases shaded."""
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     per = stance_residuals(fits, weights)[:max_stances]
-    fig, axes = plt.subplots(len(per), 1, figsize=(7.5, 1.9 * len(per) + 0.6), squeeze=False)
+    fig = Figure(figsize=(7.5, 1.9 * len(per) + 0.6), layout="constrained")
+    axes = fig.subplots(len(per), 1, squeeze=False)
     shades = ("#dbe9f6", "#f6f2db", "#e3f6db", "#f6dbe6")
     for ax, r in zip(axes[:, 0], per, strict=True):
         b = r["bounds"]
@@ -186,11 +187,10 @@ def residual_figure(
         ax.set_ylabel("model − measured\n[% BW (×H)]")
         ax.set_title(f"{r['label']} (phases from {r['method']})", fontsize=9)
     axes[-1, 0].set_xlabel("time [s]")
-    # the legend above the panels, not over the first stance's residual
+    # the legend above the panels, not over the first stance's residual (the constrained
+    # layout makes room for it: "outside")
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, fontsize=7, ncol=4, loc="upper center", frameon=False)
-    height = fig.get_size_inches()[1]
-    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.45 / height))
+    fig.legend(handles, labels, fontsize=7, ncol=4, loc="outside upper center", frameon=False)
     return fig
 
 

@@ -30,7 +30,7 @@ from gc_ocp.estimation.flags import (
 )
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
-from gc_ocp.text import nan_for_null, read_json_file
+from gc_ocp.text import check_document, nan_for_null, read_json_file
 from gc_ocp.trial import SIDES
 from gc_ocp.values import BOUND_TEXT, se_text
 from gc_ocp.wrench import cop_from_wrench
@@ -38,6 +38,35 @@ from gc_ocp.wrench import cop_from_wrench
 COP_MIN_FRACTION_BW = 0.10
 """The measured COP is compared only where the measured vertical force exceeds 10 % BW (below,
 the COP of a plate is dominated by its noise)."""
+
+FIT_FORMAT = 1
+"""The layout of ``fit.json`` this version writes (its ``"format"``) and the latest it reads; one
+more when a change would make an older reader misread the file (``docs/export.md``)."""
+
+FIT_KEYS = (
+    "x",
+    "solver",
+    "costs",
+    "counts",
+    "blocks",
+    "components",
+    "rms",
+    "cop_rms_mm",
+    "stance_fits",
+    "variables",
+)
+"""The keys of ``fit.json`` :meth:`EstimationResult.from_json` reads."""
+
+FIT_FIX = "refit with this version (gc-ocp fit, or gc_ocp.fit) to get a fit.json it reads"
+
+
+def check_fit_document(doc, where: str, needed: tuple[str, ...] = FIT_KEYS) -> None:
+    """A ``fit.json`` (parsed) this version can read, or one :class:`InputError` naming
+    ``where``, the version that wrote it, this version and the fix (a refit):
+    :func:`gc_ocp.text.check_document` with :data:`FIT_FORMAT` and ``needed`` (what the
+    reader takes: default :data:`FIT_KEYS`)."""
+    check_document(doc, where, "fit.json", FIT_FORMAT, needed, FIT_FIX)
+
 
 _ARRAY_FIT_KEYS = (
     "time",
@@ -268,6 +297,7 @@ class EstimationResult:
         ]
         return {
             "gc_ocp_version": __version__,
+            "format": FIT_FORMAT,
             "params": self.params,
             "sole_corrections_mm": self.sole_corrections_mm,
             "pose_correction_rms": self.pose_correction_rms,
@@ -308,11 +338,13 @@ class EstimationResult:
             d = read_json_file(
                 d, "Fit file", "a gc-ocp fit.json", "give the fit.json gc-ocp fit wrote."
             )
-        return read_document(
-            lambda: cls._from_document(json.loads(d) if isinstance(d, str) else d),
-            f"{what} is not a gc-ocp fit.json",
-            "give the file gc-ocp fit wrote, unedited.",
-        )
+        not_one = (f"{what} is not a gc-ocp fit.json", "give the file gc-ocp fit wrote, unedited.")
+        if isinstance(d, str):
+            d = read_document(lambda: json.loads(d), *not_one)
+        # a later format, or a layout without the keys read here: one error saying so (it was
+        # a KeyError's "not a gc-ocp fit.json" at best)
+        check_fit_document(d, what)
+        return read_document(lambda: cls._from_document(d), *not_one)
 
     @classmethod
     def _from_document(cls, d: Mapping) -> EstimationResult:
@@ -446,4 +478,11 @@ def _per_bw(fit: dict, wrench: np.ndarray) -> np.ndarray:
     )
 
 
-__all__ = ["EstimationResult", "as_result", "fit_quality"]
+__all__ = [
+    "FIT_FORMAT",
+    "FIT_KEYS",
+    "EstimationResult",
+    "as_result",
+    "check_fit_document",
+    "fit_quality",
+]

@@ -158,7 +158,26 @@ class Variables:
     ) -> None:
         """A physical parameter. ``log``: optimise log(value) (value > 0). ``prior_sigma``: optional
         Gaussian prior centred on ``value``, in the optimised units (log units when ``log``).
-        ``shown``: how a person reads it (:attr:`VariableSpec.shown`)."""
+        ``shown``: how a person reads it (:attr:`VariableSpec.shown`).
+
+        ``value``, the start, lies within ``[lower, upper]``: one outside is an
+        :class:`InputError` naming the parameter (a component's ``value`` a person gave, e.g.
+        ``Damping(value=20)`` with the bounds [0, 10] s/m; Ipopt moved it inside silently). A
+        start the package computes is clipped into the bounds before it gets here
+        (:meth:`~gc_ocp.estimation.components.contact.ContactLaw.with_initial_k`,
+        :func:`~gc_ocp.estimation.starts.rescaled_start`)."""
+        if not lower <= value <= upper:
+            factor, offset, unit = shown
+
+            def read(v):
+                return f"{factor * v + offset:g}{unit}"
+
+            name = "/".join(map(str, key))
+            raise InputError(
+                f"the start of {name}, {read(value)}, lies outside its bounds "
+                f"[{read(lower)}, {read(upper)}]: give a start within them (the component's "
+                "value), or widen its bounds"
+            )
         w = 0.0 if prior_sigma is None else 1.0 / prior_sigma
         if log:
             z0 = np.log(value)

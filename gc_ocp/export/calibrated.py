@@ -22,6 +22,7 @@ import numpy as np
 
 from gc_ocp.errors import InputError, read_document
 from gc_ocp.estimation.components.contact import ContactLaw, Param
+from gc_ocp.estimation.result import check_fit_document
 from gc_ocp.foot import SEED_LAYOUT, TrialKinematics
 from gc_ocp.text import read_json_file
 from gc_ocp.trial import GRAVITY, belt_velocity
@@ -34,6 +35,9 @@ EXPORTABLE = {
 }
 """The components a calibrated model may have (the default fit's; the pose correction is the
 per-stance registration of the markers, not part of the foot: a simulator leaves it out)."""
+
+EXPORT_KEYS = ("components", "blocks", "stance_fits")
+"""The keys of ``fit.json`` the exports read (:func:`~gc_ocp.estimation.result.check_fit_document`)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -96,9 +100,7 @@ class CalibratedContact:
                 f"the fit is a JSON {type(doc).__name__}, not a gc-ocp fit.json (an object); give "
                 "the file gc-ocp fit wrote"
             )
-        for key in ("components", "blocks", "stance_fits"):
-            if key not in doc:
-                raise InputError(f"the fit has no {key!r}: it is not a gc-ocp fit.json")
+        check_fit_document(doc, "the fit", EXPORT_KEYS)
         solver = doc.get("solver")
         if isinstance(solver, Mapping) and solver.get("success") is False:
             raise InputError(
@@ -233,6 +235,7 @@ def fit_document(fit) -> dict:
                 f"{fit} is not a gc-ocp fit.json ({kind.get(type(doc), 'a number')}, not a "
                 f"JSON object); {fix}"
             )
+        check_fit_document(doc, str(fit), EXPORT_KEYS)  # a later format, or another layout
         return doc
     # a FitReport's own document (its result's, plus the held-out stance's fit and the
     # checks, as fit.json has them), an EstimationResult's, or a dict as it is

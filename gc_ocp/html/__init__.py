@@ -49,19 +49,15 @@ def data_uri(png: bytes) -> str:
 
 
 def pngs(figures: dict, dpi: int = FIGURE_DPI) -> dict[str, bytes]:
-    """``{name: matplotlib figure}`` rendered as PNG bytes; the figures are closed."""
-    import matplotlib.pyplot as plt
-
-    try:
-        out = {}
-        for name, fig in figures.items():
-            buf = io.BytesIO()
-            fig.savefig(buf, format="png", dpi=dpi)
-            out[name] = buf.getvalue()
-        return out
-    finally:
-        for fig in figures.values():
-            plt.close(fig)
+    """``{name: matplotlib figure}`` rendered as PNG bytes. The package's figures are
+    :class:`~matplotlib.figure.Figure` objects pyplot does not hold: nothing to close, they go
+    with their last reference."""
+    out = {}
+    for name, fig in figures.items():
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=dpi)
+        out[name] = buf.getvalue()
+    return out
 
 
 def provenance_context(prov: dict | None) -> dict:

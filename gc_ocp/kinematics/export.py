@@ -67,9 +67,10 @@ def kinematics_summary(trial: Trial, kin: TrialKinematics) -> dict:
 def plot_kinematics(trial: Trial, kin: TrialKinematics):
     """Figure: IK marker RMS [mm] over time, and each foot's sole-point heights above the plate
     surface [mm] with that foot's stance windows shaded. Returns the Figure (not shown or saved)."""
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
-    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True, constrained_layout=True)
+    fig = Figure(figsize=(9, 8), layout="constrained")
+    axes = fig.subplots(3, 1, sharex=True)
     axes[0].plot(kin.time, np.asarray(kin.marker_rms) * 1e3, color="k")
     axes[0].set_ylabel("marker RMS [mm]")
     axes[0].set_title(f"{trial.name}: inverse kinematics and sole points")
@@ -93,8 +94,6 @@ def write_kinematics(
     trial: Trial, kin: TrialKinematics, out_dir: str | Path, fmt: str = "csv"
 ) -> list[Path]:
     """Write trajectories (``fmt`` = ``"csv"`` or ``"npz"``), summary JSON and figure; returns paths."""
-    import matplotlib.pyplot as plt
-
     out_dir = Path(out_dir)
     paths = []
     if fmt == "csv":
@@ -141,5 +140,4 @@ def write_kinematics(
         )
     fig = plot_kinematics(trial, kin)
     paths.append(atomic_savefig(fig, out_dir / "kinematics.png", dpi=110))
-    plt.close(fig)
     return paths

@@ -49,7 +49,11 @@ class Param:
     scope: ``"unit"`` (one per unit per foot; only k), ``"foot"`` (one per foot), ``"shared"``
     (one for both feet) or ``"fixed"`` (not estimated: ``value`` is used).
     value: initial (or fixed) value in SI units; a float, or ``{side: float}`` /
-    ``{side: {unit: float}}`` for per-foot / per-unit values.
+    ``{side: {unit: float}}`` for per-foot / per-unit values. An estimated parameter's start
+    lies within its bounds: one outside them is an :class:`~gc_ocp.errors.InputError` when the
+    :class:`ContactLaw` is made (it was accepted, and Ipopt moved it inside silently). A start
+    the package computes (the linear least squares' stiffnesses,
+    :meth:`ContactLaw.with_initial_k`) is clipped into the bounds instead (``docs/estimation.md``).
     lower, upper: bounds in SI units, lower <= upper.
     prior_sigma: optional Gaussian prior centred on ``value``, in the optimised units (log units
     for k: ``prior_sigma = 2`` means a factor e^2 = 7.4 at one standard deviation).
@@ -62,6 +66,10 @@ class Param:
     Traceback (most recent call last):
     ...
     gc_ocp.errors.UnknownNameError: Param scope must be one of unit, foot, shared, fixed, but got "global"
+    >>> gc_ocp.ContactLaw(c=gc_ocp.Param("shared", 20.0, 0, 10))
+    Traceback (most recent call last):
+    ...
+    gc_ocp.errors.InputError: ContactLaw(c=Param('shared', 20.0, 0, 10)): the start 20.0 lies outside the bounds [0, 10]: give a start within them, or widen the bounds
     """
 
     scope: str
@@ -84,6 +92,19 @@ class Param:
                 f"Param bounds must be numbers with lower <= upper (SI units), but got "
                 f"lower={lo!r}, upper={hi!r}: e.g. Param('shared', 0.3, 0, 10)"
             )
+
+    def starts(self) -> list[tuple[str, float]]:
+        """Every start the value gives: ``[(where, value)]``, ``where`` ``""`` for one number,
+        ``"left"`` or ``"left/PL"`` for a per-foot or per-unit value."""
+        if not isinstance(self.value, dict):
+            return [("", self.value)]
+        out = []
+        for side, v in self.value.items():
+            if isinstance(v, dict):
+                out += [(f"{side}/{u}", x) for u, x in v.items()]
+            else:
+                out.append((str(side), v))
+        return out
 
     def value_for(self, side: str, unit: str | None = None) -> float:
         """The value for ``side`` (and ``unit``, for per-unit values); a per-foot or per-unit
@@ -224,6 +245,18 @@ class ContactLaw(Component):
                     f"to fix it, or Param('shared', {v!r}, lower, upper) to estimate it "
                     "(gc_ocp.Param: its scope, value and bounds)"
                 )
+        for pname in PARAMS:  # a start outside the bounds: Ipopt moved it inside, silently
+            p = getattr(self, pname)
+            if p.scope == "fixed":
+                continue
+            for where, v in p.starts():
+                if not (isinstance(v, numbers.Real) and p.lower <= v <= p.upper):
+                    at = f" of {where}" if where else ""
+                    raise InputError(
+                        f"ContactLaw({pname}=Param({p.scope!r}, {p.value!r}, {p.lower!r}, "
+                        f"{p.upper!r})): the start{at} {v!r} lies outside the bounds "
+                        f"[{p.lower!r}, {p.upper!r}]: give a start within them, or widen the bounds"
+                    )
         for pname in ("n", "c", "mu"):
             if getattr(self, pname).scope == "unit":
                 raise ModelError(
@@ -428,9 +461,18 @@ class ContactLaw(Component):
         return replace(self, **kw)
 
     def with_initial_k(self, k0: dict | None) -> ContactLaw:
-        """The law started from per-unit stiffnesses ``{side: {unit: k}}`` (when k is per unit)."""
+        """The law started from per-unit stiffnesses ``{side: {unit: k}}`` (when k is per unit).
+
+        ``k0`` is a start the package computes (the linear least squares, :func:`~gc_ocp.
+        estimation.starts.lls_k0`), not one a person chose: a stiffness outside k's bounds (a
+        unit the stances hardly load; an exponent started at 3, whose conversion multiplies the
+        linear k by 40 000) is clipped into them. Ipopt would move it inside anyway (its
+        ``bound_push``); clipped here, the start and the log-k prior's centre are the point the
+        solve starts from, and the law is one :class:`Param` accepts."""
         if k0 is None or self.k.scope != "unit":
             return self
+        lo, hi = self.k.lower, self.k.upper
+        k0 = {s: {u: float(np.clip(v, lo, hi)) for u, v in ks.items()} for s, ks in k0.items()}
         return replace(self, k=replace(self.k, value=k0))
 
 
