@@ -17,7 +17,7 @@ import numpy as np
 
 from gc_ocp.errors import InputError
 from gc_ocp.foot import FootKinematics, SoleLayout, TrialKinematics
-from gc_ocp.io.antialias import band_limited, needs_filter, reach
+from gc_ocp.io.antialias import band_limited, needs_filter, reach, sample_rate
 from gc_ocp.trial import SIDES, Stance, Trial
 from gc_ocp.values import given, require
 
@@ -207,8 +207,9 @@ def plate_signal(
     (:func:`gc_ocp.io.antialias.band_limited`; None: raw). The frames' measured wrench is this
     signal interpolated at their times, and a clock offset resamples the same signal."""
     plate = trial.plates[stance.plate]
-    filtered = needs_filter(plate.rate, frame_rate)
-    far = PLATE_SIGNAL_MARGIN + (reach(plate.rate, frame_rate) if filtered else 0.0)
+    rate = sample_rate(plate.time)
+    filtered = needs_filter(rate, frame_rate)
+    far = PLATE_SIGNAL_MARGIN + (reach(rate, frame_rate) if filtered else 0.0)
     near = (plate.time >= t_first - far) & (plate.time <= t_last + far)
     pt = plate.time[near]
     pw = without_other_loads(trial, stance, pt, trial.stance_wrench(stance, pt))
@@ -309,7 +310,7 @@ def stance_data(
         )
     foot = kin.feet[stance.side]
     t = foot.time
-    rate = 1.0 / float(np.median(np.diff(t))) if t.size > 1 else None
+    rate = sample_rate(t) if t.size > 1 else None
     t_lo, t_hi, _ = quiet_margins(trial, stance, margin)
     sel = (t > t_lo) & (t < t_hi)
     idx = np.flatnonzero(sel)

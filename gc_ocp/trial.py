@@ -270,13 +270,14 @@ class Trial:
         low-passed for it first (:func:`gc_ocp.io.antialias.band_limited`: what the plate
         records above the frames' Nyquist frequency would alias into their band). None: the
         raw samples, at the plate's own times or where a point value is wanted."""
-        from gc_ocp.io.antialias import band_limited, needs_filter, reach
+        from gc_ocp.io.antialias import band_limited, needs_filter, reach, sample_rate
 
         plate = self.plates[stance.plate]
         pt, wrench = plate.time, np.hstack([plate.force, plate.moment])
         times = np.asarray(times, float)
-        if times.size and needs_filter(plate.rate, frame_rate):
-            far = reach(plate.rate, frame_rate)  # the samples a frame's value depends on
+        rate = sample_rate(pt)
+        if times.size and needs_filter(rate, frame_rate):
+            far = reach(rate, frame_rate)  # the samples a frame's value depends on
             near = (pt >= times.min() - far) & (pt <= times.max() + far)
             pt, wrench = pt[near], band_limited(pt[near], wrench[near], frame_rate)
         f = np.column_stack([np.interp(times, pt, wrench[:, i]) for i in range(3)])

@@ -50,6 +50,7 @@ from gc_ocp.export.opensim_files import (
 )
 from gc_ocp.export.opensim_worker import DEFAULT_RADIUS
 from gc_ocp.io._common import Y_UP_TO_LAB
+from gc_ocp.io.antialias import sample_rate
 from gc_ocp.outputs import OutputSet
 from gc_ocp.stance import trial_names
 from gc_ocp.text import json_text
@@ -512,7 +513,7 @@ def plate_wrenches(trial, time) -> dict[str, np.ndarray]:
     """The plates' wrench per foot over the frames ``time`` (about the ``lab`` origin; zero off
     the stances), low-passed for the frames' rate as a fit reads them."""
     out = {s: np.zeros((time.size, 6)) for s in ("left", "right")}
-    rate = 1.0 / float(np.median(np.diff(time))) if time.size > 1 else None
+    rate = sample_rate(time) if time.size > 1 else None
     for st in trial.stances:
         sel = (time >= st.t_on) & (time <= st.t_off)
         if not sel.any():

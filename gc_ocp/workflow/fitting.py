@@ -37,7 +37,7 @@ from gc_ocp.estimation.solve import (
 )
 from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
 from gc_ocp.foot import TrialKinematics
-from gc_ocp.io.antialias import PASS_FRACTION, needs_filter
+from gc_ocp.io.antialias import PASS_FRACTION, needs_filter, sample_rate
 from gc_ocp.io.checks import require_stances
 from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
@@ -308,8 +308,8 @@ def band_notes(trial: Trial, kin: TrialKinematics) -> list[str]:
             t = times.get(st.side)
             if st.plate != i or t is None:
                 continue
-            rate = 1.0 / float(np.median(np.diff(t)))
-            if not needs_filter(plate.rate, rate):
+            rate = sample_rate(t)
+            if not needs_filter(sample_rate(plate.time), rate):
                 continue
             t = t[(t >= st.t_on) & (t <= st.t_off)]
             d = trial.stance_wrench(st, t) - trial.stance_wrench(st, t, frame_rate=rate)
@@ -319,7 +319,7 @@ def band_notes(trial: Trial, kin: TrialKinematics) -> list[str]:
         r = np.concatenate(removed)
         rms = 100 * float(np.sqrt(np.mean(r**2))) if r.size else float("nan")
         out.append(
-            f"{trial.source}: plate {plate.name} ({plate.rate:.0f} Hz) is read at the "
+            f"{trial.source}: plate {plate.name} ({sample_rate(plate.time):.0f} Hz) is read at the "
             f"{rate:.0f} Hz frames through an anti-alias low-pass (flat to "
             f"{PASS_FRACTION * rate:.0f} Hz, stopped from {rate / 2:.0f} Hz): it removes "
             f"{rms:.2f} % BW RMS of vertical force from the point samples over its stances "
