@@ -99,3 +99,24 @@ def test_the_runnable_doc_examples_are_found():
     found = {(p, c.strip().splitlines()[0]) for p, c in (x.values for x in _blocks())}
     for page, start in RUNNABLE:
         assert any(p == page and line.startswith(start) for p, line in found), (page, start)
+
+
+CONFLICT = re.compile(r"^(<{7} |={7}$|>{7} )", re.M)
+
+
+def test_no_page_or_source_keeps_a_merge_conflict():
+    """A merge's conflict markers were committed in docs/data_formats.md (found 2026-12-03):
+    both versions of a table row shown to the reader. Every tracked text file of the repository
+    is free of them."""
+    import subprocess
+
+    files = subprocess.run(
+        ["git", "ls-files", "*.md", "*.py", "*.toml", "*.ipynb", "*.cfg", "Makefile"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.split()
+    assert files  # the listing worked (a clone, not an export without .git)
+    kept = [f for f in files if CONFLICT.search((ROOT / f).read_text(encoding="utf-8"))]
+    assert not kept, kept
