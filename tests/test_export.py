@@ -790,6 +790,21 @@ def _readers():
     return {"from_json": EstimationResult.from_json, "fit_document": fit_document, "cli": cli}
 
 
+def _assert_refused(reader: str, path, words: list[str], capsys) -> None:
+    """``path`` read by ``reader`` (``_readers``) is one refusal holding every one of
+    ``words``: an InputError in Python, exit 2 without a traceback from the CLI."""
+    from gc_ocp.errors import InputError
+
+    if reader == "cli":
+        _readers()["cli"](path)
+        err = capsys.readouterr().err
+        assert all(w in err for w in words) and "Traceback" not in err, err
+        return
+    with pytest.raises(InputError) as e:
+        _readers()[reader](path)
+    assert all(w in str(e.value) for w in words), e.value
+
+
 @pytest.mark.parametrize("reader", ["from_json", "fit_document", "cli"])
 def test_a_fit_json_of_a_later_format_is_refused_naming_both_versions(tmp_path, capsys, reader):
     """fit.json recorded the version that wrote it and nothing checked it: a file of a later
@@ -797,7 +812,6 @@ def test_a_fit_json_of_a_later_format_is_refused_naming_both_versions(tmp_path, 
     best). Its ``"format"``, above the one this version knows, is one error naming the file,
     the version that wrote it, this one and the fix."""
     from gc_ocp import __version__
-    from gc_ocp.errors import InputError
     from gc_ocp.estimation.result import FIT_FORMAT
 
     doc = json.loads(FIT_FIXTURE.read_text())
@@ -808,14 +822,7 @@ def test_a_fit_json_of_a_later_format_is_refused_naming_both_versions(tmp_path, 
         f"this gc_ocp {__version__} reads fit.json format 1 to {FIT_FORMAT}",
         "refit with this version",
     ]
-    if reader == "cli":
-        _readers()["cli"](path)
-        err = capsys.readouterr().err
-        assert all(w in err for w in words) and "Traceback" not in err, err
-        return
-    with pytest.raises(InputError) as e:
-        _readers()[reader](path)
-    assert all(w in str(e.value) for w in words), e.value
+    _assert_refused(reader, path, words, capsys)
 
 
 @pytest.mark.parametrize(
@@ -829,7 +836,6 @@ def test_a_fit_json_without_a_key_its_reader_needs_is_refused_naming_both_versio
     naming the key, the file, the version that wrote it, this one and the fix (it was a
     KeyError turned into "not a gc-ocp fit.json (KeyError: 'variables')")."""
     from gc_ocp import __version__
-    from gc_ocp.errors import InputError
     from gc_ocp.estimation.result import FIT_FORMAT, EstimationResult
     from gc_ocp.export.calibrated import fit_document
 
@@ -844,11 +850,4 @@ def test_a_fit_json_without_a_key_its_reader_needs_is_refused_naming_both_versio
         "written by gc_ocp 0.1.0, no format number",
         "refit with this version",
     ]
-    if reader == "cli":
-        _readers()["cli"](path)
-        err = capsys.readouterr().err
-        assert all(w in err for w in words) and "Traceback" not in err, err
-        return
-    with pytest.raises(InputError) as e:
-        _readers()[reader](path)
-    assert all(w in str(e.value) for w in words), e.value
+    _assert_refused(reader, path, words, capsys)

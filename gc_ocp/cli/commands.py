@@ -465,8 +465,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     from gc_ocp.outputs import check_writable
 
     check_writable(args.out, command="gc-ocp export")
+    check_request(None, args.model)  # a --model that is no file, said before the fit is read
     fit = fit_document(args.fit_json)  # read once, for the checks, a refit and the export
-    check_request(fit, args.model, args.trial)  # before a --hertz refit
+    check_request(fit, trial=args.trial)  # before a --hertz refit
     pairs = None
     if args.hertz:
         cal = CalibratedContact.from_fit(fit)
