@@ -2,7 +2,7 @@
 
 Each shared walking file (or set of trials of one subject) is fitted twice with ``gc_ocp.fit``'s
 defaults and ``holdout="auto"``: once with the plates read at the frames through the anti-alias
-low-pass (:mod:`gc_ocp.io.antialias`, the package's way) and once with their point samples (the
+low-pass (:mod:`gc_ocp.antialias`, the package's way) and once with their point samples (the
 filter switched off). Each fit is scored against both readings of the plates, in sample and on
 the held-out stance (superior force RMS over in-contact frames, % BW), with its law's n, c, mu.
 

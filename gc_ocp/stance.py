@@ -17,7 +17,7 @@ import numpy as np
 
 from gc_ocp.errors import InputError
 from gc_ocp.foot import FootKinematics, SoleLayout, TrialKinematics
-from gc_ocp.io.antialias import band_limited, needs_filter, reach, sample_rate
+from gc_ocp.antialias import band_limited, needs_filter, reach, sample_rate
 from gc_ocp.trial import SIDES, Stance, Trial
 from gc_ocp.values import given, require
 
@@ -204,7 +204,7 @@ def plate_signal(
     the plate's samples within :data:`PLATE_SIGNAL_MARGIN` of ``[t_first, t_last]`` [s] and the
     filter's reach beyond, as the frames at ``frame_rate`` [Hz] read it: other loads zeroed
     (:func:`without_other_loads`), then low-passed for the frames
-    (:func:`gc_ocp.io.antialias.band_limited`; None: raw). The frames' measured wrench is this
+    (:func:`gc_ocp.antialias.band_limited`; None: raw). The frames' measured wrench is this
     signal interpolated at their times, and a clock offset resamples the same signal."""
     plate = trial.plates[stance.plate]
     rate = sample_rate(plate.time)

@@ -267,10 +267,10 @@ class Trial:
         """Measured wrench of ``stance`` at ``times`` [s]: ``(n, 6)`` = force [N], moment [N·m]
         about ``stance.reference_point``, in ``lab``. Linear interpolation of the plate samples;
         ``frame_rate`` [Hz]: the rate of the frames the wrench is compared at, the samples
-        low-passed for it first (:func:`gc_ocp.io.antialias.band_limited`: what the plate
+        low-passed for it first (:func:`gc_ocp.antialias.band_limited`: what the plate
         records above the frames' Nyquist frequency would alias into their band). None: the
         raw samples, at the plate's own times or where a point value is wanted."""
-        from gc_ocp.io.antialias import band_limited, needs_filter, reach, sample_rate
+        from gc_ocp.antialias import band_limited, needs_filter, reach, sample_rate
 
         plate = self.plates[stance.plate]
         pt, wrench = plate.time, np.hstack([plate.force, plate.moment])

@@ -1,4 +1,4 @@
-"""The plates are read at the frames through an anti-alias low-pass (gc_ocp.io.antialias)."""
+"""The plates are read at the frames through an anti-alias low-pass (gc_ocp.antialias)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import gc_ocp
-from gc_ocp.io.antialias import PASS_FRACTION, band_limited, needs_filter
+from gc_ocp.antialias import PASS_FRACTION, band_limited, needs_filter
 from gc_ocp.stance import stance_data, without_other_loads
 from gc_ocp.workflow.fitting import fit_data
 

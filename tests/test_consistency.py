@@ -289,7 +289,7 @@ def test_a_plate_ringing_after_toe_off_is_not_fitted_and_the_fit_says_so(walk):
     assert cut.foot.time[-1] < first_loud <= clean.foot.time[-1]
     assert cut.in_contact.sum() == clean.in_contact.sum()  # the stance itself is whole
     # the plate signal a clock offset shifts holds the foot's zero from the ringing on, and
-    # the plate's samples up to it, both band-limited for the frames (gc_ocp.io.antialias):
+    # the plate's samples up to it, both band-limited for the frames (gc_ocp.antialias):
     # the low-pass spreads the foot's own last, sub-threshold force (< 20 N at toe-off) into
     # the zeros by a few N, nothing of the 151 N ringing
     ringing = cut.plate_time >= first_loud - 1e-9

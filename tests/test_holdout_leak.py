@@ -14,6 +14,8 @@ import numpy as np
 import pytest
 
 import gc_ocp
+from gc_ocp.antialias import band_limited, sample_rate
+from gc_ocp.stance import _other_loads
 from gc_ocp.workflow import fitting as fit_module
 
 HOLDOUT = "right@0.407"
@@ -66,14 +68,29 @@ def test_no_heldout_frame_reaches_the_start_or_the_fit(bundled, monkeypatch):
     assert spoiled.result.objective == clean.result.objective
     # the spoiled stance did reach the held-out evaluation (the test can fail)
     fc, fs = clean.heldout.stance_fits[0], spoiled.heldout.stance_fits[0]
-    # scaled by 1.25, the margin's last unloading samples (16-20 N) pass the 20 N a margin may
-    # read (gc_ocp.stance.quiet_margins), so the spoiled stance's margin may end sooner: the
-    # frames it keeps are the clean stance's, each with its measurement scaled
+    # scaled by 1.25, the margins' quiet samples of 16-20 N pass the 20 N a margin may read
+    # (gc_ocp.stance.quiet_margins), so the spoiled stance's margins may end sooner: the frames
+    # it keeps are the clean stance's, with its measurement scaled, except where the
+    # anti-alias low-pass (gc_ocp.antialias) reaches the samples its margins now zero
     assert (
         np.isin(fs["time"], fc["time"]).all() and fs["in_contact"].sum() == fc["in_contact"].sum()
     )
+    # the filter is linear: the spoiled reading is 1.25 x the clean one less the filtered
+    # samples its margins zero and the clean ones keep (zero but for the filter's smear)
+    st = next(s for s in trial.stances if HOLDOUT in s.label)
+    t = trial.plates[st.plate].time
+    clean_to, clean_from = _other_loads(trial, st)
+    spoiled_to, spoiled_from = _other_loads(_spoiled(trial, HOLDOUT), st)
+    cut = ((t > clean_to) & (t <= spoiled_to)) | ((t >= spoiled_from) & (t < clean_from))
+    assert cut.any()  # the margins did move (else the comparison below is 1.25 x exactly)
+    lost = band_limited(t, cut[:, None] * trial.stance_wrench(st, t), sample_rate(kin.time))
+    lost = np.column_stack([np.interp(fs["time"], t, c) for c in lost.T])
     same = np.isin(fc["time"], fs["time"])
-    np.testing.assert_allclose(fs["measured"], 1.25 * fc["measured"][same], rtol=1e-12)
+    # rounding of sums over the filter's ~400 taps: 1e-9 of a body weight
+    np.testing.assert_allclose(
+        fs["measured"], 1.25 * (fc["measured"][same] - lost), atol=1e-9 * trial.body_weight
+    )
+    assert np.abs(fs["measured"] - fc["measured"][same]).max() > 0.1 * trial.body_weight
 
 
 def test_a_training_frame_does_reach_the_fit(bundled):

@@ -119,7 +119,7 @@ class MismatchFamily:
       per stance and channel: the order of an unloaded plate's noise floor; a larger hum shows
       in every unloaded recording and is fixed before data are taken. The frames sample it at
       their times (aliased), as a pipeline that reads a plate's samples at the frames does;
-      gc_ocp's own low-passes them for the frames first (:mod:`gc_ocp.io.antialias`), which
+      gc_ocp's own low-passes them for the frames first (:mod:`gc_ocp.antialias`), which
       removes a hum above the frames' Nyquist frequency: the member allows for more than the
       package's reading of a trial leaves (a conservative null; kept so that the calibration
       measured with it stands).

@@ -37,7 +37,7 @@ from gc_ocp.estimation.solve import (
 )
 from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
 from gc_ocp.foot import TrialKinematics
-from gc_ocp.io.antialias import PASS_FRACTION, needs_filter, sample_rate
+from gc_ocp.antialias import PASS_FRACTION, needs_filter, sample_rate
 from gc_ocp.io.checks import require_stances
 from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
@@ -297,7 +297,7 @@ while it predicted the unzeroed force worse (3.65 % BW)."""
 
 def band_notes(trial: Trial, kin: TrialKinematics) -> list[str]:
     """What reading the plates at the frames through their anti-alias low-pass does
-    (:mod:`gc_ocp.io.antialias`), per plate faster than the frames: the pass band, and the RMS
+    (:mod:`gc_ocp.antialias`), per plate faster than the frames: the pass band, and the RMS
     of the vertical force it removes from the point samples over the trial's stances, in %
     BW (what would otherwise alias into the band the fit compares)."""
     times = {side: foot.time for side, foot in kin.feet.items() if foot.time.size > 1}

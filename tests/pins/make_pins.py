@@ -47,7 +47,7 @@ width still growing 4-5 % a round), stopped after 6 rounds under their 5 % toler
 had run to the 8-round limit (widths 3.26/3.04/2.61 deg against 3.29/4.04/2.56; superior RMS
 left 1.08 -> 1.02, right 1.12 -> 1.17 % BW; ``benchmarks/width_fixed_point_output.md`` measures
 how far such stops lie from the fixed point); 2026-12-03, the plates read at the frames
-through an anti-alias low-pass (``gc_ocp/io/antialias.py``; point samples had aliased the
+through an anti-alias low-pass (``gc_ocp/antialias.py``; point samples had aliased the
 heel-strike transient into the compared band), ``--fits-only``: bundled 182.31 -> 169.00
 (superior RMS left 1.15 -> 1.05, right 1.32 -> 1.33 % BW; held out 178.85 -> 143.96, 1.74 ->
 1.37 % BW), Plug-in Gait 256.16 -> 268.67 (superior RMS 1.18 / 1.24 -> 1.09 / 1.20 % BW),
