@@ -15,9 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from gc_ocp.antialias import band_limited, needs_filter, reach, sample_rate
 from gc_ocp.errors import InputError
 from gc_ocp.foot import FootKinematics, SoleLayout, TrialKinematics
-from gc_ocp.antialias import band_limited, needs_filter, reach, sample_rate
 from gc_ocp.trial import SIDES, Stance, Trial
 from gc_ocp.values import given, require
 

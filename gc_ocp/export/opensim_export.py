@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gc_ocp.antialias import sample_rate
 from gc_ocp.contact.channels import TABLE_KEYS, channel_name, channel_rms_pct, channel_unit
 from gc_ocp.errors import InputError, ModelError, require_file
 from gc_ocp.export import opensim_worker as worker
@@ -50,7 +51,6 @@ from gc_ocp.export.opensim_files import (
 )
 from gc_ocp.export.opensim_worker import DEFAULT_RADIUS
 from gc_ocp.io._common import Y_UP_TO_LAB
-from gc_ocp.antialias import sample_rate
 from gc_ocp.outputs import OutputSet
 from gc_ocp.stance import trial_names
 from gc_ocp.text import json_text

@@ -21,6 +21,7 @@ from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
 
+from gc_ocp.antialias import PASS_FRACTION, needs_filter, sample_rate
 from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.bias import REPLICATES, BiasCorrection, bias_corrected, check_replicates
 from gc_ocp.estimation.components import PoseCorrection, full_model
@@ -37,7 +38,6 @@ from gc_ocp.estimation.solve import (
 )
 from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
 from gc_ocp.foot import TrialKinematics
-from gc_ocp.antialias import PASS_FRACTION, needs_filter, sample_rate
 from gc_ocp.io.checks import require_stances
 from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
