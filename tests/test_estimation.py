@@ -150,6 +150,31 @@ def test_non_converged_solve_raises_with_result():
     assert "did not converge" in str(e.value)
 
 
+def test_a_start_outside_the_bounds_or_of_another_size_is_refused_naming_the_variable():
+    """solve(x0=...) checks the start it is given: Ipopt moved one outside the bounds inside
+    silently and stopped on a NaN without saying where it came from."""
+    _, _, sts = _stances(np.random.default_rng(2))
+    prob = build_estimation(sts, _model())
+    spec = next(s for s in prob.variables.specs if s.kind == "param")
+    name = "/".join(map(str, spec.key))
+    outside = prob.x0.copy()
+    outside[spec.start] = prob.ubx[spec.start] + 1.0
+    with pytest.raises(InputError, match=rf"x0 gives {re.escape(name)} .*outside its bounds"):
+        solve(prob, x0=outside)
+    nan = prob.x0.copy()
+    nan[-1] = np.nan
+    with pytest.raises(InputError, match=r"entry \d+ of x0.*not a number"):
+        solve(prob, x0=nan)
+    with pytest.raises(
+        InputError, match=rf"x0 has {prob.x0.size - 1} entries .* has {prob.x0.size}"
+    ):
+        solve(prob, x0=prob.x0[:-1])
+    # on a bound, or within Ipopt's relaxation of it (1e-8 relative), is a start
+    edge = prob.x0.copy()
+    edge[spec.start] = prob.ubx[spec.start] * (1 + 1e-10) + 1e-10
+    assert solve(prob, IpoptOptions(max_iter=2), x0=edge, raise_on_failure=False).iterations >= 0
+
+
 def test_weights_make_cop_count_more_than_seed_normalisation():
     w = Weights()
     inv = w.inverse_sigmas(700.0)

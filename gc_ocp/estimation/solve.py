@@ -400,7 +400,7 @@ def solve(
     if (options, warm) not in anchor.solvers:
         anchor.solvers[(options, warm)] = make_solver(anchor.parametric(), options, warm)
     solver = anchor.solvers[(options, warm)]
-    x_init = problem.x0 if x0 is None else x0
+    x_init = problem.x0 if x0 is None else _checked_start(problem, x0)
     t0 = _time.perf_counter()
     with signals.kept():  # Ctrl-C during the solve interrupts the fit
         sol = solver(x0=x_init, lbx=problem.lbx, ubx=problem.ubx, p=scale)
@@ -430,6 +430,39 @@ def solve(
             f"Ipopt did not converge: {status} after {result.iterations} iterations", result
         )
     return result
+
+
+# Ipopt relaxes every bound by its bound_relax_factor (1e-8, relative): a start that far
+# outside is a point of the problem (a solution of a problem with the same bounds, clipped or not)
+_START_SLACK = 1e-8
+
+
+def _checked_start(problem: EstimationProblem, x0) -> np.ndarray:
+    """A start ``x0`` the caller gave, as :func:`solve` takes it: the problem's size, finite, and
+    within the bounds (to Ipopt's own relaxation). Anything else is an
+    :class:`InputError` naming the first variable at fault: Ipopt would move a start outside
+    its bounds inside silently (a different start than the caller asked for) and stop on a
+    NaN without saying where it came from."""
+    x = np.asarray(x0, float).ravel() if np.ndim(x0) else np.full(1, np.nan)
+    how = "give problem.x0, or a result's x of the same problem (result.x)"
+    if x.size != problem.x0.size:
+        raise InputError(
+            f"solve's x0 has {x.size} entries but the problem has {problem.x0.size} decision "
+            f"variables: {how}"
+        )
+    slack = _START_SLACK * np.maximum(1.0, np.maximum(np.abs(problem.lbx), np.abs(problem.ubx)))
+    bad = ~np.isfinite(x) | (x < problem.lbx - slack) | (x > problem.ubx + slack)
+    if bad.any():
+        i = int(np.argmax(bad))
+        spec = next(s for s in problem.variables.specs if s.start <= i < s.start + s.size)
+        name = "/".join(map(str, spec.key)) + (f"[{i - spec.start}]" if spec.size > 1 else "")
+        raise InputError(
+            f"solve's x0 gives {name} (entry {i} of x0; {int(bad.sum())} entries at fault) the "
+            f"value {x[i]:g}, {'not a number' if not np.isfinite(x[i]) else 'outside its bounds'} "
+            f"[{problem.lbx[i]:g}, {problem.ubx[i]:g}] (in the optimised units: log for log "
+            f"parameters, prior widths for corrections): {how}, within the bounds"
+        )
+    return x  # as given: Ipopt's handling of a start within its relaxation is unchanged
 
 
 def retry_from_stop(
