@@ -414,18 +414,18 @@ def test_a_fit_records_its_law_s_settings_and_the_export_uses_them(stances):
     [
         (
             lambda: ContactLaw(c=Param("shared", 20.0, 0.0, 10.0)),
-            r"ContactLaw\(c=Param\('shared', 20.0, 0.0, 10.0\)\): the start 20.0 lies outside "
-            r"the bounds \[0.0, 10.0\]: give a start within them, or widen the bounds",
+            r"the start of ContactLaw\(c=Param\('shared', 20.0, 0.0, 10.0\)\), 20.0, lies outside "
+            r"its bounds \[0.0, 10.0\]: give a start within them, or widen its bounds",
         ),
         (
             lambda: ContactLaw(mu=Param("foot", {"left": 0.5, "right": 2.0}, 0.0, 1.5)),
-            r"mu=.*the start of right 2.0 lies outside the bounds \[0.0, 1.5\]",
+            r"mu=.* at right, 2.0, lies outside its bounds \[0.0, 1.5\]",
         ),
         (
             lambda: ContactLaw(k=Param("unit", {"left": {"PL": 50.0}}, 1e2, 1e9)),
-            r"k=.*the start of left/PL 50.0 lies outside the bounds \[100.0, 1000000000.0\]",
+            r"k=.* at left/PL, 50.0, lies outside its bounds \[100.0, 1000000000.0\]",
         ),
-        (lambda: ContactLaw(n=Param("shared", float("nan"), 1.0, 3.0)), r"the start nan"),
+        (lambda: ContactLaw(n=Param("shared", float("nan"), 1.0, 3.0)), r"\), nan, lies outside"),
     ],
 )
 def test_a_param_started_outside_its_bounds_is_refused_by_name(law, needle):

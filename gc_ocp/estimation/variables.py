@@ -16,6 +16,7 @@ decoded, or used as a warm start of another model, without any CasADi object.
 
 from __future__ import annotations
 
+import numbers
 from dataclasses import dataclass
 
 import casadi as ca
@@ -96,6 +97,22 @@ class VariableSpec:
         )
 
 
+def require_start_within(
+    name: str, value, lower: float, upper: float, read=repr, fix: str = ""
+) -> None:
+    """The rule for every estimated parameter's start, in one place: a real number within
+    ``[lower, upper]``, else one :class:`InputError` naming ``name``, the start and the bounds
+    as ``read`` shows a value, and the fix (``fix``: where the start was given). Ipopt moved a
+    start outside its bounds inside silently (its bound_push): a fit from a start the user did
+    not get, under a prior still centred outside. :class:`ContactLaw` checks its ``Param``\\ s
+    when made (the error at the user's line), :meth:`Variables.parameter` every component's."""
+    if not (isinstance(value, numbers.Real) and lower <= value <= upper):
+        raise InputError(
+            f"the start of {name}, {read(value)}, lies outside its bounds "
+            f"[{read(lower)}, {read(upper)}]: give a start within them{fix}, or widen its bounds"
+        )
+
+
 class Variables:
     """The registry of decision variables (declare pass, then :meth:`finalize`, then use pass)."""
 
@@ -166,18 +183,15 @@ class Variables:
         start the package computes is clipped into the bounds before it gets here
         (:meth:`~gc_ocp.estimation.components.contact.ContactLaw.with_initial_k`,
         :func:`~gc_ocp.estimation.starts.rescaled_start`)."""
-        if not lower <= value <= upper:
-            factor, offset, unit = shown
-
-            def read(v):
-                return f"{factor * v + offset:g}{unit}"
-
-            name = "/".join(map(str, key))
-            raise InputError(
-                f"the start of {name}, {read(value)}, lies outside its bounds "
-                f"[{read(lower)}, {read(upper)}]: give a start within them (the component's "
-                "value), or widen its bounds"
-            )
+        factor, offset, unit = shown
+        require_start_within(
+            "/".join(map(str, key)),
+            value,
+            lower,
+            upper,
+            read=lambda v: f"{factor * v + offset:g}{unit}",
+            fix=" (the component's value)",
+        )
         w = 0.0 if prior_sigma is None else 1.0 / prior_sigma
         if log:
             z0 = np.log(value)

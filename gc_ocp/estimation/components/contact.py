@@ -27,6 +27,7 @@ from gc_ocp.contact.laws import (
 from gc_ocp.errors import InputError, ModelError, UnknownNameError
 from gc_ocp.estimation.components.base import Component, DecodeContext
 from gc_ocp.estimation.flags import flag
+from gc_ocp.estimation.variables import require_start_within
 from gc_ocp.trial import SIDES
 
 PARAMS = ("k", "n", "c", "mu")
@@ -69,7 +70,7 @@ class Param:
     >>> gc_ocp.ContactLaw(c=gc_ocp.Param("shared", 20.0, 0, 10))
     Traceback (most recent call last):
     ...
-    gc_ocp.errors.InputError: ContactLaw(c=Param('shared', 20.0, 0, 10)): the start 20.0 lies outside the bounds [0, 10]: give a start within them, or widen the bounds
+    gc_ocp.errors.InputError: the start of ContactLaw(c=Param('shared', 20.0, 0, 10)), 20.0, lies outside its bounds [0, 10]: give a start within them, or widen its bounds
     """
 
     scope: str
@@ -249,14 +250,9 @@ class ContactLaw(Component):
             p = getattr(self, pname)
             if p.scope == "fixed":
                 continue
+            law = f"ContactLaw({pname}=Param({p.scope!r}, {p.value!r}, {p.lower!r}, {p.upper!r}))"
             for where, v in p.starts():
-                if not (isinstance(v, numbers.Real) and p.lower <= v <= p.upper):
-                    at = f" of {where}" if where else ""
-                    raise InputError(
-                        f"ContactLaw({pname}=Param({p.scope!r}, {p.value!r}, {p.lower!r}, "
-                        f"{p.upper!r})): the start{at} {v!r} lies outside the bounds "
-                        f"[{p.lower!r}, {p.upper!r}]: give a start within them, or widen the bounds"
-                    )
+                require_start_within(f"{law}{' at ' + where if where else ''}", v, p.lower, p.upper)
         for pname in ("n", "c", "mu"):
             if getattr(self, pname).scope == "unit":
                 raise ModelError(
