@@ -854,3 +854,21 @@ def test_a_fit_json_without_a_key_its_reader_needs_is_refused_naming_both_versio
         "refit with this version",
     ]
     _assert_refused(reader, path, words, capsys)
+
+
+def test_a_fit_given_as_a_dict_or_another_object_is_checked_as_a_file_is():
+    """fit_document checks every input once, not only a path: a dict without a key the exports
+    read, or an object that is no fit, is one InputError (a KeyError or an AttributeError deep
+    in an export before)."""
+    from gc_ocp.errors import InputError
+    from gc_ocp.export.calibrated import fit_document
+
+    doc = json.loads(FIT_FIXTURE.read_text())
+    assert fit_document(doc)["blocks"] == doc["blocks"]
+    cut = {k: v for k, v in doc.items() if k != "stance_fits"}
+    with pytest.raises(InputError, match="the fit has no 'stance_fits'"):
+        fit_document(cut)
+    with pytest.raises(InputError, match="the fit has no 'stance_fits'"):
+        CalibratedContact.from_fit(cut)
+    with pytest.raises(InputError, match="the fit is a list, not a fit"):
+        fit_document([doc])

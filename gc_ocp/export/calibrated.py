@@ -94,13 +94,7 @@ class CalibratedContact:
         ``trial``: the fit's name of the trial whose unit points (and, on a treadmill, fitted
         belt speed) are taken (each trial has its own kinematics, whose sole calibration places
         the points; default: the first)."""
-        doc = fit_document(fit)
-        if not isinstance(doc, Mapping):
-            raise InputError(
-                f"the fit is a JSON {type(doc).__name__}, not a gc-ocp fit.json (an object); give "
-                "the file gc-ocp fit wrote"
-            )
-        check_fit_document(doc, "the fit", EXPORT_KEYS)
+        doc = fit_document(fit)  # checked: an object of a known format, with the keys
         solver = doc.get("solver")
         if isinstance(solver, Mapping) and solver.get("success") is False:
             raise InputError(
@@ -225,21 +219,32 @@ class CalibratedContact:
 
 def fit_document(fit) -> dict:
     """The JSON document (``fit.json``'s) of a ``FitReport``, an ``EstimationResult``, a
-    ``fit.json`` dict or its path."""
+    ``fit.json`` dict or its path, checked once for every reader: a JSON object of a format
+    this version reads, with the keys the exports take
+    (:func:`~gc_ocp.estimation.result.check_fit_document`)."""
+    where = "the fit"
     if isinstance(fit, str | Path):
         fix = "give the fit.json of a fit (in the folder gc-ocp fit --out wrote)."
-        doc = read_json_file(fit, "Fit file", "a gc-ocp fit.json", fix)
+        doc, where = read_json_file(fit, "Fit file", "a gc-ocp fit.json", fix), str(fit)
         if not isinstance(doc, Mapping):  # valid JSON, but a list, text or number: no document
             kind = {list: "an array", str: "a string", bool: "true/false", type(None): "null"}
             raise InputError(
                 f"{fit} is not a gc-ocp fit.json ({kind.get(type(doc), 'a number')}, not a "
                 f"JSON object); {fix}"
             )
-        check_fit_document(doc, str(fit), EXPORT_KEYS)  # a later format, or another layout
-        return doc
-    # a FitReport's own document (its result's, plus the held-out stance's fit and the
-    # checks, as fit.json has them), an EstimationResult's, or a dict as it is
-    return dict(fit) if isinstance(fit, Mapping) else fit.to_json()
+    elif isinstance(fit, Mapping):
+        doc = dict(fit)
+    elif callable(getattr(fit, "to_json", None)):
+        # a FitReport's own document (its result's, plus the held-out stance's fit and the
+        # checks, as fit.json has them), or an EstimationResult's
+        doc = fit.to_json()
+    else:
+        raise InputError(
+            f"the fit is a {type(fit).__name__}, not a fit: give a gc_ocp.fit(...) report, its "
+            "result, a fit.json dict or the fit.json's path"
+        )
+    check_fit_document(doc, where, EXPORT_KEYS)  # a later format, or another layout
+    return doc
 
 
 __all__ = ("EXPORTABLE", "CalibratedContact", "fit_document")
