@@ -44,7 +44,7 @@ def check_document(
 ) -> None:
     """Refuse a JSON document the package wrote (``document``, e.g. ``"fit.json"``) that this
     version cannot read, with one :class:`InputError` naming ``where`` (the file), the version
-    that wrote it (its ``"gc_ocp_version"``), this version and the ``fix``:
+    that wrote it (its ``"gc_ocp_version"``, or its provenance's), this version and the ``fix``:
 
     * its ``"format"`` is not one this version knows (1 to ``known``): a later layout;
     * it lacks a key of ``needed`` (what the reader takes): a layout this version does not
@@ -56,7 +56,11 @@ def check_document(
 
     if not isinstance(doc, dict):
         return  # not a document at all: the reader says so
-    wrote = doc.get("gc_ocp_version", "an unknown version")
+    prov = doc.get("provenance")  # diagnosis.json keeps the version in its provenance
+    wrote = doc.get("gc_ocp_version") or (
+        prov.get("gc_ocp_version") if isinstance(prov, dict) else None
+    )
+    wrote = wrote or "an unknown version"
     fmt = doc.get("format")
     here = f"this gc_ocp {__version__} reads {document} format 1 to {known}"
     if fmt is not None and not (type(fmt) is int and 1 <= fmt <= known):

@@ -451,6 +451,33 @@ def test_diagnosis_json_is_written_back_byte_for_byte(case):
     assert Diagnosis.from_json(json.loads(again)).summary() == d.summary()
 
 
+def test_a_diagnosis_json_of_a_later_format_is_refused_naming_both_versions(tmp_path):
+    """diagnosis.json had no format number: a file of a later layout would be read as this
+    one's. A later ``"format"`` is one error naming the file, the version that wrote it (its
+    provenance's), this version and the fix; a file without the field (written before it) is
+    read as today's."""
+    from gc_ocp import __version__
+    from gc_ocp.diagnosis import Diagnosis
+    from gc_ocp.diagnosis.result import DIAGNOSIS_FORMAT
+    from gc_ocp.errors import InputError
+
+    _, _, js, d, _ = _fixture("damping_time_offset")
+    assert d.to_json()["format"] == DIAGNOSIS_FORMAT
+    older = {k: v for k, v in js.items() if k != "format"}
+    assert Diagnosis.from_json(older).summary() == d.summary()
+    later = tmp_path / "diagnosis.json"
+    prov = {**js["provenance"], "gc_ocp_version": "9.0"}
+    later.write_text(json.dumps({**js, "format": DIAGNOSIS_FORMAT + 1, "provenance": prov}))
+    with pytest.raises(InputError) as e:
+        Diagnosis.from_json(later)
+    words = [
+        f"{later} is a diagnosis.json of format {DIAGNOSIS_FORMAT + 1}, written by gc_ocp 9.0",
+        f"this gc_ocp {__version__} reads diagnosis.json format 1 to {DIAGNOSIS_FORMAT}",
+        "run gc-ocp diagnose again with this version",
+    ]
+    assert all(w in str(e.value) for w in words), e.value
+
+
 @pytest.mark.parametrize("case", CASES)
 def test_each_effect_block_is_shown_by_its_component(case):
     """Every row a component gives of its block (``Component.describe``: label, value ± SE

@@ -27,7 +27,7 @@ from gc_ocp.diagnosis.null import (
 )
 from gc_ocp.diagnosis.where import heatmap_figure, residual_figure
 from gc_ocp.errors import InputError, names_of, read_document
-from gc_ocp.text import float_fields, nan_for_null, read_json_file
+from gc_ocp.text import check_document, float_fields, nan_for_null, read_json_file
 
 SCORE_TEXT = (
     "held-out combined score: sqrt(2 E / n), E = data cost + nuisance prior cost + "
@@ -302,6 +302,14 @@ class WaterfallStep:
         }
 
 
+DIAGNOSIS_FORMAT = 1
+"""The layout of ``diagnosis.json`` this version writes (its ``"format"``; a file without one was
+written before the field, read as this layout when it has the keys). Raise it with a change
+of the layout that a reader of the former one would misread; :meth:`Diagnosis.from_json`
+refuses a later one (:func:`gc_ocp.text.check_document`)."""
+
+DIAGNOSIS_FIX = "run gc-ocp diagnose again with this version"
+
 FORMER_FLOOR_PCT = 2.0
 """The effect-size floor [%] of the versions whose ``diagnosis.json`` has no ``floor_pct``."""
 
@@ -385,6 +393,7 @@ class Diagnosis:
         """``diagnosis.json`` (schema in ``docs/diagnosis.md``)."""
         b = self.waterfall[0]  # the base's step: its held-out numbers
         return {
+            "format": DIAGNOSIS_FORMAT,
             "base": {
                 "name": self.base,
                 "model": self.base_components,
@@ -421,7 +430,9 @@ class Diagnosis:
         ``alpha``) is refused with what to do; so is a document that is not a diagnosis.json
         (an :class:`~gc_ocp.errors.InputError` naming what is wrong). ``d`` may also be the
         file's path."""
+        where = "the diagnosis"
         if isinstance(d, str | Path):
+            where = str(d)
             d = read_json_file(
                 d,
                 "Diagnosis file",
@@ -434,6 +445,7 @@ class Diagnosis:
                 + (f" with keys {sorted(d)[:6]}" if isinstance(d, Mapping) else "")
                 + "); give the file gc-ocp diagnose wrote."
             )
+        check_document(d, where, "diagnosis.json", DIAGNOSIS_FORMAT, ("ranking",), DIAGNOSIS_FIX)
         return read_document(
             lambda: cls._from_document(d),
             "the diagnosis.json is incomplete or edited",

@@ -50,6 +50,8 @@ re-rendered (``--rerender``) and only the one line of that table (line 45 of ``a
 43 of ``damping_time_offset``) taken from the new page: the rest of the re-rendered pages
 differed in whitespace alone (a line break before "<h2>2. Which effect" and the file's last
 newline, the template's since an earlier change), left as it was.
+diagnosis.json gained its ``"format"`` number (2026-12-03, ``DIAGNOSIS_FORMAT`` = 1, its first
+key): added to both fixtures' ``diagnosis.json`` by hand; the pages do not show it.
 """
 
 from __future__ import annotations
