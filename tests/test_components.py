@@ -28,6 +28,7 @@ from gc_ocp.estimation import (
     result_at,
     solve,
 )
+from gc_ocp.estimation.starts import rescaled_start
 from gc_ocp.estimation.synthetic import default_truth, synthetic_stance
 
 register("ground_shift", GroundShift)  # the one registration line of the throw-away component
@@ -188,8 +189,12 @@ def test_a_rescaled_problem_solves_as_the_rebuilt_one(stances):
     anchor = build_estimation(stances, model)
     first = solve(anchor)
     wider = tuple(c.with_prior_scale(2.5) for c in model)
-    a = solve(anchor.rescaled(stances, wider), x0=first.x, warm=True)
-    b = solve(build_estimation(stances, wider), x0=first.x, warm=True)
+    rescaled, rebuilt = anchor.rescaled(stances, wider), build_estimation(stances, wider)
+    # the first solution in the wider problem's units (its corrections are stored in units of
+    # their widths: first.x as it is lies outside the wider problem's bounds, which solve refuses)
+    x0 = rescaled_start(first, rebuilt)
+    a = solve(rescaled, x0=x0, warm=True)
+    b = solve(rebuilt, x0=x0, warm=True)
     assert a.objective == pytest.approx(b.objective, rel=1e-8)
     np.testing.assert_allclose(a.x, b.x, rtol=1e-5, atol=1e-5)
     other = tuple(
