@@ -216,6 +216,25 @@ def plate_signal(
     return pt, band_limited(pt, pw, frame_rate) if filtered else pw
 
 
+def frame_wrench(
+    trial: Trial, stance: Stance, times: np.ndarray, frame_rate: float | None
+) -> np.ndarray:
+    """``(len(times), 6)``: the stance's measured wrench at the frames ``times`` [s] (about
+    ``stance.reference_point``, lab), as a fit compares it: :func:`plate_signal` at the frames'
+    rate ``frame_rate`` [Hz], interpolated at their times. The one reading of "the plate at the
+    frames" (the fit's :func:`stance_data`, the exports' plate file, the band note of
+    ``fit.json``)."""
+    times = np.asarray(times, float)
+    if not times.size:
+        return np.zeros((0, 6))
+    pt, pw = plate_signal(trial, stance, times.min(), times.max(), frame_rate)
+    return _at(times, pt, pw)
+
+
+def _at(times: np.ndarray, pt: np.ndarray, pw: np.ndarray) -> np.ndarray:
+    return np.column_stack([np.interp(times, pt, pw[:, c]) for c in range(pw.shape[1])])
+
+
 def without_other_loads(
     trial: Trial, stance: Stance, times: np.ndarray, wrench: np.ndarray
 ) -> np.ndarray:
@@ -318,7 +337,7 @@ def stance_data(
     if idx.size:
         foot = foot.window(t[idx[0]], t[idx[-1]])
         pt, pw = plate_signal(trial, stance, foot.time[0], foot.time[-1], rate)
-        meas = np.column_stack([np.interp(foot.time, pt, pw[:, c]) for c in range(6)])
+        meas = _at(foot.time, pt, pw)
         ok = (
             np.isfinite(foot.positions).all(axis=(1, 2))
             & np.isfinite(foot.velocities).all(axis=(1, 2))

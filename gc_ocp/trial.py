@@ -261,25 +261,15 @@ class Trial:
                 f'Marker "{name}" is not in {self.source}; markers found: {list(self.marker_names)}'
             ) from None
 
-    def stance_wrench(
-        self, stance: Stance, times: np.ndarray, frame_rate: float | None = None
-    ) -> np.ndarray:
+    def stance_wrench(self, stance: Stance, times: np.ndarray) -> np.ndarray:
         """Measured wrench of ``stance`` at ``times`` [s]: ``(n, 6)`` = force [N], moment [N·m]
-        about ``stance.reference_point``, in ``lab``. Linear interpolation of the plate samples;
-        ``frame_rate`` [Hz]: the rate of the frames the wrench is compared at, the samples
-        low-passed for it first (:func:`gc_ocp.antialias.band_limited`: what the plate
-        records above the frames' Nyquist frequency would alias into their band). None: the
-        raw samples, at the plate's own times or where a point value is wanted."""
-        from gc_ocp.antialias import band_limited, needs_filter, reach, sample_rate
-
+        about ``stance.reference_point``, in ``lab``. Linear interpolation of the raw plate
+        samples, at the plate's own times or where a point value is wanted; the wrench a fit
+        compares at its frames (other loads zeroed, low-passed for the frames' rate) is
+        :func:`gc_ocp.stance.frame_wrench`."""
         plate = self.plates[stance.plate]
         pt, wrench = plate.time, np.hstack([plate.force, plate.moment])
         times = np.asarray(times, float)
-        rate = sample_rate(pt)
-        if times.size and needs_filter(rate, frame_rate):
-            far = reach(rate, frame_rate)  # the samples a frame's value depends on
-            near = (pt >= times.min() - far) & (pt <= times.max() + far)
-            pt, wrench = pt[near], band_limited(pt[near], wrench[near], frame_rate)
         f = np.column_stack([np.interp(times, pt, wrench[:, i]) for i in range(3)])
         m = np.column_stack([np.interp(times, pt, wrench[:, 3 + i]) for i in range(3)])
         m = transport_moment(f, m, plate.reference_point, stance.reference_point)

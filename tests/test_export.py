@@ -74,6 +74,7 @@ def test_trc_and_grf_files_read_back(tmp_path, bundled):
     the same markers, stances and wrenches."""
     from gc_ocp.antialias import sample_rate
     from gc_ocp.export.opensim_export import plate_wrenches
+    from gc_ocp.stance import frame_wrench
     from gc_ocp.wrench import transport_moment
 
     trial, kin = bundled
@@ -90,7 +91,7 @@ def test_trc_and_grf_files_read_back(tmp_path, bundled):
     for a, b in zip(trial.stances, back.stances, strict=True):
         inner = t[(t > max(a.t_on, b.t_on) + 0.02) & (t < min(a.t_off, b.t_off) - 0.02)]
         # the file holds the plate as a fit reads it, band-limited for these frames
-        wa = trial.stance_wrench(a, inner, frame_rate=sample_rate(t))
+        wa = frame_wrench(trial, a, inner, sample_rate(t))
         wb = back.stance_wrench(b, inner)
         wb[:, 3:] = transport_moment(wb[:, :3], wb[:, 3:], b.reference_point, a.reference_point)
         # 9 significant digits in the file: 1e-6 of a body weight's force and moment

@@ -52,7 +52,7 @@ from gc_ocp.export.opensim_files import (
 from gc_ocp.export.opensim_worker import DEFAULT_RADIUS
 from gc_ocp.io._common import Y_UP_TO_LAB
 from gc_ocp.outputs import OutputSet
-from gc_ocp.stance import trial_names
+from gc_ocp.stance import frame_wrench, trial_names
 from gc_ocp.text import json_text
 from gc_ocp.values import number
 from gc_ocp.workflow.provenance import sha256
@@ -518,8 +518,7 @@ def plate_wrenches(trial, time) -> dict[str, np.ndarray]:
         sel = (time >= st.t_on) & (time <= st.t_off)
         if not sel.any():
             continue
-        # read as the fit reads them: band-limited to the frames (gc_ocp.antialias)
-        w = trial.stance_wrench(st, time[sel], frame_rate=rate)
+        w = frame_wrench(trial, st, time[sel], rate)  # as the fit reads them
         out[st.side][sel] = transport_wrench(w, st.reference_point, np.zeros(3))
     return out
 

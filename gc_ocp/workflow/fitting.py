@@ -42,7 +42,7 @@ from gc_ocp.io.checks import require_stances
 from gc_ocp.io.consistency import check_for_fit
 from gc_ocp.io.processing import censor_threshold, detect_processing, stance_censor_threshold
 from gc_ocp.marker_noise import ATTENUATING_UNIT_NOISE_M, noise_modelled, unit_noise_sd
-from gc_ocp.stance import StanceData, fit_stances, quiet_margins, trial_names
+from gc_ocp.stance import StanceData, fit_stances, frame_wrench, quiet_margins, trial_names
 from gc_ocp.trial import ESTIMATED, Trial
 from gc_ocp.values import given, number
 
@@ -312,7 +312,7 @@ def band_notes(trial: Trial, kin: TrialKinematics) -> list[str]:
             if not needs_filter(sample_rate(plate.time), rate):
                 continue
             t = t[(t >= st.t_on) & (t <= st.t_off)]
-            d = trial.stance_wrench(st, t) - trial.stance_wrench(st, t, frame_rate=rate)
+            d = trial.stance_wrench(st, t) - frame_wrench(trial, st, t, rate)
             removed.append(d[np.isfinite(d[:, 2]), 2] / trial.body_weight)
         if not removed:
             continue
