@@ -141,6 +141,30 @@ def test_best_of_gives_the_winning_starts_covariance_as_its_own_solve_would():
     assert best_of(sts, model, w, strategies=((1.0,),), covariance=False).covariance is None
 
 
+def test_the_starts_that_lost_are_compared_again_on_the_problem_the_fit_returns():
+    """``best_of(others=)`` hands back one start per other minimum (never the winner's), and
+    ``lowest_of`` keeps a start only when it ends lower on the problem given, beyond the
+    solver's tolerance: the winner solved again from its own point is the same minimum (no
+    replacement), while a point above the minimum handed as "the fit" is replaced by it."""
+    from gc_ocp.estimation.solve import result_at
+    from gc_ocp.estimation.starts import SAME_MINIMUM_RTOL, best_of, lowest_of
+
+    _, _, sts = _stances(np.random.default_rng(3))
+    model, w = _model(), Weights(force_sigma=1e-3)
+    others: list = []
+    best = best_of(sts, model, w, strategies=((1.0,), (0.2, 1.0)), covariance=False, others=others)
+    for _, r in others:  # another minimum each, above the winner's
+        assert r.objective > best.objective * (1 + SAME_MINIMUM_RTOL)
+    prob = build_estimation(sts, model, w)
+    lower, record = lowest_of(prob, best, [("the winner", best)])
+    # Ipopt's tol 1e-8 on the scaled error: the same minimum to far better than 1e-6
+    assert lower is None and record[0][1] == pytest.approx(best.objective, rel=1e-6)
+    poor = result_at(prob, prob.x0, covariance=False)
+    assert poor.objective > 2 * best.objective  # the start, far above the minimum
+    lower, record = lowest_of(prob, poor, [("the winner", best)])
+    assert lower is not None and lower.objective == pytest.approx(best.objective, rel=1e-6)
+
+
 def test_non_converged_solve_raises_with_result():
     _, _, sts = _stances(np.random.default_rng(2))
     prob = build_estimation(sts, _model())

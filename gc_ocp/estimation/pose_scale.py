@@ -37,7 +37,7 @@ from gc_ocp.estimation.components.sole import SoleCorrection
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, gauss_newton_inverse, solve
-from gc_ocp.estimation.starts import best_of, rescaled_start, with_lls_start
+from gc_ocp.estimation.starts import best_of, lowest_of, rescaled_start, with_lls_start
 from gc_ocp.stance import StanceData
 
 RTOL = 0.05
@@ -434,6 +434,45 @@ def estimate_pose_scale(
     return model, result, est
 
 
+def lowest_with_widths(
+    data: list[StanceData],
+    model: tuple,
+    result: EstimationResult,
+    others: list,
+    weights: Weights | None = None,
+    options: IpoptOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+    **rounds,
+) -> tuple[tuple, EstimationResult, PoseScale | None, str | None]:
+    """:func:`estimate_pose_scale` from the multi-start's winner ``result``, with the fit's
+    minimum chosen on the problem it returns: the starts that lost (``others``, filled by
+    :func:`~gc_ocp.estimation.starts.best_of`, compared there at the prior's widths) solved at
+    the widths estimated from the winner (:func:`~gc_ocp.estimation.starts.lowest_of`); if one
+    ends lower, the widths are estimated again from it and that fit is returned. ``rounds``:
+    :func:`estimate_pose_scale`'s keywords (``sole``, ``covariance``, ``correlation``). The
+    fourth value is a note for ``fit.json``'s checks when another start's minimum was kept
+    (both objectives), else None."""
+    say = progress or (lambda s: None)
+    model, res, scale = estimate_pose_scale(data, model, result, weights, options, say, **rounds)
+    if scale is None or not others:
+        return model, res, scale, None
+    say("comparing the other starts at the estimated widths")
+    lower, record = lowest_of(build_estimation(data, model, weights), res, others, options, say)
+    if lower is None:
+        return model, res, scale, None
+    j0, j1 = float(res.objective), float(lower.objective)
+    model, res, scale = estimate_pose_scale(data, model, lower, weights, options, say, **rounds)
+    what = next(w for w, j in record if j == j1)
+    note = (
+        f"the fit's minimum is the one {what} reached: at the widths estimated from the start "
+        f"that won at the prior's widths it ends at J = {j1:.2f} against that start's "
+        f"{j0:.2f}, and the widths estimated again from it end at J = {res.objective:.2f} (the "
+        "objective has several minima; the one kept is the lowest of the problem the fit "
+        "returns)"
+    )
+    return model, res, scale, note
+
+
 def with_estimated_width(
     data: list[StanceData],
     model: tuple,
@@ -447,9 +486,12 @@ def with_estimated_width(
     ask for (``docs/quality.md``)."""
     if not any(isinstance(c, PoseCorrection) for c in model):
         return model, None
-    start = best_of(data, with_lls_start(model, data), weights, options, covariance=False)
-    fitted, _, scale = estimate_pose_scale(
-        data, model, start, weights, options, progress, covariance=False
+    others: list = []
+    start = best_of(
+        data, with_lls_start(model, data), weights, options, covariance=False, others=others
+    )
+    fitted, _, scale, _ = lowest_with_widths(
+        data, model, start, others, weights, options, progress, covariance=False
     )
     pose = next(c for c in fitted if isinstance(c, PoseCorrection))
     return tuple(pose if isinstance(c, PoseCorrection) else c for c in model), scale
@@ -461,6 +503,7 @@ __all__ = [
     "widths_plausible",
     "PoseScale",
     "estimate_pose_scale",
+    "lowest_with_widths",
     "mackay_update",
     "with_estimated_width",
 ]

@@ -26,7 +26,7 @@ from gc_ocp.errors import InputError, SolveError
 from gc_ocp.estimation.bias import REPLICATES, BiasCorrection, bias_corrected, check_replicates
 from gc_ocp.estimation.components import PoseCorrection, full_model
 from gc_ocp.estimation.components.base import require_model
-from gc_ocp.estimation.pose_scale import PoseScale, estimate_pose_scale, widths_plausible
+from gc_ocp.estimation.pose_scale import PoseScale, lowest_with_widths, widths_plausible
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult, as_result
 from gc_ocp.estimation.solve import (
@@ -36,7 +36,12 @@ from gc_ocp.estimation.solve import (
     retry_from_stop,
     solve,
 )
-from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
+from gc_ocp.estimation.starts import (
+    STRATEGIES,
+    best_of,
+    frozen_model,
+    with_lls_start,
+)
 from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.checks import require_stances
 from gc_ocp.io.consistency import check_for_fit
@@ -542,6 +547,7 @@ def fit(
     # only the returned fit's covariance is computed: the width rounds compute it at their end,
     # the bias correction at the corrected point (none before either)
     rounds = pose_scale and any(isinstance(c, PoseCorrection) for c in model)
+    others: list = []  # the starts that lost, compared again at the estimated widths
     res = best_of(
         data,
         model,
@@ -551,14 +557,16 @@ def fit(
         progress=say,
         start=start,
         covariance=not (rounds or bias_correction),
+        others=others,
     )
     say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
     scale = None
     if pose_scale:
-        model, res, scale = estimate_pose_scale(
+        model, res, scale, note = lowest_with_widths(
             data,
             model,
             res,
+            others,
             weights,
             options,
             say,
@@ -566,6 +574,9 @@ def fit(
             covariance=not bias_correction,
             correlation=pose_correlation,
         )
+        if note is not None:
+            notes.append(note)
+            say(f"check: {note}")
     bias = None
     if bias_correction:
         say(f"bias correction: {bias_correction} replicates")

@@ -59,7 +59,14 @@ unchanged. Its measured wrench moved 0.003-0.004 % BW RMS, but the four starts' 
 ended in other minima (best J 321.1 -> 323.4 at full width) and the width rounds from there in
 another (superior RMS left 1.21 -> 1.13, right 0.75 -> 0.77 % BW, COP 12.9/12.4 -> 11.4/11.5
 mm): this treadmill trial's objective has several minima within 1 % of one another, and which
-one a fit ends in is decided by details far below the data's noise.
+one a fit ends in is decided by details far below the data's noise. 2026-12-03 (evening), the
+multi-start's losing starts compared again at the widths estimated from the winner
+(``gc_ocp.estimation.pose_scale.lowest_with_widths``: the minimum kept is the lowest of the
+problem the fit returns, not of the prior's widths), ``--fits-only``: bundled 169.00 -> 166.64
+(the start from the fit without censoring ends at 168.22 against 169.00 at the winner's widths;
+superior RMS left 1.05 -> 1.13, right 1.33 -> 1.33 % BW, COP 5.2/7.9 -> 5.0/8.0 mm; held out
+143.96 -> 144.74, superior 1.37 % BW unchanged), the others unchanged (Gait2392's other
+minimum ends at 184.13 against 177.33 there).
 """
 
 from __future__ import annotations
