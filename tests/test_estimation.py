@@ -156,12 +156,12 @@ def test_the_starts_that_lost_are_compared_again_on_the_problem_the_fit_returns(
     for _, r in others:  # another minimum each, above the winner's
         assert r.objective > best.objective * (1 + SAME_MINIMUM_RTOL)
     prob = build_estimation(sts, model, w)
-    lower, record = lowest_of(prob, best, [("the winner", best)])
+    lower, record, _ = lowest_of(prob, best, [("the winner", best)])
     # Ipopt's tol 1e-8 on the scaled error: the same minimum to far better than 1e-6
     assert lower is None and record[0][1] == pytest.approx(best.objective, rel=1e-6)
     poor = result_at(prob, prob.x0, covariance=False)
     assert poor.objective > 2 * best.objective  # the start, far above the minimum
-    lower, record = lowest_of(prob, poor, [("the winner", best)])
+    lower, record, _ = lowest_of(prob, poor, [("the winner", best)])
     assert lower is not None and lower.objective == pytest.approx(best.objective, rel=1e-6)
 
 
@@ -254,10 +254,16 @@ def test_real_trial_fit_and_holdout(bundled):
     assert_matches_pins("bundled_holdout", rep)
     r = rep.result
     # the solver's statistics are the whole fit's: every start and stage, then the widths'
-    # rounds (before, the last round's refit alone: "6 iterations" for a fit of 385 and more)
-    [starts] = [int(m) for m in re.findall(r"^fit: \S+, (\d+) iterations", "\n".join(said), re.M)]
-    rounds = [row["iterations"] for row in rep.pose_scale.rounds]
-    assert rounds and r.iterations == starts + sum(rounds) > starts
+    # rounds, the other minima's solves at the estimated widths and, where one of them is kept,
+    # its own rounds (before, the last round's refit alone: "6 iterations" for a fit of 385)
+    log = "\n".join(said)
+    [starts] = [int(m) for m in re.findall(r"^fit: \S+, (\d+) iterations", log, re.M)]
+    rounds = [int(m) for m in re.findall(r"^pose width round .*, (\d+) iterations$", log, re.M)]
+    again = [int(m) for m in re.findall(r"at the estimated widths: \S+, (\d+) iterations", log)]
+    assert rounds[-len(rep.pose_scale.rounds) :] == [
+        row["iterations"] for row in rep.pose_scale.rounds
+    ]
+    assert r.iterations == starts + sum(rounds) + sum(again) > starts
     for side in ("left", "right"):
         assert r.rms[side]["superior_force_pct_bw"] <= 3.0
         assert r.rms[side]["anterior_force_pct_bw"] <= 5.0

@@ -412,7 +412,7 @@ def estimate_pose_scale(
             f"{', '.join(f'{v:.2f}' for v in deg)} deg"
             + ("" if sole_w is None else f", sole {'/'.join(f'{w * 1e3:.2f}' for w in sole_w)} mm")
             + (f", knots correlated {phi:.2f}" if correlation else "")
-            + f"; J = {result.objective:.1f}"
+            + f"; J = {result.objective:.1f}, {result.iterations} iterations"
         )
         if last:
             break
@@ -457,10 +457,14 @@ def lowest_with_widths(
     if scale is None or not others:
         return model, res, scale, None
     say("comparing the other starts at the estimated widths")
-    lower, record = lowest_of(build_estimation(data, model, weights), res, others, options, say)
+    prob = build_estimation(data, model, weights)
+    lower, record, (spent_s, spent_it) = lowest_of(prob, res, others, options, say)
+    # the returned fit's seconds and iterations: every start, round and comparison (best_of's)
     if lower is None:
+        res.seconds, res.iterations = res.seconds + spent_s, res.iterations + spent_it
         return model, res, scale, None
     j0, j1 = float(res.objective), float(lower.objective)
+    lower.seconds, lower.iterations = res.seconds + spent_s, res.iterations + spent_it
     model, res, scale = estimate_pose_scale(data, model, lower, weights, options, say, **rounds)
     what = next(w for w, j in record if j == j1)
     note = (

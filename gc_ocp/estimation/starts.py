@@ -282,18 +282,19 @@ def lowest_of(
     others: list,
     options: IpoptOptions | None = None,
     progress: Callable[[str], None] | None = None,
-) -> tuple[EstimationResult | None, list[tuple[str, float]]]:
+) -> tuple[EstimationResult | None, list[tuple[str, float]], tuple[float, int]]:
     """The starts that lost in :func:`best_of` compared again on ``problem`` (the one the fit
     returns, whose prior widths were estimated from ``result``, its solution): each of
     ``others`` (``(what, result)`` of a problem that differs from ``problem`` only in prior
     widths) solved on ``problem`` from its own point. Returns the lowest of them if its
     objective is below ``result``'s by more than :data:`SAME_MINIMUM_RTOL` (else None), and
-    ``(what, objective)`` of every start so solved, for the record. The multi-start picked its
+    ``(what, objective)`` of every start so solved, for the record, and the seconds and
+    iterations those solves took (a fit's totals count them). The multi-start picked its
     winner by the objective of the starts' widths; the widths estimated afterwards change the
     objective, and a minimum that lost by 0.7 % there can win here (the Gait2392 treadmill
     trial: ``tests/pins/make_pins.py``)."""
     say = progress or (lambda s: None)
-    best, record = None, []
+    best, record, seconds, iterations = None, [], 0.0, 0
     for what, r0 in others:
         r = solve(
             problem,
@@ -303,14 +304,18 @@ def lowest_of(
             raise_on_failure=False,
             warm=True,
         )
-        say(f"  {what} at the estimated widths: {r.status}, J = {r.objective:.2f}")
+        seconds, iterations = seconds + r.seconds, iterations + r.iterations
+        say(
+            f"  {what} at the estimated widths: {r.status}, {r.iterations} iterations, "
+            f"J = {r.objective:.2f}"
+        )
         if not r.success:
             continue
         record.append((what, float(r.objective)))
         lowest = result if best is None else best
         if r.objective < lowest.objective and not _same_minimum(r.objective, lowest.objective):
             best = r
-    return best, record
+    return best, record, (seconds, iterations)
 
 
 def frozen_model(model: tuple, result: EstimationResult) -> tuple:
