@@ -158,11 +158,55 @@ def test_the_starts_that_lost_are_compared_again_on_the_problem_the_fit_returns(
     prob = build_estimation(sts, model, w)
     lower, record, _ = lowest_of(prob, best, [("the winner", best)])
     # Ipopt's tol 1e-8 on the scaled error: the same minimum to far better than 1e-6
-    assert lower is None and record[0][1] == pytest.approx(best.objective, rel=1e-6)
+    assert lower is None and record[0][1].objective == pytest.approx(best.objective, rel=1e-6)
     poor = result_at(prob, prob.x0, covariance=False)
     assert poor.objective > 2 * best.objective  # the start, far above the minimum
     lower, record, _ = lowest_of(prob, poor, [("the winner", best)])
     assert lower is not None and lower.objective == pytest.approx(best.objective, rel=1e-6)
+
+
+def test_a_minimum_the_plates_tell_apart_or_that_is_the_same_point_is_not_flagged():
+    """``undecided_minimum`` flags only a point whose data cost is within 2 SD of the kept
+    one's and which lies more than 2 SE away: the kept point itself (no difference) and a point
+    10 SE away along the exponent (its data cost ~50 units higher, against a sampling spread
+    of ~10: told apart) are not flagged."""
+    from gc_ocp.estimation.solve import result_at
+    from gc_ocp.estimation.starts import _frame_costs, _sum_sd, undecided_minimum
+
+    _, _, sts = _stances(np.random.default_rng(4), force_noise=0.01)
+    model, w = _model(), Weights(force_sigma=1e-3)
+    prob = build_estimation(sts, model, w)
+    kept = solve(prob)
+    assert undecided_minimum(prob, kept, kept, "itself") is None
+    spec = next(s for s in prob.variables.specs if s.key == ("contact", "n"))
+    x = kept.x.copy()
+    x[spec.start] += 10 * np.sqrt(kept.covariance[spec.start, spec.start])
+    far = result_at(prob, x, covariance=False)
+    diff = [a - b for a, b in zip(_frame_costs(prob, x), _frame_costs(prob, kept.x), strict=True)]
+    assert sum(d.sum() for d in diff) > 2 * _sum_sd(diff)  # told apart by the plates
+    assert undecided_minimum(prob, kept, far, "10 SE away") is None
+
+
+def test_the_spread_of_a_sum_of_white_costs_is_their_root_sum_of_squares():
+    """``_sum_sd`` (Newey-West per stance): white per-frame differences of SD 1 over 4 stances of
+    400 frames give the sum's SD sqrt(1600) = 40, to the estimator's sampling error (a few %:
+    the variance of 1600 squared normals is 2/1600 of their mean, and the few lags a white
+    series' sample autocorrelation crosses the 2/sqrt(T) band add their Bartlett terms); an
+    AR(1) series with rho = 0.9 has the long-run variance (1 + rho) / (1 - rho) = 19 times its
+    variance, and the estimate is well above the white formula (the Bartlett window truncated at
+    the lag the autocorrelation fades)."""
+    from gc_ocp.estimation.starts import _sum_sd
+
+    rng = np.random.default_rng(5)
+    white = [rng.standard_normal(400) for _ in range(4)]
+    assert _sum_sd(white) == pytest.approx(40.0, rel=0.15)
+    ar = []
+    for _ in range(4):
+        e, z = rng.standard_normal(400), np.zeros(400)
+        for t in range(1, 400):
+            z[t] = 0.9 * z[t - 1] + np.sqrt(1 - 0.81) * e[t]
+        ar.append(z)
+    assert _sum_sd(ar) > 2.5 * 40.0  # sqrt(19) = 4.4 in the limit; a truncated window less
 
 
 def test_non_converged_solve_raises_with_result():
@@ -264,6 +308,10 @@ def test_real_trial_fit_and_holdout(bundled):
         row["iterations"] for row in rep.pose_scale.rounds
     ]
     assert r.iterations == starts + sum(rounds) + sum(again) > starts
+    # this trial has two minima the plates do not tell apart (data costs 0.54 apart, their
+    # spread 1.2), one unit's stiffness far apart between them: the fit says so
+    [undecided] = [f for f in r.flags if f["code"] == "minimum_undecided"]
+    assert "contact/k/left/AM" in undecided["message"]
     for side in ("left", "right"):
         assert r.rms[side]["superior_force_pct_bw"] <= 3.0
         assert r.rms[side]["anterior_force_pct_bw"] <= 5.0

@@ -79,7 +79,7 @@ of mu's standard error), added to the reported covariance."""
 BLOCK_SECONDS = 0.1
 """Block length of every bootstrap of the residuals [s] (these replicates', the diagnosis's
 held-out intervals and its null): the residuals' autocorrelation time after the 6 Hz filtering
-of the kinematics (the HAC bandwidth of ``solve._bandwidth`` is 5-12 frames at 100 Hz)."""
+of the kinematics (the HAC bandwidth of ``solve.hac_bandwidth`` is 5-12 frames at 100 Hz)."""
 
 
 def check_replicates(replicates: int | None) -> None:

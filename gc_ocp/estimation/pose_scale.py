@@ -36,8 +36,14 @@ from gc_ocp.estimation.components.pose import PoseCorrection
 from gc_ocp.estimation.components.sole import SoleCorrection
 from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.estimation.solve import IpoptOptions, gauss_newton_inverse, solve
-from gc_ocp.estimation.starts import best_of, lowest_of, rescaled_start, with_lls_start
+from gc_ocp.estimation.solve import IpoptOptions, gauss_newton_inverse, result_at, solve
+from gc_ocp.estimation.starts import (
+    best_of,
+    lowest_of,
+    rescaled_start,
+    undecided_minimum,
+    with_lls_start,
+)
 from gc_ocp.stance import StanceData
 
 RTOL = 0.05
@@ -443,30 +449,43 @@ def lowest_with_widths(
     options: IpoptOptions | None = None,
     progress: Callable[[str], None] | None = None,
     **rounds,
-) -> tuple[tuple, EstimationResult, PoseScale | None, str | None]:
+) -> tuple[tuple, EstimationResult, PoseScale | None, list[str], list[dict]]:
     """:func:`estimate_pose_scale` from the multi-start's winner ``result``, with the fit's
     minimum chosen on the problem it returns: the starts that lost (``others``, filled by
     :func:`~gc_ocp.estimation.starts.best_of`, compared there at the prior's widths) solved at
     the widths estimated from the winner (:func:`~gc_ocp.estimation.starts.lowest_of`); if one
     ends lower, the widths are estimated again from it and that fit is returned. ``rounds``:
-    :func:`estimate_pose_scale`'s keywords (``sole``, ``covariance``, ``correlation``). The
-    fourth value is a note for ``fit.json``'s checks when another start's minimum was kept
-    (both objectives), else None."""
+    :func:`estimate_pose_scale`'s keywords (``sole``, ``covariance``, ``correlation``).
+    Also returned: notes for ``fit.json``'s checks (another start's minimum kept, with both
+    objectives) and flags for the fit (``minimum_undecided``: another minimum the plates do not
+    tell from the kept one, far from it in SE units,
+    :func:`~gc_ocp.estimation.starts.undecided_minimum`), both compared at those widths."""
     say = progress or (lambda s: None)
     model, res, scale = estimate_pose_scale(data, model, result, weights, options, say, **rounds)
     if scale is None or not others:
-        return model, res, scale, None
+        return model, res, scale, [], []
     say("comparing the other starts at the estimated widths")
     prob = build_estimation(data, model, weights)
-    lower, record, (spent_s, spent_it) = lowest_of(prob, res, others, options, say)
+    lower, solved, (spent_s, spent_it) = lowest_of(prob, res, others, options, say)
+    # every minimum at these widths, the lowest against each other one
+    minima = [("the start that won at the prior's widths", res)] + solved
+    kept = lower if lower is not None else res
+    at = kept if kept.covariance is not None else result_at(prob, kept.x)
+    flags = [
+        f
+        for what, r in minima
+        if r is not kept
+        for f in [undecided_minimum(prob, at, r, what)]
+        if f is not None
+    ]
     # the returned fit's seconds and iterations: every start, round and comparison (best_of's)
     if lower is None:
         res.seconds, res.iterations = res.seconds + spent_s, res.iterations + spent_it
-        return model, res, scale, None
+        return model, res, scale, [], flags
     j0, j1 = float(res.objective), float(lower.objective)
     lower.seconds, lower.iterations = res.seconds + spent_s, res.iterations + spent_it
+    what = next(w for w, r in solved if r is lower)
     model, res, scale = estimate_pose_scale(data, model, lower, weights, options, say, **rounds)
-    what = next(w for w, j in record if j == j1)
     note = (
         f"the fit's minimum is the one {what} reached: at the widths estimated from the start "
         f"that won at the prior's widths it ends at J = {j1:.2f} against that start's "
@@ -474,7 +493,7 @@ def lowest_with_widths(
         "objective has several minima; the one kept is the lowest of the problem the fit "
         "returns)"
     )
-    return model, res, scale, note
+    return model, res, scale, [note], flags
 
 
 def with_estimated_width(
@@ -494,7 +513,7 @@ def with_estimated_width(
     start = best_of(
         data, with_lls_start(model, data), weights, options, covariance=False, others=others
     )
-    fitted, _, scale, _ = lowest_with_widths(
+    fitted, _, scale, _, _ = lowest_with_widths(
         data, model, start, others, weights, options, progress, covariance=False
     )
     pose = next(c for c in fitted if isinstance(c, PoseCorrection))

@@ -221,7 +221,7 @@ def _covariance(problem: EstimationProblem, x: np.ndarray) -> np.ndarray:
     (marker filtering at 6 Hz, soft-tissue motion, unmodelled dynamics: lag-1 correlations of
     0.9 are typical), so ``Cov(J^T e)`` is estimated from the residuals themselves, per stance,
     by Newey & West's (1987) Bartlett-weighted sum of the per-frame scores ``g_t = J_t^T r_t``
-    over lags up to the stance's bandwidth L (:func:`_bandwidth`); stances are independent. With
+    over lags up to the stance's bandwidth L (:func:`hac_bandwidth`); stances are independent. With
     white residuals of unit variance this reduces to the usual ``H^-1``; with white residuals
     of variance s^2 to the classical ``s^2``-scaled one.
 
@@ -246,7 +246,7 @@ def _covariance(problem: EstimationProblem, x: np.ndarray) -> np.ndarray:
             np.asarray(Jb.multiply(rb[:, None]).toarray()).reshape(b.T, 6, -1).sum(axis=1)
         )  # (T, nx)
         S += g.T @ g
-        L = _bandwidth(rb.reshape(b.T, 6))
+        L = hac_bandwidth(rb.reshape(b.T, 6))
         for lag in range(1, L + 1):
             w = 1.0 - lag / (L + 1.0)
             C = g[lag:].T @ g[:-lag]
@@ -266,7 +266,7 @@ def gauss_newton_inverse(H: np.ndarray) -> np.ndarray:
         return np.linalg.pinv(H)
 
 
-def _bandwidth(res: np.ndarray) -> int:
+def hac_bandwidth(res: np.ndarray) -> int:
     """Lags (frames) over which a stance's residuals ``(T, 6)`` are correlated: the first lag at
     which their autocorrelation (mean over channels) falls inside the white-noise band
     ``2 / sqrt(T)``, at most ``T // 3`` (beyond, too few pairs to estimate it)."""
@@ -544,4 +544,5 @@ __all__ = [
     "decode",
     "fit_quality",
     "gauss_newton_inverse",
+    "hac_bandwidth",
 ]

@@ -10,6 +10,7 @@ never imports :mod:`gc_ocp.io`; ``tests/test_package.py`` checks it).
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Callable
 from dataclasses import replace
@@ -18,9 +19,10 @@ import numpy as np
 
 from gc_ocp.contact.lls import fit_stiffness_lls
 from gc_ocp.errors import RankError, SolveError
+from gc_ocp.estimation.flags import flag, variable_key
 from gc_ocp.estimation.problem import EstimationProblem, Weights, build_estimation, configured
 from gc_ocp.estimation.result import EstimationResult
-from gc_ocp.estimation.solve import IpoptOptions, result_at, solve
+from gc_ocp.estimation.solve import IpoptOptions, hac_bandwidth, result_at, solve
 from gc_ocp.stance import StanceData
 from gc_ocp.trial import SIDES
 
@@ -282,13 +284,13 @@ def lowest_of(
     others: list,
     options: IpoptOptions | None = None,
     progress: Callable[[str], None] | None = None,
-) -> tuple[EstimationResult | None, list[tuple[str, float]], tuple[float, int]]:
+) -> tuple[EstimationResult | None, list[tuple[str, EstimationResult]], tuple[float, int]]:
     """The starts that lost in :func:`best_of` compared again on ``problem`` (the one the fit
     returns, whose prior widths were estimated from ``result``, its solution): each of
     ``others`` (``(what, result)`` of a problem that differs from ``problem`` only in prior
     widths) solved on ``problem`` from its own point. Returns the lowest of them if its
     objective is below ``result``'s by more than :data:`SAME_MINIMUM_RTOL` (else None), and
-    ``(what, objective)`` of every start so solved, for the record, and the seconds and
+    ``(what, result)`` of every start so solved (converged), and the seconds and
     iterations those solves took (a fit's totals count them). The multi-start picked its
     winner by the objective of the starts' widths; the widths estimated afterwards change the
     objective, and a minimum that lost by 0.7 % there can win here (the Gait2392 treadmill
@@ -311,11 +313,90 @@ def lowest_of(
         )
         if not r.success:
             continue
-        record.append((what, float(r.objective)))
+        record.append((what, r))
         lowest = result if best is None else best
         if r.objective < lowest.objective and not _same_minimum(r.objective, lowest.objective):
             best = r
     return best, record, (seconds, iterations)
+
+
+MINIMA_Z = 2.0
+"""Two minima of one problem are told apart by the plates when their data costs differ by more
+than this many standard deviations of that difference's sampling spread (about 95 %, two-sided;
+:func:`undecided_minimum`)."""
+
+MINIMA_SE = 2.0
+"""A physical parameter whose value at another minimum the plates do not tell apart lies more
+than this many of its standard errors away (outside its 95 % interval) is named: its SE does not
+cover which minimum the fit is in."""
+
+
+def _frame_costs(problem: EstimationProblem, x: np.ndarray) -> list[np.ndarray]:
+    """Per stance, each frame's data cost ``1/2 |r_t|^2`` (its six weighted residuals) at ``x``."""
+    r, out, row = problem.data_residuals(x), [], 0
+    for b in problem.blocks:
+        out.append(0.5 * np.sum(r[row : row + 6 * b.T].reshape(b.T, 6) ** 2, axis=1))
+        row += 6 * b.T
+    return out
+
+
+def _sum_sd(series: list[np.ndarray]) -> float:
+    """Sampling SD of the sum of ``series`` (one per stance, stances independent), each
+    autocorrelated over frames: Newey and West's Bartlett-weighted long-run variance over the
+    lags :func:`~gc_ocp.estimation.solve.hac_bandwidth` finds, the estimator of the fit's own
+    sandwich covariance."""
+    v = 0.0
+    for d in series:
+        z = d - d.mean()
+        lags = hac_bandwidth(np.repeat(z[:, None], 6, axis=1))
+        v += float(z @ z) + sum(
+            2.0 * (1.0 - k / (lags + 1.0)) * float(z[k:] @ z[:-k]) for k in range(1, lags + 1)
+        )
+    return math.sqrt(max(v, 0.0))
+
+
+def undecided_minimum(
+    problem: EstimationProblem, kept: EstimationResult, other: EstimationResult, what: str
+) -> dict | None:
+    """A ``minimum_undecided`` flag when ``other``, another minimum of ``problem``, fits the
+    plates as well as ``kept`` and lies far from it: their data costs differ by less than
+    :data:`MINIMA_Z` standard deviations of that difference (a Vuong-type comparison of two
+    fits of one data set, the per-frame cost differences' sum with its autocorrelation-robust
+    spread, :func:`_sum_sd`), and a physical parameter lies more than :data:`MINIMA_SE` of its
+    standard errors (``kept``'s covariance) away. Those SEs describe the curvature of one
+    minimum, not the choice between two the data cannot tell apart; the fit keeps the lower
+    objective (the priors decide) and says so. None otherwise (or without a covariance)."""
+    if kept.covariance is None:
+        return None
+    pairs = zip(_frame_costs(problem, other.x), _frame_costs(problem, kept.x), strict=True)
+    diff = [a - b for a, b in pairs]
+    d_data = float(sum(np.sum(d) for d in diff))
+    sd = _sum_sd(diff)
+    if not (sd > 0.0) or abs(d_data) >= MINIMA_Z * sd:
+        return None
+    far = []
+    se = np.sqrt(np.clip(np.diag(kept.covariance), 0.0, None))
+    for s in problem.variables.specs:
+        if s.kind != "param":
+            continue
+        for i in range(s.size):
+            j = s.start + i
+            if se[j] > 0 and abs(other.x[j] - kept.x[j]) > MINIMA_SE * se[j]:
+                name = variable_key(*s.key) + (f"[{i}]" if s.size > 1 else "")
+                far.append((abs(other.x[j] - kept.x[j]) / se[j], name))
+    if not far:
+        return None
+    far.sort(reverse=True)
+    listed = ", ".join(f"{n} {z:.1f}" for z, n in far)
+    d_prior = float(other.prior_cost - kept.prior_cost)
+    return flag(
+        "minimum_undecided",
+        "contact parameters",
+        f"another minimum of the objective ({what}) fits the plates as well: its data cost "
+        f"differs by {d_data:+.2f} +- {sd:.2f} (under {MINIMA_Z:g} SD), its prior's by "
+        f"{d_prior:+.2f}, and it lies this many standard errors away: {listed}. Those SEs "
+        "do not cover which minimum the fit is in; the fit keeps the lower objective",
+    )
 
 
 def frozen_model(model: tuple, result: EstimationResult) -> tuple:
@@ -331,6 +412,7 @@ __all__ = [
     "TYPICAL_DEPTH",
     "best_of",
     "lowest_of",
+    "undecided_minimum",
     "estimate",
     "frozen_model",
     "neutral_points",

@@ -561,8 +561,9 @@ def fit(
     )
     say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
     scale = None
+    minima_flags: list = []
     if pose_scale:
-        model, res, scale, note = lowest_with_widths(
+        model, res, scale, minima_notes, minima_flags = lowest_with_widths(
             data,
             model,
             res,
@@ -574,7 +575,7 @@ def fit(
             covariance=not bias_correction,
             correlation=pose_correlation,
         )
-        if note is not None:
+        for note in minima_notes:
             notes.append(note)
             say(f"check: {note}")
     bias = None
@@ -619,6 +620,7 @@ def fit(
             else "not made: the markers' noise moves no contact unit by "
             f"{ATTENUATING_UNIT_NOISE_M * 1e3:g} mm or more after the low-pass"
         )
+    res.flags.extend(minima_flags)  # after the bias correction, which makes a new result
     if scale is not None and not scale.plausible:
         res.flags.append(
             {
