@@ -383,11 +383,12 @@ def undecided_minimum(
             j = s.start + i
             if se[j] > 0 and abs(other.x[j] - kept.x[j]) > MINIMA_SE * se[j]:
                 name = variable_key(*s.key) + (f"[{i}]" if s.size > 1 else "")
-                far.append((abs(other.x[j] - kept.x[j]) / se[j], name))
+                a, b = (s.reading(s.physical(v[s.slice])[i]) for v in (kept.x, other.x))
+                far.append((abs(other.x[j] - kept.x[j]) / se[j], name, a, b))
     if not far:
         return None
     far.sort(reverse=True)
-    listed = ", ".join(f"{n} {z:.1f}" for z, n in far)
+    listed = ", ".join(f"{n} {z:.1f} ({a} kept, {b} other)" for z, n, a, b in far)
     d_prior = float(other.prior_cost - kept.prior_cost)
     return flag(
         "minimum_undecided",
