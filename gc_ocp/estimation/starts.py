@@ -392,7 +392,7 @@ def undecided_minimum(
     d_prior = float(other.prior_cost - kept.prior_cost)
     return flag(
         "minimum_undecided",
-        "contact parameters",
+        ", ".join(n for _, n, _, _ in far),
         f"another minimum of the objective ({what}) fits the plates as well: its data cost "
         f"differs by {d_data:+.2f} +- {sd:.2f} (under {MINIMA_Z:g} SD), its prior's by "
         f"{d_prior:+.2f}, and it lies this many standard errors away: {listed}. Those SEs "
