@@ -393,8 +393,8 @@ def undecided_minimum(
     return flag(
         "minimum_undecided",
         ", ".join(n for _, n, _, _ in far),
-        f"another minimum of the objective ({what}) fits the plates as well: its data cost "
-        f"differs by {d_data:+.2f} +- {sd:.2f} (under {MINIMA_Z:g} SD), its prior's by "
+        f"another minimum of the objective, reached by {what}, fits the plates as well: its "
+        f"data cost differs by {d_data:+.2f} +- {sd:.2f} (under {MINIMA_Z:g} SD), its prior's by "
         f"{d_prior:+.2f}, and it lies this many standard errors away: {listed}. Those SEs "
         "do not cover which minimum the fit is in; the fit keeps the lower objective",
     )
