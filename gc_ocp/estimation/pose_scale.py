@@ -448,18 +448,20 @@ def lowest_with_widths(
     weights: Weights | None = None,
     options: IpoptOptions | None = None,
     progress: Callable[[str], None] | None = None,
+    flags: bool = True,
     **rounds,
 ) -> tuple[tuple, EstimationResult, PoseScale | None, list[str], list[dict]]:
     """:func:`estimate_pose_scale` from the multi-start's winner ``result``, with the fit's
     minimum chosen on the problem it returns: the starts that lost (``others``, filled by
     :func:`~gc_ocp.estimation.starts.best_of`, compared there at the prior's widths) solved at
     the widths estimated from the winner (:func:`~gc_ocp.estimation.starts.lowest_of`); if one
-    ends lower, the widths are estimated again from it and that fit is returned. ``rounds``:
-    :func:`estimate_pose_scale`'s keywords (``sole``, ``covariance``, ``correlation``).
-    Also returned: notes for ``fit.json``'s checks (another start's minimum kept, with both
-    objectives) and flags for the fit (``minimum_undecided``: another minimum the plates do not
-    tell from the kept one, far from it in SE units,
-    :func:`~gc_ocp.estimation.starts.undecided_minimum`), both compared at those widths."""
+    ends lower, the widths are estimated again from it, that fit is returned, and the other
+    minima are solved once more at its widths. ``rounds``: :func:`estimate_pose_scale`'s
+    keywords (``sole``, ``covariance``, ``correlation``). Also returned: notes for
+    ``fit.json``'s checks (another start's minimum kept, with both objectives) and, with
+    ``flags``, the fit's ``minimum_undecided`` flags: every other minimum at the returned
+    widths that the plates do not prefer the kept one to, far from it in SE units
+    (:func:`~gc_ocp.estimation.starts.undecided_minimum`)."""
     say = progress or (lambda s: None)
     model, res, scale = estimate_pose_scale(data, model, result, weights, options, say, **rounds)
     if scale is None or not others:
@@ -467,33 +469,32 @@ def lowest_with_widths(
     say("comparing the other starts at the estimated widths")
     prob = build_estimation(data, model, weights)
     lower, solved, (spent_s, spent_it) = lowest_of(prob, res, others, options, say)
-    # every minimum at these widths, the lowest against each other one
-    minima = [("the start that won at the prior's widths", res)] + solved
-    kept = lower if lower is not None else res
-    at = kept if kept.covariance is not None else result_at(prob, kept.x)
-    flags = [
-        f
-        for what, r in minima
-        if r is not kept
-        for f in [undecided_minimum(prob, at, r, what)]
-        if f is not None
-    ]
     # the returned fit's seconds and iterations: every start, round and comparison (best_of's)
-    if lower is None:
-        res.seconds, res.iterations = res.seconds + spent_s, res.iterations + spent_it
-        return model, res, scale, [], flags
-    j0, j1 = float(res.objective), float(lower.objective)
-    lower.seconds, lower.iterations = res.seconds + spent_s, res.iterations + spent_it
-    what = next(w for w, r in solved if r is lower)
-    model, res, scale = estimate_pose_scale(data, model, lower, weights, options, say, **rounds)
-    note = (
-        f"the fit's minimum is the one {what} reached: at the widths estimated from the start "
-        f"that won at the prior's widths it ends at J = {j1:.2f} against that start's "
-        f"{j0:.2f}, and the widths estimated again from it end at J = {res.objective:.2f} (the "
-        "objective has several minima; the one kept is the lowest of the problem the fit "
-        "returns)"
-    )
-    return model, res, scale, [note], flags
+    notes = []
+    if lower is not None:
+        j0, j1 = float(res.objective), float(lower.objective)
+        what = next(w for w, r in solved if r is lower)
+        first = ("the start that won at the prior's widths", res)
+        lower.seconds, lower.iterations = res.seconds + spent_s, res.iterations + spent_it
+        model, res, scale = estimate_pose_scale(data, model, lower, weights, options, say, **rounds)
+        notes.append(
+            f"the fit's minimum is the one {what} reached: at the widths estimated from the "
+            f"start that won at the prior's widths it ends at J = {j1:.2f} against that start's "
+            f"{j0:.2f}, and the widths estimated again from it end at J = {res.objective:.2f} "
+            "(the objective has several minima; the one kept is the lowest of the problem the "
+            "fit returns)"
+        )
+        # the other minima at the returned widths (no second switch: the choice was made)
+        say("the other minima at the widths estimated again")
+        prob = build_estimation(data, model, weights, like=prob)
+        rest = [first] + [(w, r) for w, r in solved if r is not lower]
+        _, solved, (spent_s, spent_it) = lowest_of(prob, res, rest, options, say)
+    res.seconds, res.iterations = res.seconds + spent_s, res.iterations + spent_it
+    if not flags or not solved:
+        return model, res, scale, notes, []
+    at = res if res.covariance is not None else result_at(prob, res.x)
+    found = [undecided_minimum(prob, at, r, what) for what, r in solved]
+    return model, res, scale, notes, [f for f in found if f is not None]
 
 
 def with_estimated_width(
@@ -514,7 +515,7 @@ def with_estimated_width(
         data, with_lls_start(model, data), weights, options, covariance=False, others=others
     )
     fitted, _, scale, _, _ = lowest_with_widths(
-        data, model, start, others, weights, options, progress, covariance=False
+        data, model, start, others, weights, options, progress, flags=False, covariance=False
     )
     pose = next(c for c in fitted if isinstance(c, PoseCorrection))
     return tuple(pose if isinstance(c, PoseCorrection) else c for c in model), scale

@@ -18,7 +18,7 @@ from dataclasses import replace
 import numpy as np
 
 from gc_ocp.contact.lls import fit_stiffness_lls
-from gc_ocp.errors import RankError, SolveError
+from gc_ocp.errors import InputError, RankError, SolveError
 from gc_ocp.estimation.flags import flag, variable_key
 from gc_ocp.estimation.problem import EstimationProblem, Weights, build_estimation, configured
 from gc_ocp.estimation.result import EstimationResult
@@ -237,19 +237,27 @@ def best_of(
             ended.append((f"the start from {what}", r, prob))
         except SolveError as e:
             err = e
+            if e.result is not None:
+                total_s, total_it = total_s + e.result.seconds, total_it + e.result.iterations
     for steps in strategies:
-        say(f"start: prior scales {steps}")
+        scales = ", ".join(f"{f:g}" for f in steps)
+        say(f"start: prior scales {scales}")
         try:
             r, prob = _estimate(data, model, weights, options, steps, say, False, like=prob)
         except SolveError as e:
             err = e
             if e.result is not None:
-                total_s += e.result.seconds
+                total_s, total_it = total_s + e.result.seconds, total_it + e.result.iterations
             continue
         total_s += r.seconds
         total_it += r.iterations
-        ended.append((f"the start of prior scales {steps}", r, prob))
+        ended.append((f"the start of prior scales {scales}", r, prob))
     if not ended:
+        if err is None:
+            raise InputError(
+                "best_of was given nothing to solve: no continuation schedule (strategies=()) "
+                "and no start; give strategies (default STRATEGIES) or start=a result"
+            )
         raise err
     # the first of equal objectives wins (the order above: a given start, then the schedules)
     won = min(range(len(ended)), key=lambda i: ended[i][1].objective)
@@ -290,11 +298,12 @@ def lowest_of(
     ``others`` (``(what, result)`` of a problem that differs from ``problem`` only in prior
     widths) solved on ``problem`` from its own point. Returns the lowest of them if its
     objective is below ``result``'s by more than :data:`SAME_MINIMUM_RTOL` (else None), and
-    ``(what, result)`` of every start so solved (converged), and the seconds and
-    iterations those solves took (a fit's totals count them). The multi-start picked its
-    winner by the objective of the starts' widths; the widths estimated afterwards change the
-    objective, and a minimum that lost by 0.7 % there can win here (the Gait2392 treadmill
-    trial: ``tests/pins/make_pins.py``)."""
+    ``(what, result)`` of every start so solved (converged; one per minimum: a start that
+    ends where ``result`` or an earlier one did is left out), and the seconds and iterations
+    those solves took (a fit's totals count them). The multi-start picked its winner by the
+    objective at the starts' widths; the widths estimated afterwards change the objective,
+    and a minimum that lost by 0.5 % there can win here (the bundled trial, 168.22 against
+    169.00: ``tests/pins/make_pins.py``)."""
     say = progress or (lambda s: None)
     best, record, seconds, iterations = None, [], 0.0, 0
     for what, r0 in others:
@@ -311,7 +320,9 @@ def lowest_of(
             f"  {what} at the estimated widths: {r.status}, {r.iterations} iterations, "
             f"J = {r.objective:.2f}"
         )
-        if not r.success:
+        if not r.success or any(
+            _same_minimum(r.objective, o.objective) for o in [result] + [o for _, o in record]
+        ):
             continue
         record.append((what, r))
         lowest = result if best is None else best
@@ -321,14 +332,14 @@ def lowest_of(
 
 
 MINIMA_Z = 2.0
-"""Two minima of one problem are told apart by the plates when their data costs differ by more
-than this many standard deviations of that difference's sampling spread (about 95 %, two-sided;
-:func:`undecided_minimum`)."""
+"""The plates prefer one of two minima of one problem when their data costs differ by more
+than this many standard deviations of that difference's sampling spread (about 97.5 %
+one-sided; :func:`undecided_minimum`)."""
 
 MINIMA_SE = 2.0
-"""A physical parameter whose value at another minimum the plates do not tell apart lies more
-than this many of its standard errors away (outside its 95 % interval) is named: its SE does not
-cover which minimum the fit is in."""
+"""A physical parameter whose value at another minimum (one the plates do not prefer the kept
+one to) lies more than this many of its standard errors away (outside its 95 % interval) is
+named: its SE does not cover which minimum the fit is in."""
 
 
 def _frame_costs(problem: EstimationProblem, x: np.ndarray) -> list[np.ndarray]:
@@ -342,13 +353,15 @@ def _frame_costs(problem: EstimationProblem, x: np.ndarray) -> list[np.ndarray]:
 
 def _sum_sd(series: list[np.ndarray]) -> float:
     """Sampling SD of the sum of ``series`` (one per stance, stances independent), each
-    autocorrelated over frames: Newey and West's Bartlett-weighted long-run variance over the
-    lags :func:`~gc_ocp.estimation.solve.hac_bandwidth` finds, the estimator of the fit's own
-    sandwich covariance."""
+    autocorrelated over frames: Newey and West's Bartlett-weighted long-run variance about the
+    mean over every frame of every stance (Vuong's: a stance whose differences sit apart from
+    the others' is sampling spread too), over the lags the fit's sandwich covariance uses for
+    its residuals (the rule of :func:`~gc_ocp.estimation.solve.hac_bandwidth`)."""
+    mean = float(np.sum([np.sum(d) for d in series]) / max(1, sum(d.size for d in series)))
     v = 0.0
     for d in series:
-        z = d - d.mean()
-        lags = hac_bandwidth(np.repeat(z[:, None], 6, axis=1))
+        z = d - mean
+        lags = hac_bandwidth(z[:, None])
         v += float(z @ z) + sum(
             2.0 * (1.0 - k / (lags + 1.0)) * float(z[k:] @ z[:-k]) for k in range(1, lags + 1)
         )
@@ -359,20 +372,21 @@ def undecided_minimum(
     problem: EstimationProblem, kept: EstimationResult, other: EstimationResult, what: str
 ) -> dict | None:
     """A ``minimum_undecided`` flag when ``other``, another minimum of ``problem``, fits the
-    plates as well as ``kept`` and lies far from it: their data costs differ by less than
-    :data:`MINIMA_Z` standard deviations of that difference (a Vuong-type comparison of two
-    fits of one data set, the per-frame cost differences' sum with its autocorrelation-robust
-    spread, :func:`_sum_sd`), and a physical parameter lies more than :data:`MINIMA_SE` of its
+    plates at least as well as ``kept`` and lies far from it: its data cost is not above
+    ``kept``'s by :data:`MINIMA_Z` standard deviations of the difference or more (a Vuong-type
+    comparison of two fits of one data set, the per-frame cost differences' sum with its
+    autocorrelation-robust spread, :func:`_sum_sd`; below by as much, the plates prefer it and
+    the priors decide), and a physical parameter lies more than :data:`MINIMA_SE` of its
     standard errors (``kept``'s covariance) away. Those SEs describe the curvature of one
-    minimum, not the choice between two the data cannot tell apart; the fit keeps the lower
-    objective (the priors decide) and says so. None otherwise (or without a covariance)."""
+    minimum, not the choice between two; the fit keeps the lower objective and says so. None
+    otherwise (or without a covariance)."""
     if kept.covariance is None:
         return None
     pairs = zip(_frame_costs(problem, other.x), _frame_costs(problem, kept.x), strict=True)
     diff = [a - b for a, b in pairs]
     d_data = float(sum(np.sum(d) for d in diff))
     sd = _sum_sd(diff)
-    if not (sd > 0.0) or abs(d_data) >= MINIMA_Z * sd:
+    if not (sd > 0.0) or d_data >= MINIMA_Z * sd:  # the plates prefer the kept minimum
         return None
     far = []
     se = np.sqrt(np.clip(np.diag(kept.covariance), 0.0, None))
@@ -390,13 +404,17 @@ def undecided_minimum(
     far.sort(reverse=True)
     listed = ", ".join(f"{n} {z:.1f} ({a} kept, {b} other)" for z, n, a, b in far)
     d_prior = float(other.prior_cost - kept.prior_cost)
+    better = d_data <= -MINIMA_Z * sd
     return flag(
         "minimum_undecided",
         ", ".join(n for _, n, _, _ in far),
-        f"another minimum of the objective, reached by {what}, fits the plates as well: its "
-        f"data cost differs by {d_data:+.2f} +- {sd:.2f} (under {MINIMA_Z:g} SD), its prior's by "
-        f"{d_prior:+.2f}, and it lies this many standard errors away: {listed}. Those SEs "
-        "do not cover which minimum the fit is in; the fit keeps the lower objective",
+        f"another minimum of the objective, reached by {what}, fits the plates "
+        + ("better" if better else "as well")
+        + f": its data cost differs by {d_data:+.2f} +- {sd:.2f} "
+        + (f"(beyond {MINIMA_Z:g} SD)" if better else f"(within {MINIMA_Z:g} SD)")
+        + f", its prior's by {d_prior:+.2f}, and it lies this many standard errors away: "
+        f"{listed}. Those SEs do not cover which minimum the fit is in; the fit keeps the "
+        "lower objective" + (", which the priors decide" if better else ""),
     )
 
 

@@ -317,7 +317,8 @@ def band_notes(trial: Trial, kin: TrialKinematics) -> list[str]:
             if not needs_filter(sample_rate(plate.time), rate):
                 continue
             t = t[(t >= st.t_on) & (t <= st.t_off)]
-            d = trial.stance_wrench(st, t) - frame_wrench(trial, st, t, rate)
+            # the filter's part alone: both readings with the other loads zeroed
+            d = frame_wrench(trial, st, t, None) - frame_wrench(trial, st, t, rate)
             removed.append(d[np.isfinite(d[:, 2]), 2] / trial.body_weight)
         if not removed:
             continue
