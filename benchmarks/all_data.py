@@ -66,7 +66,7 @@ def _stances(trial) -> str:
     used = [f"{s.side[0].upper()} {s.t_on:.3f}-{s.t_off:.3f}" for s in trial.stances]
     out = "; ".join(used)
     if trial.excluded_stances:
-        out += " | excluded: " + "; ".join(
+        out += " / excluded: " + "; ".join(
             f"{e.side[0].upper()} {e.t_on:.3f}-{e.t_off:.3f} ({e.reason[:60]})"
             for e in trial.excluded_stances
         )
