@@ -116,3 +116,8 @@ def se_text(se, value_text: str) -> str:
 BOUND_TEXT = "(at its bound: not an estimate)"
 """What a table shows in place of ``± SE`` for a parameter flagged ``at_bound`` (its SE assumes
 an interior optimum and means nothing there)."""
+
+MINIMUM_TEXT = "(another minimum lies beyond this SE: see the flags)"
+"""What a table adds after ``± SE`` for a parameter a ``minimum_undecided`` flag names: another
+minimum the plates do not prefer the kept one to lies more than 2 SE away
+(:func:`gc_ocp.estimation.starts.undecided_minimum`)."""

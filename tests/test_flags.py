@@ -181,3 +181,24 @@ def test_a_bound_flag_quotes_the_value_as_a_person_reads_it():
     assert again.shown == n_spec.shown and again.reading(0.35) == "1.35"
     old = {k: x for k, x in n_spec.to_json().items() if k != "shown"}
     assert VariableSpec.from_json(old).reading(0.35) == "0.35"
+
+
+def test_a_parameter_another_minimum_lies_beyond_says_so_in_the_tables():
+    """The variables a ``minimum_undecided`` flag names (its ``what``) are read back from the
+    flags, fit.json's included; the shared-parameter tables add the note after the SE, and a
+    parameter at its bound keeps the bound's text alone (its SE is no estimate to qualify)."""
+    from gc_ocp.estimation.flags import flag, undecided_names
+    from gc_ocp.html.fit_tables import shared_pm
+    from gc_ocp.values import BOUND_TEXT, MINIMUM_TEXT
+
+    flags = [
+        flag("at_bound", "contact/mu", "mu at its bound"),
+        flag("minimum_undecided", "contact/k/left/AM, contact/n", "another minimum ..."),
+    ]
+    names = undecided_names(flags)
+    assert names == {"contact/k/left/AM", "contact/n"}
+    shared = {"n": 1.16, "n_se": 0.079, "c": 2.0, "c_se": 0.3, "mu": 0.3, "mu_se": 0.01}
+    assert shared_pm(shared, "n", frozenset(), names).endswith(MINIMUM_TEXT)
+    assert MINIMUM_TEXT not in shared_pm(shared, "c", frozenset(), names)
+    at_bound = frozenset({"contact/mu", "contact/n"})
+    assert shared_pm(shared, "n", at_bound, names).endswith(BOUND_TEXT)

@@ -334,7 +334,11 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         "res": res,
         "rms": rms_table(res, wf[-1].heldout_rms if d.folds.get("n") else None),
         "contact": contact_tables(
-            res.params, res.at_bound, res.law.reference_depth, body_weights(res, provenance)
+            res.params,
+            res.at_bound,
+            res.law.reference_depth,
+            body_weights(res, provenance),
+            res.undecided,
         ),
         "sole": sole_table(res.blocks.get("sole", {}), res.at_bound),
         "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),

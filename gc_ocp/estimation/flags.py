@@ -47,6 +47,18 @@ def at_bound_names(flags) -> frozenset[str]:
     return frozenset(f["what"] for f in flags if f.get("code") == "at_bound")
 
 
+def undecided_names(flags) -> frozenset[str]:
+    """The variables ``flags`` (a fit's, or ``fit.json``'s) name in a ``minimum_undecided``
+    flag: another minimum the plates do not prefer lies beyond their SE."""
+    return frozenset(
+        name
+        for f in flags
+        if f.get("code") == "minimum_undecided"
+        for name in str(f.get("what", "")).split(", ")
+        if name
+    )
+
+
 LAW_GIVERS: dict[str, str] = {}
 """``{block name: law parameter}`` of the components that give the contact law a parameter
 (:attr:`~gc_ocp.estimation.components.base.Component.law_parameter`: damping's ``"c"``, the

@@ -38,8 +38,10 @@ from gc_ocp.estimation.problem import Weights, build_estimation
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, gauss_newton_inverse, result_at, solve
 from gc_ocp.estimation.starts import (
+    MINIMA_SE,
     best_of,
     lowest_of,
+    physical_distance,
     rescaled_start,
     undecided_minimum,
     with_lls_start,
@@ -493,8 +495,13 @@ def lowest_with_widths(
     if not flags or not solved:
         return model, res, scale, notes, []
     at = res if res.covariance is not None else result_at(prob, res.x)
-    found = [undecided_minimum(prob, at, r, what) for what, r in solved]
-    return model, res, scale, notes, [f for f in found if f is not None]
+    found, near = [], []  # one flag per place: two starts that stopped within 1 SE of each
+    for what, r in solved:  # other (objectives apart by more than the solver's tolerance) are
+        f = undecided_minimum(prob, at, r, what)  # one minimum reached twice
+        if f is not None and all(physical_distance(prob, at, r.x, x) > MINIMA_SE / 2 for x in near):
+            found.append(f)
+            near.append(r.x)
+    return model, res, scale, notes, found
 
 
 def with_estimated_width(

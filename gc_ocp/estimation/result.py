@@ -26,13 +26,14 @@ from gc_ocp.estimation.flags import (
     k_at_bound,
     law_at_bound,
     row_at_bound,
+    undecided_names,
     variable_key,
 )
 from gc_ocp.estimation.measurement import fit_error
 from gc_ocp.estimation.variables import VariableSpec
 from gc_ocp.text import check_document, nan_for_null, read_json_file
 from gc_ocp.trial import SIDES
-from gc_ocp.values import BOUND_TEXT, se_text
+from gc_ocp.values import BOUND_TEXT, MINIMUM_TEXT, se_text
 from gc_ocp.wrench import cop_from_wrench
 
 COP_MIN_FRACTION_BW = 0.10
@@ -158,6 +159,12 @@ class EstimationResult:
         return at_bound_names(self.flags)
 
     @property
+    def undecided(self) -> frozenset[str]:
+        """The variables a ``minimum_undecided`` flag names: another minimum the plates do not
+        prefer lies beyond their SE; the tables say so after it."""
+        return undecided_names(self.flags)
+
+    @property
     def sole_corrections_mm(self) -> dict:
         return self.blocks.get("sole", {}).get("offsets_mm", {})
 
@@ -270,6 +277,7 @@ class EstimationResult:
                         BOUND_TEXT
                         if law_at_bound(self.at_bound, k)
                         else f"± {se_text(se, f'{v:.4g}')}"
+                        + (f" {MINIMUM_TEXT}" if law_at_bound(self.undecided, k) else "")
                     )
                 )
         bound = self.at_bound

@@ -368,6 +368,22 @@ def _sum_sd(series: list[np.ndarray]) -> float:
     return math.sqrt(max(v, 0.0))
 
 
+def physical_distance(
+    problem: EstimationProblem, kept: EstimationResult, a: np.ndarray, b: np.ndarray
+) -> float:
+    """The largest difference of ``a`` and ``b`` (decision vectors of ``problem``) over its
+    physical parameters, in units of ``kept``'s standard errors (0 without a covariance)."""
+    if kept.covariance is None:
+        return 0.0
+    se = np.sqrt(np.clip(np.diag(kept.covariance), 0.0, None))
+    cols = np.concatenate(
+        [np.arange(s.start, s.start + s.size) for s in problem.variables.specs if s.kind == "param"]
+        or [np.zeros(0, int)]
+    )
+    cols = cols[se[cols] > 0]
+    return float(np.max(np.abs(a[cols] - b[cols]) / se[cols])) if cols.size else 0.0
+
+
 def undecided_minimum(
     problem: EstimationProblem, kept: EstimationResult, other: EstimationResult, what: str
 ) -> dict | None:
@@ -431,6 +447,7 @@ __all__ = [
     "TYPICAL_DEPTH",
     "best_of",
     "lowest_of",
+    "physical_distance",
     "undecided_minimum",
     "estimate",
     "frozen_model",

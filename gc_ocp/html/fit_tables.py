@@ -15,7 +15,7 @@ from gc_ocp.contact.channels import CHANNELS, TABLE_KEYS, channel_name, channel_
 from gc_ocp.estimation.components.base import per_axis
 from gc_ocp.estimation.components.contact import ContactLaw, with_unit
 from gc_ocp.estimation.flags import k_at_bound, law_at_bound, row_at_bound, variable_key
-from gc_ocp.values import BOUND_TEXT, se_text
+from gc_ocp.values import BOUND_TEXT, MINIMUM_TEXT, se_text
 
 CORE_BLOCKS = ("contact", "sole", "pose", "belt")
 """Blocks of the registered base shown in their own tables; any other block is an effect's."""
@@ -97,6 +97,7 @@ def contact_tables(
     at_bound: frozenset[str] = frozenset(),
     reference_depth: float | None = None,
     body_weight: dict[str, float] | None = None,
+    undecided: frozenset[str] = frozenset(),
 ) -> dict:
     """The contact law's block as tables: per unit k and force at the reference depth
     (``reference_depth`` [m], the fit's law's, :attr:`EstimationResult.law
@@ -104,7 +105,9 @@ def contact_tables(
     the foot's ``body_weight`` [N] (``{side: N}``, :func:`body_weights`; "–" where unknown:
     the flags say "22 BW" of a unit the table gave in N alone), per-foot
     scalars, shared parameters (each ``value ± SE``; a parameter of ``at_bound``, the fit's
-    :attr:`~gc_ocp.estimation.result.EstimationResult.at_bound`, says so instead)."""
+    :attr:`~gc_ocp.estimation.result.EstimationResult.at_bound`, says so instead; one of
+    ``undecided``, its :attr:`~gc_ocp.estimation.result.EstimationResult.undecided`, adds
+    :data:`~gc_ocp.values.MINIMUM_TEXT` after it)."""
     if reference_depth is None:
         reference_depth = ContactLaw.reference_depth
     body_weight = body_weight or {}
@@ -145,11 +148,21 @@ def contact_tables(
         "units": units,
         "per_foot": per_foot,
         "shared": [
-            (with_unit(k), pm(shared, k, bound=law_at_bound(at_bound, k)))
+            (with_unit(k), shared_pm(shared, k, at_bound, undecided))
             for k in shared
             if not k.endswith("_se")
         ],
     }
+
+
+def shared_pm(
+    shared: dict, key: str, at_bound: frozenset[str], undecided: frozenset[str] = frozenset()
+) -> str:
+    """A shared law parameter's ``value ± SE`` as the tables show it: at its bound, the bound's
+    text instead of the SE; named by a ``minimum_undecided`` flag, :data:`MINIMUM_TEXT` after."""
+    if law_at_bound(at_bound, key):
+        return pm(shared, key, bound=True)
+    return pm(shared, key) + (f" {MINIMUM_TEXT}" if law_at_bound(undecided, key) else "")
 
 
 def belt_rows(res) -> list[tuple[str, str, float | None]]:

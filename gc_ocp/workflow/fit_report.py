@@ -7,16 +7,15 @@ figures), the held-out stance and the provenance. The markup is
 from __future__ import annotations
 
 from gc_ocp.estimation.components.contact import with_unit
-from gc_ocp.estimation.flags import law_at_bound
 from gc_ocp.html import data_uri, environment, provenance_context
 from gc_ocp.html.fit_tables import (
     belt_rows,
     body_weights,
     contact_tables,
     effect_blocks,
-    pm,
     pose_prior_text,
     rms_table,
+    shared_pm,
     sole_prior_text,
     sole_table,
 )
@@ -57,7 +56,7 @@ def fit_report_html(
             if held is None
             else next(iter(held.rms.values()))["superior_force_pct_bw"],
             "shared": [
-                (with_unit(p), pm(shared, p, bound=law_at_bound(res.at_bound, p))) for p in names
+                (with_unit(p), shared_pm(shared, p, res.at_bound, res.undecided)) for p in names
             ],
         },
         "checks": list(report.checks),
@@ -66,7 +65,11 @@ def fit_report_html(
         "bias_skipped": report.bias_skipped,
         "flags": _flags(report),
         "contact": contact_tables(
-            res.params, res.at_bound, res.law.reference_depth, body_weights(res, provenance)
+            res.params,
+            res.at_bound,
+            res.law.reference_depth,
+            body_weights(res, provenance),
+            res.undecided,
         ),
         "sole": sole_table(res.blocks.get("sole", {}), res.at_bound),
         "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
