@@ -139,8 +139,8 @@ def main() -> None:
             f"{sum(len(t.stances) for t, _ in bts)} stances, shared contact parameters, "
             f"held out: {rep.heldout_label}. In-sample superior RMS {sup} % BW, COP {cop} mm; "
             f"held-out superior RMS {h.rms[held.side]['superior_force_pct_bw']:.2f} % BW, "
-            f"COP {h.cop_rms_mm[held.side]:.0f} mm; another minimum the plates do not tell "
-            f"apart, its parameters beyond 2 SE: {_minima(rep)}; {time.perf_counter() - t0:.0f} s.",
+            f"COP {h.cop_rms_mm[held.side]:.0f} mm; another minimum the plates do not "
+            f"prefer the kept one to, its parameters beyond 2 SE: {_minima(rep)}; {time.perf_counter() - t0:.0f} s.",
             "",
         ]
         print(lines[-2], flush=True)
