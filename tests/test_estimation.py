@@ -167,6 +167,29 @@ def test_the_starts_that_lost_are_compared_again_on_the_problem_the_fit_returns(
     assert [what for what, _ in record] == ["the winner"]
 
 
+def test_the_trust_region_start_lowers_the_objective_within_the_bounds_and_is_one_more_start():
+    """``trust_region_point`` takes bounded steps that lower the objective from the problem's
+    start (a trust region accepts only a step that does), and ``best_of(trust_region=True)``
+    keeps the lowest of its starts, that one included: never above the same starts without it
+    (the added start is solved last, so on equal objectives the earlier one wins)."""
+    from gc_ocp.estimation.solve import result_at
+    from gc_ocp.estimation.starts import best_of, trust_region_point
+
+    _, _, sts = _stances(np.random.default_rng(3))
+    model, w = _model(), Weights(force_sigma=1e-3)
+    prob = build_estimation(sts, model, w)
+    x = trust_region_point(prob)
+    lb, ub = np.asarray(prob.lbx).ravel(), np.asarray(prob.ubx).ravel()
+    assert np.all(x >= lb) and np.all(x <= ub)
+    start = result_at(prob, np.clip(np.asarray(prob.x0).ravel(), lb, ub), covariance=False)
+    assert result_at(prob, x, covariance=False).objective < start.objective
+    said: list = []
+    plain = best_of(sts, model, w, covariance=False)
+    with_tr = best_of(sts, model, w, covariance=False, trust_region=True, progress=said.append)
+    assert "start: a trust-region warm-up" in said
+    assert with_tr.objective <= plain.objective
+
+
 def test_best_of_with_nothing_to_solve_says_so():
     from gc_ocp.estimation.starts import best_of
 

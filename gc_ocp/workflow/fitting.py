@@ -543,7 +543,16 @@ def fit(
     if extends is not None and start is None:
         say("fitting the model it extends first (its optimum is one more start)")
         base = with_lls_start(extends, data)
-        start = best_of(data, base, weights, options, strategies, progress=say, covariance=False)
+        start = best_of(
+            data,
+            base,
+            weights,
+            options,
+            strategies,
+            progress=say,
+            covariance=False,
+            trust_region=bool(strategies),
+        )
     say(f"solving with Ipopt: {len(data)} stances, {sum(d.n for d in data)} frames")
     # only the returned fit's covariance is computed: the width rounds compute it at their end,
     # the bias correction at the corrected point (none before either)
@@ -559,6 +568,7 @@ def fit(
         start=start,
         covariance=not (rounds or bias_correction),
         others=others,
+        trust_region=bool(strategies),  # strategies=(): a caller's own start alone
     )
     say(f"fit: {res.status}, {res.iterations} iterations, {res.seconds:.1f} s")
     scale = None

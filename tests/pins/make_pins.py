@@ -66,7 +66,15 @@ problem the fit returns, not of the prior's widths), ``--fits-only``: bundled 16
 (the start from the fit without censoring ends at 168.22 against 169.00 at the winner's widths;
 superior RMS left 1.05 -> 1.13, right 1.33 -> 1.33 % BW, COP 5.2/7.9 -> 5.0/8.0 mm; held out
 143.96 -> 144.74, superior 1.37 % BW unchanged), the others unchanged (Gait2392's other
-minimum ends at 184.13 against 177.33 there).
+minimum ends at 184.13 against 177.33 there). Same evening, a third start, Ipopt after a few
+trust-region steps (``gc_ocp.estimation.starts.trust_region_point``: Ipopt's first line-search
+steps from the problem's start can cross into a worse basin), ``--fits-only``: Plug-in Gait
+268.67 -> 235.73 (superior RMS 1.09/1.20 -> 1.12/1.12 % BW, COP 5.0/10.2 -> 5.4/7.1 mm),
+Gait2392 177.33 -> 168.78 (the new start wins at the estimated widths; superior 1.15/0.79 ->
+1.14/0.78, COP 11.4/11.5 -> 8.9/11.7), Rajagopal 264.83 -> 267.09 (the new start wins at the
+prior's widths, 671 against 696, and its width rounds end at other widths, where the objective
+is not comparable with the former fit's: superior 1.07/1.01 -> 1.04/1.02, COP 6.2/8.7 ->
+7.8/8.7), the bundled held-out fit unchanged (the new start does not win there).
 """
 
 from __future__ import annotations
