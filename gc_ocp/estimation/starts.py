@@ -84,7 +84,8 @@ CONTINUATION = (0.2, 0.5, 1.0)
 each stage warm-started from the previous one (trusting the markers more at first)."""
 
 STRATEGIES = ((1.0,), CONTINUATION)
-"""Starts tried by :func:`fit`; the lowest objective wins. The problem is not convex: on the
+"""Continuation schedules tried by :func:`fit` (with one more start, a trust-region warm-up:
+:func:`best_of`'s ``trust_region``); the lowest objective wins. The problem is not convex: on the
 bundled example a single solve from the LLS start ends at J = 655 and the continuation at 599; on
 the Rajagopal trial the single solve ends at 530 and the continuation at 682."""
 

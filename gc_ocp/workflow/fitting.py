@@ -450,6 +450,10 @@ def fit(
     holdout: label (or unique prefix/substring) of a stance to hold out, see the module doc;
     ``"auto"``: the last stance of the foot with the most stances (of the right foot on a tie),
     when that foot has at least two (else none: :func:`auto_holdout`).
+    strategies: the prior-width continuation schedules tried as starts
+    (:data:`~gc_ocp.estimation.starts.STRATEGIES`), each from the seed's LLS start, with one
+    more start after a few trust-region steps (:func:`~gc_ocp.estimation.starts.trust_region_point`);
+    ``()``: ``start`` alone.
     margin: unloaded frames kept each side of a stance [s] (:data:`MARGIN`).
     start: a fit of a model this one extends, tried as one more start (:func:`best_of`): what
     :func:`fit` returns, its ``.result`` or its ``fit.json`` (:func:`as_result`).
