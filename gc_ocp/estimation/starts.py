@@ -15,7 +15,6 @@ import warnings
 from collections.abc import Callable
 from dataclasses import replace
 
-import casadi as ca
 import numpy as np
 import scipy.sparse as sparse
 from scipy.optimize import least_squares
@@ -308,26 +307,35 @@ TRUST_REGION_STEPS = 5
 """Residual evaluations of the trust-region warm-up (:func:`trust_region_point`). Measured on
 the bundled trial at the prior's widths (2026-12-03): Ipopt from the problem's start ends at
 J = 635.1, from the point after 5, 10, 20, 40 or 80 trust-region evaluations at 577.8 every
-time (1.1 s for 5 on one core): the first few bounded steps already choose the basin."""
+time (0.14 s for 5 on one core): the first few bounded steps already choose the basin."""
 
 
 def trust_region_point(problem: EstimationProblem, steps: int = TRUST_REGION_STEPS) -> np.ndarray:
     """A start for Ipopt: ``steps`` residual evaluations of a bounded trust-region least-squares
     method (scipy's ``trf``, its sub-problems by LSMR on the exact sparse Jacobian of the
-    problem's residuals, data and priors) from the problem's start. Ipopt's first line-search
+    problem's residuals, data and priors, from the per-frame compiled Jacobians
+    :meth:`~gc_ocp.estimation.problem.EstimationProblem.data_jacobian`) from the problem's start. Ipopt's first line-search
     Newton steps from the start can cross into a worse basin than the small, bounded steps of a
     trust region take: on the bundled trial the two starts of :data:`STRATEGIES` end at J 635
     at the prior's widths and Ipopt from this point at 578 (data cost 351 against 292); on
     Rajagopal 696 against 671; on Gait2392 it ends higher (352 against 323) and the other
     starts win (``docs/estimation.md``, *Starts*)."""
-    r_fn = ca.Function("r", [problem.x], [problem.residuals])
-    j_fn = ca.Function("j", [problem.x], [ca.jacobian(problem.residuals, problem.x)])
+    pw = np.asarray(problem.prior_weights, float)
+    pm = np.asarray(problem.prior_means, float)
     lb, ub = np.asarray(problem.lbx, float).ravel(), np.asarray(problem.ubx, float).ravel()
     x0 = np.clip(np.asarray(problem.x0, float).ravel(), lb, ub)
+    prior_rows = sparse.diags(pw, format="csr")
+
+    def residuals(x):  # data, then priors: 1/2 |.|^2 is the problem's objective
+        return np.concatenate([problem.data_residuals(x), pw * (x - pm)])
+
+    def jacobian(x):  # the per-frame compiled Jacobians (no symbolic Jacobian of the graph)
+        return sparse.vstack([problem.data_jacobian(x)[1], prior_rows], format="csr")
+
     res = least_squares(
-        lambda x: np.asarray(r_fn(x)).ravel(),
+        residuals,
         x0,
-        jac=lambda x: sparse.csr_matrix(j_fn(x).sparse()),
+        jac=jacobian,
         method="trf",
         bounds=(lb, ub),
         tr_solver="lsmr",
