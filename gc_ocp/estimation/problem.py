@@ -456,8 +456,13 @@ class EstimationProblem:
         """``(data cost, prior cost)`` at ``x``: the two halves of the objective."""
         x = np.asarray(x, float)
         data = 0.5 * float(np.sum(self.data_residuals(x) ** 2))
-        prior = 0.5 * float(np.sum((self.prior_weights * (x - self.prior_means)) ** 2))
+        prior = 0.5 * float(np.sum(self.prior_residuals(x) ** 2))
         return data, prior
+
+    def prior_residuals(self, x: np.ndarray) -> np.ndarray:
+        """Prior residuals ``W (x - m)`` (nx,) at ``x`` (0 for a variable without prior): with
+        :meth:`data_residuals`, the residuals whose half squared norm is the objective."""
+        return self.prior_weights * (np.asarray(x, float) - self.prior_means)
 
     def stance_wrenches(self, x: np.ndarray) -> list[np.ndarray]:
         """Model wrench ``(T, 6)`` of every stance at ``x`` (``lab``, about its reference point)."""

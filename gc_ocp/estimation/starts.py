@@ -320,14 +320,12 @@ def trust_region_point(problem: EstimationProblem, steps: int = TRUST_REGION_STE
     at the prior's widths and Ipopt from this point at 578 (data cost 351 against 292); on
     Rajagopal 696 against 671; on Gait2392 it ends higher (352 against 323) and the other
     starts win (``docs/estimation.md``, *Starts*)."""
-    pw = np.asarray(problem.prior_weights, float)
-    pm = np.asarray(problem.prior_means, float)
     lb, ub = np.asarray(problem.lbx, float).ravel(), np.asarray(problem.ubx, float).ravel()
     x0 = np.clip(np.asarray(problem.x0, float).ravel(), lb, ub)
-    prior_rows = sparse.diags(pw, format="csr")
+    prior_rows = sparse.diags(np.asarray(problem.prior_weights, float), format="csr")
 
     def residuals(x):  # data, then priors: 1/2 |.|^2 is the problem's objective
-        return np.concatenate([problem.data_residuals(x), pw * (x - pm)])
+        return np.concatenate([problem.data_residuals(x), problem.prior_residuals(x)])
 
     def jacobian(x):  # the per-frame compiled Jacobians (no symbolic Jacobian of the graph)
         return sparse.vstack([problem.data_jacobian(x)[1], prior_rows], format="csr")
@@ -437,6 +435,21 @@ def _sum_sd(series: list[np.ndarray]) -> float:
     return math.sqrt(max(v, 0.0))
 
 
+def _param_distances(
+    problem: EstimationProblem, kept: EstimationResult, a: np.ndarray, b: np.ndarray
+) -> list[tuple[float, object, int]]:
+    """``(|a - b| / SE, spec, i)`` of every physical parameter's entry ``i`` of ``problem``
+    (decision vectors ``a``, ``b``) whose SE in ``kept``'s covariance is positive."""
+    se = np.sqrt(np.clip(np.diag(kept.covariance), 0.0, None))
+    return [
+        (abs(a[s.start + i] - b[s.start + i]) / se[s.start + i], s, i)
+        for s in problem.variables.specs
+        if s.kind == "param"
+        for i in range(s.size)
+        if se[s.start + i] > 0
+    ]
+
+
 def physical_distance(
     problem: EstimationProblem, kept: EstimationResult, a: np.ndarray, b: np.ndarray
 ) -> float:
@@ -444,13 +457,7 @@ def physical_distance(
     physical parameters, in units of ``kept``'s standard errors (0 without a covariance)."""
     if kept.covariance is None:
         return 0.0
-    se = np.sqrt(np.clip(np.diag(kept.covariance), 0.0, None))
-    cols = np.concatenate(
-        [np.arange(s.start, s.start + s.size) for s in problem.variables.specs if s.kind == "param"]
-        or [np.zeros(0, int)]
-    )
-    cols = cols[se[cols] > 0]
-    return float(np.max(np.abs(a[cols] - b[cols]) / se[cols])) if cols.size else 0.0
+    return max((z for z, _, _ in _param_distances(problem, kept, a, b)), default=0.0)
 
 
 def undecided_minimum(
@@ -474,16 +481,11 @@ def undecided_minimum(
     if not (sd > 0.0) or d_data >= MINIMA_Z * sd:  # the plates prefer the kept minimum
         return None
     far = []
-    se = np.sqrt(np.clip(np.diag(kept.covariance), 0.0, None))
-    for s in problem.variables.specs:
-        if s.kind != "param":
-            continue
-        for i in range(s.size):
-            j = s.start + i
-            if se[j] > 0 and abs(other.x[j] - kept.x[j]) > MINIMA_SE * se[j]:
-                name = variable_key(*s.key) + (f"[{i}]" if s.size > 1 else "")
-                a, b = (s.reading(s.physical(v[s.slice])[i]) for v in (kept.x, other.x))
-                far.append((abs(other.x[j] - kept.x[j]) / se[j], name, a, b))
+    for z, s, i in _param_distances(problem, kept, other.x, kept.x):
+        if z > MINIMA_SE:
+            name = variable_key(*s.key) + (f"[{i}]" if s.size > 1 else "")
+            a, b = (s.reading(s.physical(v[s.slice])[i]) for v in (kept.x, other.x))
+            far.append((z, name, a, b))
     if not far:
         return None
     far.sort(reverse=True)

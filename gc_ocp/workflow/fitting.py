@@ -36,12 +36,7 @@ from gc_ocp.estimation.solve import (
     retry_from_stop,
     solve,
 )
-from gc_ocp.estimation.starts import (
-    STRATEGIES,
-    best_of,
-    frozen_model,
-    with_lls_start,
-)
+from gc_ocp.estimation.starts import STRATEGIES, best_of, frozen_model, with_lls_start
 from gc_ocp.foot import TrialKinematics
 from gc_ocp.io.checks import require_stances
 from gc_ocp.io.consistency import check_for_fit
