@@ -31,15 +31,9 @@ from gc_ocp.diagnosis.null import DRAWS_PER_LOOK, MISMATCH_DRAWS, PRACTICAL_FACT
 from gc_ocp.html import FIGURE_DPI, data_uri, environment, pngs, provenance_context
 from gc_ocp.html.fit_tables import (
     CHANNEL_KEYS,
-    belt_rows,
-    body_weights,
-    contact_tables,
-    effect_blocks,
     fmt_num,
-    pose_prior_text,
+    model_tables,
     rms_table,
-    sole_prior_text,
-    sole_table,
 )
 from gc_ocp.outputs import atomic_write_text
 from gc_ocp.trial import SIDES
@@ -333,18 +327,7 @@ def page_context(d, res, provenance: dict | None, pngs: dict) -> dict:
         "figures": {name: data_uri(png) for name, png in pngs.items()},
         "res": res,
         "rms": rms_table(res, wf[-1].heldout_rms if d.folds.get("n") else None),
-        "contact": contact_tables(
-            res.params,
-            res.at_bound,
-            res.law.reference_depth,
-            body_weights(res, provenance),
-            res.undecided,
-        ),
-        "sole": sole_table(res.blocks.get("sole", {}), res.at_bound),
-        "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
-        "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),
-        "belt": belt_rows(res),
-        "effects": effect_blocks(res),
+        **model_tables(res, provenance),
         "method": _method(d),
         "provenance": provenance_context(provenance),
     }

@@ -254,6 +254,26 @@ def flatten_block(block, prefix: str = "", depth: int = 0) -> list[tuple[str, st
     return out
 
 
+def model_tables(res, provenance: dict | None = None) -> dict:
+    """The fitted model's tables as a page's template reads them (``contact``, ``sole``,
+    ``sole_prior``, ``pose_prior``, ``belt``, ``effects``): one place for the section the fit's and
+    the diagnosis's pages share."""
+    return {
+        "contact": contact_tables(
+            res.params,
+            res.at_bound,
+            res.law.reference_depth,
+            body_weights(res, provenance),
+            res.undecided,
+        ),
+        "sole": sole_table(res.blocks.get("sole", {}), res.at_bound),
+        "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
+        "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),
+        "belt": belt_rows(res),
+        "effects": effect_blocks(res),
+    }
+
+
 def effect_blocks(res) -> list[dict]:
     """The blocks of the final model's effects (not the base's): the rows each component gives
     of its block (``Component.describe``: label, value ± SE with its unit), or, for a component

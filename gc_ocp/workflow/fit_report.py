@@ -9,15 +9,10 @@ from __future__ import annotations
 from gc_ocp.estimation.components.contact import with_unit
 from gc_ocp.html import data_uri, environment, provenance_context
 from gc_ocp.html.fit_tables import (
-    belt_rows,
-    body_weights,
-    contact_tables,
-    effect_blocks,
+    model_tables,
     pose_prior_text,
     rms_table,
     shared_pm,
-    sole_prior_text,
-    sole_table,
 )
 from gc_ocp.workflow.fitting import FitReport
 
@@ -64,19 +59,8 @@ def fit_report_html(
         "bias": None if report.bias is None else report.bias.message(),
         "bias_skipped": report.bias_skipped,
         "flags": _flags(report),
-        "contact": contact_tables(
-            res.params,
-            res.at_bound,
-            res.law.reference_depth,
-            body_weights(res, provenance),
-            res.undecided,
-        ),
-        "sole": sole_table(res.blocks.get("sole", {}), res.at_bound),
-        "sole_prior": sole_prior_text(res.blocks.get("sole") or {}),
-        "pose_prior": pose_prior_text(res.blocks.get("pose") or {}),
+        **model_tables(res, provenance),
         "held_pose_prior": None if held is None else pose_prior_text(held.blocks.get("pose") or {}),
-        "belt": belt_rows(res),
-        "effects": effect_blocks(res),
         "rms": rms_table(res, None if held is None else held.rms | _cop(held)),
         "figures": {name: data_uri(png) for name, png in pngs.items()},
         "provenance": provenance_context(provenance),
