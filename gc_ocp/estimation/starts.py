@@ -178,12 +178,15 @@ def _estimate(
         )
         total_s += res.seconds
         total_it += res.iterations
-        say(
-            f"  prior scale {f:g}: {res.status}, {res.iterations} iterations, J = {res.objective:.1f}"
-        )
+        say(f"  prior scale {f:g}: {_ended_text(res).strip()}")
         prev = res
     res.seconds, res.iterations = total_s, total_it
     return res, prob
+
+
+def _ended_text(res) -> str:
+    """A progress line's account of one solve: status, iterations, objective."""
+    return f"  {res.status}, {res.iterations} iterations, J = {res.objective:.1f}"
 
 
 def best_of(
@@ -250,6 +253,7 @@ def best_of(
             r = solve(prob, options, x0=rescaled_start(s0, prob), covariance=False)
             total_s += r.seconds
             total_it += r.iterations
+            say(_ended_text(r))
             ended.append((f"the start from {what}", r, prob))
         except SolveError as e:
             err = e
@@ -275,6 +279,7 @@ def best_of(
             r = solve(prob, options, x0=trust_region_point(prob), covariance=False, warm=True)
             total_s += r.seconds
             total_it += r.iterations
+            say(_ended_text(r))
             ended.append(("the start after a trust-region warm-up", r, prob))
         except SolveError as e:
             err = e
