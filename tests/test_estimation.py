@@ -187,6 +187,9 @@ def test_the_trust_region_start_lowers_the_objective_within_the_bounds_and_is_on
     plain = best_of(sts, model, w, covariance=False)
     with_tr = best_of(sts, model, w, covariance=False, trust_region=True, progress=said.append)
     assert "start: a trust-region warm-up" in said
+    # and how it ended, on the next line (status, iterations, objective)
+    ended = said[said.index("start: a trust-region warm-up") + 1]
+    assert re.fullmatch(r"  \w+, \d+ iterations, J = [-\d.e+]+", ended), ended
     assert with_tr.objective <= plain.objective
 
 

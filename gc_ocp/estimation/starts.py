@@ -234,7 +234,7 @@ def best_of(
                 weights,
                 options,
                 strategies,
-                say,
+                lambda line: say("  " + line),  # its own starts, indented under this one
                 start,
                 covariance=False,
                 trust_region=trust_region,
