@@ -47,6 +47,17 @@ def at_bound_names(flags) -> frozenset[str]:
     return frozenset(f["what"] for f in flags if f.get("code") == "at_bound")
 
 
+def without_se(flags, name: str) -> bool:
+    """Whether a fit with ``flags`` reports variable ``name`` (a :func:`variable_key`) without a
+    standard error: at a bound (:func:`at_bound_names`) or the stiffness of a contact unit the
+    data do not identify (``unit_not_identified``, whose ``what`` is ``"side/unit"``: the
+    summary shows "not identified" in place of its number)."""
+    return name in at_bound_names(flags) or any(
+        f.get("code") == "unit_not_identified" and name.endswith("/k/" + str(f.get("what")))
+        for f in flags
+    )
+
+
 def undecided_names(flags) -> frozenset[str]:
     """The variables ``flags`` (a fit's, or ``fit.json``'s) name in a ``minimum_undecided``
     flag: another minimum the plates do not prefer lies beyond their SE."""

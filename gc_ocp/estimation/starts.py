@@ -21,7 +21,7 @@ from scipy.optimize import least_squares
 
 from gc_ocp.contact.lls import fit_stiffness_lls
 from gc_ocp.errors import InputError, RankError, SolveError
-from gc_ocp.estimation.flags import flag, variable_key
+from gc_ocp.estimation.flags import flag, variable_key, without_se
 from gc_ocp.estimation.problem import EstimationProblem, Weights, build_estimation, configured
 from gc_ocp.estimation.result import EstimationResult
 from gc_ocp.estimation.solve import IpoptOptions, hac_bandwidth, result_at, solve
@@ -474,9 +474,10 @@ def undecided_minimum(
     comparison of two fits of one data set, the per-frame cost differences' sum with its
     autocorrelation-robust spread, :func:`_sum_sd`; below by as much, the plates prefer it and
     the priors decide), and a physical parameter lies more than :data:`MINIMA_SE` of its
-    standard errors (``kept``'s covariance) away. Those SEs describe the curvature of one
-    minimum, not the choice between two; the fit keeps the lower objective and says so. None
-    otherwise (or without a covariance)."""
+    standard errors (``kept``'s covariance) away, among those the fit reports with an SE (not
+    at a bound, not a unit's stiffness flagged ``unit_not_identified``). Those SEs describe the
+    curvature of one minimum, not the choice between two; the fit keeps the lower objective
+    and says so. None otherwise (or without a covariance)."""
     if kept.covariance is None:
         return None
     pairs = zip(_frame_costs(problem, other.x), _frame_costs(problem, kept.x), strict=True)
@@ -487,8 +488,11 @@ def undecided_minimum(
         return None
     far = []
     for z, s, i in _param_distances(problem, kept, other.x, kept.x):
-        if z > MINIMA_SE:
-            name = variable_key(*s.key) + (f"[{i}]" if s.size > 1 else "")
+        name = variable_key(*s.key)
+        # a value the fit reports without an SE (at a bound, a unit not identified) is flagged
+        # as such already: no SE of it to warn about
+        if z > MINIMA_SE and not without_se(kept.flags, name):
+            name += f"[{i}]" if s.size > 1 else ""
             a, b = (s.reading(s.physical(v[s.slice])[i]) for v in (kept.x, other.x))
             far.append((z, name, a, b))
     if not far:
