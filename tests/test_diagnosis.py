@@ -929,27 +929,33 @@ def test_the_residual_map_is_in_the_units_of_the_diagnosis_s_weights(bundled_sta
     assert d.where["base"]["normalised"] != residual_map(fits)["normalised"]
 
 
-@pytest.mark.parametrize("pct, lo, n0", [(2.02, -0.31, 8), (0.7, -0.01, 8), (5.0, -20.0, 4)])
+@pytest.mark.parametrize("pct, lo, n0", [(2.02, -0.31, 8), (0.7, -0.01, 8), (5.0, -2.0, 4)])
 def test_the_floor_s_number_of_steps_is_where_the_interval_would_clear_zero(pct, lo, n0):
     """``floor_stances``: with the interval's half-width ``h = pct - lo`` narrowing as
-    ``1/sqrt(n)``, ``n0 + more`` held-out stances are the fewest whose lower end clears 0 by
-    0.84 of its own SD (``h / 1.96``: 80 % power, as the test's steps); a reduction already
-    clear needs 0, one under the floor (held out or in-sample) has none."""
+    ``1/sqrt(n)``, ``n0 + more`` held-out stances are the fewest for which a study's lower end
+    clears 0 with 80 % assurance: ``pct`` over ``1.96 sigma sqrt(f) + 0.84 sigma sqrt(1 + f)``
+    (``sigma = h / 1.96``, ``f = n0 / n``; the gain such a study sees scatters about ``pct`` by
+    ``sigma sqrt(1 + f)``, as for the test's steps); a reduction already clear needs 0, one
+    under the floor (held out or in-sample) has none, and so has one too uncertain for any
+    number (``pct <= 0.84 sigma``)."""
     from gc_ocp.diagnosis.null import POWER_Z
     from gc_ocp.diagnosis.selection import MIN_REDUCTION_PCT, Z_95, floor_stances
 
     red = {"pct": pct, "ci": (lo, 2 * pct - lo), "insample_pct": 2 * pct}
     more = floor_stances(red, n0)
-    h = pct - lo
+    sigma = (pct - lo) / Z_95
 
-    def lower(n):  # the expected lower end less 0.84 of its SD
-        return pct - h * np.sqrt(n0 / n) * (Z_95 + POWER_Z) / Z_95
+    def margin(n):  # what the gain keeps over the study's 80 %-assured lower end
+        f = n0 / n
+        return pct - Z_95 * sigma * np.sqrt(f) - POWER_Z * sigma * np.sqrt(1 + f)
 
-    assert more >= 1 and lower(n0 + more) > 0
-    assert more == 1 or lower(n0 + more - 1) <= 0
+    assert more >= 1 and margin(n0 + more) > 0
+    assert more == 1 or margin(n0 + more - 1) <= 0
     assert floor_stances({**red, "ci": (0.1, 2 * pct)}, n0) == 0
     assert floor_stances({**red, "pct": 0.9 * MIN_REDUCTION_PCT}, n0) is None
     assert floor_stances({**red, "insample_pct": 0.9 * MIN_REDUCTION_PCT}, n0) is None
+    wide = pct - 1.01 * pct * Z_95 / POWER_Z  # sigma 1.01 pct / 0.84: no study likely enough
+    assert floor_stances({**red, "ci": (wide, 2 * pct - wide)}, n0) is None
 
 
 def test_an_in_sample_row_promises_no_steps():
@@ -970,9 +976,14 @@ def test_an_in_sample_row_promises_no_steps():
     row = dataclasses.replace(_row("friction", 2.0), calibrated=test)
     assert row.more_stances is None and not row.inconclusive
     assert "scored in-sample" in row.verdict() and "would not decide" not in row.verdict()
-    # held out, a None is the bound: more steps would not decide
-    held = dataclasses.replace(row, calibrated=dataclasses.replace(test, n_heldout=2))
+    # held out, a None is the bound (the gain within z_crit times the spread the mismatch
+    # gives every stance: 1.1 against 2.4 x 0.6): more steps would not decide
+    bound = dataclasses.replace(test, n_heldout=2, null_sd_mismatch_pct=0.6)
+    held = dataclasses.replace(row, calibrated=bound)
     assert "more steps would not decide" in held.verdict()
+    # or, over that bound, a gain whose own uncertainty leaves no study likely to decide it
+    unsure = dataclasses.replace(row, calibrated=dataclasses.replace(test, n_heldout=2))
+    assert "too uncertain on 2 held-out stances to say how many more steps" in unsure.verdict()
 
 
 def test_a_row_the_test_names_says_a_number_beyond_one_session_as_an_order():
@@ -980,20 +991,22 @@ def test_a_row_the_test_names_says_a_number_beyond_one_session_as_an_order():
     (``selection.rank``); a verdict says a number as it is beyond ``SESSION_STEPS`` only for a
     practical follow-up (``docs/diagnosis.md``: "an inconclusive row's number, within five
     times its own data by definition"). A held-out +0.6 % [-6.0, +7.2] on 8 held-out stances
-    (the floor's 1970 further steps) was said as "about 1970 more steps"."""
+    (then the floor's 1970 further steps) was said as "about 1970 more steps"; here +2.0 %
+    [-2.0, +6.0], a number of the same order with the gain's uncertainty in the steps."""
+    from gc_ocp.diagnosis.result import SESSION_STEPS
     from gc_ocp.diagnosis.selection import floor_stances
 
-    red = {"pct": 0.6, "ci": (-6.0, 7.2), "insample_pct": 2.0}
+    red = {"pct": 2.0, "ci": (-2.0, 6.0), "insample_pct": 2.0}
     test = NullTest(2.2, 0.4, 0.6, 3.0, 0.039, 2.4, 0, 8)
     row = dataclasses.replace(
-        _row("friction", 0.6),
+        _row("friction", 2.0),
         heldout_rms_reduction_ci=red["ci"],
         insample_rms_reduction_pct=red["insample_pct"],
         calibrated=test,
         inconclusive=True,
         floor_stances=floor_stances(red, 8),
     )
-    assert row.more_stances == 1970
+    assert row.more_stances == floor_stances(red, 8) > SESSION_STEPS
     assert row.verdict() == (
         "inconclusive: named by the test (p = 0.039), but its held-out interval still reaches 0;"
         " more than 1000 more steps (beyond one session) would decide"

@@ -154,19 +154,19 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
     from gc_ocp.diagnosis.selection import floor_stances
 
     r = diagnosis.ranking[0]
-    test = NullTest(1.2, 0.1, 0.6, 1.8, 0.12, 2.4, 14, 6)
+    test = NullTest(1.2, 0.1, 0.6, 1.8, 0.12, 2.4, 24, 6)
     floor = floor_stances({"pct": 1.5, "ci": (-0.1, 3.1), "insample_pct": 6.0}, 6)
     weak = _unnamed_row(r, test, 1.5, (-0.1, 3.1), 6.0, floor)
-    assert 0 < weak.floor_stances < 14  # the test's number is the rule's here
+    assert 0 < weak.floor_stances < 24  # the test's number is the rule's here
     d = dataclasses.replace(
         diagnosis, ranking=[weak], rounds=[[weak]], selected=[], waterfall=diagnosis.waterfall[:1]
     )
     assert d.inconclusive == [r.effect] and d.to_json()["inconclusive"] == [r.effect]
-    said = f"{r.effect}: inconclusive (p = 0.12); about 14 more steps would decide"
+    said = f"{r.effect}: inconclusive (p = 0.12); about 24 more steps would decide"
     assert said in d.summary()
     page = report_html(d)
-    assert "No candidate effect passes" in page and "about 14 more steps would decide" in page
-    assert _verdict(weak) == "inconclusive (p = 0.12); about 14 more steps would decide"
+    assert "No candidate effect passes" in page and "about 24 more steps would decide" in page
+    assert _verdict(weak) == "inconclusive (p = 0.12); about 24 more steps would decide"
     far = dataclasses.replace(
         weak, inconclusive=False, calibrated=dataclasses.replace(test, more_stances=400)
     )
@@ -196,8 +196,13 @@ def test_report_says_when_none_is_inconclusive(diagnosis):
     # a row read back inconclusive without its number says no number (it printed "None")
     lost = dataclasses.replace(long, calibrated=dataclasses.replace(test, more_stances=None))
     assert _verdict(lost) == "inconclusive (p = 0.12)"
-    within = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=None))
+    # no number: within what the mismatch gives every stance (1.1 against 2.4 x 0.5), or over
+    # it but too uncertain for any study to be likely to decide it
+    bound = dataclasses.replace(test, more_stances=None, null_sd_mismatch_pct=0.5)
+    within = dataclasses.replace(far, calibrated=bound)
     assert "within what noise and model mismatch give" in _verdict(within)
+    unsure = dataclasses.replace(far, calibrated=dataclasses.replace(test, more_stances=None))
+    assert "too uncertain on 6 held-out stances to say how many more steps" in _verdict(unsure)
 
     # the test's one-step statistic has no gain, the refit has: both figures are said
     flat = dataclasses.replace(

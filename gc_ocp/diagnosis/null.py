@@ -42,14 +42,16 @@ away), is told from the stances' own (members drawn per stance, a refit that spr
 unevenly: these shrink as ``1/sqrt(n)``) by the covariance of the draws' per-stance shares
 (:func:`systematic_sd`). The observed reduction's sampling error ``sigma`` shrinks as
 ``1/sqrt(n)``; the null's mean ``m`` (what mismatch alone gives) does not move. A candidate
-whose reduction ``T`` exceeds ``m`` is decided (80 % power) at the smallest ``n`` with ``z_crit
-sqrt(s_sys^2 + (s^2 - s_sys^2) n0 / n) + 0.84 sigma sqrt(n0 / n) <= T - m``. That ``n`` exists
-only if ``T - m > z_crit s_sys``: a gain the mismatch alone can give on every stance cannot be
-told from it by more steps of the same kind, however many (the bound; ``None``). Without
-mismatch draws (noise only) ``s_sys = 0`` and the rule is ``sqrt(n / n0) >= (z_crit s + 0.84
-sigma) / (T - m)``; where the split is not made (one held-out stance, fewer than
-:data:`MIN_SPLIT_DRAWS` draws) all of ``s_b`` counts as shared, as it did for every null until
-2026-11-28.
+whose reduction ``T`` exceeds ``m`` is decided with 80 % assurance at the smallest ``n`` with
+``z_crit sqrt(s_sys^2 + (s^2 - s_sys^2) n0 / n) + 0.84 sigma sqrt(1 + n0 / n) <= T - m``: the
+gain a study of ``n`` stances observes scatters about the true gain by ``sigma sqrt(n0 / n)``,
+and the true gain about ``T`` by ``sigma`` (:func:`power_shift`; until 2026-12-03 ``T`` was
+taken as the true gain, ``0.84 sigma sqrt(n0 / n)``). That ``n`` exists only if ``T - m >
+z_crit s_sys + 0.84 sigma``: a gain the mismatch alone can give on every stance cannot be told
+from it by more steps of the same kind, however many (the bound), and a gain whose own
+uncertainty reaches that bound is not likely to be (``None`` for both). Where the split is not
+made (one held-out stance, fewer than :data:`MIN_SPLIT_DRAWS` draws) all of ``s_b`` counts as
+shared, as it did for every null until 2026-11-28.
 
 **Stopping early.** The draws are the null's cost (a refit each), and most rounds name nothing:
 the last round of every diagnosis, and the only round of most. The draws are made in the order
@@ -98,7 +100,7 @@ says it up to :data:`~gc_ocp.diagnosis.result.SESSION_STEPS` further steps, "mor
 above; ``diagnosis.json`` keeps it)."""
 
 POWER_Z = 0.8416
-"""Standard normal quantile of the 80 % power of the steps-needed calculation."""
+"""Standard normal quantile of the 80 % of the steps-needed calculation (:func:`power_shift`)."""
 
 RESOLUTION_PCT = 1e-4
 """A candidate whose observed reduction and every null replicate's are smaller than this, in
@@ -347,7 +349,8 @@ class NullTest:
     """The calibrated decision of one candidate (module doc): observed reduction [%], the null's
     mean and spread [%], the studentised statistic, the family-wise adjusted p-value, the
     critical studentised value of the round, and the further held-out stances that would decide
-    it at 80 % power (0: decided; None: more steps of the same kind would not, or, with
+    it with 80 % assurance (0: decided; None: more steps of the same kind would not, or are not
+    likely to (:func:`power_shift`), or, with
     ``n_heldout`` 0, the in-sample fallback, no number is predicted).
     ``null_sd_mismatch_pct``: the part of the null's spread that lies between the mismatch
     draws (module doc; 0 for a noise-only null); of it, the part every held-out stance shares
@@ -379,6 +382,18 @@ class NullTest:
     def practical(self) -> bool:
         """The further stances that would decide it are a practical follow-up (:func:`practical`)."""
         return practical(self.more_stances, self.n_heldout)
+
+    @property
+    def within_mismatch(self) -> bool:
+        """Its gain over the null's mean is within what the mismatch alone gives on every held-out
+        stance (``T - m <= z_crit s_sys``, :func:`more_stances`'s bound): no number of further
+        stances of the same kind decides it. False where the round has no critical value."""
+        if self.z_critical is None:
+            return False
+        shared = self.null_sd_systematic_pct
+        shared = self.null_sd_mismatch_pct if shared is None else shared
+        shared = min(max(shared, 0.0), self.null_sd_pct)
+        return self.observed_pct - self.null_mean_pct <= self.z_critical * shared
 
     def to_json(self) -> dict:
         out = dataclasses.asdict(self)
@@ -759,6 +774,21 @@ def systematic_sd(
     return float(s_between) * math.sqrt(float(np.quantile(boot, SPLIT_QUANTILE)))
 
 
+def power_shift(sigma: float, f: float) -> float:
+    """How far above a study's threshold the observed gain must lie for a study of ``n`` held-out
+    stances (``f = n0 / n``, ``n0`` the stances the gain was observed on, ``sigma`` its standard
+    error there) to decide it with 80 % probability, the gain's own uncertainty included: the
+    gain that study observes scatters by ``sigma sqrt(f)`` about the true gain, which the
+    observed one estimates to within ``sigma``, so by ``sigma sqrt(1 + f)`` about the observed
+    gain (the predictive probability of success, or *assurance*, of a study designed from a
+    pilot; O'Hagan, Stevens and Campbell 2005, Pharmaceutical Statistics 4: 187-201).
+    ``POWER_Z`` times that. Until 2026-12-03 the observed gain was taken as the true one
+    (``sigma sqrt(f)``): at the true gain such a study decides 80 % of the time, but a pilot's
+    gain is a noisy guess of it, and reruns at the sizes so predicted decided 10 of 15 truths
+    (``docs/diagnosis.md``, *Steps that would decide*)."""
+    return POWER_Z * sigma * math.sqrt(1.0 + f)
+
+
 MAX_STANCES = 10**6
 """Beyond this many held-out stances a candidate is reported undecidable (a numerical cap of
 the search, not a rule: the bound ``T - m > z_crit s_sys`` decides first)."""
@@ -774,7 +804,8 @@ def more_stances(
     decided: bool,
     s_between: float = 0.0,
 ) -> int | None:
-    """Further held-out stances that decide a candidate at 80 % power (module doc): ``t`` its
+    """Further held-out stances that decide a candidate with 80 % assurance (module doc,
+    :func:`power_shift`): ``t`` its
     observed reduction, ``m``, ``s`` the null's mean and spread, ``s_between`` the part of ``s``
     that more stances do not shrink (the part of the spread between mismatch draws every
     held-out stance shares, :func:`systematic_sd`, or all of that spread when it is not split;
@@ -797,7 +828,7 @@ def more_stances(
 
     def needed(n: float) -> float:  # what the gain must exceed with n held-out stances
         f = n0 / n
-        return crit * math.sqrt(s_between**2 + s_within2 * f) + POWER_Z * sigma * math.sqrt(f)
+        return crit * math.sqrt(s_between**2 + s_within2 * f) + power_shift(sigma, f)
 
     if needed(MAX_STANCES) > gap:
         return None
@@ -820,6 +851,7 @@ __all__ = (
     "MISMATCH_DRAWS",
     "N_REPLICATES",
     "PRACTICAL_FACTOR",
+    "power_shift",
     "NullTest",
     "StanceShares",
     "between_draw_sd",

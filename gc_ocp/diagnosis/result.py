@@ -40,6 +40,14 @@ OFF_SCALE = 2.0
 """The ranking figure's axis reaches this many times the largest gain below 0; a candidate's
 loss beyond it is written at the edge (:meth:`Diagnosis.ranking_figure`)."""
 
+MIN_REDUCTION_PCT = 0.5
+"""Effect-size floor [%] of the held-out and in-sample reductions a named effect also needs
+(the rule, :mod:`gc_ocp.diagnosis.selection`; here for the verdicts' words): the smallest of 0,
+0.5, 1, ... % that rejects at least 95 % of the "none" cases (mismatch and prior-biased) of one
+benchmark motion, the same chosen on either motion and
+scored on the other (``benchmarks/rule_variants.py``). The gains it rejects there are
+0.14-0.18 %; the 2 % it replaces left moderate damping (+1.0 % held out, p = 0.01) unnamed."""
+
 SESSION_STEPS = 1000
 """A verdict names the further steps that would decide up to this many; beyond it, it says
 "more than" this many. About 500 per foot: eight minutes of treadmill walking, more than any
@@ -184,8 +192,14 @@ class RankRow:
         held, ins = self.heldout_rms_reduction_pct, self.insample_rms_reduction_pct
         # (a screened row has only its in-sample gain)
         which = "in-sample" if held is None or ins < held else "held-out"
+        gains = [g for g in (held, ins) if g is not None]
         under = (
             f"its {which} gain is under the rule's effect-size floor, which more steps do not raise"
+            if min(gains, default=0.0) < MIN_REDUCTION_PCT
+            # both over the floor, and no number of stances likely (80 %) to put the held-out
+            # interval's lower end above 0 (selection.floor_stances): the gain is that uncertain
+            else "its held-out gain is too uncertain to say how many more steps would clear the "
+            "rule's effect-size floor"
         )
         if c is None:
             # a later round whose every candidate the floor stops makes no null (diagnose)
@@ -243,10 +257,16 @@ class RankRow:
                 f"not named ({p}); scored in-sample (no stance held out): no number of further "
                 "steps is predicted, a second stance on a foot makes the diagnosis a held-out one"
             )
-        if c.observed_pct > 0:
+        if c.observed_pct > 0 and (c.within_mismatch or c.observed_pct <= c.null_mean_pct):
             return (
                 f"not named ({p}); its gain is within what noise and model mismatch give: "
                 "more steps would not decide"
+            )
+        if c.observed_pct > 0:  # over that bound, but not by enough for its own uncertainty
+            held_out = f"{c.n_heldout} held-out stance" + ("s" if c.n_heldout != 1 else "")
+            return (
+                f"not named ({p}); its gain is too uncertain on {held_out} to say how many more "
+                "steps would decide (it may be within what model mismatch gives)"
             )
         refit = self.heldout_rms_reduction_pct
         if refit is not None and refit > 0:

@@ -60,8 +60,8 @@ from gc_ocp.diagnosis.compare import (
     weighted_residuals,
 )
 from gc_ocp.diagnosis.execution import NotEvaluable
-from gc_ocp.diagnosis.null import ALPHA, POWER_Z, NullTest, practical
-from gc_ocp.diagnosis.result import RankRow
+from gc_ocp.diagnosis.null import ALPHA, MAX_STANCES, NullTest, power_shift, practical
+from gc_ocp.diagnosis.result import MIN_REDUCTION_PCT, RankRow
 from gc_ocp.estimation.components import REGISTRY
 
 CONFOUND_COSINE = 0.5
@@ -76,12 +76,6 @@ smaller at least this fraction of the larger): an effect that repairs a sliver o
 another repairs in full does not stand in for it. On the seed base, where nearly every
 candidate repairs a little of the missing registration, this keeps the flag specific."""
 
-MIN_REDUCTION_PCT = 0.5
-"""Effect-size floor [%] of the held-out and in-sample reductions a named effect also needs
-(module doc): the smallest of 0, 0.5, 1, ... % that rejects at least 95 % of the "none" cases
-(mismatch and prior-biased) of one benchmark motion, the same chosen on either motion and
-scored on the other (``benchmarks/rule_variants.py``). The gains it rejects there are
-0.14-0.18 %; the 2 % it replaces left moderate damping (+1.0 % held out, p = 0.01) unnamed."""
 
 NON_ADDITIVE_FRACTION = 0.5
 """An effect whose gain on top of another falls below this fraction of its gain alone is
@@ -229,25 +223,40 @@ def floor_stances(red: Mapping, n_heldout: int) -> int | None:
     (:func:`~gc_ocp.diagnosis.compare.reduction`, on ``n_heldout`` stances) would clear the
     effect-size floor at its observed size: 0 when it does (:func:`floor_holds`); None when
     its held-out or its in-sample reduction is under :data:`MIN_REDUCTION_PCT` (more stances
-    estimate a gain better, they do not raise it). Otherwise the lower end of its interval,
-    ``pct - h`` on ``n0`` stances, reaches 0, and with ``n`` stances the half-width is ``h
-    sqrt(n0 / n)`` (the bootstrap's interval narrows as a mean's). The lower end of the
-    interval those stances will give is itself random, with SD ``h' / 1.96``; for the same 80 %
-    power as the test's steps (:data:`~gc_ocp.diagnosis.null.POWER_Z`), its expected value must
-    clear 0 by ``0.84`` of that SD: the smallest ``n`` with ``h sqrt(n0 / n) (1.96 + 0.84) /
-    1.96 < pct``, less ``n0`` (where the expected lower end merely reaches 0, half the reruns
-    would miss it). ``n_heldout`` 0 (the in-sample fallback, whose interval is the in-sample
-    fit's): 0, not measured, unless the floor rules the reduction out (None); one stance more
-    on a foot makes the diagnosis a held-out one, which these scores do not predict."""
+    estimate a gain better, they do not raise it), or when no number of stances is likely to
+    (below). Otherwise the lower end of its interval, ``pct - h`` on ``n0`` stances, reaches 0;
+    its standard error is ``sigma = h / 1.96``, and a study of ``n`` stances would give an
+    interval of half-width ``1.96 sigma sqrt(n0 / n)`` (the bootstrap's interval narrows as a
+    mean's) about the gain it observes. With the same 80 % assurance as the test's steps
+    (:func:`~gc_ocp.diagnosis.null.power_shift`: that gain scatters about ``pct`` by ``sigma
+    sqrt(1 + n0 / n)``), the smallest ``n`` with ``1.96 sigma sqrt(n0 / n) + 0.84 sigma sqrt(1
+    + n0 / n) < pct``, less ``n0``; none when ``pct <= 0.84 sigma`` (until 2026-12-03 the
+    observed gain was taken as the true one, ``(1.96 + 0.84) sigma sqrt(n0 / n) < pct``).
+    ``n_heldout`` 0 (the in-sample fallback, whose interval is the in-sample fit's): 0, not
+    measured, unless the floor rules the reduction out (None); one stance more on a foot makes
+    the diagnosis a held-out one, which these scores do not predict."""
     pct, lo = red["pct"], red["ci"][0]
     if pct < MIN_REDUCTION_PCT or red["insample_pct"] < MIN_REDUCTION_PCT:
         return None
     if floor_holds(red) or n_heldout < 1:
         return 0
     n0 = int(n_heldout)
-    power = (Z_95 + POWER_Z) / Z_95
-    n = math.floor(n0 * ((pct - lo) / pct * power) ** 2) + 1  # strictly above
-    return max(n - n0, 1)
+    sigma = (pct - lo) / Z_95
+
+    def clears(n: int) -> bool:  # strictly above, as floor_holds asks
+        f = n0 / n
+        return Z_95 * sigma * math.sqrt(f) + power_shift(sigma, f) < pct
+
+    if not clears(MAX_STANCES):
+        return None
+    hi = n0 + 1
+    while not clears(hi):  # the margin needed falls with n, to 0.84 sigma < pct
+        hi = min(2 * hi, MAX_STANCES)
+    lo_n = n0  # does not clear with the stances it has
+    while hi - lo_n > 1:
+        mid = (lo_n + hi) // 2
+        lo_n, hi = (mid, hi) if not clears(mid) else (lo_n, mid)
+    return max(hi - n0, 1)
 
 
 def held_out_reduction(

@@ -19,7 +19,7 @@ Every result carries ``flags``: a list of ``{"code", "what", "message"}`` (plain
   — another minimum of the objective, reached from another start, fits the plates as well or
   better (its data cost not above the kept one's by 2 SD of the difference's sampling spread)
   and lies more than 2 SE away in the physical parameters it names: their SEs do not cover
-  which minimum the fit is in.
+  which minimum the fit is in. Only values reported with an SE are named (:func:`without_se`).
 * ``poor_fit`` — superior-force RMS above 10 % BW or COP RMS above 50 mm: converged fits of real
   walking with today's model give 1-3 % BW and 5-20 mm (``docs/estimation.md``); beyond those a
   fit describes something else (wrong plate, wrong trial, wrong units).
