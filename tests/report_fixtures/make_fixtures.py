@@ -52,6 +52,12 @@ differed in whitespace alone (a line break before "<h2>2. Which effect" and the 
 newline, the template's since an earlier change), left as it was.
 diagnosis.json gained its ``"format"`` number (2026-12-03, ``DIAGNOSIS_FORMAT`` = 1, its first
 key): added to both fixtures' ``diagnosis.json`` by hand; the pages do not show it.
+
+2026-12-03: the method paragraph says that the further steps are counted with 80 % assurance
+(the observed gain's own uncertainty included): both pages re-rendered from their own JSON
+(``--rerender``), that paragraph the only change of the visible text (its ``<i>assurance</i>``
+the only new element; the line break before "<h2>2. Which effect" went, whitespace the text
+comparison ignores); the rows' numbers are the stored ones.
 """
 
 from __future__ import annotations
