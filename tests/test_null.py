@@ -110,7 +110,7 @@ def test_the_steps_that_would_decide_follow_the_power_calculation():
         seen = true + sigma * np.sqrt(f) * rng.normal(size=true.size)
         return np.mean(seen - m > crit * s * np.sqrt(f))
 
-    assert assurance(n0 + more) == pytest.approx(0.8, abs=0.01) or assurance(n0 + more) > 0.8
+    assert assurance(n0 + more) >= 0.8 - 0.01  # at least 80 %, to the simulation's error
     assert assurance(n0 + more - 1) < 0.8
     # a larger gain needs fewer steps; a decided one none; one within the null mean cannot be
     # decided by more steps of the same kind, nor one whose own uncertainty reaches that far

@@ -70,7 +70,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 
 import numpy as np
 
@@ -830,15 +830,25 @@ def more_stances(
         f = n0 / n
         return crit * math.sqrt(s_between**2 + s_within2 * f) + power_shift(sigma, f)
 
-    if needed(MAX_STANCES) > gap:
+    # needed falls with n, to crit * s_between + 0.84 sigma
+    return fewest_stances(n0, lambda n: needed(n) <= gap)
+
+
+def fewest_stances(n0: int, decides: Callable[[int], bool]) -> int | None:
+    """The further held-out stances beyond ``n0`` of the smallest study of which ``decides``
+    holds (a condition that, once met, holds for every larger study, and not at ``n0``); None
+    when not even :data:`MAX_STANCES` does. Doubling from ``n0 + 1``, then bisection. The test's
+    steps (:func:`more_stances`) and the effect-size floor's
+    (:func:`~gc_ocp.diagnosis.selection.floor_stances`) both search so."""
+    if not decides(MAX_STANCES):
         return None
     hi = n0 + 1
-    while needed(hi) > gap:  # decreasing in n, to crit * s_between < gap
+    while not decides(hi):
         hi = min(2 * hi, MAX_STANCES)
-    lo = n0  # needed(lo) > gap: not decided with the stances it has
+    lo = n0  # not decided with the stances it has
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        lo, hi = (mid, hi) if needed(mid) > gap else (lo, mid)
+        lo, hi = (lo, mid) if decides(mid) else (mid, hi)
     return hi - n0
 
 
@@ -847,6 +857,7 @@ __all__ = (
     "DEFAULT_FAMILY",
     "DRAWS_PER_LOOK",
     "FUTILITY_FACTOR",
+    "fewest_stances",
     "MAX_STANCES",
     "MISMATCH_DRAWS",
     "N_REPLICATES",

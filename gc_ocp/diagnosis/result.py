@@ -44,9 +44,9 @@ MIN_REDUCTION_PCT = 0.5
 """Effect-size floor [%] of the held-out and in-sample reductions a named effect also needs
 (the rule, :mod:`gc_ocp.diagnosis.selection`; here for the verdicts' words): the smallest of 0,
 0.5, 1, ... % that rejects at least 95 % of the "none" cases (mismatch and prior-biased) of one
-benchmark motion, the same chosen on either motion and
-scored on the other (``benchmarks/rule_variants.py``). The gains it rejects there are
-0.14-0.18 %; the 2 % it replaces left moderate damping (+1.0 % held out, p = 0.01) unnamed."""
+benchmark motion, the same chosen on either motion and scored on the other
+(``benchmarks/rule_variants.py``). The gains it rejects there are 0.14-0.18 %; the 2 % it
+replaces left moderate damping (+1.0 % held out, p = 0.01) unnamed."""
 
 SESSION_STEPS = 1000
 """A verdict names the further steps that would decide up to this many; beyond it, it says

@@ -60,7 +60,7 @@ from gc_ocp.diagnosis.compare import (
     weighted_residuals,
 )
 from gc_ocp.diagnosis.execution import NotEvaluable
-from gc_ocp.diagnosis.null import ALPHA, MAX_STANCES, NullTest, power_shift, practical
+from gc_ocp.diagnosis.null import ALPHA, NullTest, fewest_stances, power_shift, practical
 from gc_ocp.diagnosis.result import MIN_REDUCTION_PCT, RankRow
 from gc_ocp.estimation.components import REGISTRY
 
@@ -243,20 +243,11 @@ def floor_stances(red: Mapping, n_heldout: int) -> int | None:
     n0 = int(n_heldout)
     sigma = (pct - lo) / Z_95
 
-    def clears(n: int) -> bool:  # strictly above, as floor_holds asks
-        f = n0 / n
+    def clears(n: int) -> bool:  # strictly above, as floor_holds asks; the margin needed
+        f = n0 / n  # falls with n, to 0.84 sigma
         return Z_95 * sigma * math.sqrt(f) + power_shift(sigma, f) < pct
 
-    if not clears(MAX_STANCES):
-        return None
-    hi = n0 + 1
-    while not clears(hi):  # the margin needed falls with n, to 0.84 sigma < pct
-        hi = min(2 * hi, MAX_STANCES)
-    lo_n = n0  # does not clear with the stances it has
-    while hi - lo_n > 1:
-        mid = (lo_n + hi) // 2
-        lo_n, hi = (mid, hi) if not clears(mid) else (lo_n, mid)
-    return max(hi - n0, 1)
+    return fewest_stances(n0, clears)
 
 
 def held_out_reduction(
